@@ -1,0 +1,222 @@
+"""The tamp-os command line. Plain text for screen readers; no traceback for user mistakes.
+
+Only the standard library is imported at start-up so `tamp-os --help` is instant.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import logging
+import sys
+from pathlib import Path
+
+EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
+
+
+def _param_options(parser: argparse.ArgumentParser) -> None:
+    """One option per LithoParams field, named after it (width_mm -> --width-mm)."""
+    from .params import LithoParams, describe_range
+
+    group = parser.add_argument_group("lithograph parameters")
+    for f in dataclasses.fields(LithoParams):
+        flag = "--" + f.name.replace("_", "-")
+        m = f.metadata
+        help_text = f"{m['help']} ({describe_range(f)}; default {f.default if f.default is not None else 'derived'})"
+        if f.name == "formats":
+            group.add_argument(flag, dest=f.name, default=None, help=f"comma-separated: {', '.join(m['choices'])} (default stl)")
+        elif isinstance(f.default, bool):
+            group.add_argument(flag, dest=f.name, action="store_true", default=None, help=m["help"])
+        else:
+            kind = str if m["lo"] is None or m["choices"] else (int if isinstance(m["lo"], int) and isinstance(m["hi"], int) else float)
+            group.add_argument(flag, dest=f.name, type=kind, default=None, metavar=m["unit"].upper() or "VALUE", help=help_text)
+
+
+def _params_from_args(args, base=None):
+    from .params import LithoParams
+
+    changes = {}
+    for f in dataclasses.fields(LithoParams):
+        value = getattr(args, f.name, None)
+        if value is None:
+            continue
+        if f.name == "formats":
+            value = tuple(v.strip().lower().lstrip(".") for v in value.split(",") if v.strip())
+        changes[f.name] = value
+    return (base or LithoParams()).replace(**changes)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="tamp-os",
+        description="Turn images, above all microscopy images, into 3D-printable tactile lithographs.",
+    )
+    parser.add_argument("--debug", action="store_true", help="show full tracebacks and debug messages")
+    parser.add_argument("--version", action="store_true", help="print the version and exit")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+
+    convert = sub.add_parser("convert", help="convert images to printable files", description="Convert images to printable files.")
+    convert.add_argument("images", nargs="*", metavar="IMAGE", help="image files (read by content, any extension)")
+    convert.add_argument("-o", "--output", default=".", metavar="DIR", help="output folder (default: current folder)")
+    convert.add_argument("--recipe", metavar="FILE", help="rebuild exactly from a NAME.tamp.json recipe")
+    _param_options(convert)
+
+    presets = sub.add_parser("presets", help="show Low/Medium/High for a printer (and suggest one for an image)")
+    presets.add_argument("image", nargs="?", metavar="IMAGE")
+    _param_options(presets)
+
+    info = sub.add_parser("info", help="describe an image file: size, bit depth, channels, metadata")
+    info.add_argument("image", metavar="IMAGE")
+    info.add_argument("--json", action="store_true", help="print JSON for scripts")
+    info.add_argument("--page", type=int, default=0, help="TIFF page or series (default 0)")
+    return parser
+
+
+def main(argv=None) -> int:
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:
+        return int(exc.code or 0) and EXIT_USAGE
+    logging.basicConfig(level=logging.DEBUG if args.debug else logging.ERROR, format="%(levelname)s: %(message)s")
+    if args.version:
+        from . import __version__
+
+        print(f"tamp-os {__version__}")
+        return EXIT_OK
+    if not args.command:
+        parser.print_help()
+        return EXIT_USAGE
+    from .errors import TampError
+
+    try:
+        return {"convert": cmd_convert, "presets": cmd_presets, "info": cmd_info}[args.command](args)
+    except TampError as exc:
+        if args.debug:
+            raise
+        print(f"error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    except KeyboardInterrupt:
+        print("stopped.", file=sys.stderr)
+        return 130
+
+
+def _line(litho, written) -> str:
+    r = litho.report
+    w, d, h = r["print_mm"]
+    return (
+        f"{r['input']}: {w:g} × {d:g} × {h:g} mm, grid {r['grid'][0]} × {r['grid'][1]}, "
+        f"{r['triangles']:,} triangles, {r['height_levels']} height levels; wrote {', '.join(p.name for p in written)}"
+    )
+
+
+def cmd_convert(args) -> int:
+    from .errors import TampError
+    from .pipeline import load_recipe, make_lithograph
+
+    jobs = []
+    if args.recipe:
+        image, params, _ = load_recipe(args.recipe)
+        jobs.append((image, _params_from_args(args, params)))
+    if not args.images and not jobs:
+        print("error: give at least one IMAGE, or --recipe FILE.", file=sys.stderr)
+        return EXIT_USAGE
+    params = _params_from_args(args)  # validates options once, before any work
+    jobs += [(Path(p), params) for p in args.images]
+    failed = []
+    for image, job_params in jobs:
+        try:
+            litho = make_lithograph(image, job_params)
+            written = litho.save(Path(args.output))
+        except TampError as exc:
+            if args.debug:
+                raise
+            print(f"error: {exc}", file=sys.stderr)
+            failed.append(str(image))
+            continue
+        for warning in litho.report["warnings"]:
+            print(f"warning: {warning}", file=sys.stderr)
+        print(_line(litho, written))
+    if failed:
+        print(f"{len(failed)} of {len(jobs)} failed: {', '.join(failed)}", file=sys.stderr)
+        return EXIT_FAILED
+    return EXIT_OK
+
+
+def cmd_presets(args) -> int:
+    from .imagecheck import image_stats, suggest_preset
+    from .printers import PRESETS, estimate_file_bytes, get_printer, grid_triangles, height_levels
+    from .sizing import plan_layout
+
+    params = _params_from_args(args)
+    printer = get_printer(params.printer)
+    nozzle = params.nozzle_mm or printer.nozzle_mm
+    layer = params.layer_mm or printer.layer_mm
+    w_px, h_px = 4, 3
+    suggestion = None
+    if args.image:
+        from .read import read_image
+
+        picture = read_image(args.image, page=params.page, channel=params.channel, max_megapixels=params.max_megapixels)
+        w_px, h_px = picture.source.width, picture.source.height
+        suggestion = suggest_preset(image_stats(picture.values, picture.alpha))
+    print(f"printer {printer.name}: nozzle {nozzle:g} mm, layer {layer:g} mm")
+    print(f"height levels: {height_levels(params.relief_mm, layer)} (relief {params.relief_mm:g} mm ÷ layer {layer:g} mm)")
+    for preset in PRESETS:
+        layout = plan_layout(
+            w_px, h_px, width_mm=params.width_mm, height_mm=params.height_mm, default_width_mm=printer.width_mm,
+            fit=params.fit, preset=preset, nozzle_mm=nozzle, resolution_px=params.resolution_px,
+            blur_px=params.blur_px, blur_mm=params.blur_mm,
+        )
+        tris = grid_triangles(layout.cols, layout.rows)
+        verts = layout.cols * layout.rows + 2 * (layout.cols + layout.rows)
+        sizes = ", ".join(f"{fmt.upper()} {_mb(estimate_file_bytes(fmt, tris, verts))}" for fmt in params.formats)
+        print(
+            f"{preset.capitalize()}: grid {layout.cols} × {layout.rows}, {layout.mm_per_px:.3f} mm per pixel, "
+            f"blur {layout.sigma_px:g} px, print {layout.width_mm:g} × {layout.depth_mm:.1f} mm, "
+            f"{tris:,} triangles, estimated {sizes}"
+        )
+    if suggestion:
+        print(f"suggested for {Path(args.image).name}: {suggestion[0].capitalize()}, because {suggestion[1]}.")
+    return EXIT_OK
+
+
+def _mb(n: int) -> str:
+    return f"{n / 1e6:.1f} MB" if n >= 1e5 else f"{n / 1e3:.0f} kB"
+
+
+def cmd_info(args) -> int:
+    from .read import read_image
+
+    picture = read_image(args.image, page=args.page, max_megapixels=1e6)
+    s = picture.source
+    meta_found = sorted(k for k in s.metadata if not k.startswith("_"))
+    facts = {
+        "file": s.path,
+        "format": s.format,
+        "width_px": s.width,
+        "height_px": s.height,
+        "dtype": s.dtype,
+        "bit_depth": s.bit_depth,
+        "channels": s.channels,
+        "pages": s.pages,
+        "sha256": s.sha256,
+        "metadata_found": meta_found,
+        "nonfinite_pixels": s.nonfinite_pixels,
+        "transparent_pixels": s.transparent_pixels,
+        "notes": s.notes,
+    }
+    if args.json:
+        print(json.dumps(facts, indent=2, ensure_ascii=False))
+        return EXIT_OK
+    print(f"{Path(args.image).name}: {s.format}, {s.width} × {s.height} pixels, {s.bit_depth}-bit {s.dtype}, "
+          f"{s.channels} channel{'s' if s.channels != 1 else ''}, {s.pages} page{'s' if s.pages != 1 else ''}")
+    print(f"metadata found: {', '.join(meta_found) if meta_found else 'none'}")
+    for note in s.notes:
+        print(f"note: {note}")
+    return EXIT_OK
+
+
+if __name__ == "__main__":
+    sys.exit(main())

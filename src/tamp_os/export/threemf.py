@@ -1,0 +1,49 @@
+"""3MF through lib3mf (the 3MF Consortium's library), with unit millimetre and metadata.
+
+lib3mf's Python SetGeometry builds ctypes objects one vertex at a time (about 10 s for 2 M
+triangles); its C function takes packed float32×3 / uint32×3 arrays, so we hand it numpy
+buffers directly (about 0.1 s). UUIDs are derived from the content so the same input gives
+the same bytes.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import hashlib
+import uuid
+
+import numpy as np
+
+
+def write_3mf(mesh, fh, metadata: dict) -> None:
+    import lib3mf
+
+    wrapper = lib3mf.get_wrapper()
+    model = wrapper.CreateModel()
+    model.SetUnit(lib3mf.ModelUnit.MilliMeter)
+    obj = model.AddMeshObject()
+    obj.SetName(metadata.get("title", "TAMP-OS lithograph"))
+    vertices = np.ascontiguousarray(mesh.vertices, dtype=np.float32)
+    faces = np.ascontiguousarray(mesh.faces, dtype=np.uint32)
+    wrapper.checkError(
+        obj,
+        wrapper.lib.lib3mf_meshobject_setgeometry(
+            obj._handle,
+            ctypes.c_uint64(len(vertices)),
+            vertices.ctypes.data_as(ctypes.POINTER(lib3mf.Position)),
+            ctypes.c_uint64(len(faces)),
+            faces.ctypes.data_as(ctypes.POINTER(lib3mf.Triangle)),
+        ),
+    )
+    digest = hashlib.sha256(vertices.tobytes() + faces.tobytes()).hexdigest()
+    seed = uuid.UUID(digest[:32])
+    obj.SetUUID(str(uuid.uuid5(seed, "object")))
+    item = model.AddBuildItem(obj, wrapper.GetIdentityTransform())
+    item.SetUUID(str(uuid.uuid5(seed, "item")))
+    model.SetBuildUUID(str(uuid.uuid5(seed, "build")))
+    group = model.GetMetaDataGroup()
+    for key in ("Title", "Description", "Designer", "Application"):
+        value = metadata.get(key.lower())
+        if value:
+            group.AddMetaData("", key, str(value), "string", True)
+    fh.write(bytes(model.QueryWriter("3mf").WriteToBuffer()))

@@ -1,0 +1,120 @@
+"""The watertight solid: a triangulated top surface closed by four walls and a flat bottom.
+
+`close_top` turns any top triangulation that covers the rectangle [0, W] × [0, D] into a solid:
+each boundary edge of the top gets a vertical wall quad down to z = 0, and the bottom is a fan
+from one centre vertex to the boundary edges. That bottom has one triangle per boundary edge
+(no full grid, as the reference has), no T-junctions (it uses exactly the wall's vertices) and no
+zero-area triangles (the centre is never on the line of an edge). Both meshers use it.
+
+Orientation is fixed here and only here: image row 0 lies at the far edge (largest y).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass
+class Mesh:
+    vertices: np.ndarray  # (N, 3) float64, millimetres
+    faces: np.ndarray  # (M, 3) int64 (or uint32), counter-clockwise seen from outside
+
+    @property
+    def n_triangles(self) -> int:
+        return int(len(self.faces))
+
+    @property
+    def bounds_mm(self) -> np.ndarray:
+        return np.array([self.vertices.min(axis=0), self.vertices.max(axis=0)])
+
+    def face_normals(self, start: int = 0, stop: int | None = None) -> np.ndarray:
+        """Unit normals of faces[start:stop] (computed in chunks by writers to bound memory)."""
+        tri = self.vertices[self.faces[start:stop]]
+        n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        length = np.linalg.norm(n, axis=1, keepdims=True)
+        return n / np.where(length == 0, 1.0, length)
+
+    def volume_mm3(self) -> float:
+        """Signed volume by the divergence theorem; positive when the faces wind outward."""
+        total = 0.0
+        for start in range(0, len(self.faces), 1 << 20):
+            tri = self.vertices[self.faces[start : start + (1 << 20)]]
+            total += float(np.einsum("ij,ij->i", tri[:, 0], np.cross(tri[:, 1], tri[:, 2])).sum())
+        return total / 6.0
+
+
+def grid_xy_mm(rows: int, cols: int, width_mm: float, depth_mm: float) -> tuple[np.ndarray, np.ndarray]:
+    """x of each column and y of each row: row 0 (top of the image) at y = depth (far edge)."""
+    x = np.linspace(0.0, width_mm, cols)
+    y = np.linspace(depth_mm, 0.0, rows)
+    return x, y
+
+
+def grid_top(heights: np.ndarray, width_mm: float, depth_mm: float):
+    """Vertices and counter-clockwise faces of the full grid, and its boundary as directed edges."""
+    rows, cols = heights.shape
+    x, y = grid_xy_mm(rows, cols, width_mm, depth_mm)
+    vertices = np.empty((rows * cols, 3), dtype=np.float64)
+    vertices[:, 0] = np.tile(x, rows)
+    vertices[:, 1] = np.repeat(y, cols)
+    vertices[:, 2] = heights.ravel()
+    idx = np.arange(rows * cols, dtype=np.int64).reshape(rows, cols)
+    far_left, far_right = idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel()  # row r (larger y)
+    near_left, near_right = idx[1:, :-1].ravel(), idx[1:, 1:].ravel()  # row r + 1 (smaller y)
+    faces = np.empty((2 * far_left.size, 3), dtype=np.int64)
+    faces[0::2] = np.stack([near_left, near_right, far_right], axis=1)
+    faces[1::2] = np.stack([near_left, far_right, far_left], axis=1)
+    # The outline walked counter-clockwise seen from above, as the top faces use those edges.
+    loop = np.concatenate([idx[-1, :], idx[-2::-1, -1], idx[0, -2::-1], idx[1:, 0]])
+    boundary = np.stack([loop[:-1], loop[1:]], axis=1)
+    return vertices, faces, boundary
+
+
+def boundary_edges(faces: np.ndarray) -> np.ndarray:
+    """Directed edges used by exactly one face and never in reverse: the outline of a triangulation."""
+    edges = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]).astype(np.int64)
+    n = int(edges.max()) + 1
+    keys = edges[:, 0] * n + edges[:, 1]
+    reverse = edges[:, 1] * n + edges[:, 0]
+    return edges[~np.isin(keys, reverse)]
+
+
+def close_top(top_vertices: np.ndarray, top_faces: np.ndarray, boundary: np.ndarray, width_mm: float, depth_mm: float) -> Mesh:
+    """Add walls and a bottom under a top surface whose outline is `boundary` (directed, CCW)."""
+    n_top = len(top_vertices)
+    outline = np.unique(boundary[:, 0])
+    bottom_index = np.full(n_top, -1, dtype=np.int64)
+    bottom_index[outline] = n_top + np.arange(outline.size)
+    centre = n_top + outline.size
+    bottom = top_vertices[outline].copy()
+    bottom[:, 2] = 0.0
+    vertices = np.concatenate([top_vertices, bottom, [[width_mm / 2, depth_mm / 2, 0.0]]])
+    a, b = boundary[:, 0], boundary[:, 1]
+    a_low, b_low = bottom_index[a], bottom_index[b]
+    walls = np.empty((2 * len(boundary), 3), dtype=np.int64)
+    walls[0::2] = np.stack([b, a, a_low], axis=1)
+    walls[1::2] = np.stack([b, a_low, b_low], axis=1)
+    floor = np.stack([np.full_like(a, centre), b_low, a_low], axis=1)
+    faces = np.concatenate([top_faces.astype(np.int64), walls, floor])
+    return Mesh(vertices=vertices, faces=faces)
+
+
+def grid_solid(heights: np.ndarray, width_mm: float, depth_mm: float) -> Mesh:
+    """The full-grid solid: one vertex per heightmap value."""
+    vertices, faces, boundary = grid_top(heights, width_mm, depth_mm)
+    return close_top(vertices, faces, boundary, width_mm, depth_mm)
+
+
+def grid_volume_mm3(heights: np.ndarray, width_mm: float, depth_mm: float) -> float:
+    """Exact volume under the grid surface as grid_top triangulates it (used by tests and checks).
+
+    Each cell splits along the near-left/far-right diagonal, so its volume is
+    area/6 × (2·near_left + 2·far_right + near_right + far_left).
+    """
+    rows, cols = heights.shape
+    cell = (width_mm / (cols - 1)) * (depth_mm / (rows - 1))
+    h = heights.astype(np.float64)
+    s = 2 * h[1:, :-1] + 2 * h[:-1, 1:] + h[1:, 1:] + h[:-1, :-1]
+    return float(s.sum() * cell / 6.0)

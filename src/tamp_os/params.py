@@ -1,0 +1,139 @@
+"""LithoParams: every setting of a lithograph in one frozen, validated object.
+
+Fields left as None are derived when the lithograph is made (from the printer profile and
+preset); `dataclasses.replace()` makes variants for sweeps; `to_json`/`from_json` round-trip
+it for the recipe sidecar. Each field carries its help text, unit and allowed range.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+from .errors import ParameterError
+from .printers import PRESETS
+
+FORMATS = ("stl", "3mf", "glb", "obj", "ply")
+FITS = ("pad", "crop", "stretch")
+MESHERS = ("grid",)
+
+
+def _f(default, help, unit="", lo=None, hi=None, choices=None, lo_open=False):
+    return field(
+        default=default,
+        metadata={"help": help, "unit": unit, "lo": lo, "hi": hi, "choices": choices, "lo_open": lo_open},
+    )
+
+
+@dataclass(frozen=True)
+class LithoParams:
+    preset: str = _f("medium", "grid density from the nozzle: low, medium or high", choices=tuple(PRESETS))
+    printer: str = _f("standard", "printer profile (standard, fine, large or one of yours)")
+    nozzle_mm: float | None = _f(None, "nozzle diameter (default: from the printer)", "mm", 0.05, 2.0)
+    layer_mm: float | None = _f(None, "layer height (default: from the printer)", "mm", 0.005, 1.0)
+    width_mm: float | None = _f(None, "print width (default: from the printer, or from the height)", "mm", 5.0, 1000.0)
+    height_mm: float | None = _f(None, "print depth, top to bottom of the image (default: from the aspect ratio)", "mm", 5.0, 1000.0)
+    fit: str | None = _f(None, "when width and height both disagree with the image: pad, crop or stretch", choices=FITS)
+    resolution_px: int | None = _f(None, "grid points across the width (default: from the preset)", "px", 2, 16384)
+    base_mm: float = _f(1.0, "solid base under the relief", "mm", 0.0, 50.0, lo_open=True)
+    relief_mm: float = _f(3.0, "height of the relief above the base", "mm", 0.0, 50.0, lo_open=True)
+    blur_px: float | None = _f(None, "Gaussian blur sigma in output pixels (default: from the preset)", "px", 0.0, 100.0)
+    blur_mm: float | None = _f(None, "Gaussian blur sigma on the print (instead of blur_px)", "mm", 0.0, 50.0)
+    invert: bool = _f(False, "raise dark parts instead of bright ones")
+    flip_x: bool = _f(False, "mirror the image left to right")
+    stretch_low_pct: float = _f(2.0, "lower percentile of the contrast stretch", "%", 0.0, 100.0)
+    stretch_high_pct: float = _f(98.0, "upper percentile of the contrast stretch", "%", 0.0, 100.0)
+    quantize: bool = _f(False, "round heights to whole layers")
+    channel: str = _f("luminance", "luminance, or a channel: a number from 0 or red/green/blue/alpha")
+    page: int = _f(0, "TIFF page or series to read", "", 0, 100000)
+    max_megapixels: float = _f(400.0, "refuse larger images (decompression-bomb guard)", "Mpx", 0.0, 1e6, lo_open=True)
+    mesher: str = _f("grid", "grid: every pixel a vertex", choices=MESHERS)
+    formats: tuple[str, ...] = _f(("stl",), "output formats", choices=FORMATS)
+
+    def __post_init__(self):
+        for f in dataclasses.fields(self):
+            _check_field(f, getattr(self, f.name))
+        if self.blur_px is not None and self.blur_mm is not None:
+            raise ParameterError(
+                f"blur_px and blur_mm: give one of them, not both (got blur_px={self.blur_px}, blur_mm={self.blur_mm})."
+            )
+        if self.stretch_low_pct >= self.stretch_high_pct:
+            raise ParameterError(
+                f"stretch_low_pct must be below stretch_high_pct; got {self.stretch_low_pct} and {self.stretch_high_pct}."
+            )
+        if not self.formats:
+            raise ParameterError(f"formats: choose at least one of {', '.join(FORMATS)}.")
+
+    def to_json(self) -> str:
+        return json.dumps(self.to_dict(), indent=2, ensure_ascii=False)
+
+    def to_dict(self) -> dict[str, Any]:
+        d = dataclasses.asdict(self)
+        d["formats"] = list(self.formats)
+        return d
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> "LithoParams":
+        names = {f.name for f in dataclasses.fields(cls)}
+        unknown = sorted(set(data) - names)
+        if unknown:
+            raise ParameterError(f"unknown parameter(s) {', '.join(unknown)}; known: {', '.join(sorted(names))}.")
+        data = dict(data)
+        if "formats" in data:
+            data["formats"] = tuple(data["formats"])
+        return cls(**data)
+
+    @classmethod
+    def from_json(cls, text: str) -> "LithoParams":
+        return cls.from_dict(json.loads(text))
+
+    def replace(self, **changes) -> "LithoParams":
+        names = {f.name for f in dataclasses.fields(self)}
+        unknown = sorted(set(changes) - names)
+        if unknown:
+            raise ParameterError(f"unknown parameter(s) {', '.join(unknown)}; known: {', '.join(sorted(names))}.")
+        return dataclasses.replace(self, **changes)
+
+
+def describe_range(f: dataclasses.Field) -> str:
+    m = f.metadata
+    if m["choices"]:
+        return "one of " + ", ".join(m["choices"])
+    if m["lo"] is None:
+        return "any"
+    lo_sign = ">" if m["lo_open"] else "≥"
+    return f"{lo_sign} {m['lo']} and ≤ {m['hi']} {m['unit']}".rstrip()
+
+
+def _check_field(f: dataclasses.Field, value: Any) -> None:
+    m = f.metadata
+    if value is None:
+        if f.default is None:
+            return
+        raise ParameterError(f"{f.name}: a value is required ({describe_range(f)}).")
+    if f.name == "formats":
+        if isinstance(value, str) or not all(v in FORMATS for v in value):
+            raise ParameterError(f"formats: each must be one of {', '.join(FORMATS)}; got {value!r}.")
+        return
+    if m["choices"]:
+        if value not in m["choices"]:
+            raise ParameterError(f"{f.name}: must be {describe_range(f)}; got {value!r}.")
+        return
+    if isinstance(f.default, bool):
+        if not isinstance(value, bool):
+            raise ParameterError(f"{f.name}: must be true or false; got {value!r}.")
+        return
+    if m["lo"] is None:
+        if not isinstance(value, str):
+            raise ParameterError(f"{f.name}: must be text; got {value!r}.")
+        return
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise ParameterError(f"{f.name}: must be a number {describe_range(f)}; got {value!r}.")
+    if isinstance(m["lo"], int) and isinstance(m["hi"], int) and value != int(value):
+        raise ParameterError(f"{f.name}: must be a whole number {describe_range(f)}; got {value!r}.")
+    too_low = value <= m["lo"] if m["lo_open"] else value < m["lo"]
+    if too_low or value > m["hi"]:
+        raise ParameterError(f"{f.name}: must be {describe_range(f)}; got {value}{(' ' + m['unit']) if m['unit'] else ''}.")

@@ -1,0 +1,224 @@
+"""make_lithograph(): read -> preprocess -> heightmap -> mesh, and Lithograph.save()."""
+
+from __future__ import annotations
+
+import json
+import logging
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from . import __version__
+from .errors import InputError, ParameterError
+from .export import save_mesh, write_atomic
+from .heightmap import heights_mm
+from .mesh import Mesh, grid_solid
+from .params import LithoParams
+from .preprocess import prepare
+from .printers import get_printer, height_levels
+from .read import Picture, read_array, read_image
+from .sizing import Layout, plan_layout
+
+log = logging.getLogger(__name__)
+
+RECIPE_SUFFIX = ".tamp.json"
+
+
+@dataclass
+class Lithograph:
+    mesh: Mesh
+    heightmap: np.ndarray  # heights in mm, row 0 = top of the image = far edge of the print
+    params: LithoParams
+    layout: Layout
+    picture: Picture
+    report: dict = field(default_factory=dict)
+
+    @property
+    def name(self) -> str:
+        return Path(self.picture.source.name).stem or "lithograph"
+
+    def metadata(self) -> dict:
+        return {
+            "title": f"Tactile lithograph of {self.picture.source.name}",
+            "description": describe(self),
+            "designer": "TAMP-OS",
+            "application": f"TAMP-OS {__version__}",
+        }
+
+    def save(self, target, formats=None) -> list[Path]:
+        """Write the mesh in each format and a recipe sidecar.
+
+        `target` is a folder (files are named after the input) or a file name whose extension
+        picks the single format. Returns the paths written, recipe last.
+        """
+        target = Path(target)
+        if target.suffix and not target.is_dir():
+            folder, stem, formats = target.parent, target.stem, [target.suffix.lstrip(".").lower()]
+        else:
+            folder, stem = target, self.name
+            formats = list(formats or self.params.formats)
+        if not folder.exists():
+            try:
+                folder.mkdir(parents=True)
+            except OSError as exc:
+                from .errors import ExportError
+
+                raise ExportError(f"{folder}: cannot create the output folder ({exc.strerror}); choose another with -o.") from None
+        written = []
+        meta = self.metadata()
+        for fmt in formats:
+            start = time.perf_counter()
+            written.append(save_mesh(self.mesh, folder / f"{stem}.{fmt}", meta))
+            self.report["timings_s"][f"write_{fmt}"] = round(time.perf_counter() - start, 4)
+        recipe = folder / f"{stem}{RECIPE_SUFFIX}"
+        files = [p.name for p in written]
+        text = json.dumps(recipe_dict(self, files), indent=2, ensure_ascii=False) + "\n"
+        write_atomic(recipe, lambda fh: fh.write(text.encode("utf-8")))
+        self.report["files"] = files + [recipe.name]
+        return written + [recipe]
+
+
+def dependency_versions() -> dict[str, str]:
+    from importlib.metadata import PackageNotFoundError, version
+
+    out = {}
+    for name in ("numpy", "scipy", "scikit-image", "tifffile", "pillow", "trimesh", "lib3mf"):
+        try:
+            out[name] = version(name)
+        except PackageNotFoundError:
+            out[name] = "not installed"
+    return out
+
+
+def recipe_dict(litho: Lithograph, files: list[str]) -> dict:
+    src = litho.picture.source
+    return {
+        "tamp_os_version": __version__,
+        "input": {"name": src.name, "path": src.path, "sha256": src.sha256},
+        "params": litho.params.to_dict(),
+        "outputs": files,
+        "versions": dependency_versions(),
+    }
+
+
+def load_recipe(path) -> tuple[Path, LithoParams, dict]:
+    """(input path, params, recipe) from a recipe sidecar; the input must still hash the same."""
+    import hashlib
+
+    path = Path(path)
+    try:
+        recipe = json.loads(path.read_text(encoding="utf-8"))
+        params = LithoParams.from_dict(recipe["params"])
+        info = recipe["input"]
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        raise InputError(f"{path}: not a readable TAMP-OS recipe ({exc}).") from None
+    candidates = [Path(info["path"])] if info.get("path") else []
+    candidates.append(path.parent / info["name"])
+    for image in candidates:
+        if image.is_file():
+            if hashlib.sha256(image.read_bytes()).hexdigest() != info["sha256"]:
+                raise InputError(
+                    f"{path}: the input {image} has changed since the recipe was written (SHA-256 differs); "
+                    f"the same output cannot be rebuilt from it."
+                )
+            return image, params, recipe
+    raise InputError(f"{path}: its input {info['name']} was not found at {', '.join(map(str, candidates))}.")
+
+
+def make_lithograph(source, params: LithoParams | None = None, **changes) -> Lithograph:
+    """Make a lithograph from an image file or array.
+
+    >>> litho = make_lithograph(np.eye(64), width_mm=50, relief_mm=2)   # doctest: +SKIP
+    >>> litho.save("out/")                                              # doctest: +SKIP
+    """
+    params = (params or LithoParams()).replace(**changes) if changes else (params or LithoParams())
+    timings = {}
+    start = time.perf_counter()
+    if isinstance(source, Picture):
+        picture = source
+    elif isinstance(source, (str, Path)):
+        picture = read_image(source, page=params.page, channel=params.channel, max_megapixels=params.max_megapixels)
+    else:
+        picture = read_array(source, channel=params.channel)
+    timings["read"] = time.perf_counter() - start
+
+    printer = get_printer(params.printer)
+    nozzle = params.nozzle_mm or printer.nozzle_mm
+    layer = params.layer_mm or printer.layer_mm
+    src = picture.source
+    layout = plan_layout(
+        src.width,
+        src.height,
+        width_mm=params.width_mm,
+        height_mm=params.height_mm,
+        default_width_mm=printer.width_mm,
+        fit=params.fit,
+        preset=params.preset,
+        nozzle_mm=nozzle,
+        resolution_px=params.resolution_px,
+        blur_px=params.blur_px,
+        blur_mm=params.blur_mm,
+    )
+    if layout.rows > 20000 or layout.cols * layout.rows > 300e6:
+        raise ParameterError(
+            f"resolution_px: {layout.cols}×{layout.rows} grid points is too many to mesh; lower --resolution-px or the preset."
+        )
+    start = time.perf_counter()
+    image, info = prepare(
+        picture.values,
+        picture.alpha,
+        rows=layout.rows,
+        cols=layout.cols,
+        target_aspect=layout.target_aspect,
+        fit=layout.fit,
+        low_pct=params.stretch_low_pct,
+        high_pct=params.stretch_high_pct,
+        sigma_px=layout.sigma_px,
+        invert=params.invert,
+        flip_x=params.flip_x,
+    )
+    heights = heights_mm(image, base_mm=params.base_mm, relief_mm=params.relief_mm, layer_mm=layer if params.quantize else None)
+    timings["preprocess"] = time.perf_counter() - start
+
+    start = time.perf_counter()
+    mesh = grid_solid(heights, layout.width_mm, layout.depth_mm)
+    timings["mesh"] = time.perf_counter() - start
+
+    warnings = list(layout.warnings) + list(src.notes)
+    if info["uniform"]:
+        warnings.append(f"{src.name}: the image is uniform (every usable pixel has the same value); the print is a flat plate.")
+    if params.base_mm < 0.8:
+        warnings.append(f"base_mm {params.base_mm} is below 0.8 mm; thin bases warp and break. 1.0–1.5 mm is typical.")
+    for w in warnings:
+        log.warning(w)
+    report = {
+        "input": src.name,
+        "print_mm": [round(layout.width_mm, 3), round(layout.depth_mm, 3), round(params.base_mm + params.relief_mm, 3)],
+        "grid": [layout.cols, layout.rows],
+        "mm_per_px": round(layout.mm_per_px, 4),
+        "blur_px": round(layout.sigma_px, 3),
+        "printer": printer.name,
+        "nozzle_mm": nozzle,
+        "layer_mm": layer,
+        "height_levels": height_levels(params.relief_mm, layer),
+        "triangles": mesh.n_triangles,
+        "vertices": len(mesh.vertices),
+        "uniform": info["uniform"],
+        "warnings": warnings,
+        "timings_s": {k: round(v, 4) for k, v in timings.items()},
+        "files": [],
+    }
+    return Lithograph(mesh=mesh, heightmap=heights, params=params, layout=layout, picture=picture, report=report)
+
+
+def describe(litho: Lithograph) -> str:
+    """A plain-language description of the object for people who cannot see it."""
+    w, d, h = litho.report["print_mm"]
+    raised = "dark" if litho.params.invert else "bright"
+    return (
+        f"A tactile relief of the image {litho.picture.source.name}, {w:g} mm wide, {d:g} mm deep and up to "
+        f"{h:g} mm high on a {litho.params.base_mm:g} mm base. The top edge of the image is the far edge of the "
+        f"print. The {raised} parts of the image are raised."
+    )

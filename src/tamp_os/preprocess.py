@@ -1,0 +1,116 @@
+"""From source pixel values to a normalized image in [0, 1] on the output grid.
+
+Order matters and is fixed: the percentile stretch runs on the source values (so the output
+resolution never changes what counts as dark or bright), then the picture is fitted to the
+print's aspect, resampled with antialiasing in float, blurred, inverted and weighted by opacity.
+Row 0 stays the top of the image here; mesh.py places it at the far edge of the print.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import ndimage
+
+
+def stretch(values: np.ndarray, alpha: np.ndarray | None, low_pct: float, high_pct: float):
+    """Map the low..high percentiles of the opaque, finite source pixels to 0..1 (clipped).
+
+    Returns (normalized float32 image with unknown pixels at 0, (low, high) source values,
+    uniform flag). A uniform image (low == high) is all zeros: a flat plate.
+    """
+    usable = np.isfinite(values)
+    if alpha is not None:
+        usable &= alpha > 0
+    sample = values[usable]
+    if sample.size == 0:
+        return np.zeros(values.shape, np.float32), (0.0, 0.0), True
+    low, high = np.percentile(sample, [low_pct, high_pct])
+    if not high > low:  # percentiles can coincide in mostly flat images: fall back to the full range
+        low, high = float(sample.min()), float(sample.max())
+    if not high > low:
+        return np.zeros(values.shape, np.float32), (float(low), float(high)), True
+    out = (values - np.float32(low)) / np.float32(high - low)
+    out = np.clip(np.nan_to_num(out, nan=0.0), 0.0, 1.0).astype(np.float32)
+    return out, (float(low), float(high)), False
+
+
+def fit_aspect(image: np.ndarray, alpha: np.ndarray | None, target_aspect: float, mode: str):
+    """Make image (H×W) match target_aspect = height/width by padding or cropping (centred).
+
+    Padding is transparent (alpha 0), so it prints at base level. 'stretch' returns it unchanged.
+    """
+    h, w = image.shape
+    if alpha is None:
+        alpha = np.ones_like(image)
+    if mode == "stretch":
+        return image, alpha
+    current = h / w
+    if mode == "crop":
+        if current > target_aspect:
+            new_h = max(2, round(w * target_aspect))
+            top = (h - new_h) // 2
+            return image[top : top + new_h], alpha[top : top + new_h]
+        new_w = max(2, round(h / target_aspect))
+        left = (w - new_w) // 2
+        return image[:, left : left + new_w], alpha[:, left : left + new_w]
+    if current > target_aspect:
+        new_w = round(h / target_aspect)
+        pad = ((0, 0), ((new_w - w) // 2, new_w - w - (new_w - w) // 2))
+    else:
+        new_h = round(w * target_aspect)
+        pad = (((new_h - h) // 2, new_h - h - (new_h - h) // 2), (0, 0))
+    return np.pad(image, pad), np.pad(alpha, pad)
+
+
+def resample(image: np.ndarray, rows: int, cols: int) -> np.ndarray:
+    """Antialiased resize in float (scikit-image): averaging when shrinking, linear when enlarging."""
+    if image.shape == (rows, cols):
+        return image.astype(np.float32, copy=False)
+    from skimage.transform import resize
+
+    shrinking = rows < image.shape[0] or cols < image.shape[1]
+    return resize(image, (rows, cols), order=1, anti_aliasing=shrinking, preserve_range=True).astype(np.float32)
+
+
+def blur(image: np.ndarray, sigma_px: float) -> np.ndarray:
+    if sigma_px <= 0:
+        return image
+    return ndimage.gaussian_filter(image, sigma=sigma_px, mode="nearest").astype(np.float32)
+
+
+def renormalize(image: np.ndarray) -> np.ndarray:
+    """Spread to exactly 0..1 again after resampling and blur, so the relief reaches its full height."""
+    low, high = float(image.min()), float(image.max())
+    if high - low < 1e-6:
+        return np.zeros_like(image)
+    return ((image - low) / (high - low)).astype(np.float32)
+
+
+def prepare(
+    values: np.ndarray,
+    alpha: np.ndarray | None,
+    *,
+    rows: int,
+    cols: int,
+    target_aspect: float,
+    fit: str,
+    low_pct: float,
+    high_pct: float,
+    sigma_px: float,
+    invert: bool,
+    flip_x: bool,
+):
+    """The whole preprocessing chain. Returns (image in 0..1 on rows×cols, info dict)."""
+    image, (low, high), uniform = stretch(values, alpha, low_pct, high_pct)
+    image, alpha = fit_aspect(image, alpha, target_aspect, fit)
+    image = resample(image, rows, cols)
+    weight = np.clip(resample(alpha, rows, cols), 0.0, 1.0)
+    image = blur(image, sigma_px)
+    if not uniform:
+        image = renormalize(image)
+    if invert and not uniform:
+        image = 1.0 - image
+    image = image * weight
+    if flip_x:
+        image = image[:, ::-1]
+    return np.ascontiguousarray(image, dtype=np.float32), {"stretch_source_range": (low, high), "uniform": uniform}

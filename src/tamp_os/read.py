@@ -1,0 +1,289 @@
+"""Load an image file by its content (never its extension) into float32 at full precision.
+
+TIFF goes through tifffile (8/16/32-bit integer and float, multipage, OME); everything else
+through Pillow. Colour becomes grayscale by luminance (ITU-R 601, as Pillow's "L") unless a
+channel is chosen. Transparent pixels and NaN/inf pixels are carried as zero weight in `alpha`
+so they end up at base level.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import logging
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .errors import InputError, MissingDependencyError, ParameterError
+
+log = logging.getLogger(__name__)
+
+LUMA_601 = np.array([0.299, 0.587, 0.114], dtype=np.float64)
+CHANNEL_NAMES = {"red": 0, "green": 1, "blue": 2, "alpha": 3}
+TIFF_MAGIC = (b"II*\x00", b"MM\x00*", b"II+\x00", b"MM\x00+")
+DM_MAGIC = (b"\x00\x00\x00\x03", b"\x00\x00\x00\x04")
+
+
+@dataclass
+class Source:
+    """What we know about an input: where it came from and what it holds."""
+
+    name: str
+    sha256: str
+    format: str
+    width: int
+    height: int
+    dtype: str
+    bit_depth: int
+    channels: int
+    pages: int = 1
+    path: str | None = None
+    metadata: dict = field(default_factory=dict)
+    nonfinite_pixels: int = 0
+    transparent_pixels: int = 0
+    notes: list[str] = field(default_factory=list)
+
+
+@dataclass
+class Picture:
+    """A grayscale image: values (float32, NaN where unknown) and opacity weights (None = opaque)."""
+
+    values: np.ndarray
+    alpha: np.ndarray | None
+    source: Source
+    raw: object = None  # the open tifffile/Pillow object's metadata for microscopy readers
+
+
+def read_image(path, *, page: int = 0, channel: str = "luminance", max_megapixels: float = 400.0) -> Picture:
+    path = Path(path)
+    if path.is_dir():
+        raise InputError(f"{path}: is a folder, not an image file; give an image file or use 'tamp-os batch'.")
+    try:
+        data = path.read_bytes()
+    except FileNotFoundError:
+        raise InputError(f"{path}: no such file; check the name and folder.") from None
+    except OSError as exc:
+        raise InputError(f"{path}: cannot be read ({exc.strerror}); check its permissions.") from None
+    if not data:
+        raise InputError(f"{path}: the file is empty (0 bytes); it is not an image. Export it again.")
+    sha = hashlib.sha256(data).hexdigest()
+    head = data[:8]
+    if head[:4] in TIFF_MAGIC:
+        fmt, array, meta, pages = _read_tiff(path, page, max_megapixels)
+    elif head[:4] in DM_MAGIC:
+        fmt, array, meta, pages = _read_dm(path, max_megapixels)
+    else:
+        fmt, array, meta, pages = _read_pillow(path, data, page, max_megapixels)
+    return _to_picture(array, fmt, meta, pages, channel, name=path.name, sha=sha, path=str(path))
+
+
+def read_array(array, *, channel: str = "luminance", name: str = "array") -> Picture:
+    """Wrap an in-memory array (H×W, H×W×3 or H×W×4) the same way a file is read."""
+    array = np.asarray(array)
+    if array.dtype == bool:
+        array = array.astype(np.uint8)
+    if array.dtype.kind not in "uif":
+        raise InputError(f"{name}: arrays must hold numbers, got dtype {array.dtype}.")
+    sha = hashlib.sha256(np.ascontiguousarray(array).tobytes() + str(array.shape).encode()).hexdigest()
+    return _to_picture(array, "array", {}, 1, channel, name=name, sha=sha, path=None)
+
+
+def _bits(dtype: np.dtype) -> int:
+    return 1 if dtype == bool else dtype.itemsize * 8
+
+
+def _check_size(path, shape, max_megapixels) -> None:
+    h, w = shape[0], shape[1]
+    if h * w > max_megapixels * 1e6:
+        raise InputError(
+            f"{path}: the image claims {w}×{h} pixels ({h * w / 1e6:.0f} Mpx), above the limit of "
+            f"{max_megapixels:g} Mpx that guards against decompression bombs. If you trust the file, "
+            f"raise the limit with --max-megapixels {int(h * w / 1e6) + 1}."
+        )
+
+
+def _read_tiff(path, page, max_megapixels):
+    import tifffile
+
+    try:
+        with tifffile.TiffFile(path) as tif:
+            series = tif.series
+            if not series:
+                raise InputError(f"{path}: a TIFF without any image in it.")
+            if len(series) > 1:
+                if page >= len(series):
+                    raise ParameterError(f"{path}: --page must be 0–{len(series) - 1} (series in this file); got {page}.")
+                chosen, plane = series[page], 0
+            else:
+                chosen, plane = series[0], page
+            axes = chosen.axes
+            shape = chosen.shape
+            keep = [i for i, a in enumerate(axes) if a in "YXS"]
+            yx_shape = [shape[i] for i, a in enumerate(axes) if a in "YX"]
+            if len(yx_shape) != 2:
+                raise InputError(f"{path}: TIFF series with axes {axes!r} has no 2-D image plane.")
+            _check_size(path, yx_shape, max_megapixels)
+            leading = [shape[i] for i in range(len(shape)) if i not in keep]
+            n_planes = int(np.prod(leading)) if leading else 1
+            if plane >= n_planes:
+                raise ParameterError(f"{path}: --page must be 0–{n_planes - 1} (planes in this file); got {plane}.")
+            array = chosen.asarray()
+            array = array.reshape((n_planes,) + tuple(shape[i] for i in keep))[plane]
+            if "S" in axes and axes.index("S") < axes.index("Y"):
+                array = np.moveaxis(array, 0, -1)  # planar RGB -> Y X S
+            meta = {"tiff_series_axes": axes, "tiff_series": len(series)}
+            meta["_tiff_tags"] = {tag.code: tag.value for tag in tif.pages[0].tags}
+            for attr in ("fei_metadata", "sem_metadata", "imagej_metadata", "ome_metadata", "tvips_metadata"):
+                try:
+                    value = getattr(tif, attr, None)
+                except Exception:  # a broken vendor block must not stop the image from loading
+                    value = None
+                if value:
+                    meta[attr] = value
+            return "TIFF", array, meta, max(len(series), n_planes)
+    except (InputError, ParameterError):
+        raise
+    except MemoryError:
+        raise InputError(f"{path}: not enough memory to read this TIFF; try a smaller image.") from None
+    except Exception as exc:
+        raise InputError(f"{path}: a damaged or unsupported TIFF ({exc}); re-export it from the microscope software.") from None
+
+
+def _read_dm(path, max_megapixels):
+    try:
+        from rsciio.digitalmicrograph import file_reader
+    except ImportError:
+        raise MissingDependencyError(
+            f"{path}: is a Gatan DigitalMicrograph (DM3/DM4) file; reading it needs the optional "
+            f"extra: pip install 'tamp-os[dm]' (rosettasciio)."
+        ) from None
+    try:
+        item = file_reader(str(path))[0]
+    except Exception as exc:
+        raise InputError(f"{path}: a damaged DM3/DM4 file ({exc}).") from None
+    array = np.asarray(item["data"])
+    while array.ndim > 2:
+        array = array[0]
+    _check_size(path, array.shape, max_megapixels)
+    return "DM", array, {"dm_axes": item.get("axes", []), "dm_metadata": item.get("metadata", {})}, 1
+
+
+def _read_pillow(path, data, page, max_megapixels):
+    from PIL import Image, UnidentifiedImageError
+
+    import io
+
+    with warnings.catch_warnings():
+        # Our own size check below replaces Pillow's bomb guard so the message can be ours.
+        warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+        old_limit = Image.MAX_IMAGE_PIXELS
+        Image.MAX_IMAGE_PIXELS = None
+        try:
+            im = Image.open(io.BytesIO(data))
+            fmt = im.format or "image"
+            _check_size(path, (im.size[1], im.size[0]), max_megapixels)
+            frames = getattr(im, "n_frames", 1)
+            if page:
+                if page >= frames:
+                    raise ParameterError(f"{path}: --page must be 0–{frames - 1} (frames in this file); got {page}.")
+                im.seek(page)
+            im.load()
+        except UnidentifiedImageError:
+            start = data[:16]
+            raise InputError(
+                f"{path}: not an image that can be read (the file starts with {start!r}); "
+                f"supported: PNG, JPEG, TIFF, BMP, GIF, WebP, DM3/DM4."
+            ) from None
+        except (InputError, ParameterError):
+            raise
+        except (OSError, SyntaxError, ValueError, EOFError) as exc:
+            raise InputError(f"{path}: the {fmt if 'fmt' in locals() else ''} image is damaged or truncated ({exc}).") from None
+        finally:
+            Image.MAX_IMAGE_PIXELS = old_limit
+    meta = {"pillow_mode": im.mode}
+    if "dpi" in im.info:
+        meta["dpi_not_physical"] = im.info["dpi"]
+    mode = im.mode
+    if mode == "P" or mode == "PA":
+        im = im.convert("RGBA" if ("transparency" in im.info or mode == "PA") else "RGB")
+    elif mode == "1":
+        im = im.convert("L")
+    elif mode in ("CMYK", "YCbCr", "LAB", "HSV"):
+        im = im.convert("RGB")
+    elif mode == "I;16B" or mode == "I;16L" or mode == "I;16N":
+        im = im.convert("I;16")
+    array = np.asarray(im)
+    if mode == "I" and array.size and array.min() >= 0 and array.max() <= 65535:
+        meta["note_int32"] = "32-bit integer pixels"
+    return fmt, array, meta, frames
+
+
+def _to_picture(array, fmt, meta, pages, channel, *, name, sha, path) -> Picture:
+    array = np.asarray(array)
+    if array.ndim == 3 and array.shape[-1] == 1:
+        array = array[..., 0]
+    if array.ndim not in (2, 3) or (array.ndim == 3 and array.shape[-1] not in (2, 3, 4)):
+        raise InputError(f"{name}: expected a 2-D image (optionally with 2–4 colour channels); got shape {array.shape}.")
+    h, w = array.shape[:2]
+    if h < 2 or w < 2:
+        raise InputError(
+            f"{name}: the image is {w}×{h} pixels; at least 2×2 is needed to make a relief."
+        )
+    n_channels = 1 if array.ndim == 2 else array.shape[-1]
+    source = Source(
+        name=name,
+        sha256=sha,
+        format=fmt,
+        width=w,
+        height=h,
+        dtype=str(array.dtype),
+        bit_depth=_bits(array.dtype),
+        channels=n_channels,
+        pages=pages,
+        path=path,
+        metadata=meta,
+    )
+    values, alpha = _grayscale(array, channel, name)
+    bad = ~np.isfinite(values)
+    source.nonfinite_pixels = int(bad.sum())
+    if source.nonfinite_pixels:
+        source.notes.append(f"{source.nonfinite_pixels} pixels were NaN or infinite; they are printed at base level.")
+        values = np.where(bad, np.nan, values).astype(np.float32)
+        alpha = np.where(bad, 0.0, 1.0 if alpha is None else alpha).astype(np.float32)
+    if alpha is not None:
+        source.transparent_pixels = int((alpha < 1.0).sum())
+        if source.transparent_pixels:
+            source.notes.append(f"{source.transparent_pixels} pixels are (partly) transparent; transparent means base level.")
+    if source.nonfinite_pixels == h * w:
+        raise InputError(f"{name}: every pixel is NaN or infinite; there is no image to print.")
+    return Picture(values=values, alpha=alpha, source=source)
+
+
+def _alpha_scale(dtype) -> float:
+    return float(np.iinfo(dtype).max) if np.dtype(dtype).kind in "ui" else 1.0
+
+
+def _grayscale(array, channel: str, name: str):
+    """(values, alpha) from any pixel layout; values keep their full source precision in float."""
+    if array.ndim == 2:
+        if channel not in ("luminance", "0"):
+            raise ParameterError(f"{name}: --channel {channel} asked for, but the image has a single channel; use luminance.")
+        return array.astype(np.float32), None
+    n = array.shape[-1]
+    has_alpha = n in (2, 4)
+    alpha = array[..., -1].astype(np.float32) / _alpha_scale(array.dtype) if has_alpha else None
+    colour = array[..., : n - 1] if has_alpha else array
+    if channel == "luminance":
+        if colour.shape[-1] == 1:
+            values = colour[..., 0].astype(np.float32)
+        else:
+            values = (colour.astype(np.float64) @ LUMA_601).astype(np.float32)
+        return values, alpha
+    index = CHANNEL_NAMES.get(channel.lower()) if not channel.isdigit() else int(channel)
+    if index is None or index >= n:
+        raise ParameterError(
+            f"{name}: --channel must be luminance, a number 0–{n - 1} or a colour name the image has; got {channel!r}."
+        )
+    return array[..., index].astype(np.float32), (None if index == n - 1 and has_alpha else alpha)

@@ -1,0 +1,48 @@
+"""Length strings with units ("4.2nm", "0.5 µm") to metres, and metres to readable text."""
+
+from __future__ import annotations
+
+import re
+
+from .errors import ParameterError
+
+_FACTORS_M = {
+    "pm": 1e-12,
+    "nm": 1e-9,
+    "um": 1e-6,
+    "µm": 1e-6,
+    "μm": 1e-6,  # Greek mu as well as the micro sign
+    "micron": 1e-6,
+    "microns": 1e-6,
+    "mm": 1e-3,
+    "cm": 1e-2,
+    "m": 1.0,
+}
+
+
+def unit_factor_m(unit: str) -> float | None:
+    """Metres per `unit`, or None when the unit is not a length we know."""
+    return _FACTORS_M.get(unit.strip().lower().replace("\u00b5", "µ"))
+
+
+def parse_length_m(text: str, name: str = "--pixel-size") -> float:
+    """'4.2nm' -> 4.2e-9. Raises ParameterError naming `name` when it cannot be read."""
+    match = re.fullmatch(r"\s*([0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)\s*([a-zA-Zµμ]+)\s*", text)
+    factor = unit_factor_m(match.group(2)) if match else None
+    if not match or factor is None:
+        raise ParameterError(
+            f"{name}: cannot read {text!r} as a length; give a number and a unit, "
+            f"for example 4.2nm, 0.5um, 3 micron or 0.01mm (units: nm, µm, um, micron, mm)."
+        )
+    value = float(match.group(1)) * factor
+    if value <= 0:
+        raise ParameterError(f"{name}: must be greater than 0, got {text!r}.")
+    return value
+
+
+def format_length(metres: float) -> str:
+    """A length in the unit that keeps the number between 1 and 1000: 2.6e-6 -> '2.6 µm'."""
+    for unit, factor in (("m", 1.0), ("mm", 1e-3), ("µm", 1e-6), ("nm", 1e-9), ("pm", 1e-12)):
+        if abs(metres) >= factor or unit == "pm":
+            return f"{metres / factor:.4g} {unit}"
+    raise AssertionError("unreachable")

@@ -122,7 +122,10 @@ def cmd_convert(args) -> int:
     if not args.images and not jobs:
         print("error: give at least one IMAGE, or --recipe FILE.", file=sys.stderr)
         return EXIT_USAGE
+    from .printers import get_printer
+
     params = _params_from_args(args)  # validates options once, before any work
+    get_printer(params.printer)
     jobs += [(Path(p), params) for p in args.images]
     failed = []
     for image, job_params in jobs:

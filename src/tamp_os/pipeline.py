@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import json
 import logging
+import os
 import time
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -66,12 +68,18 @@ class Lithograph:
                 from .errors import ExportError
 
                 raise ExportError(f"{folder}: cannot create the output folder ({exc.strerror}); choose another with -o.") from None
-        written = []
         meta = self.metadata()
-        for fmt in formats:
+
+        def write(fmt):
             start = time.perf_counter()
-            written.append(save_mesh(self.mesh, folder / f"{stem}.{fmt}", meta))
+            path = save_mesh(self.mesh, folder / f"{stem}.{fmt}", meta)
             self.report["timings_s"][f"write_{fmt}"] = round(time.perf_counter() - start, 4)
+            return path
+
+        # The writers spend most of their time in NumPy and lib3mf's C code, which release the
+        # GIL, so writing the formats side by side uses both cores.
+        with ThreadPoolExecutor(max_workers=min(len(formats), os.cpu_count() or 1)) as pool:
+            written = list(pool.map(write, formats))
         recipe = folder / f"{stem}{RECIPE_SUFFIX}"
         files = [p.name for p in written]
         text = json.dumps(recipe_dict(self, files), indent=2, ensure_ascii=False) + "\n"
@@ -195,7 +203,7 @@ def make_lithograph(source, params: LithoParams | None = None, **changes) -> Lit
         log.warning(w)
     report = {
         "input": src.name,
-        "print_mm": [round(layout.width_mm, 3), round(layout.depth_mm, 3), round(params.base_mm + params.relief_mm, 3)],
+        "print_mm": [round(layout.width_mm, 3), round(layout.depth_mm, 3), round(float(heights.max()), 3)],
         "grid": [layout.cols, layout.rows],
         "mm_per_px": round(layout.mm_per_px, 4),
         "blur_px": round(layout.sigma_px, 3),

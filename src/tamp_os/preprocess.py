@@ -63,13 +63,17 @@ def fit_aspect(image: np.ndarray, alpha: np.ndarray | None, target_aspect: float
 
 
 def resample(image: np.ndarray, rows: int, cols: int) -> np.ndarray:
-    """Antialiased resize in float (scikit-image): averaging when shrinking, linear when enlarging."""
+    """Antialiased resize in float32: Pillow's triangle filter, widened when shrinking.
+
+    Pillow's float ('F') resize is 10-15x faster than scikit-image's resize with anti-aliasing
+    and, unlike Lanczos, never overshoots the input range.
+    """
     if image.shape == (rows, cols):
         return image.astype(np.float32, copy=False)
-    from skimage.transform import resize
+    from PIL import Image
 
-    shrinking = rows < image.shape[0] or cols < image.shape[1]
-    return resize(image, (rows, cols), order=1, anti_aliasing=shrinking, preserve_range=True).astype(np.float32)
+    picture = Image.fromarray(np.ascontiguousarray(image, dtype=np.float32))
+    return np.asarray(picture.resize((cols, rows), Image.Resampling.BILINEAR), dtype=np.float32)
 
 
 def blur(image: np.ndarray, sigma_px: float) -> np.ndarray:

@@ -1,0 +1,113 @@
+"""Core benchmark: image -> STL + 3MF + GLB on the FePt fixture at Medium (256 px) and High
+(512 px), full-grid mesh, against the per-pixel loop baseline measured in the same run; and a
+4096 × 4096 heightmap to STL (time and peak memory, in a child process). Prints a Markdown table.
+
+    .venv/bin/python benchmarks/bench_core.py
+"""
+
+from __future__ import annotations
+
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).parent))
+import reference_loop  # noqa: E402
+
+from tamp_os.export import save_mesh  # noqa: E402
+from tamp_os.pipeline import make_lithograph  # noqa: E402
+
+FEPT = Path(__file__).resolve().parents[1] / ".." / "shared" / "fixtures" / "fept_spheres_sem.png"
+
+
+def timed(fn):
+    start = time.perf_counter()
+    value = fn()
+    return value, time.perf_counter() - start
+
+
+def ours(cols, out: Path, mesher="grid"):
+    """Our pipeline as a user runs it: make_lithograph + save() of STL, 3MF and GLB together."""
+    start = time.perf_counter()
+    litho = make_lithograph(FEPT, resolution_px=cols, blur_px=1.2, mesher=mesher, formats=("stl", "3mf", "glb"))
+    made = time.perf_counter()
+    paths = litho.save(out / f"ours_{cols}_{mesher}")
+    saved = time.perf_counter()
+    t = litho.report["timings_s"]
+    return {
+        "prep": made - start - t["mesh"], "mesh": t["mesh"],
+        **{fmt: t[f"write_{fmt}"] for fmt in ("stl", "3mf", "glb")},
+        "wall": saved - start, "tris": litho.mesh.n_triangles,
+        "sizes": {p.suffix[1:]: p.stat().st_size for p in paths if p.suffix in (".stl", ".3mf", ".glb")},
+    }
+
+
+def baseline(cols, out: Path):
+    h, t_prep = timed(lambda: reference_loop.heightmap(FEPT, cols))
+    (verts, faces), t_mesh = timed(lambda: reference_loop.mesh(h))
+    times, sizes = {}, {}
+    for fmt, fn in (("stl", reference_loop.stl_bytes), ("3mf", reference_loop.threemf_bytes), ("glb", reference_loop.glb_bytes)):
+        data, times[fmt] = timed(lambda: fn(verts, faces))
+        sizes[fmt] = len(data)
+    wall = t_prep + t_mesh + sum(times.values())
+    return {"prep": t_prep, "mesh": t_mesh, **times, "wall": wall, "tris": len(faces), "sizes": sizes}
+
+
+def big_stl_child() -> None:
+    """Runs in a child so its peak RSS is its own: 4096² heightmap -> grid solid -> STL."""
+    from tamp_os.mesh import grid_solid
+
+    rng = np.random.default_rng(0)
+    heights = 1.0 + 3.0 * rng.random((4096, 4096))
+    start = time.perf_counter()
+    mesh = grid_solid(heights, 100.0, 100.0)
+    with tempfile.TemporaryDirectory() as tmp:
+        path = save_mesh(mesh, Path(tmp) / "big.stl")
+        size = path.stat().st_size
+    elapsed = time.perf_counter() - start
+    peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    print(f"{elapsed:.2f} {peak_mb:.0f} {mesh.n_triangles} {size}")
+
+
+def fmt_row(label, r):
+    total = r["wall"]  # ours writes the three formats side by side, so wall < sum of stages
+    return (
+        f"| {label} | {r['tris']:,} | {r['prep']:.3f} | {r['mesh']:.3f} | {r['stl']:.3f} | {r['3mf']:.3f} | {r['glb']:.3f} | "
+        f"{total:.2f} | {r['sizes']['stl'] / 1e6:.1f} / {r['sizes']['3mf'] / 1e6:.1f} / {r['sizes']['glb'] / 1e6:.1f} |",
+        total,
+    )
+
+
+def main() -> None:
+    if len(sys.argv) > 1 and sys.argv[1] == "--big-child":
+        big_stl_child()
+        return
+    print("| run | triangles | read+prep s | mesh s | STL s | 3MF s | GLB s | wall s | MB STL / 3MF / GLB |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---|")
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp)
+        ours(64, out)  # warm imports so they are not charged to the first row
+        for label, cols in (("Medium", 256), ("High", 512)):
+            base = baseline(cols, out)
+            mine = ours(cols, out)
+            row_b, total_b = fmt_row(f"{label} {cols} px, per-pixel loop", base)
+            row_m, total_m = fmt_row(f"{label} {cols} px, tamp-os grid", mine)
+            print(row_b)
+            print(row_m)
+            speed_mesh_stl = (base["mesh"] + base["stl"]) / (mine["mesh"] + mine["stl"])
+            print(f"| {label}: speed-up mesh+STL {speed_mesh_stl:.0f}×, all three formats {total_b / total_m:.0f}× | | | | | | | | |")
+    child = subprocess.run([sys.executable, __file__, "--big-child"], capture_output=True, text=True, check=True)
+    seconds, peak_mb, tris, size = child.stdout.split()
+    print()
+    print("| 4096 × 4096 heightmap → STL | time s | peak RSS MB | triangles | STL MB |")
+    print("|---|---:|---:|---:|---:|")
+    print(f"| grid solid + binary STL | {float(seconds):.2f} | {peak_mb} | {int(tris):,} | {int(size) / 1e6:.0f} |")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,47 @@
+import os
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+FIXTURES = ROOT.parent / "shared" / "fixtures"
+STRICT = os.environ.get("TAMP_STRICT") == "1"
+
+
+def need(condition: bool, what: str) -> None:
+    """Skip when a tool or file is missing; under TAMP_STRICT=1 (CI) fail instead."""
+    if not condition:
+        if STRICT:
+            pytest.fail(f"TAMP_STRICT=1 and {what} is missing")
+        pytest.skip(f"{what} is missing")
+
+
+@pytest.fixture
+def fixtures_dir() -> Path:
+    need(FIXTURES.is_dir(), f"the fixtures folder {FIXTURES}")
+    return FIXTURES
+
+
+@pytest.fixture
+def fixture(fixtures_dir):
+    def get(name: str) -> Path:
+        path = fixtures_dir / name
+        need(path.is_file(), f"fixture {name}")
+        return path
+
+    return get
+
+
+def node_validator() -> Path | None:
+    script = ROOT / ".tools" / "node_modules" / "gltf-validator"
+    return script if script.is_dir() and shutil.which("node") else None
+
+
+@pytest.fixture
+def gradient_image():
+    """An asymmetric test picture: a horizontal ramp plus a bright block at the top left."""
+    img = np.tile(np.linspace(0, 200, 64, dtype=np.float32), (48, 1))
+    img[4:16, 4:20] = 255
+    return img.astype(np.uint8)

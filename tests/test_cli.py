@@ -1,0 +1,117 @@
+"""The command line: exit codes, plain output, recipes that rebuild byte for byte, presets, info."""
+
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from PIL import Image
+
+from tamp_os import LithoParams
+from tamp_os.cli import main
+from tamp_os.errors import ParameterError
+
+
+@pytest.fixture
+def image(tmp_path, gradient_image):
+    path = tmp_path / "in" / "ramp.png"
+    path.parent.mkdir()
+    Image.fromarray(gradient_image).save(path)
+    return path
+
+
+def test_help_imports_no_heavy_libraries():
+    code = "import sys; from tamp_os.cli import build_parser; build_parser().format_help(); print(sorted(m for m in ('numpy','scipy','skimage','trimesh','PIL') if m in sys.modules))"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"
+
+
+def test_convert_prints_one_plain_line_per_file(tmp_path, image, capsys):
+    code = main(["convert", str(image), "-o", str(tmp_path / "out"), "--formats", "stl,3mf,glb,obj,ply", "--preset", "low"])
+    out = capsys.readouterr().out.strip().splitlines()
+    assert code == 0 and len(out) == 1
+    assert out[0].startswith("ramp.png: 100 × 75 × 4 mm, grid 125 × 94,")
+    assert "25 height levels" in out[0] and "ramp.3mf" in out[0]
+    names = sorted(p.name for p in (tmp_path / "out").iterdir())
+    assert names == ["ramp.3mf", "ramp.glb", "ramp.obj", "ramp.ply", "ramp.stl", "ramp.tamp.json"]
+    assert not any(ch in out[0] for ch in "\x1b\r")  # no terminal control codes for screen readers
+
+
+def test_recipe_rebuilds_byte_for_byte(tmp_path, image, capsys):
+    first, second = tmp_path / "a", tmp_path / "b"
+    assert main(["convert", str(image), "-o", str(first), "--formats", "stl,3mf,glb", "--relief-mm", "2.2", "--invert"]) == 0
+    recipe = json.loads((first / "ramp.tamp.json").read_text())
+    assert recipe["params"]["relief_mm"] == 2.2 and recipe["params"]["invert"] is True
+    assert len(recipe["input"]["sha256"]) == 64 and "numpy" in recipe["versions"]
+    assert main(["convert", "--recipe", str(first / "ramp.tamp.json"), "-o", str(second)]) == 0
+    for name in ("ramp.stl", "ramp.3mf", "ramp.glb", "ramp.tamp.json"):
+        assert (first / name).read_bytes() == (second / name).read_bytes(), name
+    image.write_bytes(image.read_bytes() + b"changed")
+    assert main(["convert", "--recipe", str(first / "ramp.tamp.json"), "-o", str(second)]) == 2
+    assert "has changed" in capsys.readouterr().err
+
+
+def test_presets_table_and_suggestion(image, capsys):
+    assert main(["presets", str(image), "--formats", "stl,3mf,glb"]) == 0
+    out = capsys.readouterr().out
+    assert "height levels: 25" in out
+    for line in ("Low: grid 125 × 94", "Medium: grid 250 × 188", "High: grid 500 × 375"):
+        assert line in out
+    assert "STL" in out and "3MF" in out and "GLB" in out
+    assert "suggested for ramp.png:" in out
+
+
+def test_user_printer_profiles_from_toml(tmp_path, image, capsys, monkeypatch):
+    toml = tmp_path / "printers.toml"
+    toml.write_text('[bigbox]\nnozzle_mm = 0.8\nlayer_mm = 0.3\nwidth_mm = 160\n')
+    monkeypatch.setenv("TAMP_PRINTERS", str(toml))
+    assert main(["presets", "--printer", "bigbox"]) == 0
+    out = capsys.readouterr().out
+    assert "Medium: grid 200 × 150" in out and "height levels: 10" in out
+    toml.write_text("[broken]\nnozzle_mm = 'wide'\n")
+    assert main(["presets", "--printer", "broken"]) == 2
+    assert "nozzle_mm" in capsys.readouterr().err
+
+
+def test_info_json(fixture, capsys):
+    assert main(["info", "--json", str(fixture("FEI-Helios-Ebeam-16bits.tif"))]) == 0
+    facts = json.loads(capsys.readouterr().out)
+    assert facts["width_px"] == 512 and facts["height_px"] == 471 and facts["bit_depth"] == 16
+    assert "fei_metadata" in facts["metadata_found"]
+    assert main(["info", str(fixture("fept_spheres_sem.png"))]) == 0
+    assert "JPEG, 1024 × 768 pixels, 8-bit uint8, 3 channels" in capsys.readouterr().out
+
+
+def test_usage_errors_exit_2(capsys):
+    assert main(["convert"]) == 2
+    assert main(["frobnicate"]) == 2
+    assert main(["convert", "x.png", "--relief-mm", "lots"]) == 2
+
+
+def test_debug_shows_traceback(tmp_path):
+    bad = tmp_path / "bad.png"
+    bad.write_text("nope")
+    env = dict(os.environ)
+    out = subprocess.run([sys.executable, "-m", "tamp_os.cli", "--debug", "convert", str(bad), "-o", str(tmp_path)], capture_output=True, text=True, env=env)
+    assert out.returncode != 0 and "Traceback" in out.stderr
+
+
+@settings(max_examples=50, deadline=None)
+@given(
+    relief=st.floats(0.01, 50), base=st.floats(0.01, 50), invert=st.booleans(),
+    formats=st.lists(st.sampled_from(["stl", "3mf", "glb", "obj", "ply"]), min_size=1, unique=True),
+    blur=st.one_of(st.none(), st.floats(0, 100)), width=st.one_of(st.none(), st.floats(5, 1000)),
+)
+def test_params_json_round_trip(relief, base, invert, formats, blur, width):
+    p = LithoParams(relief_mm=relief, base_mm=base, invert=invert, formats=tuple(formats), blur_px=blur, width_mm=width)
+    assert LithoParams.from_json(p.to_json()) == p
+
+
+@given(st.floats(allow_nan=True, allow_infinity=True).filter(lambda v: not (0 < v <= 50)))
+def test_relief_outside_range_is_refused_with_range_and_value(value):
+    with pytest.raises(ParameterError, match=r"relief_mm: must be"):
+        LithoParams(relief_mm=value)

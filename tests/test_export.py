@@ -11,22 +11,21 @@ import trimesh
 
 from tamp_os import make_lithograph
 from tamp_os.export import save_mesh
-from tamp_os.mesh import grid_volume_mm3
 
 from conftest import ROOT, need, node_validator
 
 
-@pytest.fixture(scope="module")
-def litho():
+@pytest.fixture(scope="module", params=["grid", "adaptive"])
+def litho(request):
     img = np.zeros((30, 40), np.uint8)
     img[5:12, 5:30] = 255
     img[20:, 30:] = 120
-    return make_lithograph(img, width_mm=40, resolution_px=40, blur_px=0.5, relief_mm=2.0)
+    return make_lithograph(img, width_mm=40, resolution_px=40, blur_px=0.5, relief_mm=2.0, mesher=request.param)
 
 
 @pytest.fixture(scope="module")
 def expected_volume(litho):
-    return grid_volume_mm3(litho.heightmap, litho.layout.width_mm, litho.layout.depth_mm)
+    return litho.mesh.volume_mm3()
 
 
 @pytest.mark.parametrize("fmt", ["stl", "obj", "ply", "glb", "3mf"])

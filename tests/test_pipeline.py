@@ -19,14 +19,14 @@ def top_height_at(mesh, x, y):
 
 
 def test_print_seen_from_above_looks_like_the_image(gradient_image):
-    litho = make_lithograph(gradient_image, width_mm=64, resolution_px=64, blur_px=0)
+    litho = make_lithograph(gradient_image, width_mm=64, resolution_px=64, blur_px=0, mesher="grid")
     w, d = litho.layout.width_mm, litho.layout.depth_mm
     # The bright block sits at the image's top left -> far left of the print (small x, large y).
     assert top_height_at(litho.mesh, 0.15 * w, 0.8 * d) == pytest.approx(4.0, abs=0.05)
     assert top_height_at(litho.mesh, 0.15 * w, 0.2 * d) < 1.5  # near left: dark end of the ramp
     # The ramp rises to the right.
     assert top_height_at(litho.mesh, 0.95 * w, 0.2 * d) > top_height_at(litho.mesh, 0.5 * w, 0.2 * d) + 0.5
-    mirrored = make_lithograph(gradient_image, width_mm=64, resolution_px=64, blur_px=0, flip_x=True)
+    mirrored = make_lithograph(gradient_image, width_mm=64, resolution_px=64, blur_px=0, flip_x=True, mesher="grid")
     assert top_height_at(mirrored.mesh, 0.85 * w, 0.8 * d) == pytest.approx(4.0, abs=0.05)
 
 
@@ -84,7 +84,7 @@ def test_presets_follow_the_nozzle():
     assert preset_resolution_px("medium", 0.4, 100) == 250
     assert preset_resolution_px("high", 0.4, 100) == 500
     assert height_levels(3.0, 0.12) == 25
-    litho = make_lithograph(np.eye(40) * 255, preset="high", printer="fine")
+    litho = make_lithograph(np.eye(40) * 255, preset="high", printer="fine", mesher="grid")
     assert litho.report["grid"][0] == 800 and litho.report["layer_mm"] == 0.08
     assert litho.mesh.n_triangles == grid_triangles(*litho.report["grid"])
 

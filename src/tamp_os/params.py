@@ -18,7 +18,7 @@ from .printers import PRESETS
 
 FORMATS = ("stl", "3mf", "glb", "obj", "ply")
 FITS = ("pad", "crop", "stretch")
-MESHERS = ("grid",)
+MESHERS = ("adaptive", "grid")
 
 
 def _f(default, help, unit="", lo=None, hi=None, choices=None, lo_open=False):
@@ -50,7 +50,8 @@ class LithoParams:
     channel: str = _f("luminance", "luminance, or a channel: a number from 0 or red/green/blue/alpha")
     page: int = _f(0, "TIFF page or series to read", "", 0, 100000)
     max_megapixels: float = _f(400.0, "refuse larger images (decompression-bomb guard)", "Mpx", 0.0, 1e6, lo_open=True)
-    mesher: str = _f("grid", "grid: every pixel a vertex", choices=MESHERS)
+    mesher: str = _f("adaptive", "adaptive: fewest triangles within max_error_mm; grid: every pixel a vertex", choices=MESHERS)
+    max_error_mm: float | None = _f(None, "largest height error of the adaptive mesh (default: half the layer height; 0 = exact grid)", "mm", 0.0, 5.0)
     formats: tuple[str, ...] = _f(("stl",), "output formats", choices=FORMATS)
 
     def __post_init__(self):

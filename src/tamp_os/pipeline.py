@@ -15,6 +15,7 @@ import numpy as np
 from . import __version__
 from .errors import InputError, ParameterError
 from .export import save_mesh, write_atomic
+from .adaptive import adaptive_solid
 from .heightmap import heights_mm
 from .mesh import Mesh, grid_solid
 from .params import LithoParams
@@ -191,7 +192,11 @@ def make_lithograph(source, params: LithoParams | None = None, **changes) -> Lit
     timings["preprocess"] = time.perf_counter() - start
 
     start = time.perf_counter()
-    mesh = grid_solid(heights, layout.width_mm, layout.depth_mm)
+    max_error = params.max_error_mm if params.max_error_mm is not None else layer / 2
+    if params.mesher == "adaptive":
+        mesh = adaptive_solid(heights, layout.width_mm, layout.depth_mm, max_error)
+    else:
+        mesh = grid_solid(heights, layout.width_mm, layout.depth_mm)
     timings["mesh"] = time.perf_counter() - start
 
     warnings = list(layout.warnings) + list(src.notes)
@@ -211,6 +216,8 @@ def make_lithograph(source, params: LithoParams | None = None, **changes) -> Lit
         "nozzle_mm": nozzle,
         "layer_mm": layer,
         "height_levels": height_levels(params.relief_mm, layer),
+        "mesher": params.mesher,
+        "max_error_mm": max_error if params.mesher == "adaptive" else 0.0,
         "triangles": mesh.n_triangles,
         "vertices": len(mesh.vertices),
         "uniform": info["uniform"],

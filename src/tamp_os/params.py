@@ -16,7 +16,7 @@ from typing import Any
 from .errors import ParameterError
 from .printers import PRESETS
 
-FORMATS = ("stl", "3mf", "glb", "obj", "ply")
+FORMATS = ("stl", "3mf", "glb", "obj", "ply", "step")
 FITS = ("pad", "crop", "stretch")
 MESHERS = ("adaptive", "grid")
 

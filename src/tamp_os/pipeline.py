@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import json
 import logging
 import os
@@ -27,6 +28,7 @@ from .sizing import Layout, plan_layout
 log = logging.getLogger(__name__)
 
 RECIPE_SUFFIX = ".tamp.json"
+PARALLEL_WRITE_TRIANGLES = 100_000
 
 
 @dataclass
@@ -77,10 +79,13 @@ class Lithograph:
             self.report["timings_s"][f"write_{fmt}"] = round(time.perf_counter() - start, 4)
             return path
 
-        # The writers spend most of their time in NumPy and lib3mf's C code, which release the
-        # GIL, so writing the formats side by side uses both cores.
-        with ThreadPoolExecutor(max_workers=min(len(formats), os.cpu_count() or 1)) as pool:
-            written = list(pool.map(write, formats))
+        # Large meshes: the writers spend their time in NumPy and lib3mf's C code, which release
+        # the GIL, so writing the formats side by side uses both cores. Small ones: threads cost more.
+        if self.mesh.n_triangles > PARALLEL_WRITE_TRIANGLES and len(formats) > 1:
+            with ThreadPoolExecutor(max_workers=min(len(formats), os.cpu_count() or 1)) as pool:
+                written = list(pool.map(write, formats))
+        else:
+            written = [write(fmt) for fmt in formats]
         recipe = folder / f"{stem}{RECIPE_SUFFIX}"
         files = [p.name for p in written]
         text = json.dumps(recipe_dict(self, files), indent=2, ensure_ascii=False) + "\n"
@@ -89,6 +94,7 @@ class Lithograph:
         return written + [recipe]
 
 
+@functools.lru_cache(maxsize=1)
 def dependency_versions() -> dict[str, str]:
     from importlib.metadata import PackageNotFoundError, version
 
@@ -108,7 +114,7 @@ def recipe_dict(litho: Lithograph, files: list[str]) -> dict:
         "input": {"name": src.name, "path": src.path, "sha256": src.sha256},
         "params": litho.params.to_dict(),
         "outputs": files,
-        "versions": dependency_versions(),
+        "versions": dict(dependency_versions()),
     }
 
 

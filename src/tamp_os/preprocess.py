@@ -18,10 +18,14 @@ def stretch(values: np.ndarray, alpha: np.ndarray | None, low_pct: float, high_p
     Returns (normalized float32 image with unknown pixels at 0, (low, high) source values,
     uniform flag). A uniform image (low == high) is all zeros: a flat plate.
     """
-    usable = np.isfinite(values)
-    if alpha is not None:
-        usable &= alpha > 0
-    sample = values[usable]
+    clean = alpha is None and np.isfinite(values.sum(dtype=np.float64))
+    if clean:
+        sample = values.ravel()  # all finite and opaque: no masked copy needed
+    else:
+        usable = np.isfinite(values)
+        if alpha is not None:
+            usable &= alpha > 0
+        sample = values[usable]
     if sample.size == 0:
         return np.zeros(values.shape, np.float32), (0.0, 0.0), True
     low, high = np.percentile(sample, [low_pct, high_pct])
@@ -30,30 +34,32 @@ def stretch(values: np.ndarray, alpha: np.ndarray | None, low_pct: float, high_p
     if not high > low:
         return np.zeros(values.shape, np.float32), (float(low), float(high)), True
     out = (values - np.float32(low)) / np.float32(high - low)
-    out = np.clip(np.nan_to_num(out, nan=0.0), 0.0, 1.0).astype(np.float32)
-    return out, (float(low), float(high)), False
+    if not clean:
+        out = np.nan_to_num(out, nan=0.0)
+    np.clip(out, 0.0, 1.0, out=out)
+    return out.astype(np.float32, copy=False), (float(low), float(high)), False
 
 
 def fit_aspect(image: np.ndarray, alpha: np.ndarray | None, target_aspect: float, mode: str):
     """Make image (H×W) match target_aspect = height/width by padding or cropping (centred).
 
-    Padding is transparent (alpha 0), so it prints at base level. 'stretch' returns it unchanged.
+    Padding is transparent (alpha 0), so it prints at base level. 'stretch' returns it unchanged,
+    as does an image already within one pixel of the aspect. alpha stays None when all is opaque.
     """
     h, w = image.shape
+    if mode == "stretch" or (round(w * target_aspect) == h or round(h / target_aspect) == w):
+        return image, alpha
+    if mode == "crop":
+        if h / w > target_aspect:
+            new_h = max(2, round(w * target_aspect))
+            rows = slice((h - new_h) // 2, (h - new_h) // 2 + new_h)
+            return image[rows], None if alpha is None else alpha[rows]
+        new_w = max(2, round(h / target_aspect))
+        cols = slice((w - new_w) // 2, (w - new_w) // 2 + new_w)
+        return image[:, cols], None if alpha is None else alpha[:, cols]
     if alpha is None:
         alpha = np.ones_like(image)
-    if mode == "stretch":
-        return image, alpha
-    current = h / w
-    if mode == "crop":
-        if current > target_aspect:
-            new_h = max(2, round(w * target_aspect))
-            top = (h - new_h) // 2
-            return image[top : top + new_h], alpha[top : top + new_h]
-        new_w = max(2, round(h / target_aspect))
-        left = (w - new_w) // 2
-        return image[:, left : left + new_w], alpha[:, left : left + new_w]
-    if current > target_aspect:
+    if h / w > target_aspect:
         new_w = round(h / target_aspect)
         pad = ((0, 0), ((new_w - w) // 2, new_w - w - (new_w - w) // 2))
     else:
@@ -108,13 +114,13 @@ def prepare(
     image, (low, high), uniform = stretch(values, alpha, low_pct, high_pct)
     image, alpha = fit_aspect(image, alpha, target_aspect, fit)
     image = resample(image, rows, cols)
-    weight = np.clip(resample(alpha, rows, cols), 0.0, 1.0)
     image = blur(image, sigma_px)
     if not uniform:
         image = renormalize(image)
     if invert and not uniform:
         image = 1.0 - image
-    image = image * weight
+    if alpha is not None:
+        image = image * np.clip(resample(alpha, rows, cols), 0.0, 1.0)
     if flip_x:
         image = image[:, ::-1]
     return np.ascontiguousarray(image, dtype=np.float32), {"stretch_source_range": (low, high), "uniform": uniform}

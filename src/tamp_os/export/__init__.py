@@ -16,7 +16,7 @@ Writer = Callable[[Mesh, BinaryIO, dict], None]
 
 
 def _registry() -> dict[str, Writer]:
-    from . import glb, plain, stl, threemf
+    from . import glb, plain, step, stl, threemf
 
     return {
         "stl": stl.write_stl,
@@ -24,6 +24,7 @@ def _registry() -> dict[str, Writer]:
         "glb": glb.write_glb,
         "obj": plain.write_obj,
         "ply": plain.write_ply,
+        "step": step.write_step,
     }
 
 

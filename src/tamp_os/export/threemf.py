@@ -9,6 +9,7 @@ the same bytes.
 from __future__ import annotations
 
 import ctypes
+import functools
 import hashlib
 import os
 import shutil
@@ -18,10 +19,17 @@ import uuid
 import numpy as np
 
 
+@functools.lru_cache(maxsize=1)
+def _wrapper():
+    import lib3mf
+
+    return lib3mf.get_wrapper()
+
+
 def write_3mf(mesh, fh, metadata: dict) -> None:
     import lib3mf
 
-    wrapper = lib3mf.get_wrapper()
+    wrapper = _wrapper()
     model = wrapper.CreateModel()
     model.SetUnit(lib3mf.ModelUnit.MilliMeter)
     obj = model.AddMeshObject()

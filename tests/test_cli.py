@@ -115,3 +115,14 @@ def test_params_json_round_trip(relief, base, invert, formats, blur, width):
 def test_relief_outside_range_is_refused_with_range_and_value(value):
     with pytest.raises(ParameterError, match=r"relief_mm: must be"):
         LithoParams(relief_mm=value)
+
+
+def test_presets_count_the_triangles_of_the_mesher_in_use(image, capsys):
+    from tamp_os import make_lithograph
+
+    assert main(["presets", str(image)]) == 0
+    out = capsys.readouterr().out
+    medium = make_lithograph(image, preset="medium")
+    assert f"{medium.mesh.n_triangles:,} triangles" in out and "mesher adaptive" in out
+    assert main(["presets", str(image), "--mesher", "grid"]) == 0
+    assert "95,742 triangles" in capsys.readouterr().out

@@ -149,22 +149,22 @@ def cmd_convert(args) -> int:
 
 def cmd_presets(args) -> int:
     from .imagecheck import image_stats, suggest_preset
-    from .printers import PRESETS, estimate_file_bytes, get_printer, grid_triangles, height_levels
+    from .printers import ADAPTIVE_RATIO, PRESETS, estimate_file_bytes, get_printer, grid_triangles, height_levels
     from .sizing import plan_layout
 
     params = _params_from_args(args)
     printer = get_printer(params.printer)
     nozzle = params.nozzle_mm or printer.nozzle_mm
     layer = params.layer_mm or printer.layer_mm
+    picture, suggestion = None, None
     w_px, h_px = 4, 3
-    suggestion = None
     if args.image:
         from .read import read_image
 
         picture = read_image(args.image, page=params.page, channel=params.channel, max_megapixels=params.max_megapixels)
         w_px, h_px = picture.source.width, picture.source.height
         suggestion = suggest_preset(image_stats(picture.values, picture.alpha))
-    print(f"printer {printer.name}: nozzle {nozzle:g} mm, layer {layer:g} mm")
+    print(f"printer {printer.name}: nozzle {nozzle:g} mm, layer {layer:g} mm, mesher {params.mesher}")
     print(f"height levels: {height_levels(params.relief_mm, layer)} (relief {params.relief_mm:g} mm ÷ layer {layer:g} mm)")
     for preset in PRESETS:
         layout = plan_layout(
@@ -172,13 +172,22 @@ def cmd_presets(args) -> int:
             fit=params.fit, preset=preset, nozzle_mm=nozzle, resolution_px=params.resolution_px,
             blur_px=params.blur_px, blur_mm=params.blur_mm,
         )
-        tris = grid_triangles(layout.cols, layout.rows)
-        verts = layout.cols * layout.rows + 2 * (layout.cols + layout.rows)
+        if picture is not None:  # mesh it for real: exact counts for this image and mesher
+            from .pipeline import make_lithograph
+
+            mesh = make_lithograph(picture, params.replace(preset=preset)).mesh
+            tris, verts, how = mesh.n_triangles, len(mesh.vertices), ""
+        else:
+            tris = grid_triangles(layout.cols, layout.rows)
+            verts = layout.cols * layout.rows + 2 * (layout.cols + layout.rows)
+            how = ""
+            if params.mesher == "adaptive":
+                tris, verts, how = int(tris * ADAPTIVE_RATIO), int(verts * ADAPTIVE_RATIO), "about "
         sizes = ", ".join(f"{fmt.upper()} {_mb(estimate_file_bytes(fmt, tris, verts))}" for fmt in params.formats)
         print(
             f"{preset.capitalize()}: grid {layout.cols} × {layout.rows}, {layout.mm_per_px:.3f} mm per pixel, "
             f"blur {layout.sigma_px:g} px, print {layout.width_mm:g} × {layout.depth_mm:.1f} mm, "
-            f"{tris:,} triangles, estimated {sizes}"
+            f"{how}{tris:,} triangles, estimated {sizes}"
         )
     if suggestion:
         print(f"suggested for {Path(args.image).name}: {suggestion[0].capitalize()}, because {suggestion[1]}.")

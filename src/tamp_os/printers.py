@@ -125,6 +125,11 @@ def grid_triangles(nx: int, ny: int) -> int:
     return 2 * (nx - 1) * (ny - 1) + 2 * perimeter_edges + perimeter_edges
 
 
+# Typical adaptive/grid triangle ratio for micrographs at half a layer of error (see
+# benchmarks/bench_adaptive.py); used only when no image is given to measure it.
+ADAPTIVE_RATIO = 1 / 15
+
+
 def estimate_file_bytes(fmt: str, triangles: int, vertices: int) -> int:
     """Rough output size per format (measured on our own exports; the 3MF is zip-compressed)."""
     return {
@@ -133,5 +138,5 @@ def estimate_file_bytes(fmt: str, triangles: int, vertices: int) -> int:
         "glb": 1500 + 24 * vertices + 12 * triangles,
         "obj": 40 * vertices + 30 * triangles,
         "ply": 300 + 12 * vertices + 13 * triangles,
-        "step": 5000 + 330 * triangles,
+        "step": 5000 + 800 * triangles,
     }[fmt]

@@ -8,7 +8,7 @@ from tamp_os.cli import build_parser
 
 
 def test_python_example_runs(tmp_path, monkeypatch):
-    text = (ROOT / "README.md").read_text()
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
     block = re.search(r"```python\n(.*?)```", text, re.S).group(1)
     monkeypatch.chdir(tmp_path)
     namespace: dict = {}
@@ -18,7 +18,7 @@ def test_python_example_runs(tmp_path, monkeypatch):
 
 
 def test_every_option_in_the_readme_exists():
-    text = (ROOT / "README.md").read_text()
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
     parser = build_parser()
     subparsers = next(a for a in parser._actions if a.dest == "command").choices
     known = {opt for sub in [parser, *subparsers.values()] for a in sub._actions for opt in a.option_strings}

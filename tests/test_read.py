@@ -131,8 +131,12 @@ def test_multipage_and_ome_tiff_page_choice(tmp_path):
     assert read_image(path, page=2).values.mean() == 2000
     ome = tmp_path / "s.ome.tif"
     tifffile.imwrite(ome, stack, ome=True, photometric="minisblack", metadata={"axes": "ZYX"})
-    pic = read_image(ome, page=1)
-    assert pic.values.mean() == 1000 and "ome_metadata" in pic.source.metadata
+    pic = read_image(ome)  # a z-stack: maximum-intensity projection by default
+    assert pic.values.mean() == 2000 and "ome_metadata" in pic.source.metadata
+    assert any("maximum-intensity projection" in n for n in pic.source.notes)
+    assert read_image(ome, z_slice=1).values.mean() == 1000
+    with pytest.raises(ParameterError, match="--slice must be 0–2"):
+        read_image(ome, z_slice=3)
     with pytest.raises(ParameterError, match="page"):
         read_image(path, page=3)
 
@@ -161,3 +165,16 @@ def test_arrays_are_read_like_files():
     assert pic.values.dtype == np.float32 and pic.values[2, 3] == 11
     with pytest.raises(InputError, match="2×2"):
         read_array(np.zeros((1, 5)))
+
+
+def test_multichannel_tiff_channel_by_number_or_name(tmp_path):
+    data = np.stack([np.full((2, 6, 9), v, np.uint16) for v in (100, 200, 300)], axis=1)  # Z C Y X
+    path = tmp_path / "czyx.ome.tif"
+    tifffile.imwrite(path, data, ome=True, photometric="minisblack",
+                     metadata={"axes": "ZCYX", "Channel": {"Name": ["DAPI", "GFP", "RFP"]}})
+    pic = read_image(path)
+    assert pic.values.mean() == 100 and any("3 channels (DAPI, GFP, RFP)" in n for n in pic.source.notes)
+    assert read_image(path, channel="GFP").values.mean() == 200
+    assert read_image(path, channel="2").values.mean() == 300
+    with pytest.raises(ParameterError, match="DAPI"):
+        read_image(path, channel="Cy5")

@@ -21,8 +21,8 @@ def _param_options(parser: argparse.ArgumentParser) -> None:
 
     group = parser.add_argument_group("lithograph parameters")
     for f in dataclasses.fields(LithoParams):
-        flag = "--" + f.name.replace("_", "-")
         m = f.metadata
+        flag = m["flag"] or "--" + f.name.replace("_", "-")
         help_text = f"{m['help']} ({describe_range(f)}; default {f.default if f.default is not None else 'derived'})"
         if f.name == "formats":
             group.add_argument(flag, dest=f.name, default=None, help=f"comma-separated: {', '.join(m['choices'])} (default stl)")
@@ -70,6 +70,9 @@ def build_parser() -> argparse.ArgumentParser:
     info.add_argument("image", metavar="IMAGE")
     info.add_argument("--json", action="store_true", help="print JSON for scripts")
     info.add_argument("--page", type=int, default=0, help="TIFF page or series (default 0)")
+    info.add_argument("--slice", type=int, default=None, help="z-stack slice (default: maximum-intensity projection)")
+    info.add_argument("--channel", default="luminance", help="channel number or name (default: luminance / first)")
+    info.add_argument("--pixel-size", default=None, help="physical pixel size to use, e.g. 4.2nm")
     return parser
 
 
@@ -105,10 +108,23 @@ def main(argv=None) -> int:
 def _line(litho, written) -> str:
     r = litho.report
     w, d, h = r["print_mm"]
+    scale = f"; {r['scale']}" if r.get("pixel_size_m") else ""
     return (
         f"{r['input']}: {w:g} × {d:g} × {h:g} mm, grid {r['grid'][0]} × {r['grid'][1]}, "
-        f"{r['triangles']:,} triangles, {r['height_levels']} height levels; wrote {', '.join(p.name for p in written)}"
+        f"{r['triangles']:,} triangles, {r['height_levels']} height levels{scale}; "
+        f"wrote {', '.join(p.name for p in written)}"
     )
+
+
+def _removed_notes(report) -> list[str]:
+    """Plain sentences for what was cropped or inpainted, printed under a file's line."""
+    crop, notes = report.get("crop") or {}, []
+    for side in ("top", "bottom"):
+        if crop.get(f"{side}_rows"):
+            notes.append(f"removed the data band: {crop[f'{side}_rows']} rows at the {side} ({crop['source']})")
+    if report.get("annotations"):
+        notes.append("removed burned-in annotations: " + "; ".join(report["annotations"]))
+    return notes
 
 
 def cmd_convert(args) -> int:
@@ -141,6 +157,8 @@ def cmd_convert(args) -> int:
         for warning in litho.report["warnings"]:
             print(f"warning: {warning}", file=sys.stderr)
         print(_line(litho, written))
+        for note in _removed_notes(litho.report):
+            print(f"  note: {note}")
     if failed:
         print(f"{len(failed)} of {len(jobs)} failed: {', '.join(failed)}", file=sys.stderr)
         return EXIT_FAILED
@@ -199,10 +217,19 @@ def _mb(n: int) -> str:
 
 
 def cmd_info(args) -> int:
+    from .annotations import clean
+    from .microscopy import read_scale
     from .read import read_image
+    from .units import format_length, parse_length_m
 
-    picture = read_image(args.image, page=args.page, max_megapixels=1e6)
+    picture = read_image(args.image, page=args.page, max_megapixels=1e6, z_slice=args.slice, channel=args.channel)
     s = picture.source
+    override = parse_length_m(args.pixel_size) if args.pixel_size else None
+    scale = read_scale(s.metadata, s.path, s.width, s.height, override)
+    _, _, crop, found, _ = clean(
+        picture.values, picture.alpha, crop_top=scale.crop_top, crop_bottom=scale.crop_bottom,
+        crop_source=scale.crop_source, remove=True,
+    )
     meta_found = sorted(k for k in s.metadata if not k.startswith("_"))
     facts = {
         "file": s.path,
@@ -215,9 +242,13 @@ def cmd_info(args) -> int:
         "pages": s.pages,
         "sha256": s.sha256,
         "metadata_found": meta_found,
+        "pixel_size_m": scale.pixel_size_m,
+        "pixel_size_source": scale.source,
+        "crop": crop,
+        "annotations": [a.describe() for a in found],
         "nonfinite_pixels": s.nonfinite_pixels,
         "transparent_pixels": s.transparent_pixels,
-        "notes": s.notes,
+        "notes": s.notes + scale.warnings,
     }
     if args.json:
         print(json.dumps(facts, indent=2, ensure_ascii=False))
@@ -225,7 +256,15 @@ def cmd_info(args) -> int:
     print(f"{Path(args.image).name}: {s.format}, {s.width} × {s.height} pixels, {s.bit_depth}-bit {s.dtype}, "
           f"{s.channels} channel{'s' if s.channels != 1 else ''}, {s.pages} page{'s' if s.pages != 1 else ''}")
     print(f"metadata found: {', '.join(meta_found) if meta_found else 'none'}")
-    for note in s.notes:
+    if scale.pixel_size_m:
+        print(f"pixel size: {format_length(scale.pixel_size_m)}, from {scale.source}")
+    else:
+        print("pixel size: not known (give it with --pixel-size, for example --pixel-size 4.2nm)")
+    removed = [f"{crop['top_rows']} rows at the top"] if crop["top_rows"] else []
+    removed += [f"{crop['bottom_rows']} rows at the bottom"] if crop["bottom_rows"] else []
+    print(f"data band: {' and '.join(removed)} ({crop['source']})" if removed else "data band: none found")
+    print(f"annotations to remove: {'; '.join(a.describe() for a in found) if found else 'none found'}")
+    for note in facts["notes"]:
         print(f"note: {note}")
     return EXIT_OK
 

@@ -15,16 +15,17 @@ from typing import Any
 
 from .errors import ParameterError
 from .printers import PRESETS
+from .units import parse_length_m
 
 FORMATS = ("stl", "3mf", "glb", "obj", "ply", "step")
 FITS = ("pad", "crop", "stretch")
 MESHERS = ("adaptive", "grid")
 
 
-def _f(default, help, unit="", lo=None, hi=None, choices=None, lo_open=False):
+def _f(default, help, unit="", lo=None, hi=None, choices=None, lo_open=False, flag=None):
     return field(
         default=default,
-        metadata={"help": help, "unit": unit, "lo": lo, "hi": hi, "choices": choices, "lo_open": lo_open},
+        metadata={"help": help, "unit": unit, "lo": lo, "hi": hi, "choices": choices, "lo_open": lo_open, "flag": flag},
     )
 
 
@@ -49,6 +50,10 @@ class LithoParams:
     quantize: bool = _f(False, "round heights to whole layers")
     channel: str = _f("luminance", "luminance, or a channel: a number from 0 or red/green/blue/alpha")
     page: int = _f(0, "TIFF page or series to read", "", 0, 100000)
+    z_slice: int | None = _f(None, "z-stack slice to use (default: maximum-intensity projection)", "", 0, 100000, flag="--slice")
+    pixel_size: str | None = _f(None, "physical pixel size, overriding the file's, e.g. 4.2nm, 0.5um, 3 micron, 0.01mm")
+    keep_annotations: bool = _f(False, "keep burned-in scale bars, labels and data bands (default: remove them)")
+    save_masks: bool = _f(False, "write NAME.annotations.png showing what was removed")
     max_megapixels: float = _f(400.0, "refuse larger images (decompression-bomb guard)", "Mpx", 0.0, 1e6, lo_open=True)
     mesher: str = _f("adaptive", "adaptive: fewest triangles within max_error_mm; grid: every pixel a vertex", choices=MESHERS)
     max_error_mm: float | None = _f(None, "largest height error of the adaptive mesh (default: half the layer height; 0 = exact grid)", "mm", 0.0, 5.0)
@@ -65,6 +70,8 @@ class LithoParams:
             raise ParameterError(
                 f"stretch_low_pct must be below stretch_high_pct; got {self.stretch_low_pct} and {self.stretch_high_pct}."
             )
+        if self.pixel_size is not None:
+            parse_length_m(self.pixel_size, "pixel_size")
         if not self.formats:
             raise ParameterError(f"formats: choose at least one of {', '.join(FORMATS)}.")
 
@@ -128,7 +135,7 @@ def _check_field(f: dataclasses.Field, value: Any) -> None:
             raise ParameterError(f"{f.name}: must be true or false; got {value!r}.")
         return
     if m["lo"] is None:
-        if not isinstance(value, str):
+        if not isinstance(value, str) or not value.strip():
             raise ParameterError(f"{f.name}: must be text; got {value!r}.")
         return
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):

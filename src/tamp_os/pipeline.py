@@ -17,13 +17,16 @@ from . import __version__
 from .errors import InputError, ParameterError
 from .export import save_mesh, write_atomic
 from .adaptive import adaptive_solid
+from .annotations import clean
 from .heightmap import heights_mm
 from .mesh import Mesh, grid_solid
 from .params import LithoParams
 from .preprocess import prepare
+from .microscopy import read_scale, scale_sentence
 from .printers import get_printer, height_levels
 from .read import Picture, read_array, read_image
 from .sizing import Layout, plan_layout
+from .units import parse_length_m
 
 log = logging.getLogger(__name__)
 
@@ -39,6 +42,7 @@ class Lithograph:
     layout: Layout
     picture: Picture
     report: dict = field(default_factory=dict)
+    mask: np.ndarray | None = None  # annotations removed from the (cropped) source image
 
     @property
     def name(self) -> str:
@@ -86,12 +90,20 @@ class Lithograph:
                 written = list(pool.map(write, formats))
         else:
             written = [write(fmt) for fmt in formats]
+        if self.params.save_masks and self.mask is not None:
+            written.append(write_atomic(folder / f"{stem}.annotations.png", lambda fh: _write_mask_png(self.mask, fh)))
         recipe = folder / f"{stem}{RECIPE_SUFFIX}"
         files = [p.name for p in written]
         text = json.dumps(recipe_dict(self, files), indent=2, ensure_ascii=False) + "\n"
         write_atomic(recipe, lambda fh: fh.write(text.encode("utf-8")))
         self.report["files"] = files + [recipe.name]
         return written + [recipe]
+
+
+def _write_mask_png(mask: np.ndarray, fh) -> None:
+    from PIL import Image
+
+    Image.fromarray((mask * 255).astype(np.uint8)).save(fh, format="PNG")
 
 
 @functools.lru_cache(maxsize=1)
@@ -154,7 +166,9 @@ def make_lithograph(source, params: LithoParams | None = None, **changes) -> Lit
     if isinstance(source, Picture):
         picture = source
     elif isinstance(source, (str, Path)):
-        picture = read_image(source, page=params.page, channel=params.channel, max_megapixels=params.max_megapixels)
+        picture = read_image(
+            source, page=params.page, channel=params.channel, max_megapixels=params.max_megapixels, z_slice=params.z_slice
+        )
     else:
         picture = read_array(source, channel=params.channel)
     timings["read"] = time.perf_counter() - start
@@ -163,9 +177,21 @@ def make_lithograph(source, params: LithoParams | None = None, **changes) -> Lit
     nozzle = params.nozzle_mm or printer.nozzle_mm
     layer = params.layer_mm or printer.layer_mm
     src = picture.source
+    start = time.perf_counter()
+    override_m = parse_length_m(params.pixel_size, "pixel_size") if params.pixel_size else None
+    scale = read_scale(src.metadata, src.path, src.width, src.height, override_m)
+    values, alpha, crop, found, mask = clean(
+        picture.values,
+        picture.alpha,
+        crop_top=scale.crop_top,
+        crop_bottom=scale.crop_bottom,
+        crop_source=scale.crop_source,
+        remove=not params.keep_annotations,
+    )
+    timings["annotations"] = time.perf_counter() - start
     layout = plan_layout(
-        src.width,
-        src.height,
+        values.shape[1],
+        values.shape[0],
         width_mm=params.width_mm,
         height_mm=params.height_mm,
         default_width_mm=printer.width_mm,
@@ -182,8 +208,8 @@ def make_lithograph(source, params: LithoParams | None = None, **changes) -> Lit
         )
     start = time.perf_counter()
     image, info = prepare(
-        picture.values,
-        picture.alpha,
+        values,
+        alpha,
         rows=layout.rows,
         cols=layout.cols,
         target_aspect=layout.target_aspect,
@@ -205,7 +231,7 @@ def make_lithograph(source, params: LithoParams | None = None, **changes) -> Lit
         mesh = grid_solid(heights, layout.width_mm, layout.depth_mm)
     timings["mesh"] = time.perf_counter() - start
 
-    warnings = list(layout.warnings) + list(src.notes)
+    warnings = list(layout.warnings) + list(src.notes) + scale.warnings
     if info["uniform"]:
         warnings.append(f"{src.name}: the image is uniform (every usable pixel has the same value); the print is a flat plate.")
     if params.base_mm < 0.8:
@@ -227,11 +253,16 @@ def make_lithograph(source, params: LithoParams | None = None, **changes) -> Lit
         "triangles": mesh.n_triangles,
         "vertices": len(mesh.vertices),
         "uniform": info["uniform"],
+        "pixel_size_m": scale.pixel_size_m,
+        "pixel_size_source": scale.source,
+        "scale": scale_sentence(scale.pixel_size_m, info["fitted_width_px"] / layout.width_mm) if scale.pixel_size_m else "no physical scale is known",
+        "crop": crop,
+        "annotations": [a.describe() for a in found],
         "warnings": warnings,
         "timings_s": {k: round(v, 4) for k, v in timings.items()},
         "files": [],
     }
-    return Lithograph(mesh=mesh, heightmap=heights, params=params, layout=layout, picture=picture, report=report)
+    return Lithograph(mesh=mesh, heightmap=heights, params=params, layout=layout, picture=picture, report=report, mask=mask)
 
 
 def describe(litho: Lithograph) -> str:
@@ -241,5 +272,5 @@ def describe(litho: Lithograph) -> str:
     return (
         f"A tactile relief of the image {litho.picture.source.name}, {w:g} mm wide, {d:g} mm deep and up to "
         f"{h:g} mm high on a {litho.params.base_mm:g} mm base. The top edge of the image is the far edge of the "
-        f"print. The {raised} parts of the image are raised."
+        f"print. The {raised} parts of the image are raised. Scale: {litho.report['scale']}."
     )

@@ -113,6 +113,7 @@ def prepare(
     """The whole preprocessing chain. Returns (image in 0..1 on rows×cols, info dict)."""
     image, (low, high), uniform = stretch(values, alpha, low_pct, high_pct)
     image, alpha = fit_aspect(image, alpha, target_aspect, fit)
+    fitted_width_px = image.shape[1]
     image = resample(image, rows, cols)
     image = blur(image, sigma_px)
     if not uniform:
@@ -123,4 +124,5 @@ def prepare(
         image = image * np.clip(resample(alpha, rows, cols), 0.0, 1.0)
     if flip_x:
         image = image[:, ::-1]
-    return np.ascontiguousarray(image, dtype=np.float32), {"stretch_source_range": (low, high), "uniform": uniform}
+    info = {"stretch_source_range": (low, high), "uniform": uniform, "fitted_width_px": fitted_width_px}
+    return np.ascontiguousarray(image, dtype=np.float32), info

@@ -56,7 +56,7 @@ class Picture:
     raw: object = None  # the open tifffile/Pillow object's metadata for microscopy readers
 
 
-def read_image(path, *, page: int = 0, channel: str = "luminance", max_megapixels: float = 400.0) -> Picture:
+def read_image(path, *, page: int = 0, channel: str = "luminance", max_megapixels: float = 400.0, z_slice: int | None = None) -> Picture:
     path = Path(path)
     if path.is_dir():
         raise InputError(f"{path}: is a folder, not an image file; give an image file or use 'tamp-os batch'.")
@@ -71,7 +71,9 @@ def read_image(path, *, page: int = 0, channel: str = "luminance", max_megapixel
     sha = hashlib.sha256(data).hexdigest()
     head = data[:8]
     if head[:4] in TIFF_MAGIC:
-        fmt, array, meta, pages = _read_tiff(path, page, max_megapixels)
+        fmt, array, meta, pages = _read_tiff(path, page, max_megapixels, z_slice, channel)
+        if meta.pop("_channel_used", False):
+            channel = "luminance"  # the channel was chosen among the TIFF's planes
     elif head[:4] in DM_MAGIC:
         fmt, array, meta, pages = _read_dm(path, max_megapixels)
     else:
@@ -104,7 +106,13 @@ def _check_size(path, shape, max_megapixels) -> None:
         )
 
 
-def _read_tiff(path, page, max_megapixels):
+def _read_tiff(path, page, max_megapixels, z_slice=None, channel="luminance"):
+    """One 2-D plane (or Y X S colour plane) from a TIFF series.
+
+    Axes other than Y, X and S (colour samples) are reduced: Z by a maximum-intensity projection
+    (or `z_slice`), C by `channel` (a number or an OME channel name; default the first),
+    anything else (T, pages…) by `page`.
+    """
     import tifffile
 
     try:
@@ -115,40 +123,90 @@ def _read_tiff(path, page, max_megapixels):
             if len(series) > 1:
                 if page >= len(series):
                     raise ParameterError(f"{path}: --page must be 0–{len(series) - 1} (series in this file); got {page}.")
-                chosen, plane = series[page], 0
+                chosen, page = series[page], 0
             else:
-                chosen, plane = series[0], page
-            axes = chosen.axes
-            shape = chosen.shape
-            keep = [i for i, a in enumerate(axes) if a in "YXS"]
-            yx_shape = [shape[i] for i, a in enumerate(axes) if a in "YX"]
-            if len(yx_shape) != 2:
+                chosen = series[0]
+            axes, shape = chosen.axes, chosen.shape
+            if "Y" not in axes or "X" not in axes:
                 raise InputError(f"{path}: TIFF series with axes {axes!r} has no 2-D image plane.")
-            _check_size(path, yx_shape, max_megapixels)
-            leading = [shape[i] for i in range(len(shape)) if i not in keep]
-            n_planes = int(np.prod(leading)) if leading else 1
-            if plane >= n_planes:
-                raise ParameterError(f"{path}: --page must be 0–{n_planes - 1} (planes in this file); got {plane}.")
-            array = chosen.asarray()
-            array = array.reshape((n_planes,) + tuple(shape[i] for i in keep))[plane]
-            if "S" in axes and axes.index("S") < axes.index("Y"):
-                array = np.moveaxis(array, 0, -1)  # planar RGB -> Y X S
+            _check_size(path, (shape[axes.index("Y")], shape[axes.index("X")]), max_megapixels)
             meta = {"tiff_series_axes": axes, "tiff_series": len(series)}
             meta["_tiff_tags"] = {tag.code: tag.value for tag in tif.pages[0].tags}
-            for attr in ("fei_metadata", "sem_metadata", "imagej_metadata", "ome_metadata", "tvips_metadata"):
+            for attr in ("fei_metadata", "sem_metadata", "imagej_metadata", "ome_metadata"):
                 try:
                     value = getattr(tif, attr, None)
                 except Exception:  # a broken vendor block must not stop the image from loading
                     value = None
                 if value:
                     meta[attr] = value
-            return "TIFF", array, meta, max(len(series), n_planes)
+            array = chosen.asarray()
+            array, notes, planes = _reduce_axes(path, array, axes, page, z_slice, channel, meta)
+            meta["_notes"] = notes
+            return "TIFF", array, meta, max(len(series), planes)
     except (InputError, ParameterError):
         raise
     except MemoryError:
         raise InputError(f"{path}: not enough memory to read this TIFF; try a smaller image.") from None
     except Exception as exc:
         raise InputError(f"{path}: a damaged or unsupported TIFF ({exc}); re-export it from the microscope software.") from None
+
+
+def _channel_names(meta) -> list[str]:
+    xml = meta.get("ome_metadata")
+    if not xml:
+        labels = (meta.get("imagej_metadata") or {}).get("Labels")
+        return [str(x) for x in labels] if isinstance(labels, (list, tuple)) else []
+    import re
+
+    return re.findall(r"<Channel[^>]*\sName=\"([^\"]*)\"", xml)
+
+
+def _reduce_axes(path, array, axes, page, z_slice, channel, meta):
+    notes = []
+    planes = 1
+    if "C" in axes:
+        n = array.shape[axes.index("C")]
+        names = _channel_names(meta)
+        if channel.isdigit():
+            index = int(channel)
+        elif channel in names:
+            index = names.index(channel)
+        elif channel == "luminance":
+            index = 0
+            if n > 1:
+                named = f" ({', '.join(names)})" if names else ""
+                notes.append(f"{n} channels{named}; using channel 0. Choose another with --channel N or a name.")
+        else:
+            raise ParameterError(f"{path}: --channel {channel!r} is not one of 0–{n - 1}{' or ' + ', '.join(names) if names else ''}.")
+        if not 0 <= index < n:
+            raise ParameterError(f"{path}: --channel must be 0–{n - 1}; got {index}.")
+        array = np.take(array, index, axis=axes.index("C"))
+        axes = axes.replace("C", "")
+        meta["_channel_used"] = True
+    if "Z" in axes:
+        n = array.shape[axes.index("Z")]
+        if z_slice is None:
+            array = array.max(axis=axes.index("Z"))
+            if n > 1:
+                notes.append(f"z-stack of {n} slices: maximum-intensity projection (choose one with --slice K).")
+        else:
+            if not 0 <= z_slice < n:
+                raise ParameterError(f"{path}: --slice must be 0–{n - 1} (slices in this stack); got {z_slice}.")
+            array = np.take(array, z_slice, axis=axes.index("Z"))
+        axes = axes.replace("Z", "")
+    leading = [i for i, a in enumerate(axes) if a not in "YXS"]
+    if leading:
+        planes = int(np.prod([array.shape[i] for i in leading]))
+        if page >= planes:
+            raise ParameterError(f"{path}: --page must be 0–{planes - 1} (planes in this file); got {page}.")
+        keep = [a for a in axes if a in "YXS"]
+        array = np.moveaxis(array, leading, range(len(leading))).reshape((planes,) + tuple(array.shape[axes.index(a)] for a in keep))[page]
+        axes = "".join(keep)
+    elif page:
+        raise ParameterError(f"{path}: --page {page} asked for, but the file has a single image plane.")
+    if "S" in axes and axes.index("S") < axes.index("Y"):
+        array = np.moveaxis(array, 0, -1)  # planar RGB -> Y X S
+    return array, notes, planes
 
 
 def _read_dm(path, max_megapixels):
@@ -245,6 +303,7 @@ def _to_picture(array, fmt, meta, pages, channel, *, name, sha, path) -> Picture
         path=path,
         metadata=meta,
     )
+    source.notes.extend(meta.pop("_notes", []))
     values, alpha = _grayscale(array, channel, name)
     bad = ~np.isfinite(values)
     source.nonfinite_pixels = int(bad.sum())

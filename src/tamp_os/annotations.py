@@ -1,0 +1,182 @@
+"""Burned-in annotations: the data band under SEM images, and scale-bar boxes, bars and labels
+inside the picture. Detected from the pixels (vendor metadata, when it records the band, is used
+first by microscopy.py); the band is cropped, everything else is inpainted so it does not print
+as a raised block."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import ndimage
+
+
+@dataclass
+class Annotation:
+    kind: str  # "box" (label or scale-bar box), "bar" (thin scale bar), "text"
+    rows: tuple[int, int]  # first row, one past the last
+    cols: tuple[int, int]
+
+    def describe(self) -> str:
+        return f"{self.kind} at rows {self.rows[0]}–{self.rows[1] - 1}, columns {self.cols[0]}–{self.cols[1] - 1}"
+
+
+def _row_mode_fraction(values: np.ndarray, lo: float, hi: float) -> tuple[np.ndarray, np.ndarray]:
+    """Per row: the most common value (in 256 bins over lo..hi) and the fraction of pixels in it."""
+    bins = np.clip(((values - lo) / (hi - lo) * 255).astype(np.int64), 0, 255)
+    rows = values.shape[0]
+    counts = np.zeros((rows, 256), np.int64)
+    np.add.at(counts, (np.repeat(np.arange(rows), values.shape[1]), bins.ravel()), 1)
+    mode = counts.argmax(axis=1)
+    return mode, counts[np.arange(rows), mode] / values.shape[1]
+
+
+def detect_info_band(values: np.ndarray) -> tuple[int, int]:
+    """(rows to remove at the top, rows to remove at the bottom) for a data band, else (0, 0).
+
+    A data band is a run of full-width rows at an edge whose most common value (the band's
+    background, nearly always white or black) covers most of each row, between 2 % and 30 % of
+    the image height, plus up to 3 rows of frame line next to it.
+    """
+    finite = values[np.isfinite(values)]
+    lo, hi = float(finite.min()), float(finite.max())
+    if hi <= lo:
+        return 0, 0
+    filled = np.where(np.isfinite(values), values, lo)
+    mode, fraction = _row_mode_fraction(filled, lo, hi)
+    extreme = (mode <= 12) | (mode >= 243)
+    bandlike = (fraction >= 0.6) & extreme
+    h = values.shape[0]
+
+    def run_from(order) -> int:
+        count, misses, last_good = 0, 0, 0
+        for r in order:
+            count += 1
+            if bandlike[r]:
+                misses, last_good = 0, count
+            else:
+                misses += 1
+                if misses > 6:  # a line of text may break the background for a few rows
+                    break
+        if not 0.02 * h <= last_good <= 0.30 * h:
+            return 0
+        # Bands are uniform across the image; the picture above them is not: compare to be sure.
+        band_rows = list(order)[:last_good]
+        if fraction[band_rows].mean() < 0.75:
+            return 0
+        # Swallow a thin frame line (a few rows of low variation) between band and picture.
+        row_std = filled.std(axis=1) / (hi - lo)
+        extra = 0
+        for r in list(order)[last_good : last_good + 3]:
+            if row_std[r] < 0.1:
+                extra += 1
+            else:
+                break
+        return last_good + extra
+
+    bottom = run_from(range(h - 1, -1, -1))
+    top = run_from(range(h)) if not bottom else 0
+    return top, bottom
+
+
+def detect_annotations(values: np.ndarray) -> tuple[np.ndarray, list[Annotation]]:
+    """Mask of burned-in annotations inside the picture, and what they are.
+
+    Scale-bar and label boxes: saturated (white or black) regions that, with holes (their text)
+    filled, are nearly perfect rectangles and do hold text. Thin bars: saturated rectangles at
+    least 8x longer than tall and at most 3 % of the image high. Text near them (small saturated
+    glyphs within a box height) goes with them.
+    """
+    finite = np.isfinite(values)
+    lo, hi = float(values[finite].min()), float(values[finite].max())
+    mask = np.zeros(values.shape, bool)
+    found: list[Annotation] = []
+    if hi <= lo:
+        return mask, found
+    h, w = values.shape
+    tolerance = 0.02 * (hi - lo)
+    for polarity, saturated in (("white", values >= hi - tolerance), ("black", values <= lo + tolerance)):
+        labels, n = ndimage.label(saturated)
+        if n == 0:
+            continue
+        slices = ndimage.find_objects(labels)
+        for i, sl in enumerate(slices, start=1):
+            bh, bw = sl[0].stop - sl[0].start, sl[1].stop - sl[1].start
+            if bh * bw < 60 or bh * bw > 0.08 * h * w or bh >= 0.5 * h or bw >= 0.9 * w:
+                continue
+            solid = labels[sl] == i
+            region = ndimage.binary_fill_holes(solid)
+            fill = region.sum() / (bh * bw)
+            if fill < 0.95 or min(bh, bw) < 3:
+                continue
+            # A label box holds text (holes); a scale bar is thin and long. A plain saturated
+            # rectangle with neither is more likely part of the picture: leave it.
+            has_text = (region.sum() - solid.sum()) >= 0.03 * region.sum()
+            thin_bar = bw >= 8 * bh and bh <= 0.03 * h
+            if not (has_text or thin_bar):
+                continue
+            kind = "bar" if thin_bar and not has_text else "box"
+            found.append(Annotation(kind, (sl[0].start, sl[0].stop), (sl[1].start, sl[1].stop)))
+            mask[sl] |= region
+        # Glyphs of text beside a found bar or box (not inside: holes are already filled).
+        if found:
+            near = np.zeros_like(mask)
+            for a in found:
+                pad = max(4, a.rows[1] - a.rows[0])
+                near[max(0, a.rows[0] - pad) : a.rows[1] + pad, max(0, a.cols[0] - 3 * pad) : a.cols[1] + 3 * pad] = True
+            glyphs = saturated & near & ~mask
+            labels, n = ndimage.label(glyphs)
+            for i, sl in enumerate(ndimage.find_objects(labels), start=1):
+                bh, bw = sl[0].stop - sl[0].start, sl[1].stop - sl[1].start
+                if bh <= 0.06 * h and bw <= 0.06 * w:
+                    mask[sl] |= labels[sl] == i
+                    found.append(Annotation("text", (sl[0].start, sl[0].stop), (sl[1].start, sl[1].stop)))
+    if mask.any():
+        mask = ndimage.binary_dilation(mask, iterations=2)  # JPEG halos around the edges
+    return mask, _merge_text(found)
+
+
+def _merge_text(found: list[Annotation]) -> list[Annotation]:
+    """Report text glyphs as one entry per bar/box rather than one per letter."""
+    boxes = [a for a in found if a.kind != "text"]
+    texts = [a for a in found if a.kind == "text"]
+    if texts:
+        r0 = min(a.rows[0] for a in texts)
+        r1 = max(a.rows[1] for a in texts)
+        c0 = min(a.cols[0] for a in texts)
+        c1 = max(a.cols[1] for a in texts)
+        boxes.append(Annotation("text", (r0, r1), (c0, c1)))
+    return boxes
+
+
+def inpaint(values: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """Fill masked pixels smoothly from their surroundings (scikit-image biharmonic inpainting)."""
+    if not mask.any():
+        return values
+    from skimage.restoration import inpaint_biharmonic
+
+    base = np.where(np.isfinite(values), values, np.nanmedian(values)).astype(np.float64)
+    out = inpaint_biharmonic(base, mask)
+    return np.where(mask, out, values).astype(np.float32)
+
+
+def clean(values: np.ndarray, alpha: np.ndarray | None, *, crop_top: int, crop_bottom: int, crop_source: str, remove: bool):
+    """Crop the data band and inpaint annotations. Returns (values, alpha, crop, annotations, mask).
+
+    A band the vendor records (crop_source set) is always cropped: it is not part of the image.
+    Detected bands and annotations are removed only when `remove` is true.
+    """
+    if not crop_source and remove:
+        crop_top, crop_bottom = detect_info_band(values)
+        crop_source = "detected data band" if crop_top or crop_bottom else ""
+    if crop_top + crop_bottom >= values.shape[0] - 1:
+        crop_top = crop_bottom = 0
+        crop_source = ""
+    stop = values.shape[0] - crop_bottom
+    values = values[crop_top:stop]
+    alpha = None if alpha is None else alpha[crop_top:stop]
+    crop = {"top_rows": crop_top, "bottom_rows": crop_bottom, "left_columns": 0, "right_columns": 0, "source": crop_source or None}
+    if not remove:
+        return values, alpha, crop, [], None
+    mask, found = detect_annotations(values)
+    return inpaint(values, mask), alpha, crop, found, mask

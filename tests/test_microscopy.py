@@ -1,0 +1,189 @@
+"""Physical scale from real and synthesized microscope files; data bands and burned-in labels."""
+
+import json
+
+import numpy as np
+import pytest
+import tifffile
+from hypothesis import given
+from hypothesis import strategies as st
+from PIL import Image
+
+from tamp_os import make_lithograph
+from tamp_os.cli import main
+from tamp_os.errors import ParameterError
+from tamp_os.microscopy import read_scale, scale_sentence
+from tamp_os.read import read_image
+from tamp_os.units import parse_length_m
+
+
+def scale_of(path, override=None):
+    pic = read_image(path)
+    s = pic.source
+    return read_scale(s.metadata, s.path, s.width, s.height, override)
+
+
+def test_zeiss_pixel_size_and_data_zone(fixture):
+    path = fixture("test_tiff_Zeiss_SEM_1k.tif")
+    scale = scale_of(path)
+    assert scale.pixel_size_m == pytest.approx(2.677e-3 / 1024, rel=1e-9)
+    assert scale.pixel_size_m == pytest.approx(2.614e-6, rel=1e-3)
+    litho = make_lithograph(path, mesher="grid")
+    crop = litho.report["crop"]
+    assert 76 <= crop["bottom_rows"] <= 84 and crop["top_rows"] == 0
+    assert litho.layout.depth_mm == pytest.approx(100 * (768 - crop["bottom_rows"]) / 1024, rel=1e-9)
+    # No raised text: the white data zone (the brightest part of the file) is gone, so the bottom
+    # rows of the print look like the picture above them, not like a flat white band.
+    bottom = litho.heightmap[-5:]
+    assert bottom.std() > 0.05
+
+
+def test_fei_pixel_size_and_exactly_442_rows(fixture):
+    for name in ("FEI-Helios-Ebeam-8bits.tif", "FEI-Helios-Ebeam-16bits.tif"):
+        path = fixture(name)
+        scale = scale_of(path)
+        assert scale.pixel_size_m == pytest.approx(3.3724e-6, rel=1e-9)
+        assert scale.crop_bottom == 471 - 442
+        litho = make_lithograph(path)
+        assert litho.report["crop"]["bottom_rows"] == 29
+        assert litho.layout.depth_mm == pytest.approx(100 * 442 / 512)
+        # The image area is blank: a clear flat-plate answer, never NaN.
+        assert litho.report["uniform"] and np.isfinite(litho.mesh.vertices).all()
+
+
+def test_imagej_dm3_and_no_scale_fixtures(fixture):
+    assert scale_of(fixture("test_loading_image_saved_with_imageJ.tif")).pixel_size_m == pytest.approx(0.16867e-6, rel=1e-4)
+    dm = scale_of(fixture("test_STEM_image.dm3"))
+    assert dm.pixel_size_m == pytest.approx(0.2485e-9, rel=1e-3) and "DigitalMicrograph" in dm.source
+    fept = scale_of(fixture("fept_spheres_sem.png"))
+    assert fept.pixel_size_m is None and fept.source == "none"
+    jeol = scale_of(fixture("JEOL-SightX-TEM-mag-dummy.tif"))
+    assert jeol.pixel_size_m is None  # its 93 dpi resolution tag is not a physical size
+    assert any("not a physical pixel size" in w for w in jeol.warnings)
+
+
+def test_fept_scale_bar_box_is_removed(fixture):
+    path = fixture("fept_spheres_sem.png")
+    kept = make_lithograph(path, keep_annotations=True, mesher="grid", resolution_px=256)
+    clean = make_lithograph(path, mesher="grid", resolution_px=256)
+    assert clean.report["annotations"] and "box" in clean.report["annotations"][0]
+    rows, cols = clean.heightmap.shape
+    # The box covers source rows 707-745 and columns 20-177 of 1024 x 768.
+    r0, r1 = int(707 / 768 * rows), int(746 / 768 * rows)
+    c0, c1 = int(20 / 1024 * cols), int(178 / 1024 * cols)
+    box_kept = kept.heightmap[r0:r1, c0:c1]
+    box_clean = clean.heightmap[r0:r1, c0:c1]
+    assert box_kept.mean() > 3.5  # the reference prints this as a raised block near full height
+    ring = np.zeros_like(clean.heightmap, bool)
+    ring[max(0, r0 - 12) : r1 + 12, max(0, c0 - 12) : c1 + 12] = True
+    ring[max(0, r0 - 4) : r1 + 4, max(0, c0 - 4) : c1 + 4] = False
+    around = clean.heightmap[ring]
+    assert around.min() - 0.1 <= box_clean.min() and box_clean.max() <= around.max() + 0.1
+
+
+def test_save_masks_writes_the_mask(fixture, tmp_path, capsys):
+    assert main(["convert", str(fixture("fept_spheres_sem.png")), "-o", str(tmp_path), "--save-masks", "--preset", "low"]) == 0
+    out = capsys.readouterr().out
+    assert "removed burned-in annotations: box at rows 707–745" in out
+    mask = np.asarray(Image.open(tmp_path / "fept_spheres_sem.annotations.png"))
+    assert mask.shape == (768, 1024) and mask[720, 100] == 255 and mask[100, 500] == 0
+
+
+def test_info_json_reports_scale_crop_annotations(fixture, capsys):
+    assert main(["info", "--json", str(fixture("test_tiff_Zeiss_SEM_1k.tif"))]) == 0
+    facts = json.loads(capsys.readouterr().out)
+    assert facts["pixel_size_m"] == pytest.approx(2.614e-6, rel=1e-3)
+    assert "Zeiss" in facts["pixel_size_source"]
+    assert 76 <= facts["crop"]["bottom_rows"] <= 84 and facts["annotations"] == []
+    assert main(["info", "--json", str(fixture("fept_spheres_sem.png")), "--pixel-size", "25nm"]) == 0
+    facts = json.loads(capsys.readouterr().out)
+    assert facts["pixel_size_m"] == pytest.approx(25e-9) and facts["pixel_size_source"] == "--pixel-size"
+    assert len(facts["annotations"]) == 1
+
+
+def write_tiff(path, **kw):
+    data = (np.random.default_rng(0).random((40, 60)) * 200).astype(np.uint8)
+    tifffile.imwrite(path, data, **kw)
+    return path
+
+
+def test_tescan_tag_and_sidecar(tmp_path):
+    text = "[MAIN]\nDevice=TESCAN MIRA\nPixelSizeX=4.5e-09\nPixelSizeY=4.5e-09\nImageStripSize=6\n"
+    tagged = write_tiff(tmp_path / "tescan.tif", extratags=[(50431, "s", 0, text, True)])
+    scale = scale_of(tagged)
+    assert scale.pixel_size_m == pytest.approx(4.5e-9) and "50431" in scale.source
+    assert scale.crop_bottom == 6
+    plain = write_tiff(tmp_path / "tescan2.tif")
+    (tmp_path / "tescan2.hdr").write_text(text)
+    scale = scale_of(plain)
+    assert scale.pixel_size_m == pytest.approx(4.5e-9) and "tescan2.hdr" in scale.source
+
+
+def test_jeol_and_hitachi_sidecars(tmp_path):
+    jeol = write_tiff(tmp_path / "jeol.tif")
+    (tmp_path / "jeol.txt").write_text("$CM_FORMAT JEOL/SEM\n$$SM_MICRON_BAR 120\n$$SM_MICRON_MARKER 10um\n")
+    assert scale_of(jeol).pixel_size_m == pytest.approx(10e-6 / 120)
+    hitachi = write_tiff(tmp_path / "hitachi.tif")
+    (tmp_path / "hitachi.txt").write_text("[SemImageFile]\nInstructName=S-4800\nPixelSize=7.8125\n")
+    scale = scale_of(hitachi)
+    assert scale.pixel_size_m == pytest.approx(7.8125e-9) and "Hitachi" in scale.source
+
+
+def test_ome_and_imagej_variants(tmp_path):
+    ome = write_tiff(tmp_path / "a.ome.tif", ome=True, metadata={"axes": "YX", "PhysicalSizeX": 65.0, "PhysicalSizeXUnit": "nm"})
+    assert scale_of(ome).pixel_size_m == pytest.approx(65e-9)
+    for unit, per_unit, expected in (("um", 2.0, 0.5e-6), ("\\u00B5m", 4.0, 0.25e-6), ("micron", 5.0, 0.2e-6), ("nm", 0.1, 10e-9)):
+        path = write_tiff(tmp_path / f"ij_{per_unit}.tif", imagej=True, resolution=(per_unit, per_unit), metadata={"unit": unit})
+        assert scale_of(path).pixel_size_m == pytest.approx(expected, rel=1e-6), unit
+
+
+@pytest.mark.parametrize("bad", ["-4.5e-09", "0", "abc", "1e5"])
+def test_broken_metadata_falls_back_with_a_warning(tmp_path, bad):
+    path = write_tiff(tmp_path / "t.tif", extratags=[(50431, "s", 0, f"[MAIN]\nPixelSizeX={bad}\n", True)])
+    scale = scale_of(path)
+    assert scale.pixel_size_m is None and scale.warnings
+    litho = make_lithograph(path)  # still converts
+    assert litho.report["scale"] == "no physical scale is known"
+    (tmp_path / "t.txt").write_text("PixelSize=12\n")  # a valid fallback source
+    assert scale_of(path).pixel_size_m == pytest.approx(12e-9)
+
+
+def test_contradictory_fei_rows_are_ignored(tmp_path):
+    meta = "[Scan]\nPixelWidth=2e-9\n[Image]\nResolutionY=5000\n"
+    path = write_tiff(tmp_path / "fei.tif", extratags=[(34682, "s", 0, meta, True)])
+    scale = scale_of(path)
+    assert scale.pixel_size_m == pytest.approx(2e-9) and scale.crop_bottom == 0
+
+
+def test_override_and_the_scale_sentence(fixture):
+    litho = make_lithograph(fixture("test_tiff_Zeiss_SEM_1k.tif"), pixel_size="1um")
+    assert litho.report["pixel_size_source"] == "--pixel-size"
+    assert any("overrides" in w for w in litho.report["warnings"])
+    # 1024 source pixels across 100 mm: 1 mm of print = 10.24 px = 10.24 µm; magnification ≈ 97.7×
+    assert litho.report["scale"] == "1 mm on the print = 10.24 µm in the sample (magnification 97.7×)"
+    assert scale_sentence(0.42e-6 / 10, 10) == "1 mm on the print = 420 nm in the sample (magnification 2,381×)"
+    assert "1 mm on the print" in litho.metadata()["description"]
+
+
+@given(st.floats(1e-3, 1e3), st.sampled_from([("nm", 1e-9), ("µm", 1e-6), ("um", 1e-6), ("micron", 1e-6), ("mm", 1e-3)]))
+def test_parse_length(value, unit):
+    name, factor = unit
+    assert parse_length_m(f"{value!r}{name}") == pytest.approx(value * factor, rel=1e-12)
+    assert parse_length_m(f"{value!r} {name}") == pytest.approx(value * factor, rel=1e-12)
+
+
+@pytest.mark.parametrize("text", ["", "4.2", "nm", "4.2 parsecs", "-3nm", "0um"])
+def test_parse_length_refuses_with_a_clear_message(text):
+    with pytest.raises(ParameterError, match="pixel-size"):
+        parse_length_m(text)
+
+
+def test_z_stack_projection_and_slice_from_the_cli(tmp_path, capsys):
+    stack = np.zeros((3, 30, 40), np.uint16)
+    stack[1, 5:25, 5:35] = 1000
+    path = tmp_path / "stack.ome.tif"
+    tifffile.imwrite(path, stack, ome=True, photometric="minisblack", metadata={"axes": "ZYX"})
+    assert main(["convert", str(path), "-o", str(tmp_path / "o"), "--preset", "low"]) == 0
+    assert "maximum-intensity projection" in capsys.readouterr().err
+    assert main(["convert", str(path), "-o", str(tmp_path / "o2"), "--slice", "0"]) == 0
+    assert "uniform" in capsys.readouterr().err

@@ -5,7 +5,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-APT_PACKAGES="liblouis-bin liblouis-data python3-louis prusa-slicer chromium nodejs npm"
+APT_PACKAGES="liblouis-bin liblouis-data python3-louis prusa-slicer chromium tesseract-ocr tesseract-ocr-eng fonts-dejavu-core nodejs npm"
 missing=""
 for pkg in $APT_PACKAGES; do
   dpkg -s "$pkg" >/dev/null 2>&1 || missing="$missing $pkg"

@@ -187,3 +187,50 @@ def test_z_stack_projection_and_slice_from_the_cli(tmp_path, capsys):
     assert "maximum-intensity projection" in capsys.readouterr().err
     assert main(["convert", str(path), "-o", str(tmp_path / "o2"), "--slice", "0"]) == 0
     assert "uniform" in capsys.readouterr().err
+
+
+def picture_with_scale_bar(tmp_path, label: str, bar_px: int = 200):
+    import shutil as _shutil
+
+    from PIL import ImageDraw, ImageFont
+
+    from conftest import need
+
+    need(_shutil.which("tesseract") is not None, "Tesseract OCR (apt-get install tesseract-ocr)")
+    font_path = "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf"
+    need(__import__("os").path.exists(font_path), "the DejaVu font (fonts-dejavu-core)")
+    rng = np.random.default_rng(3)
+    img = (90 + 40 * rng.random((480, 640))).astype(np.uint8)
+    im = Image.fromarray(img)
+    draw = ImageDraw.Draw(im)
+    draw.rectangle([400, 430, 400 + bar_px - 1, 437], fill=255)  # an 8 px thick white bar
+    draw.text((450, 392), label, fill=255, font=ImageFont.truetype(font_path, 28))
+    path = tmp_path / "bar.png"
+    im.save(path)
+    return path
+
+
+def test_scale_bar_label_supplies_the_pixel_size_when_it_reads_cleanly(tmp_path):
+    path = picture_with_scale_bar(tmp_path, "10 µm")
+    litho = make_lithograph(path, preset="low")
+    assert litho.report["pixel_size_m"] == pytest.approx(10e-6 / 200, rel=1e-6)
+    assert "OCR" in litho.report["pixel_size_source"]
+    assert any("bar" in a for a in litho.report["annotations"])  # and the bar is removed
+
+
+def test_unreadable_scale_bar_label_gives_no_scale(tmp_path):
+    path = picture_with_scale_bar(tmp_path, "~~ ##")
+    litho = make_lithograph(path, preset="low")
+    assert litho.report["pixel_size_m"] is None
+    assert litho.report["scale"] == "no physical scale is known"
+    assert any("did not read cleanly" in w for w in litho.report["warnings"])
+
+
+def test_parse_label_accepts_only_one_clean_length():
+    from tamp_os.scalebar import parse_label
+
+    assert parse_label("10 µm\n") == pytest.approx(1e-5)
+    assert parse_label("500nm") == pytest.approx(5e-7)
+    assert parse_label("2,5 um") == pytest.approx(2.5e-6)
+    for bad in ("10 pm", "10 µm 20 µm", "about 10 µm", "10\nµm", ""):
+        assert parse_label(bad) is None, bad

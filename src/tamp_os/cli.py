@@ -217,19 +217,14 @@ def _mb(n: int) -> str:
 
 
 def cmd_info(args) -> int:
-    from .annotations import clean
-    from .microscopy import read_scale
+    from .cleanup import clean_source
     from .read import read_image
-    from .units import format_length, parse_length_m
+    from .units import format_length
 
     picture = read_image(args.image, page=args.page, max_megapixels=1e6, z_slice=args.slice, channel=args.channel)
     s = picture.source
-    override = parse_length_m(args.pixel_size) if args.pixel_size else None
-    scale = read_scale(s.metadata, s.path, s.width, s.height, override)
-    _, _, crop, found, _ = clean(
-        picture.values, picture.alpha, crop_top=scale.crop_top, crop_bottom=scale.crop_bottom,
-        crop_source=scale.crop_source, remove=True,
-    )
+    cleaned = clean_source(picture, pixel_size=args.pixel_size, remove_annotations=True)
+    scale, crop, found = cleaned.scale, cleaned.crop, cleaned.annotations
     meta_found = sorted(k for k in s.metadata if not k.startswith("_"))
     facts = {
         "file": s.path,

@@ -17,16 +17,15 @@ from . import __version__
 from .errors import InputError, ParameterError
 from .export import save_mesh, write_atomic
 from .adaptive import adaptive_solid
-from .annotations import clean
+from .cleanup import clean_source
 from .heightmap import heights_mm
 from .mesh import Mesh, grid_solid
 from .params import LithoParams
 from .preprocess import prepare
-from .microscopy import read_scale, scale_sentence
+from .microscopy import scale_sentence
 from .printers import get_printer, height_levels
 from .read import Picture, read_array, read_image
 from .sizing import Layout, plan_layout
-from .units import parse_length_m
 
 log = logging.getLogger(__name__)
 
@@ -178,16 +177,8 @@ def make_lithograph(source, params: LithoParams | None = None, **changes) -> Lit
     layer = params.layer_mm or printer.layer_mm
     src = picture.source
     start = time.perf_counter()
-    override_m = parse_length_m(params.pixel_size, "pixel_size") if params.pixel_size else None
-    scale = read_scale(src.metadata, src.path, src.width, src.height, override_m)
-    values, alpha, crop, found, mask = clean(
-        picture.values,
-        picture.alpha,
-        crop_top=scale.crop_top,
-        crop_bottom=scale.crop_bottom,
-        crop_source=scale.crop_source,
-        remove=not params.keep_annotations,
-    )
+    cleaned = clean_source(picture, pixel_size=params.pixel_size, remove_annotations=not params.keep_annotations)
+    values, alpha, scale = cleaned.values, cleaned.alpha, cleaned.scale
     timings["annotations"] = time.perf_counter() - start
     layout = plan_layout(
         values.shape[1],
@@ -256,13 +247,13 @@ def make_lithograph(source, params: LithoParams | None = None, **changes) -> Lit
         "pixel_size_m": scale.pixel_size_m,
         "pixel_size_source": scale.source,
         "scale": scale_sentence(scale.pixel_size_m, info["fitted_width_px"] / layout.width_mm) if scale.pixel_size_m else "no physical scale is known",
-        "crop": crop,
-        "annotations": [a.describe() for a in found],
+        "crop": cleaned.crop,
+        "annotations": [a.describe() for a in cleaned.annotations],
         "warnings": warnings,
         "timings_s": {k: round(v, 4) for k, v in timings.items()},
         "files": [],
     }
-    return Lithograph(mesh=mesh, heightmap=heights, params=params, layout=layout, picture=picture, report=report, mask=mask)
+    return Lithograph(mesh=mesh, heightmap=heights, params=params, layout=layout, picture=picture, report=report, mask=cleaned.mask)
 
 
 def describe(litho: Lithograph) -> str:

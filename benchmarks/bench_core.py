@@ -31,10 +31,15 @@ def timed(fn):
     return value, time.perf_counter() - start
 
 
-def ours(cols, out: Path, mesher="grid"):
-    """Our pipeline as a user runs it: make_lithograph + save() of STL, 3MF and GLB together."""
+def ours(cols, out: Path, mesher="grid", clean=False):
+    """Our pipeline as a user runs it: make_lithograph + save() of STL, 3MF and GLB together.
+
+    clean=False does the loop's work only; clean=True adds annotation removal (the default).
+    """
     start = time.perf_counter()
-    litho = make_lithograph(FEPT, resolution_px=cols, blur_px=1.2, mesher=mesher, formats=("stl", "3mf", "glb"))
+    litho = make_lithograph(
+        FEPT, resolution_px=cols, blur_px=1.2, mesher=mesher, formats=("stl", "3mf", "glb"), keep_annotations=not clean
+    )
     made = time.perf_counter()
     paths = litho.save(out / f"ours_{cols}_{mesher}")
     saved = time.perf_counter()

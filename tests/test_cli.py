@@ -37,7 +37,7 @@ def test_convert_prints_one_plain_line_per_file(tmp_path, image, capsys):
     assert out[0].startswith("ramp.png: 100 × 75 × 4 mm, grid 125 × 94,")
     assert "25 height levels" in out[0] and "ramp.3mf" in out[0]
     names = sorted(p.name for p in (tmp_path / "out").iterdir())
-    assert names == ["ramp.3mf", "ramp.glb", "ramp.obj", "ramp.ply", "ramp.stl", "ramp.tamp.json"]
+    assert names == ["ramp.3mf", "ramp.description.txt", "ramp.glb", "ramp.obj", "ramp.ply", "ramp.stl", "ramp.tamp.json"]
     assert not any(ch in out[0] for ch in "\x1b\r")  # no terminal control codes for screen readers
 
 

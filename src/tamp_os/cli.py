@@ -66,6 +66,17 @@ def build_parser() -> argparse.ArgumentParser:
     presets.add_argument("image", nargs="?", metavar="IMAGE")
     _param_options(presets)
 
+    plate = sub.add_parser(
+        "braille-test-plate", help="a plate of the same braille at several dot heights and diameters",
+        description="Print this, read it, and pick the dot height and diameter your printer makes legible.",
+    )
+    plate.add_argument("-o", "--output", default=".", metavar="DIR", help="output folder (default: current folder)")
+    plate.add_argument("--text", default="Tactile 123", help="the text to repeat (default: Tactile 123)")
+    plate.add_argument("--braille-table", default="en-ueb-g2.ctb", help="liblouis table (default en-ueb-g2.ctb)")
+    plate.add_argument("--heights", default="0.5,0.7,0.9", metavar="MM,...", help="dot heights in mm (default 0.5,0.7,0.9)")
+    plate.add_argument("--diameters", default="1.4,1.5,1.6", metavar="MM,...", help="dot base diameters in mm (default 1.4,1.5,1.6)")
+    plate.add_argument("--formats", default="stl", help="comma-separated output formats (default stl)")
+
     info = sub.add_parser("info", help="describe an image file: size, bit depth, channels, metadata")
     info.add_argument("image", metavar="IMAGE")
     info.add_argument("--json", action="store_true", help="print JSON for scripts")
@@ -94,7 +105,8 @@ def main(argv=None) -> int:
     from .errors import TampError
 
     try:
-        return {"convert": cmd_convert, "presets": cmd_presets, "info": cmd_info}[args.command](args)
+        commands = {"convert": cmd_convert, "presets": cmd_presets, "info": cmd_info, "braille-test-plate": cmd_braille_plate}
+        return commands[args.command](args)
     except TampError as exc:
         if args.debug:
             raise
@@ -214,6 +226,40 @@ def cmd_presets(args) -> int:
 
 def _mb(n: int) -> str:
     return f"{n / 1e6:.1f} MB" if n >= 1e5 else f"{n / 1e3:.0f} kB"
+
+
+def _numbers(text: str, name: str) -> list[float]:
+    from .errors import ParameterError
+
+    try:
+        values = [float(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        raise ParameterError(f"{name}: give numbers in mm separated by commas, for example 0.5,0.7,0.9; got {text!r}.") from None
+    if not values:
+        raise ParameterError(f"{name}: give at least one number in mm.")
+    return values
+
+
+def cmd_braille_plate(args) -> int:
+    from .export import save_mesh, write_atomic
+    from .tactile import braille_test_plate
+
+    heights = _numbers(args.heights, "--heights")
+    diameters = _numbers(args.diameters, "--diameters")
+    mesh, rows, _ = braille_test_plate(args.text, args.braille_table, heights, diameters)
+    out = Path(args.output)
+    out.mkdir(parents=True, exist_ok=True)
+    key = "; ".join(f"row {i + 1}: dots {h:g} mm high, {d:g} mm across" for i, (h, d) in enumerate(rows))
+    description = (
+        f"A braille test plate. Each of its {len(rows)} rows starts with its number in braille, then reads "
+        f"'{args.text}'. {key}. The cut corner is at the top right."
+    )
+    written = [save_mesh(mesh, out / f"braille-test-plate.{fmt.strip()}", {"title": "TAMP-OS braille test plate", "description": description})
+               for fmt in args.formats.split(",")]
+    written.append(write_atomic(out / "braille-test-plate.description.txt", lambda fh: fh.write((description + "\n").encode("utf-8"))))
+    print(f"braille test plate: {len(rows)} rows, {mesh.n_triangles:,} triangles; wrote {', '.join(p.name for p in written)}")
+    print(description)
+    return EXIT_OK
 
 
 def cmd_info(args) -> int:

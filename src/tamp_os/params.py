@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from .errors import ParameterError
+from .braille import BrailleSpec
 from .printers import PRESETS
 from .units import parse_length_m
 
@@ -55,6 +56,15 @@ class LithoParams:
     keep_annotations: bool = _f(False, "keep burned-in scale bars, labels and data bands (default: remove them)")
     save_masks: bool = _f(False, "write NAME.annotations.png showing what was removed")
     max_megapixels: float = _f(400.0, "refuse larger images (decompression-bomb guard)", "Mpx", 0.0, 1e6, lo_open=True)
+    caption: str | None = _f(None, "braille caption along the bottom margin (text, or Unicode braille as is)")
+    braille_table: str = _f("en-ueb-g2.ctb", "liblouis table for braille (en-ueb-g1.ctb for grade 1, or any other)")
+    scale_bar: str = _f("auto", "auto (when the pixel size is known), off, or a length such as 5um")
+    frame_mm: float = _f(0.0, "width of a raised frame around the relief (0 = none)", "mm", 0.0, 10.0)
+    dot_diameter_mm: float = _f(1.5, "braille dot base diameter", "mm", *BrailleSpec.RANGES["dot_diameter_mm"])
+    dot_height_mm: float = _f(0.7, "braille dot height", "mm", *BrailleSpec.RANGES["dot_height_mm"])
+    dot_spacing_mm: float = _f(2.5, "braille dot spacing within a cell", "mm", *BrailleSpec.RANGES["dot_spacing_mm"])
+    cell_spacing_mm: float = _f(6.0, "braille cell to cell spacing", "mm", *BrailleSpec.RANGES["cell_spacing_mm"])
+    line_spacing_mm: float = _f(10.0, "braille line to line spacing", "mm", *BrailleSpec.RANGES["line_spacing_mm"])
     mesher: str = _f("adaptive", "adaptive: fewest triangles within max_error_mm; grid: every pixel a vertex", choices=MESHERS)
     max_error_mm: float | None = _f(None, "largest height error of the adaptive mesh (default: half the layer height; 0 = exact grid)", "mm", 0.0, 5.0)
     formats: tuple[str, ...] = _f(("stl",), "output formats", choices=FORMATS)
@@ -72,8 +82,14 @@ class LithoParams:
             )
         if self.pixel_size is not None:
             parse_length_m(self.pixel_size, "pixel_size")
+        if self.scale_bar not in ("auto", "off"):
+            parse_length_m(self.scale_bar, "scale_bar")
+        self.braille_spec()  # checks the dot sizes against each other
         if not self.formats:
             raise ParameterError(f"formats: choose at least one of {', '.join(FORMATS)}.")
+
+    def braille_spec(self) -> BrailleSpec:
+        return BrailleSpec(self.dot_diameter_mm, self.dot_height_mm, self.dot_spacing_mm, self.cell_spacing_mm, self.line_spacing_mm)
 
     def to_json(self) -> str:
         return json.dumps(self.to_dict(), indent=2, ensure_ascii=False)

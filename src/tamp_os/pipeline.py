@@ -14,18 +14,20 @@ from pathlib import Path
 import numpy as np
 
 from . import __version__
-from .errors import InputError, ParameterError
-from .export import save_mesh, write_atomic
 from .adaptive import adaptive_solid
 from .cleanup import clean_source
+from .errors import InputError, ParameterError
+from .export import save_mesh, write_atomic
 from .heightmap import heights_mm
 from .mesh import Mesh, grid_solid
+from .microscopy import scale_sentence
 from .params import LithoParams
 from .preprocess import prepare
-from .microscopy import scale_sentence
 from .printers import get_printer, height_levels
 from .read import Picture, read_array, read_image
 from .sizing import Layout, plan_layout
+from .tactile import Furniture, add_furniture, choose_scale_bar_m
+from .units import parse_length_m
 
 log = logging.getLogger(__name__)
 
@@ -91,6 +93,8 @@ class Lithograph:
             written = [write(fmt) for fmt in formats]
         if self.params.save_masks and self.mask is not None:
             written.append(write_atomic(folder / f"{stem}.annotations.png", lambda fh: _write_mask_png(self.mask, fh)))
+        description = meta["description"] + "\n"
+        written.append(write_atomic(folder / f"{stem}.description.txt", lambda fh: fh.write(description.encode("utf-8"))))
         recipe = folder / f"{stem}{RECIPE_SUFFIX}"
         files = [p.name for p in written]
         text = json.dumps(recipe_dict(self, files), indent=2, ensure_ascii=False) + "\n"
@@ -222,6 +226,21 @@ def make_lithograph(source, params: LithoParams | None = None, **changes) -> Lit
         mesh = grid_solid(heights, layout.width_mm, layout.depth_mm)
     timings["mesh"] = time.perf_counter() - start
 
+    start = time.perf_counter()
+    sample_per_mm = scale.pixel_size_m * info["fitted_width_px"] / layout.width_mm if scale.pixel_size_m else None
+    furniture = Furniture(
+        caption=params.caption,
+        braille_table=params.braille_table,
+        scale_bar_m=_scale_bar_m(params.scale_bar, sample_per_mm),
+        sample_m_per_print_mm=sample_per_mm,
+        frame_mm=params.frame_mm,
+        spec=params.braille_spec(),
+    )
+    placed = None
+    if furniture.wanted:
+        mesh, placed = add_furniture(mesh, layout.width_mm, layout.depth_mm, params.base_mm, furniture)
+    timings["tactile"] = time.perf_counter() - start
+
     warnings = list(layout.warnings) + list(src.notes) + scale.warnings
     if info["uniform"]:
         warnings.append(f"{src.name}: the image is uniform (every usable pixel has the same value); the print is a flat plate.")
@@ -231,7 +250,8 @@ def make_lithograph(source, params: LithoParams | None = None, **changes) -> Lit
         log.warning(w)
     report = {
         "input": src.name,
-        "print_mm": [round(layout.width_mm, 3), round(layout.depth_mm, 3), round(float(heights.max()), 3)],
+        "print_mm": [round(float(v), 3) for v in mesh.bounds_mm[1]],
+        "relief_mm": [round(layout.width_mm, 3), round(layout.depth_mm, 3)],
         "grid": [layout.cols, layout.rows],
         "mm_per_px": round(layout.mm_per_px, 4),
         "blur_px": round(layout.sigma_px, 3),
@@ -247,6 +267,7 @@ def make_lithograph(source, params: LithoParams | None = None, **changes) -> Lit
         "pixel_size_m": scale.pixel_size_m,
         "pixel_size_source": scale.source,
         "scale": scale_sentence(scale.pixel_size_m, info["fitted_width_px"] / layout.width_mm) if scale.pixel_size_m else "no physical scale is known",
+        "tactile": _tactile_report(placed),
         "crop": cleaned.crop,
         "annotations": [a.describe() for a in cleaned.annotations],
         "warnings": warnings,
@@ -256,12 +277,61 @@ def make_lithograph(source, params: LithoParams | None = None, **changes) -> Lit
     return Lithograph(mesh=mesh, heightmap=heights, params=params, layout=layout, picture=picture, report=report, mask=cleaned.mask)
 
 
+def _scale_bar_m(setting: str, sample_per_mm: float | None) -> float | None:
+    """The sample length the scale bar stands for, from --scale-bar auto|off|LENGTH."""
+    if setting == "off":
+        return None
+    if setting == "auto":
+        return choose_scale_bar_m(sample_per_mm) if sample_per_mm else None
+    if not sample_per_mm:
+        raise ParameterError(
+            f"scale_bar: --scale-bar {setting} needs the image's pixel size, and none is known; "
+            f"give it with --pixel-size (for example --pixel-size 4.2nm) or use --scale-bar off."
+        )
+    return parse_length_m(setting, "scale_bar")
+
+
+def _tactile_report(placed) -> dict | None:
+    if placed is None:
+        return None
+    return {
+        "plate_mm": [round(v, 3) for v in placed.plate_mm],
+        "relief_origin_mm": [round(v, 3) for v in placed.relief_origin_mm],
+        "caption_braille": placed.caption_braille,
+        "caption_box_mm": placed.caption_box,
+        "scale_bar_box_mm": placed.scale_bar_box,
+        "scale_bar_label": placed.scale_label,
+        "scale_bar_label_braille": placed.scale_label_braille,
+        "scale_label_box_mm": placed.scale_label_box,
+        "frame_box_mm": placed.frame_box,
+        "braille_dots": placed.dots,
+        "orientation": "cut corner at the top right",
+    }
+
+
 def describe(litho: Lithograph) -> str:
     """A plain-language description of the object for people who cannot see it."""
-    w, d, h = litho.report["print_mm"]
-    raised = "dark" if litho.params.invert else "bright"
-    return (
-        f"A tactile relief of the image {litho.picture.source.name}, {w:g} mm wide, {d:g} mm deep and up to "
-        f"{h:g} mm high on a {litho.params.base_mm:g} mm base. The top edge of the image is the far edge of the "
-        f"print. The {raised} parts of the image are raised. Scale: {litho.report['scale']}."
-    )
+    r, p = litho.report, litho.params
+    w, d, h = r["print_mm"]
+    rw, rd = r["relief_mm"]
+    raised = "dark" if p.invert else "bright"
+    parts = [
+        f"A tactile relief of the image {litho.picture.source.name}.",
+        f"The object is {w:g} mm wide, {d:g} mm deep and up to {h:g} mm high, on a {p.base_mm:g} mm base.",
+        f"The picture itself is {rw:g} by {rd:g} mm. The top edge of the image is the far edge of the print.",
+        f"The {raised} parts of the image are raised, up to {p.relief_mm:g} mm above the base.",
+        f"Scale: {r['scale']}.",
+    ]
+    t = r.get("tactile")
+    if t:
+        parts.append("The top right corner of the plate is cut off at 45 degrees: hold the print with that corner at the top right.")
+        if t["frame_box_mm"]:
+            parts.append(f"A raised frame {p.frame_mm:g} mm wide surrounds the picture.")
+        if t["scale_bar_box_mm"]:
+            parts.append(
+                f"Below the picture, at the left, a raised scale bar with end ticks stands for {t['scale_bar_label']} "
+                f"in the sample; its value is in braille to its right."
+            )
+        if t["caption_braille"]:
+            parts.append(f"Along the bottom margin, a braille caption reads: {p.caption}.")
+    return " ".join(parts)

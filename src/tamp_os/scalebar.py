@@ -36,7 +36,7 @@ def ocr_text(image: np.ndarray) -> str | None:
         path = Path(tmp) / "label.png"
         picture.save(path)
         try:
-            done = subprocess.run([exe, str(path), "stdout", "--psm", "6", "-l", "eng"], capture_output=True, text=True, timeout=30)
+            done = subprocess.run([exe, str(path), "stdout", "--psm", "6", "-l", "eng"], capture_output=True, text=True, encoding="utf-8", errors="replace", timeout=30)
         except (OSError, subprocess.TimeoutExpired):
             return None
     return done.stdout if done.returncode == 0 else None

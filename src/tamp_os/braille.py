@@ -1,0 +1,179 @@
+"""Text -> braille cells (through liblouis) -> dot centres in millimetres.
+
+liblouis is the standard open braille translator; it is a system library (Debian
+liblouis-bin, liblouis-data, python3-louis), not on PyPI. We use its Python binding when it
+can be imported (also from Debian's dist-packages, which a virtual environment does not see),
+else its `lou_translate` command, whose Braille ASCII we map to Unicode cells. Text that is
+already Unicode braille (U+2800-U+28FF) is used as it is.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import shutil
+import subprocess
+from dataclasses import dataclass
+from pathlib import Path
+
+from .errors import MissingDependencyError, ParameterError
+
+DEFAULT_TABLE = "en-ueb-g2.ctb"
+GRADE1_TABLE = "en-ueb-g1.ctb"
+BLANK = "\u2800"
+# North American Braille ASCII: the character for each cell 0x00-0x3F (dots 1-6 as bits 0-5).
+BRAILLE_ASCII = " A1B'K2L@CIF/MSP\"E3H9O6R^DJG>NTQ,*5<-U8V.%[$+X!&;:4\\0Z7(_?W]#Y)="
+INSTALL_HINT = (
+    "braille needs liblouis: on Debian or Ubuntu run 'sudo apt-get install liblouis-bin liblouis-data "
+    "python3-louis' (make setup does this), or give the caption directly as Unicode braille (⠠⠋⠑⠠⠏⠞)."
+)
+
+
+@dataclass(frozen=True)
+class BrailleSpec:
+    """Dot and spacing sizes in mm; defaults follow Marburg Medium / printed-dome practice."""
+
+    dot_diameter_mm: float = 1.5
+    dot_height_mm: float = 0.7
+    dot_spacing_mm: float = 2.5
+    cell_spacing_mm: float = 6.0
+    line_spacing_mm: float = 10.0
+
+    RANGES = {
+        "dot_diameter_mm": (1.2, 2.0),
+        "dot_height_mm": (0.4, 1.2),
+        "dot_spacing_mm": (2.0, 3.0),
+        "cell_spacing_mm": (5.0, 8.0),
+        "line_spacing_mm": (8.0, 15.0),
+    }
+
+    def __post_init__(self):
+        for name, (lo, hi) in self.RANGES.items():
+            value = getattr(self, name)
+            if not lo <= value <= hi:
+                raise ParameterError(
+                    f"braille {name}: must be {lo}–{hi} mm (tactile standards: NLS Spec 800, ADA 703.3, "
+                    f"Marburg Medium); got {value}."
+                )
+        if self.dot_diameter_mm > self.dot_spacing_mm - 0.4:
+            raise ParameterError(
+                f"braille dot_diameter_mm {self.dot_diameter_mm} must be at least 0.4 mm smaller than "
+                f"dot_spacing_mm {self.dot_spacing_mm}, or neighbouring dots merge."
+            )
+
+    @property
+    def cell_height_mm(self) -> float:
+        return 2 * self.dot_spacing_mm + self.dot_diameter_mm
+
+
+def _load_louis():
+    try:
+        import louis  # noqa: F401
+
+        return louis
+    except ImportError:
+        pass
+    for base in ("/usr/lib/python3/dist-packages", "/usr/local/lib/python3/dist-packages"):
+        init = Path(base) / "louis" / "__init__.py"
+        if init.is_file():
+            spec = importlib.util.spec_from_file_location("louis", init)
+            module = importlib.util.module_from_spec(spec)
+            try:
+                spec.loader.exec_module(module)
+                return module
+            except OSError:  # the binding is there but liblouis.so is not
+                return None
+    return None
+
+
+_LOUIS = None
+
+
+def liblouis_available() -> bool:
+    global _LOUIS
+    if _LOUIS is None:
+        _LOUIS = _load_louis() or False
+    return bool(_LOUIS) or shutil.which("lou_translate") is not None
+
+
+def is_unicode_braille(text: str) -> bool:
+    return bool(text) and all("\u2800" <= ch <= "\u28ff" or ch in " \n" for ch in text)
+
+
+def to_braille(text: str, table: str = DEFAULT_TABLE) -> str:
+    """Unicode braille for `text` (e.g. '5 µm' -> '⠼⠑⠀⠨⠍⠍' with UEB)."""
+    if is_unicode_braille(text):
+        return text.replace(" ", BLANK)
+    liblouis_available()
+    if _LOUIS:
+        try:
+            return _LOUIS.translateString([table], text, mode=_LOUIS.dotsIO | _LOUIS.ucBrl).replace(" ", BLANK)
+        except RuntimeError as exc:
+            raise ParameterError(f"braille table {table!r}: liblouis cannot use it ({exc}); see 'lou_checktable'.") from None
+    exe = shutil.which("lou_translate")
+    if exe is None:
+        raise MissingDependencyError(INSTALL_HINT)
+    done = subprocess.run([exe, "--forward", table], input=text, capture_output=True, text=True, encoding="utf-8", errors="replace", timeout=30)
+    if done.returncode != 0:
+        raise ParameterError(f"braille table {table!r}: lou_translate failed ({done.stderr.strip()}).")
+    return "".join(chr(0x2800 + BRAILLE_ASCII.index(ch)) for ch in map(_fold, done.stdout.rstrip("\n")) if ch in BRAILLE_ASCII)
+
+
+def _fold(ch: str) -> str:
+    """Braille ASCII is case-free: 0x60-0x7F ('a'-'z', '`{|}~') mean the same cells as 0x40-0x5F."""
+    return chr(ord(ch) - 0x20) if 0x60 <= ord(ch) <= 0x7F else ch
+
+
+def cell_dots(cell: str) -> list[int]:
+    """Dot numbers (1-8) raised in one Unicode braille cell."""
+    bits = ord(cell) - 0x2800
+    return [d + 1 for d in range(8) if bits >> d & 1]
+
+
+# (column, row) of each dot number inside a cell; row 0 is the top.
+DOT_POSITION = {1: (0, 0), 2: (0, 1), 3: (0, 2), 4: (1, 0), 5: (1, 1), 6: (1, 2), 7: (0, 3), 8: (1, 3)}
+
+
+def wrap_cells(braille: str, max_cells: int) -> list[str]:
+    """Lines of at most max_cells, broken at blank cells where possible."""
+    if max_cells < 1:
+        raise ParameterError("braille: the plate is too narrow for even one braille cell; make the print wider.")
+    lines, current = [], ""
+    for word in braille.split(BLANK):
+        while len(word) > max_cells:  # a word longer than a line is split
+            if current:
+                lines.append(current)
+                current = ""
+            lines.append(word[:max_cells])
+            word = word[max_cells:]
+        candidate = f"{current}{BLANK}{word}" if current else word
+        if len(candidate) <= max_cells:
+            current = candidate
+        else:
+            lines.append(current)
+            current = word
+    if current:
+        lines.append(current)
+    return lines
+
+
+def dot_centres(lines: list[str], spec: BrailleSpec, left_mm: float, top_mm: float) -> list[tuple[float, float]]:
+    """Dot centres (x, y) in mm; the first line's top dots at y = top_mm - dot radius, lines going down."""
+    centres = []
+    r = spec.dot_diameter_mm / 2
+    for i, line in enumerate(lines):
+        y_top = top_mm - r - i * spec.line_spacing_mm
+        for j, cell in enumerate(line):
+            for dot in cell_dots(cell):
+                col, row = DOT_POSITION[dot]
+                centres.append((left_mm + r + j * spec.cell_spacing_mm + col * spec.dot_spacing_mm, y_top - row * spec.dot_spacing_mm))
+    return centres
+
+
+def block_size_mm(lines: list[str], spec: BrailleSpec) -> tuple[float, float]:
+    """Width and height of a block of braille lines, from the outer edges of its dots."""
+    if not lines:
+        return 0.0, 0.0
+    cells = max(len(line) for line in lines)
+    width = (cells - 1) * spec.cell_spacing_mm + spec.dot_spacing_mm + spec.dot_diameter_mm
+    height = (len(lines) - 1) * spec.line_spacing_mm + spec.cell_height_mm
+    return width, height

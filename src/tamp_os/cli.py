@@ -62,6 +62,36 @@ def build_parser() -> argparse.ArgumentParser:
     convert.add_argument("--recipe", metavar="FILE", help="rebuild exactly from a NAME.tamp.json recipe")
     _param_options(convert)
 
+    batch = sub.add_parser("batch", help="convert many images; resumes where it stopped", description=(
+        "Convert every image in folders or lists. One bad file never stops the others; a rerun skips "
+        "what is already done. batch-report.csv and .json in the output folder list every input."))
+    batch.add_argument("inputs", nargs="+", metavar="DIR_OR_FILE")
+    batch.add_argument("-o", "--output", required=True, metavar="DIR", help="output folder")
+    batch.add_argument("--recursive", action="store_true", help="look in sub-folders too (their structure is kept)")
+    batch.add_argument("--include", action="append", metavar="GLOB", help="file-name pattern to convert (repeatable; default common image types)")
+    batch.add_argument("--overrides", metavar="CSV", help="per-image parameters: a 'file' column, then parameter columns")
+    batch.add_argument("--workers", type=int, metavar="N", help="worker processes (default: all cores)")
+    batch.add_argument("--dask-scheduler", metavar="ADDRESS", help="run on a Dask cluster, e.g. tcp://127.0.0.1:8786")
+    _param_options(batch)
+
+    sweep = sub.add_parser("sweep", help="one image with parameters varied, and a contact sheet")
+    sweep.add_argument("image", metavar="IMAGE")
+    sweep.add_argument("--vary", action="append", required=True, metavar="NAME=V1,V2",
+                       help="a parameter and its values, e.g. resolution=64,128,256 (repeat for a grid)")
+    sweep.add_argument("-o", "--output", default="sweep-output", metavar="DIR", help="output folder (default sweep-output)")
+    sweep.add_argument("--no-render", action="store_true", help="skip the sheet of rendered previews")
+    _param_options(sweep)
+
+    render = sub.add_parser("render", help="rendered previews (full and close-up) of meshes, with alt text")
+    render.add_argument("inputs", nargs="+", metavar="MESH_OR_DIR")
+    render.add_argument("-o", "--output", default=".", metavar="DIR", help="folder for renders/full and renders/closeup")
+    render.add_argument("--theme", choices=["light", "dark"], default="light")
+    render.add_argument("--azimuth", type=float, default=-30.0, metavar="DEG", help="turn around the print (default -30)")
+    render.add_argument("--elevation", type=float, default=35.0, metavar="DEG", help="height of the view, 0-90 (default 35)")
+    render.add_argument("--zoom", type=float, default=1.0, help="zoom of the full view (default 1)")
+    render.add_argument("--closeup-zoom", type=float, default=3.0, help="extra zoom of the close-up (default 3)")
+    render.add_argument("--size", default="1200x900", metavar="WxH", help="image size in pixels (default 1200x900)")
+
     presets = sub.add_parser("presets", help="show Low/Medium/High for a printer (and suggest one for an image)")
     presets.add_argument("image", nargs="?", metavar="IMAGE")
     _param_options(presets)
@@ -105,7 +135,10 @@ def main(argv=None) -> int:
     from .errors import TampError
 
     try:
-        commands = {"convert": cmd_convert, "presets": cmd_presets, "info": cmd_info, "braille-test-plate": cmd_braille_plate}
+        commands = {
+            "convert": cmd_convert, "batch": cmd_batch, "presets": cmd_presets, "info": cmd_info,
+            "braille-test-plate": cmd_braille_plate, "sweep": cmd_sweep, "render": cmd_render,
+        }
         return commands[args.command](args)
     except TampError as exc:
         if args.debug:
@@ -175,6 +208,100 @@ def cmd_convert(args) -> int:
         print(f"{len(failed)} of {len(jobs)} failed: {', '.join(failed)}", file=sys.stderr)
         return EXIT_FAILED
     return EXIT_OK
+
+
+def cmd_batch(args) -> int:
+    from .batch import Job, collect_inputs, read_overrides, run_batch
+    from .printers import get_printer
+
+    params = _params_from_args(args)
+    get_printer(params.printer)
+    out = Path(args.output)
+    overrides = read_overrides(Path(args.overrides)) if args.overrides else {}
+    inputs = collect_inputs(args.inputs, args.recursive, tuple(args.include) if args.include else None, exclude_dir=out)
+    if not inputs:
+        print("error: no images found; check the folder, or use --include '*.ext' for other file types.", file=sys.stderr)
+        return EXIT_USAGE
+    jobs = []
+    for path, rel in inputs:
+        changes = overrides.get(str(rel), overrides.get(path.name, {}))
+        jobs.append(Job(path, out / rel.parent, params.replace(**changes)))
+    executor, client = None, None
+    if args.dask_scheduler:
+        try:
+            from distributed import Client
+        except ImportError:
+            from .errors import MissingDependencyError
+
+            raise MissingDependencyError("--dask-scheduler needs Dask: pip install 'dask[distributed]'.") from None
+        client = Client(args.dask_scheduler, timeout="20s")
+        executor = client.get_executor()
+    bar = None
+    if sys.stderr.isatty():
+        from tqdm import tqdm
+
+        bar = tqdm(total=len(jobs), unit="image", file=sys.stderr)
+
+    def done(outcome, count, total):
+        name = Path(outcome["input"]).name
+        if bar:
+            bar.update(1)
+            if outcome["status"] == "failed":
+                bar.write(f"failed: {outcome['error']}")
+        else:
+            detail = outcome["error"] if outcome["status"] == "failed" else f"{outcome['seconds']:.1f} s"
+            print(f"{count} of {total}: {name} {outcome['status']} ({detail})", flush=True)
+
+    try:
+        outcomes = run_batch(jobs, out, executor=executor, workers=args.workers, on_done=done)
+    finally:
+        if bar:
+            bar.close()
+        if client:
+            client.close()
+    failed = [o for o in outcomes if o["status"] == "failed"]
+    converted = sum(o["status"] == "converted" for o in outcomes)
+    skipped = sum(o["status"].startswith("skipped") for o in outcomes)
+    print(f"batch: {converted} converted, {skipped} already up to date, {len(failed)} failed; report in {out / 'batch-report.csv'}")
+    return EXIT_FAILED if failed else EXIT_OK
+
+
+def cmd_sweep(args) -> int:
+    from .sweep import parse_vary, run_sweep
+
+    params = _params_from_args(args)
+    vary = parse_vary(args.vary)
+    result = run_sweep(Path(args.image), params, vary, Path(args.output), render=not args.no_render)
+    for stem, litho in result["variants"]:
+        print(_line(litho, [p for p in result["written"] if p.name.startswith(stem + ".")]))
+    sheets = [p.name for p in result["written"] if "_sweep_" in p.name and p.suffix == ".png"]
+    print(f"sweep: {len(result['variants'])} variants; contact sheets {', '.join(sheets)} in {args.output}")
+    return EXIT_OK
+
+
+def cmd_render(args) -> int:
+    from .errors import ParameterError
+    from .render import View, find_meshes, render_file
+
+    try:
+        width, height = (int(v) for v in args.size.lower().split("x"))
+    except ValueError:
+        raise ParameterError(f"--size: write WIDTHxHEIGHT in pixels, for example 1200x900; got {args.size!r}.") from None
+    view = View(width, height, args.azimuth, args.elevation, args.zoom, args.closeup_zoom, args.theme)
+    meshes = find_meshes(args.inputs)
+    if not meshes:
+        print("error: no meshes found (.stl, .obj, .ply, .glb, .3mf).", file=sys.stderr)
+        return EXIT_USAGE
+    failed = 0
+    for path in meshes:
+        try:
+            written = render_file(path, Path(args.output), view)
+        except (OSError, ValueError) as exc:
+            print(f"error: {path}: cannot be rendered ({exc}).", file=sys.stderr)
+            failed += 1
+            continue
+        print(f"{path.name}: wrote {', '.join(str(p.relative_to(args.output)) for p in written if p.suffix == '.png')} with alt text")
+    return EXIT_FAILED if failed else EXIT_OK
 
 
 def cmd_presets(args) -> int:

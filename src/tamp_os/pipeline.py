@@ -57,17 +57,17 @@ class Lithograph:
             "application": f"TAMP-OS {__version__}",
         }
 
-    def save(self, target, formats=None) -> list[Path]:
-        """Write the mesh in each format and a recipe sidecar.
+    def save(self, target, formats=None, stem: str | None = None) -> list[Path]:
+        """Write the mesh in each format, a description and a recipe sidecar.
 
-        `target` is a folder (files are named after the input) or a file name whose extension
-        picks the single format. Returns the paths written, recipe last.
+        `target` is a folder (files are named `stem`, by default after the input) or a file name
+        whose extension picks the single format. Returns the paths written, recipe last.
         """
         target = Path(target)
         if target.suffix and not target.is_dir():
             folder, stem, formats = target.parent, target.stem, [target.suffix.lstrip(".").lower()]
         else:
-            folder, stem = target, self.name
+            folder, stem = target, stem or self.name
             formats = list(formats or self.params.formats)
         if not folder.exists():
             try:

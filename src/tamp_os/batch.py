@@ -1,0 +1,222 @@
+"""Batch conversion that never loses work.
+
+Each input is converted in a worker process by `convert_one` (a plain module-level function, so
+any concurrent.futures-style executor can run it: a local process pool or a Dask cluster's
+executor). A failing input is reported and the others go on. Outputs are written atomically and
+the recipe last, so an input whose recipe matches (same input hash, same parameters, outputs
+present) is complete: a rerun skips it and redoes only the rest. The report is rewritten after
+every input, so even a killed batch leaves an accurate batch-report.csv/json.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import fnmatch
+import io
+import json
+import logging
+import os
+import queue
+import time
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+from .errors import InputError, ParameterError, TampError
+from .params import LithoParams
+
+log = logging.getLogger(__name__)
+
+IMAGE_PATTERNS = ("*.png", "*.jpg", "*.jpeg", "*.tif", "*.tiff", "*.bmp", "*.gif", "*.webp", "*.dm3", "*.dm4")
+REPORT_NAME = "batch-report"
+
+
+@dataclass
+class Job:
+    source: Path
+    out_dir: Path
+    params: LithoParams
+    stem: str = ""  # output name; the input's stem unless two inputs would share it
+
+    def __post_init__(self):
+        self.stem = self.stem or self.source.stem
+
+
+def name_jobs(jobs: list[Job]) -> list[Job]:
+    """Give inputs that would write the same output names (a.png, a.tif) distinct stems (a_png, a_tif)."""
+    seen: dict[tuple, int] = {}
+    for job in jobs:
+        key = (job.out_dir, job.stem)
+        seen[key] = seen.get(key, 0) + 1
+    for job in jobs:
+        if seen[(job.out_dir, job.stem)] > 1:
+            job.stem = f"{job.source.stem}_{job.source.suffix.lstrip('.').lower()}"
+    return jobs
+
+
+@dataclass
+class Outcome:
+    input: str
+    status: str  # converted, skipped (up to date), failed
+    outputs: list[str] = field(default_factory=list)
+    seconds: float = 0.0
+    error: str = ""
+
+
+def collect_inputs(items, recursive: bool = False, include: tuple[str, ...] | None = None, exclude_dir: Path | None = None):
+    """(file, path relative to its root) for each image named or found in the folders given."""
+    patterns = tuple(p.lower() for p in (include or IMAGE_PATTERNS))
+    found = []
+    for item in map(Path, items):
+        if item.is_dir():
+            walker = item.rglob("*") if recursive else item.glob("*")
+            for path in sorted(walker):
+                if exclude_dir and exclude_dir.resolve() in path.resolve().parents:
+                    continue
+                if path.is_file() and any(fnmatch.fnmatch(path.name.lower(), p) for p in patterns):
+                    found.append((path, path.relative_to(item)))
+        else:
+            found.append((item, Path(item.name)))  # named explicitly: converted (or reported) as is
+    return found
+
+
+FIELD_TYPES = {f.name: f for f in dataclasses.fields(LithoParams)}
+
+
+def _cell_value(name: str, text: str, where: str):
+    f = FIELD_TYPES.get(name)
+    if f is None:
+        raise ParameterError(f"{where}: unknown column {name!r}; columns must be 'file' or parameter names such as preset, relief_mm, invert.")
+    default = f.default
+    try:
+        if isinstance(default, bool):
+            if text.lower() not in ("true", "false", "yes", "no", "1", "0"):
+                raise ValueError(text)
+            return text.lower() in ("true", "yes", "1")
+        if name == "formats":
+            return tuple(v.strip() for v in text.split(",") if v.strip())
+        lo = f.metadata["lo"]
+        if lo is None or f.metadata["choices"]:
+            return text
+        if isinstance(lo, int) and isinstance(f.metadata["hi"], int):
+            return int(text)
+        return float(text)
+    except ValueError:
+        raise ParameterError(f"{where}: column {name} cannot be {text!r}.") from None
+
+
+def read_overrides(path: Path) -> dict[str, dict]:
+    """Per-image parameter changes from a CSV: a 'file' column (name or relative path) + parameters."""
+    try:
+        text = Path(path).read_text(encoding="utf-8-sig")
+    except OSError as exc:
+        raise InputError(f"{path}: cannot read the overrides CSV ({exc.strerror}).") from None
+    rows = list(csv.DictReader(io.StringIO(text)))
+    if rows and "file" not in rows[0]:
+        raise ParameterError(f"{path}: the overrides CSV needs a 'file' column; it has {', '.join(rows[0])}.")
+    overrides = {}
+    for number, row in enumerate(rows, start=2):
+        where = f"{path} line {number}"
+        changes = {k: _cell_value(k, v.strip(), where) for k, v in row.items() if k != "file" and v and v.strip()}
+        LithoParams().replace(**changes)  # validate now, not in the middle of the batch
+        overrides[row["file"].strip()] = changes
+    return overrides
+
+
+def _recipe_matches(recipe_path: Path, source: Path, params: LithoParams) -> list[str] | None:
+    """The outputs listed by an existing recipe if it records this input and these parameters."""
+    import hashlib
+
+    try:
+        recipe = json.loads(recipe_path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    if recipe.get("params") != params.to_dict():
+        return None
+    try:
+        digest = hashlib.sha256(source.read_bytes()).hexdigest()
+    except OSError:
+        return None
+    if recipe.get("input", {}).get("sha256") != digest:
+        return None
+    outputs = recipe.get("outputs", [])
+    if not outputs or not all((recipe_path.parent / name).is_file() for name in outputs):
+        return None
+    return outputs + [recipe_path.name]
+
+
+def convert_one(source: str, out_dir: str, params_json: str, stem: str) -> dict:
+    """Convert one input in a worker; never raises for a user-facing problem."""
+    from .pipeline import RECIPE_SUFFIX, make_lithograph
+
+    start = time.perf_counter()
+    src, out = Path(source), Path(out_dir)
+    params = LithoParams.from_json(params_json)
+    done = _recipe_matches(out / f"{stem}{RECIPE_SUFFIX}", src, params)
+    if done:
+        return dataclasses.asdict(Outcome(str(src), "skipped (up to date)", done, time.perf_counter() - start))
+    try:
+        litho = make_lithograph(src, params)
+        written = litho.save(out, stem=stem)
+    except TampError as exc:
+        return dataclasses.asdict(Outcome(str(src), "failed", [], time.perf_counter() - start, str(exc)))
+    except Exception as exc:  # a bug must not stop the batch either; report it plainly
+        log.exception("unexpected error on %s", src)
+        return dataclasses.asdict(Outcome(str(src), "failed", [], time.perf_counter() - start, f"{src}: unexpected error: {exc!r}"))
+    return dataclasses.asdict(Outcome(str(src), "converted", [p.name for p in written], time.perf_counter() - start))
+
+
+def write_report(out_dir: Path, outcomes: list[dict]) -> None:
+    from .export import write_atomic
+
+    buf = io.StringIO()
+    writer = csv.writer(buf)
+    writer.writerow(["input", "status", "outputs", "seconds", "error"])
+    for o in outcomes:
+        writer.writerow([o["input"], o["status"], " ".join(o["outputs"]), f"{o['seconds']:.3f}", o["error"]])
+    write_atomic(out_dir / f"{REPORT_NAME}.csv", lambda fh: fh.write(buf.getvalue().encode("utf-8")))
+    text = json.dumps(outcomes, indent=2, ensure_ascii=False) + "\n"
+    write_atomic(out_dir / f"{REPORT_NAME}.json", lambda fh: fh.write(text.encode("utf-8")))
+
+
+def run_batch(
+    jobs: list[Job],
+    out_dir: Path,
+    *,
+    executor=None,
+    workers: int | None = None,
+    on_done: Callable[[dict, int, int], None] | None = None,
+) -> list[dict]:
+    """Run every job on `executor` (any object with submit(fn, *args) -> future), or on a local
+    process pool of `workers` processes. Returns the outcomes in input order."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    name_jobs(jobs)
+    for folder in {job.out_dir for job in jobs}:
+        folder.mkdir(parents=True, exist_ok=True)
+        for stale in folder.glob(".*.part"):  # temporary files of a run that was killed mid-write
+            stale.unlink(missing_ok=True)
+    own_pool = executor is None
+    if own_pool:
+        executor = ProcessPoolExecutor(max_workers=workers or os.cpu_count() or 1)
+    finished: queue.Queue = queue.Queue()
+    outcomes: list[dict | None] = [None] * len(jobs)
+    try:
+        for i, job in enumerate(jobs):
+            future = executor.submit(convert_one, str(job.source), str(job.out_dir), job.params.to_json(), job.stem)
+            future.add_done_callback(lambda f, i=i: finished.put((i, f)))
+        for count in range(1, len(jobs) + 1):
+            i, future = finished.get()
+            try:
+                outcome = future.result()
+            except BaseException as exc:  # the worker itself died (killed, out of memory)
+                outcome = dataclasses.asdict(Outcome(str(jobs[i].source), "failed", [], 0.0, f"{jobs[i].source}: worker failed: {exc!r}"))
+            outcomes[i] = outcome
+            write_report(out_dir, [o for o in outcomes if o is not None])
+            if on_done:
+                on_done(outcome, count, len(jobs))
+    finally:
+        if own_pool:
+            executor.shutdown(cancel_futures=True)
+    return outcomes  # type: ignore[return-value]

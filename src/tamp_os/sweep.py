@@ -1,0 +1,145 @@
+"""Parameter sweeps: the same image with one parameter varied (or several, as a grid), clearly
+named outputs, and a labelled contact sheet of the heightmaps (plus renders when available)."""
+
+from __future__ import annotations
+
+import dataclasses
+import io
+import itertools
+from pathlib import Path
+
+import numpy as np
+
+from .errors import ParameterError
+from .export import write_atomic
+from .params import LithoParams
+
+ALIASES = {"resolution": "resolution_px", "relief": "relief_mm", "base": "base_mm", "blur": "blur_px", "width": "width_mm", "error": "max_error_mm"}
+SHORT = {field: short for short, field in ALIASES.items()}
+FONT = "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf"
+
+
+def parse_vary(specs: list[str]) -> dict[str, list]:
+    """['resolution=64,128', 'relief=2,3'] -> {'resolution_px': [64, 128], 'relief_mm': [2.0, 3.0]}."""
+    fields = {f.name: f for f in dataclasses.fields(LithoParams)}
+    out = {}
+    for spec in specs:
+        name, _, values = spec.partition("=")
+        name = ALIASES.get(name.strip(), name.strip())
+        if name not in fields or not values.strip():
+            raise ParameterError(
+                f"--vary {spec!r}: write NAME=V1,V2,… with NAME a parameter ({', '.join(sorted(ALIASES))} or any field name)."
+            )
+        f = fields[name]
+        lo, hi = f.metadata["lo"], f.metadata["hi"]
+        if isinstance(f.default, bool):
+            kind = _boolean
+        elif lo is None or f.metadata["choices"]:
+            kind = str
+        else:
+            kind = int if isinstance(lo, int) and isinstance(hi, int) else float
+        try:
+            parsed = [kind(v.strip()) for v in values.split(",") if v.strip()]
+        except ValueError:
+            raise ParameterError(f"--vary {spec!r}: {name} takes {kind.__name__} values.") from None
+        out[name] = parsed
+    if not out:
+        raise ParameterError("sweep: give at least one --vary NAME=V1,V2,…")
+    return out
+
+
+def _boolean(text: str) -> bool:
+    if text.lower() not in ("true", "false", "yes", "no", "1", "0"):
+        raise ValueError(text)
+    return text.lower() in ("true", "yes", "1")
+
+
+_boolean.__name__ = "true/false"
+
+
+def _label(value) -> str:
+    return f"{value:g}" if isinstance(value, float) else str(value)
+
+
+def variants(params: LithoParams, vary: dict[str, list]) -> list[tuple[str, LithoParams]]:
+    """(suffix such as 'resolution_px_256', params) for every combination; each is validated."""
+    names = list(vary)
+    out = []
+    for combo in itertools.product(*(vary[n] for n in names)):
+        suffix = "_".join(f"{SHORT.get(n, n)}_{_label(v)}" for n, v in zip(names, combo))
+        out.append((suffix, params.replace(**dict(zip(names, combo)))))
+    return out
+
+
+def _font(size: int):
+    from PIL import ImageFont
+
+    try:
+        return ImageFont.truetype(FONT, size)
+    except OSError:
+        return ImageFont.load_default()
+
+
+def contact_sheet(panels: list[tuple[str, np.ndarray]], panel_px: int = 320) -> "Image.Image":
+    """Images side by side (up to 4 per row), each scaled into a square panel with its label under it."""
+    from PIL import Image, ImageDraw
+
+    cols = min(4, len(panels))
+    rows = -(-len(panels) // cols)
+    label_h = 36
+    sheet = Image.new("RGB", (cols * panel_px, rows * (panel_px + label_h)), "white")
+    draw = ImageDraw.Draw(sheet)
+    for i, (label, image) in enumerate(panels):
+        if image.dtype != np.uint8:
+            lo, hi = float(image.min()), float(image.max())
+            image = ((image - lo) / (hi - lo or 1) * 255).astype(np.uint8)
+        tile = Image.fromarray(image)
+        tile.thumbnail((panel_px - 10, panel_px - 10))
+        x, y = (i % cols) * panel_px, (i // cols) * (panel_px + label_h)
+        sheet.paste(tile, (x + (panel_px - tile.width) // 2, y + (panel_px - tile.height) // 2))
+        draw.text((x + 8, y + panel_px + 6), label, fill="black", font=_font(18))
+    return sheet
+
+
+def save_png(image, path: Path, alt: str) -> list[Path]:
+    buf = io.BytesIO()
+    image.save(buf, format="PNG")
+    written = [write_atomic(path, lambda fh: fh.write(buf.getvalue()))]
+    text = alt + "\n"
+    written.append(write_atomic(path.with_suffix(".alt.txt"), lambda fh: fh.write(text.encode("utf-8"))))
+    return written
+
+
+def run_sweep(image_path, params: LithoParams, vary: dict[str, list], out_dir: Path, render: bool = True) -> dict:
+    """Make every variant, save each (named STEM_NAME_VALUE.ext), and the contact sheet(s)."""
+    from .pipeline import make_lithograph
+
+    out_dir.mkdir(parents=True, exist_ok=True)
+    image_path = Path(image_path)
+    panels, render_panels, written, lines = [], [], [], []
+    for suffix, p in variants(params, vary):
+        litho = make_lithograph(image_path, p)
+        stem = f"{image_path.stem}_{suffix}"
+        paths = litho.save(out_dir, stem=stem)
+        written += paths
+        label = suffix.replace("_", " ")
+        panels.append((label, litho.heightmap))
+        lines.append((stem, litho))
+        if render:
+            from .render import View, render_views
+
+            full, _ = render_views(litho.mesh.vertices, litho.mesh.faces, View(width_px=480, height_px=360))
+            render_panels.append((label, full))
+    names = ", ".join(vary)
+    written += save_png(
+        contact_sheet(panels), out_dir / f"{image_path.stem}_sweep_heightmaps.png",
+        f"Contact sheet of {len(panels)} heightmaps of {image_path.name}, varying {names}; brighter means higher. "
+        f"Panels, left to right and top to bottom: {'; '.join(label for label, _ in panels)}.",
+    )
+    if render_panels:
+        written += save_png(
+            contact_sheet(render_panels), out_dir / f"{image_path.stem}_sweep_renders.png",
+            f"Contact sheet of {len(render_panels)} rendered reliefs of {image_path.name}, varying {names}. "
+            f"Panels: {'; '.join(label for label, _ in render_panels)}.",
+        )
+    return {"variants": lines, "written": written}

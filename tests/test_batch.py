@@ -1,0 +1,113 @@
+"""Batch conversion: failures isolated, reports complete, resumable after a kill, Dask = local."""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from tamp_os.cli import main
+
+
+def make_inputs(folder, good=25, hostile=5, size=(48, 64)):
+    folder.mkdir(parents=True, exist_ok=True)
+    rng = np.random.default_rng(0)
+    for i in range(good):
+        Image.fromarray((rng.random(size) * 255).astype(np.uint8)).save(folder / f"img{i:02d}.png")
+    bad = [b"", b"not an image at all", b"\x89PNG\r\n\x1a\n" + b"\x00" * 20, b"II*\x00" + b"\xff" * 10, b"GIF89a"]
+    for i in range(hostile):
+        (folder / f"bad{i}.png").write_bytes(bad[i % len(bad)])
+    return folder
+
+
+def run(capsys, *argv):
+    code = main([str(a) for a in argv])
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+def test_hostile_inputs_never_stop_the_batch(tmp_path, capsys):
+    src = make_inputs(tmp_path / "in")
+    code, out, _ = run(capsys, "batch", src, "-o", tmp_path / "out", "--preset", "low", "--workers", "2", "--formats", "stl,3mf")
+    assert code == 1
+    assert "25 converted, 0 already up to date, 5 failed" in out
+    report = json.loads((tmp_path / "out" / "batch-report.json").read_text(encoding="utf-8"))
+    assert len(report) == 30
+    failed = [r for r in report if r["status"] == "failed"]
+    assert sorted(os.path.basename(r["input"]) for r in failed) == [f"bad{i}.png" for i in range(5)]
+    assert all(r["error"] and r["input"].split("/")[-1] in r["error"] for r in failed)
+    csv_rows = (tmp_path / "out" / "batch-report.csv").read_text(encoding="utf-8").splitlines()
+    assert len(csv_rows) == 31 and csv_rows[0] == "input,status,outputs,seconds,error"
+    assert len(list((tmp_path / "out").glob("*.3mf"))) == 25
+    # A rerun redoes nothing that is already right.
+    code, out, _ = run(capsys, "batch", src, "-o", tmp_path / "out", "--preset", "low", "--workers", "2", "--formats", "stl,3mf")
+    assert "0 converted, 25 already up to date, 5 failed" in out
+    # Changing a parameter makes every good input out of date.
+    code, out, _ = run(capsys, "batch", src, "-o", tmp_path / "out", "--preset", "low", "--relief-mm", "2", "--formats", "stl,3mf")
+    assert "25 converted" in out
+
+
+def test_killed_batch_resumes_without_rewriting_finished_work(tmp_path):
+    src = make_inputs(tmp_path / "in", good=30, hostile=0, size=(300, 400))
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-m", "tamp_os.cli", "batch", str(src), "-o", str(out), "--workers", "1",
+           "--mesher", "grid", "--resolution-px", "400", "--formats", "stl,3mf,glb"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+    deadline = time.time() + 120
+    while time.time() < deadline and len(list(out.glob("*.tamp.json"))) < 4:
+        time.sleep(0.05)
+    os.killpg(proc.pid, signal.SIGTERM)
+    proc.wait(timeout=30)
+    finished = sorted(out.glob("*.tamp.json"))
+    assert 4 <= len(finished) < 30, "the batch should have been stopped part-way"
+    before = {p.name: (p.stat().st_ino, p.stat().st_mtime_ns) for stem in finished for p in out.glob(stem.name.replace(".tamp.json", ".*"))}
+    done = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    assert len(list(out.glob("*.tamp.json"))) == 30
+    assert not list(out.glob(".*.part"))
+    after = {name: (out / name).stat() for name in before}
+    assert {n: (s.st_ino, s.st_mtime_ns) for n, s in after.items()} == before
+    report = json.loads((out / "batch-report.json").read_text(encoding="utf-8"))
+    skipped = sum(r["status"].startswith("skipped") for r in report)
+    assert skipped >= len(finished) and all(r["status"] != "failed" for r in report)
+
+
+def test_dask_cluster_gives_the_same_outputs_as_the_local_pool(tmp_path, capsys):
+    distributed = pytest.importorskip("distributed")
+    src = make_inputs(tmp_path / "in", good=6, hostile=1)
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None, host="127.0.0.1") as cluster:
+        code, out, _ = run(capsys, "batch", src, "-o", tmp_path / "dask", "--dask-scheduler", cluster.scheduler_address, "--formats", "stl,3mf")
+    assert code == 1 and "6 converted" in out and "1 failed" in out
+    run(capsys, "batch", src, "-o", tmp_path / "local", "--workers", "2", "--formats", "stl,3mf")
+    names = sorted(p.name for p in (tmp_path / "local").glob("*.stl")) + sorted(p.name for p in (tmp_path / "local").glob("*.3mf"))
+    assert len(names) == 12
+    for name in names:
+        assert (tmp_path / "dask" / name).read_bytes() == (tmp_path / "local" / name).read_bytes(), name
+
+
+def test_overrides_recursive_include_and_name_collisions(tmp_path, capsys):
+    src = make_inputs(tmp_path / "in", good=2, hostile=0)
+    (src / "sub").mkdir()
+    Image.open(src / "img00.png").save(src / "sub" / "deep.tif")
+    Image.open(src / "img01.png").save(src / "img01.bmp")  # same stem as img01.png
+    (src / "notes.txt").write_text("sidecar, not an image")
+    overrides = tmp_path / "over.csv"
+    overrides.write_text("file,preset,relief_mm,invert\nimg00.png,high,2.5,true\nsub/deep.tif,low,,\n")
+    code, out, err = run(capsys, "batch", src, "-o", tmp_path / "out", "--recursive", "--overrides", overrides)
+    assert code == 0, err
+    recipe = json.loads((tmp_path / "out" / "img00.tamp.json").read_text(encoding="utf-8"))
+    assert recipe["params"]["preset"] == "high" and recipe["params"]["relief_mm"] == 2.5 and recipe["params"]["invert"] is True
+    deep = json.loads((tmp_path / "out" / "sub" / "deep.tamp.json").read_text(encoding="utf-8"))
+    assert deep["params"]["preset"] == "low"
+    assert (tmp_path / "out" / "img01_png.stl").is_file() and (tmp_path / "out" / "img01_bmp.stl").is_file()
+    code, out, _ = run(capsys, "batch", src, "-o", tmp_path / "only", "--include", "*.bmp")
+    assert "1 converted" in out
+    bad = tmp_path / "bad.csv"
+    bad.write_text("file,relief_mm\nimg00.png,lots\n")
+    code, _, err = run(capsys, "batch", src, "-o", tmp_path / "x", "--overrides", bad)
+    assert code == 2 and "line 2" in err and "relief_mm" in err

@@ -92,6 +92,16 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument("--closeup-zoom", type=float, default=3.0, help="extra zoom of the close-up (default 3)")
     render.add_argument("--size", default="1200x900", metavar="WxH", help="image size in pixels (default 1200x900)")
 
+    slicer = sub.add_parser("slice", help="slice meshes with PrusaSlicer: G-code, print time, grams, cost")
+    slicer.add_argument("meshes", nargs="+", metavar="MESH")
+    estimate = sub.add_parser("estimate", help="mass and cost of meshes without slicing (assumptions stated)")
+    estimate.add_argument("meshes", nargs="+", metavar="MESH")
+    for p in (slicer, estimate):
+        p.add_argument("--printer", default="standard", help="printer profile (default standard)")
+        p.add_argument("--material", default="PLA", help="PLA, PETG or ABS (default PLA)")
+        p.add_argument("--filament-price", type=float, default=None, metavar="PER_KG", help="price per kg (default 25)")
+    slicer.add_argument("--timeout", type=float, default=600.0, metavar="S", help="stop PrusaSlicer after S seconds (default 600)")
+
     presets = sub.add_parser("presets", help="show Low/Medium/High for a printer (and suggest one for an image)")
     presets.add_argument("image", nargs="?", metavar="IMAGE")
     _param_options(presets)
@@ -138,6 +148,7 @@ def main(argv=None) -> int:
         commands = {
             "convert": cmd_convert, "batch": cmd_batch, "presets": cmd_presets, "info": cmd_info,
             "braille-test-plate": cmd_braille_plate, "sweep": cmd_sweep, "render": cmd_render,
+            "slice": cmd_slice, "estimate": cmd_estimate,
         }
         return commands[args.command](args)
     except TampError as exc:
@@ -204,6 +215,8 @@ def cmd_convert(args) -> int:
         print(_line(litho, written))
         for note in _removed_notes(litho.report):
             print(f"  note: {note}")
+        if litho.report.get("print"):
+            print(f"  print: {litho.report['print']['summary']}")
     if failed:
         print(f"{len(failed)} of {len(jobs)} failed: {', '.join(failed)}", file=sys.stderr)
         return EXIT_FAILED
@@ -301,6 +314,47 @@ def cmd_render(args) -> int:
             failed += 1
             continue
         print(f"{path.name}: wrote {', '.join(str(p.relative_to(args.output)) for p in written if p.suffix == '.png')} with alt text")
+    return EXIT_FAILED if failed else EXIT_OK
+
+
+def cmd_slice(args) -> int:
+    from .errors import TampError
+    from .printers import get_printer
+    from .slicer import material, slice_mesh
+
+    printer, mat = get_printer(args.printer), material(args.material, args.filament_price)
+    failed = 0
+    for mesh in args.meshes:
+        try:
+            result = slice_mesh(mesh, printer, mat, timeout_s=args.timeout)
+        except TampError as exc:
+            print(f"error: {exc}", file=sys.stderr)
+            failed += 1
+            continue
+        print(f"{Path(mesh).name}: {result.sentence()}; {result.layers} layers of {result.layer_mm:g} mm; wrote {Path(result.gcode).name}")
+    return EXIT_FAILED if failed else EXIT_OK
+
+
+def cmd_estimate(args) -> int:
+    import trimesh
+
+    from .printers import get_printer
+    from .slicer import estimate, material
+
+    printer, mat = get_printer(args.printer), material(args.material, args.filament_price)
+    failed = 0
+    for mesh_path in args.meshes:
+        try:
+            mesh = trimesh.load(mesh_path, force="mesh")
+        except (OSError, ValueError) as exc:
+            print(f"error: {mesh_path}: cannot be read as a mesh ({exc}).", file=sys.stderr)
+            failed += 1
+            continue
+        if not mesh.is_watertight:
+            print(f"warning: {mesh_path}: not a closed solid; the volume and estimate may be wrong.", file=sys.stderr)
+        e = estimate(float(mesh.volume), mesh.vertices, mesh.faces, printer, mat)
+        print(f"{Path(mesh_path).name}: about {e['filament_g']:.1f} g of {e['material']} ({e['filament_cm3']:.2f} cm³), "
+              f"costing about {e['cost']:.2f} at {e['price_per_kg']:g} per kg. Assumes {e['assumptions']}.")
     return EXIT_FAILED if failed else EXIT_OK
 
 

@@ -26,6 +26,7 @@ from .preprocess import prepare
 from .printers import get_printer, height_levels
 from .read import Picture, read_array, read_image
 from .sizing import Layout, plan_layout
+from .slicer import material, slice_mesh
 from .tactile import Furniture, add_furniture, choose_scale_bar_m
 from .units import parse_length_m
 
@@ -93,6 +94,17 @@ class Lithograph:
             written = [write(fmt) for fmt in formats]
         if self.params.save_masks and self.mask is not None:
             written.append(write_atomic(folder / f"{stem}.annotations.png", lambda fh: _write_mask_png(self.mask, fh)))
+        if self.params.gcode:
+            sliced_from = next((p for p in written if p.suffix == ".stl"), None)
+            if sliced_from is None:
+                sliced_from = save_mesh(self.mesh, folder / f"{stem}.stl", meta)
+                written.append(sliced_from)
+            result = slice_mesh(
+                sliced_from, get_printer(self.params.printer), material(self.params.material, self.params.filament_price_per_kg),
+                timeout_s=self.params.slice_timeout_s, layer_mm=self.report["layer_mm"], nozzle_mm=self.report["nozzle_mm"],
+            )
+            written.append(Path(result.gcode))
+            self.report["print"] = {**result.as_dict(), "gcode": Path(result.gcode).name, "summary": result.sentence()}
         description = meta["description"] + "\n"
         written.append(write_atomic(folder / f"{stem}.description.txt", lambda fh: fh.write(description.encode("utf-8"))))
         recipe = folder / f"{stem}{RECIPE_SUFFIX}"
@@ -129,6 +141,7 @@ def recipe_dict(litho: Lithograph, files: list[str]) -> dict:
         "input": {"name": src.name, "path": src.path, "sha256": src.sha256},
         "params": litho.params.to_dict(),
         "outputs": files,
+        "print": litho.report.get("print"),
         "versions": dict(dependency_versions()),
     }
 

@@ -102,6 +102,13 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument("--filament-price", type=float, default=None, metavar="PER_KG", help="price per kg (default 25)")
     slicer.add_argument("--timeout", type=float, default=600.0, metavar="S", help="stop PrusaSlicer after S seconds (default 600)")
 
+    gui = sub.add_parser("gui", help="start the accessible web app on this computer")
+    gui.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1: this computer only)")
+    gui.add_argument("--port", type=int, default=8765, help="port (default 8765)")
+    gui.add_argument("--no-browser", action="store_true", help="do not open a web browser")
+    gui.add_argument("--max-file-mb", type=float, default=50.0, help="largest upload per image in MB (default 50)")
+    gui.add_argument("--max-files", type=int, default=20, help="most images per job (default 20)")
+
     presets = sub.add_parser("presets", help="show Low/Medium/High for a printer (and suggest one for an image)")
     presets.add_argument("image", nargs="?", metavar="IMAGE")
     _param_options(presets)
@@ -148,7 +155,7 @@ def main(argv=None) -> int:
         commands = {
             "convert": cmd_convert, "batch": cmd_batch, "presets": cmd_presets, "info": cmd_info,
             "braille-test-plate": cmd_braille_plate, "sweep": cmd_sweep, "render": cmd_render,
-            "slice": cmd_slice, "estimate": cmd_estimate,
+            "slice": cmd_slice, "estimate": cmd_estimate, "gui": cmd_gui,
         }
         return commands[args.command](args)
     except TampError as exc:
@@ -317,6 +324,20 @@ def cmd_render(args) -> int:
     return EXIT_FAILED if failed else EXIT_OK
 
 
+def cmd_gui(args) -> int:
+    from .gui import serve
+
+    url = f"http://{args.host}:{args.port}/"
+    print(f"TAMP-OS web app at {url} (press Control-C to stop)", flush=True)
+    if not args.no_browser:
+        import threading
+        import webbrowser
+
+        threading.Timer(1.0, lambda: webbrowser.open(url)).start()
+    serve(args.host, args.port, max_file_mb=args.max_file_mb, max_files=args.max_files)
+    return EXIT_OK
+
+
 def cmd_slice(args) -> int:
     from .errors import TampError
     from .printers import get_printer
@@ -360,53 +381,31 @@ def cmd_estimate(args) -> int:
 
 def cmd_presets(args) -> int:
     from .imagecheck import image_stats, suggest_preset
-    from .printers import ADAPTIVE_RATIO, PRESETS, estimate_file_bytes, get_printer, grid_triangles, height_levels
-    from .sizing import plan_layout
+    from .presets import megabytes, preset_rows
+    from .printers import get_printer, height_levels
 
     params = _params_from_args(args)
     printer = get_printer(params.printer)
-    nozzle = params.nozzle_mm or printer.nozzle_mm
     layer = params.layer_mm or printer.layer_mm
     picture, suggestion = None, None
-    w_px, h_px = 4, 3
     if args.image:
         from .read import read_image
 
         picture = read_image(args.image, page=params.page, channel=params.channel, max_megapixels=params.max_megapixels)
-        w_px, h_px = picture.source.width, picture.source.height
         suggestion = suggest_preset(image_stats(picture.values, picture.alpha))
-    print(f"printer {printer.name}: nozzle {nozzle:g} mm, layer {layer:g} mm, mesher {params.mesher}")
+    print(f"printer {printer.name}: nozzle {params.nozzle_mm or printer.nozzle_mm:g} mm, layer {layer:g} mm, mesher {params.mesher}")
     print(f"height levels: {height_levels(params.relief_mm, layer)} (relief {params.relief_mm:g} mm ÷ layer {layer:g} mm)")
-    for preset in PRESETS:
-        layout = plan_layout(
-            w_px, h_px, width_mm=params.width_mm, height_mm=params.height_mm, default_width_mm=printer.width_mm,
-            fit=params.fit, preset=preset, nozzle_mm=nozzle, resolution_px=params.resolution_px,
-            blur_px=params.blur_px, blur_mm=params.blur_mm,
-        )
-        if picture is not None:  # mesh it for real: exact counts for this image and mesher
-            from .pipeline import make_lithograph
-
-            mesh = make_lithograph(picture, params.replace(preset=preset)).mesh
-            tris, verts, how = mesh.n_triangles, len(mesh.vertices), ""
-        else:
-            tris = grid_triangles(layout.cols, layout.rows)
-            verts = layout.cols * layout.rows + 2 * (layout.cols + layout.rows)
-            how = ""
-            if params.mesher == "adaptive":
-                tris, verts, how = int(tris * ADAPTIVE_RATIO), int(verts * ADAPTIVE_RATIO), "about "
-        sizes = ", ".join(f"{fmt.upper()} {_mb(estimate_file_bytes(fmt, tris, verts))}" for fmt in params.formats)
+    for row in preset_rows(params, picture=picture):
+        sizes = ", ".join(f"{fmt.upper()} {megabytes(n)}" for fmt, n in row["bytes"].items())
+        about = "" if row["exact"] or params.mesher == "grid" else "about "
         print(
-            f"{preset.capitalize()}: grid {layout.cols} × {layout.rows}, {layout.mm_per_px:.3f} mm per pixel, "
-            f"blur {layout.sigma_px:g} px, print {layout.width_mm:g} × {layout.depth_mm:.1f} mm, "
-            f"{how}{tris:,} triangles, estimated {sizes}"
+            f"{row['preset'].capitalize()}: grid {row['cols']} × {row['rows']}, {row['mm_per_px']:.3f} mm per pixel, "
+            f"blur {row['blur_px']:g} px, print {row['width_mm']:g} × {row['depth_mm']:.1f} mm, "
+            f"{about}{row['triangles']:,} triangles, estimated {sizes}"
         )
     if suggestion:
         print(f"suggested for {Path(args.image).name}: {suggestion[0].capitalize()}, because {suggestion[1]}.")
     return EXIT_OK
-
-
-def _mb(n: int) -> str:
-    return f"{n / 1e6:.1f} MB" if n >= 1e5 else f"{n / 1e3:.0f} kB"
 
 
 def _numbers(text: str, name: str) -> list[float]:

@@ -37,6 +37,14 @@ def test_trimesh_reads_a_closed_solid_of_the_right_size(tmp_path, litho, expecte
     np.testing.assert_allclose(loaded.bounds, litho.mesh.bounds_mm, atol=1e-4)
 
 
+def test_writing_3mf_leaves_the_locale_alone(tmp_path, litho):
+    import locale
+
+    before = locale.setlocale(locale.LC_ALL)
+    save_mesh(litho.mesh, tmp_path / "x.3mf", {})
+    assert locale.setlocale(locale.LC_ALL) == before
+
+
 def test_3mf_read_by_lib3mf_with_unit_and_metadata(tmp_path, litho):
     meta = dict(litho.metadata(), title="Gecko setae µm — Ünïcode")
     path = save_mesh(litho.mesh, tmp_path / "x.3mf", meta)

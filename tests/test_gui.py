@@ -86,7 +86,7 @@ def test_whole_flow_with_axe_on_every_state(server, page, fixture, tmp_path):
     audit(page, "empty")
     page.set_input_files("#images", str(fixture("fept_spheres_sem.png")))
     page.get_by_role("button", name="Add images").click()
-    page.wait_for_selector("text=Step 2 of 3")
+    page.wait_for_selector("text=Step 2 of 3", timeout=60000)
     audit(page, "images added")
     assert page.locator("td", has_text="Medium").count() + page.locator("td", has_text="Low").count() + page.locator("td", has_text="High").count() >= 1
     page.locator("summary").click()
@@ -100,7 +100,7 @@ def test_whole_flow_with_axe_on_every_state(server, page, fixture, tmp_path):
     audit(page, "done")
     images = page.locator("figure img")
     assert images.count() == 2 and all(images.nth(i).get_attribute("alt") for i in range(2))
-    with page.expect_download() as download:
+    with page.expect_download(timeout=60000) as download:
         page.get_by_role("link", name="Download everything (zip)").click()
     mesh, names = zip_stl(download.value.path())
     assert any(n.endswith(".3mf") for n in names) is False and "fept_spheres_sem.tamp.json" in names
@@ -127,12 +127,12 @@ def test_the_same_flow_by_keyboard_alone(server, page, fixture):
         raise AssertionError("could not reach the control by Tab")
 
     tab_to(lambda i: i["id"] == "images")
-    with page.expect_file_chooser() as chooser:
+    with page.expect_file_chooser(timeout=60000) as chooser:
         page.keyboard.press("Space")
     chooser.value.set_files(str(fixture("fept_spheres_sem.png")))
     tab_to(lambda i: i["text"] == "Add images")
     page.keyboard.press("Enter")
-    page.wait_for_selector("text=Step 2 of 3")
+    page.wait_for_selector("text=Step 2 of 3", timeout=60000)
     tab_to(lambda i: i["id"].startswith("preset-"))
     page.keyboard.press("ArrowLeft")  # arrow keys move within the radio group: Medium -> Low
     assert page.evaluate("document.activeElement.id") == "preset-low"
@@ -140,7 +140,7 @@ def test_the_same_flow_by_keyboard_alone(server, page, fixture):
     page.keyboard.press("Enter")
     page.wait_for_selector("text=Your lithographs", timeout=60000)
     tab_to(lambda i: i["text"] == "Download everything (zip)")
-    with page.expect_download() as download:
+    with page.expect_download(timeout=60000) as download:
         page.keyboard.press("Enter")
     mesh, _ = zip_stl(download.value.path())
     assert mesh.is_watertight

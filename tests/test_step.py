@@ -1,5 +1,7 @@
 """STEP export read back by OpenCASCADE (through the gmsh wheel) as one closed solid."""
 
+import locale
+
 import numpy as np
 import pytest
 
@@ -12,6 +14,7 @@ from tamp_os.mesh import grid_solid
 
 def occ_solids(path):
     gmsh = pytest.importorskip("gmsh")
+    saved = locale.setlocale(locale.LC_ALL)  # gmsh switches the process to the "C" locale
     gmsh.initialize(["-noenv"])
     try:
         gmsh.option.setNumber("General.Terminal", 0)
@@ -24,6 +27,7 @@ def occ_solids(path):
         return volumes, bbox, n_faces
     finally:
         gmsh.finalize()
+        locale.setlocale(locale.LC_ALL, saved)
 
 
 @pytest.mark.parametrize("mesher", ["adaptive", "grid"])

@@ -8,8 +8,10 @@ the same bytes.
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import functools
+import locale
 import hashlib
 import os
 import shutil
@@ -26,7 +28,23 @@ def _wrapper():
     return lib3mf.get_wrapper()
 
 
+@contextlib.contextmanager
+def _keep_locale():
+    """lib3mf sets the process locale to "C" (for its number formatting) and leaves it so, which
+    silently turns Python's default text encoding into ASCII. Put it back afterwards."""
+    saved = locale.setlocale(locale.LC_ALL)
+    try:
+        yield
+    finally:
+        locale.setlocale(locale.LC_ALL, saved)
+
+
 def write_3mf(mesh, fh, metadata: dict) -> None:
+    with _keep_locale():
+        _write_3mf(mesh, fh, metadata)
+
+
+def _write_3mf(mesh, fh, metadata: dict) -> None:
     import lib3mf
 
     wrapper = _wrapper()

@@ -8,6 +8,7 @@ its own folder, files served only by name from the job's own output list.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import os
 from pathlib import Path
@@ -45,7 +46,12 @@ def create_app(limits: Limits | None = None, store: JobStore | None = None) -> F
             grace_s=float(env.get("TAMP_GUI_GRACE_S", 60)),
             slow_s=float(env.get("TAMP_GUI_SLOW_S", 0)),
         )
-    app = FastAPI(title="TAMP-OS", docs_url=None, redoc_url=None, openapi_url=None)
+    @contextlib.asynccontextmanager
+    async def lifespan(app):
+        yield
+        store.close()  # the job folders go with the server
+
+    app = FastAPI(title="TAMP-OS", docs_url=None, redoc_url=None, openapi_url=None, lifespan=lifespan)
     app.state.store = store
     app.mount("/static", StaticFiles(directory=HERE / "static"), name="static")
     templates = Jinja2Templates(directory=HERE / "templates")
@@ -225,10 +231,6 @@ def create_app(limits: Limits | None = None, store: JobStore | None = None) -> F
     async def delete(job_id: str):
         store.remove(job_id)
         return RedirectResponse("/?message=Your+files+were+deleted.", status_code=303)
-
-    @app.on_event("shutdown")
-    def _close():
-        store.close()
 
     return app
 

@@ -168,6 +168,30 @@ def main(argv=None) -> int:
         return 130
 
 
+def _run_each(items, action, debug: bool = False) -> int:
+    """Run `action(item)` for every item; print its lines, or one error line, and go on.
+
+    Returns EXIT_FAILED when any item failed (each was named), else EXIT_OK.
+    """
+    from .errors import TampError
+
+    failed = 0
+    for item in items:
+        try:
+            lines = action(item)
+        except TampError as exc:
+            if debug:
+                raise
+            print(f"error: {exc}", file=sys.stderr)
+            failed += 1
+            continue
+        for line in lines:
+            print(line)
+    if failed and len(items) > 1:
+        print(f"{failed} of {len(items)} failed.", file=sys.stderr)
+    return EXIT_FAILED if failed else EXIT_OK
+
+
 def _line(litho, written) -> str:
     r = litho.report
     w, d, h = r["print_mm"]
@@ -191,7 +215,6 @@ def _removed_notes(report) -> list[str]:
 
 
 def cmd_convert(args) -> int:
-    from .errors import TampError
     from .pipeline import load_recipe, make_lithograph
 
     jobs = []
@@ -206,28 +229,19 @@ def cmd_convert(args) -> int:
     params = _params_from_args(args)  # validates options once, before any work
     get_printer(params.printer)
     jobs += [(Path(p), params) for p in args.images]
-    failed = []
-    for image, job_params in jobs:
-        try:
-            litho = make_lithograph(image, job_params)
-            written = litho.save(Path(args.output))
-        except TampError as exc:
-            if args.debug:
-                raise
-            print(f"error: {exc}", file=sys.stderr)
-            failed.append(str(image))
-            continue
+
+    def convert(job):
+        image, job_params = job
+        litho = make_lithograph(image, job_params)
+        written = litho.save(Path(args.output))
         for warning in litho.report["warnings"]:
             print(f"warning: {warning}", file=sys.stderr)
-        print(_line(litho, written))
-        for note in _removed_notes(litho.report):
-            print(f"  note: {note}")
+        lines = [_line(litho, written)] + [f"  note: {note}" for note in _removed_notes(litho.report)]
         if litho.report.get("print"):
-            print(f"  print: {litho.report['print']['summary']}")
-    if failed:
-        print(f"{len(failed)} of {len(jobs)} failed: {', '.join(failed)}", file=sys.stderr)
-        return EXIT_FAILED
-    return EXIT_OK
+            lines.append(f"  print: {litho.report['print']['summary']}")
+        return lines
+
+    return _run_each(jobs, convert, args.debug)
 
 
 def cmd_batch(args) -> int:
@@ -300,7 +314,7 @@ def cmd_sweep(args) -> int:
 
 
 def cmd_render(args) -> int:
-    from .errors import ParameterError
+    from .errors import InputError, ParameterError
     from .render import View, find_meshes, render_file
 
     try:
@@ -312,16 +326,15 @@ def cmd_render(args) -> int:
     if not meshes:
         print("error: no meshes found (.stl, .obj, .ply, .glb, .3mf).", file=sys.stderr)
         return EXIT_USAGE
-    failed = 0
-    for path in meshes:
+
+    def render(path):
         try:
             written = render_file(path, Path(args.output), view)
         except (OSError, ValueError) as exc:
-            print(f"error: {path}: cannot be rendered ({exc}).", file=sys.stderr)
-            failed += 1
-            continue
-        print(f"{path.name}: wrote {', '.join(str(p.relative_to(args.output)) for p in written if p.suffix == '.png')} with alt text")
-    return EXIT_FAILED if failed else EXIT_OK
+            raise InputError(f"{path}: cannot be rendered ({exc}).") from None
+        return [f"{path.name}: wrote {', '.join(str(p.relative_to(args.output)) for p in written if p.suffix == '.png')} with alt text"]
+
+    return _run_each(meshes, render, args.debug)
 
 
 def cmd_gui(args) -> int:
@@ -339,44 +352,39 @@ def cmd_gui(args) -> int:
 
 
 def cmd_slice(args) -> int:
-    from .errors import TampError
     from .printers import get_printer
     from .slicer import material, slice_mesh
 
     printer, mat = get_printer(args.printer), material(args.material, args.filament_price)
-    failed = 0
-    for mesh in args.meshes:
-        try:
-            result = slice_mesh(mesh, printer, mat, timeout_s=args.timeout)
-        except TampError as exc:
-            print(f"error: {exc}", file=sys.stderr)
-            failed += 1
-            continue
-        print(f"{Path(mesh).name}: {result.sentence()}; {result.layers} layers of {result.layer_mm:g} mm; wrote {Path(result.gcode).name}")
-    return EXIT_FAILED if failed else EXIT_OK
+
+    def slice_one(mesh):
+        result = slice_mesh(mesh, printer, mat, timeout_s=args.timeout)
+        return [f"{Path(mesh).name}: {result.sentence()}; {result.layers} layers of {result.layer_mm:g} mm; wrote {Path(result.gcode).name}"]
+
+    return _run_each(args.meshes, slice_one, args.debug)
 
 
 def cmd_estimate(args) -> int:
     import trimesh
 
+    from .errors import InputError
     from .printers import get_printer
     from .slicer import estimate, material
 
     printer, mat = get_printer(args.printer), material(args.material, args.filament_price)
-    failed = 0
-    for mesh_path in args.meshes:
+
+    def estimate_one(mesh_path):
         try:
             mesh = trimesh.load(mesh_path, force="mesh")
         except (OSError, ValueError) as exc:
-            print(f"error: {mesh_path}: cannot be read as a mesh ({exc}).", file=sys.stderr)
-            failed += 1
-            continue
+            raise InputError(f"{mesh_path}: cannot be read as a mesh ({exc}).") from None
         if not mesh.is_watertight:
             print(f"warning: {mesh_path}: not a closed solid; the volume and estimate may be wrong.", file=sys.stderr)
         e = estimate(float(mesh.volume), mesh.vertices, mesh.faces, printer, mat)
-        print(f"{Path(mesh_path).name}: about {e['filament_g']:.1f} g of {e['material']} ({e['filament_cm3']:.2f} cm³), "
-              f"costing about {e['cost']:.2f} at {e['price_per_kg']:g} per kg. Assumes {e['assumptions']}.")
-    return EXIT_FAILED if failed else EXIT_OK
+        return [f"{Path(mesh_path).name}: about {e['filament_g']:.1f} g of {e['material']} ({e['filament_cm3']:.2f} cm³), "
+                f"costing about {e['cost']:.2f} at {e['price_per_kg']:g} per kg. Assumes {e['assumptions']}."]
+
+    return _run_each(args.meshes, estimate_one, args.debug)
 
 
 def cmd_presets(args) -> int:

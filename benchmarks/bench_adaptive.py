@@ -46,7 +46,7 @@ def main() -> None:
             for preset in ("low", "medium", "high"):
                 rows = {}
                 for mesher in ("grid", "adaptive"):
-                    litho = make_lithograph(image, preset=preset, mesher=mesher, max_error_mm=0.06)
+                    litho = make_lithograph(image, preset=preset, mesher=mesher, max_error_mm=0.06, scale_bar="off")
                     stl = save_mesh(litho.mesh, out / f"{mesher}.stl")
                     tmf = save_mesh(litho.mesh, out / f"{mesher}.3mf")
                     rows[mesher] = (litho, stl.stat().st_size, tmf.stat().st_size,

@@ -34,8 +34,8 @@ BAR_HEIGHT_MM = 1.0
 TICK_WIDTH_MM = 1.0
 TICK_LENGTH_MM = 5.0
 FRAME_HEIGHT_MM = 1.0
-DOME_SEGMENTS = 32  # vertices on the base circle; the base ring lies exactly on the diameter
-DOME_STEPS = 8  # rings up the spherical cap
+DOME_SEGMENTS = 24  # vertices on the base circle; the base ring lies exactly on the diameter
+DOME_STEPS = 6  # rings up the spherical cap
 
 
 @dataclass

@@ -1,6 +1,5 @@
 """Reading by content at full precision: every fixture, every container, every pixel layout."""
 
-import io
 
 import numpy as np
 import pytest

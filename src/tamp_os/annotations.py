@@ -95,7 +95,7 @@ def detect_annotations(values: np.ndarray) -> tuple[np.ndarray, list[Annotation]
         return mask, found
     h, w = values.shape
     tolerance = 0.02 * (hi - lo)
-    for polarity, saturated in (("white", values >= hi - tolerance), ("black", values <= lo + tolerance)):
+    for saturated in (values >= hi - tolerance, values <= lo + tolerance):  # white, then black marks
         labels, n = ndimage.label(saturated)
         if n == 0:
             continue

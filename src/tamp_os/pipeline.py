@@ -176,7 +176,9 @@ def make_lithograph(source, params: LithoParams | None = None, **changes) -> Lit
     >>> litho = make_lithograph(np.eye(64), width_mm=50, relief_mm=2)   # doctest: +SKIP
     >>> litho.save("out/")                                              # doctest: +SKIP
     """
-    params = (params or LithoParams()).replace(**changes) if changes else (params or LithoParams())
+    params = params or LithoParams()
+    if changes:
+        params = params.replace(**changes)
     timings = {}
     start = time.perf_counter()
     if isinstance(source, Picture):

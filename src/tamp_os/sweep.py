@@ -80,7 +80,7 @@ def _font(size: int):
         return ImageFont.load_default()
 
 
-def contact_sheet(panels: list[tuple[str, np.ndarray]], panel_px: int = 320) -> "Image.Image":
+def contact_sheet(panels: list[tuple[str, np.ndarray]], panel_px: int = 320):
     """Images side by side (up to 4 per row), each scaled into a square panel with its label under it."""
     from PIL import Image, ImageDraw
 

@@ -42,12 +42,13 @@ def test_convert_prints_one_plain_line_per_file(tmp_path, image, capsys):
 
 def test_recipe_rebuilds_byte_for_byte(tmp_path, image, capsys):
     first, second = tmp_path / "a", tmp_path / "b"
-    assert main(["convert", str(image), "-o", str(first), "--formats", "stl,3mf,glb", "--relief-mm", "2.2", "--invert"]) == 0
+    assert main(["convert", str(image), "-o", str(first), "--formats", "stl,3mf,glb,step", "--relief-mm", "2.2", "--invert",
+                 "--caption", "Ramp", "--pixel-size", "2um"]) == 0
     recipe = json.loads((first / "ramp.tamp.json").read_text(encoding="utf-8"))
     assert recipe["params"]["relief_mm"] == 2.2 and recipe["params"]["invert"] is True
     assert len(recipe["input"]["sha256"]) == 64 and "numpy" in recipe["versions"]
     assert main(["convert", "--recipe", str(first / "ramp.tamp.json"), "-o", str(second)]) == 0
-    for name in ("ramp.stl", "ramp.3mf", "ramp.glb", "ramp.tamp.json"):
+    for name in ("ramp.stl", "ramp.3mf", "ramp.glb", "ramp.step", "ramp.description.txt", "ramp.tamp.json"):
         assert (first / name).read_bytes() == (second / name).read_bytes(), name
     image.write_bytes(image.read_bytes() + b"changed")
     assert main(["convert", "--recipe", str(first / "ramp.tamp.json"), "-o", str(second)]) == 2

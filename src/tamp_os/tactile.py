@@ -117,6 +117,17 @@ def _corner_cut(plate_w: float, plate_d: float, height: float):
     return m3.Manifold.extrude(m3.CrossSection([corner]), height).translate((0, 0, -1))
 
 
+def _fuse(parts, plate_w: float, plate_d: float, top_mm: float) -> Mesh:
+    """Union of all parts, minus the orientation corner, as one Mesh."""
+    import manifold3d as m3
+
+    solid = m3.Manifold.batch_boolean(parts, m3.OpType.Add) - _corner_cut(plate_w, plate_d, top_mm + 10)
+    if solid.status() != m3.Error.NoError or solid.is_empty():
+        raise ParameterError(f"tactile furniture: fusing the parts failed ({solid.status()}); please report this input.")
+    out = solid.to_mesh()
+    return Mesh(vertices=np.asarray(out.vert_properties, dtype=np.float64)[:, :3], faces=np.asarray(out.tri_verts, dtype=INDEX))
+
+
 def add_furniture(relief: Mesh, width_mm: float, depth_mm: float, base_mm: float, furniture: Furniture) -> tuple[Mesh, Placed]:
     """The relief on a grown plate with the requested furniture, fused into one solid."""
     import manifold3d as m3
@@ -129,7 +140,7 @@ def add_furniture(relief: Mesh, width_mm: float, depth_mm: float, base_mm: float
     # Rows below the relief, from the relief downwards.
     rows_h = []
     label_lines: list[str] = []
-    bar_mm = None
+    bar_mm, label = None, None
     if furniture.scale_bar_m is not None:
         bar_mm = furniture.scale_bar_m / furniture.sample_m_per_print_mm
         label = format_length(furniture.scale_bar_m).replace(".0 ", " ")
@@ -179,10 +190,9 @@ def add_furniture(relief: Mesh, width_mm: float, depth_mm: float, base_mm: float
         for tx in (x0, x0 + bar_mm - TICK_WIDTH_MM):
             parts.append(_box(tx, mid - TICK_LENGTH_MM / 2, tx + TICK_WIDTH_MM, mid + TICK_LENGTH_MM / 2, top - sink, top + BAR_HEIGHT_MM))
         placed.scale_bar_box = (x0, mid - TICK_LENGTH_MM / 2, x0 + bar_mm, mid + TICK_LENGTH_MM / 2)
-        label_w, label_h = block_size_mm(label_lines, spec)
         lx = x0 + bar_mm + CLEARANCE_MM
         centres += dot_centres(label_lines, spec, lx, mid + label_h / 2)
-        placed.scale_label = format_length(furniture.scale_bar_m).replace(".0 ", " ")
+        placed.scale_label = label
         placed.scale_label_braille = label_lines[0]
         placed.scale_label_box = (lx, mid - label_h / 2, lx + label_w, mid + label_h / 2)
         cursor -= row_h
@@ -194,18 +204,12 @@ def add_furniture(relief: Mesh, width_mm: float, depth_mm: float, base_mm: float
         placed.caption_box = (BORDER_MM, cursor - h, BORDER_MM + w, cursor)
     parts += [dome.translate((x, y, top)) for x, y in centres]
     placed.dots = len(centres)
-    solid = m3.Manifold.batch_boolean(parts, m3.OpType.Add)
-    solid = solid - _corner_cut(plate_w, plate_d, top + 10)
-    if solid.status() != m3.Error.NoError or solid.is_empty():
-        raise ParameterError(f"tactile furniture: fusing the parts failed ({solid.status()}); please report this input.")
-    out = solid.to_mesh()
-    return Mesh(vertices=np.asarray(out.vert_properties, dtype=np.float64)[:, :3], faces=np.asarray(out.tri_verts, dtype=INDEX)), placed
+    return _fuse(parts, plate_w, plate_d, top), placed
 
 
 def braille_test_plate(text: str, table: str, heights_mm, diameters_mm, base_mm: float = 1.5):
     """A plate with `text` in braille once per (dot height, dot diameter), each row numbered in
     braille at its start, so a reader can pick what their printer makes legible."""
-    import manifold3d as m3
 
     rows = [(h, d) for h in heights_mm for d in diameters_mm]
     specs = [BrailleSpec(dot_diameter_mm=d, dot_height_mm=h) for h, d in rows]
@@ -218,7 +222,4 @@ def braille_test_plate(text: str, table: str, heights_mm, diameters_mm, base_mm:
         dome = _dome(spec, min(0.4, base_mm / 2))
         top_y = depth - BOTTOM_BORDER_MM - i * spec.line_spacing_mm
         parts += [dome.translate((x, y, base_mm)) for x, y in dot_centres([line], spec, BORDER_MM, top_y)]
-    solid = m3.Manifold.batch_boolean(parts, m3.OpType.Add)
-    out = (solid - _corner_cut(width, depth, base_mm + 10)).to_mesh()
-    mesh = Mesh(vertices=np.asarray(out.vert_properties, dtype=np.float64)[:, :3], faces=np.asarray(out.tri_verts, dtype=INDEX))
-    return mesh, rows, lines
+    return _fuse(parts, width, depth, base_mm), rows, lines

@@ -229,10 +229,11 @@ def _read_dm(path, max_megapixels):
 
 
 def _read_pillow(path, data, page, max_megapixels):
-    from PIL import Image, UnidentifiedImageError
-
     import io
 
+    from PIL import Image, UnidentifiedImageError
+
+    fmt = "image"
     with warnings.catch_warnings():
         # Our own size check below replaces Pillow's bomb guard so the message can be ours.
         warnings.simplefilter("ignore", Image.DecompressionBombWarning)
@@ -257,7 +258,7 @@ def _read_pillow(path, data, page, max_megapixels):
         except (InputError, ParameterError):
             raise
         except (OSError, SyntaxError, ValueError, EOFError) as exc:
-            raise InputError(f"{path}: the {fmt if 'fmt' in locals() else ''} image is damaged or truncated ({exc}).") from None
+            raise InputError(f"{path}: the {fmt} file is damaged or truncated ({exc}).") from None
         finally:
             Image.MAX_IMAGE_PIXELS = old_limit
     meta = {"pillow_mode": im.mode}

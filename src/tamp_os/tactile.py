@@ -210,7 +210,6 @@ def add_furniture(relief: Mesh, width_mm: float, depth_mm: float, base_mm: float
 def braille_test_plate(text: str, table: str, heights_mm, diameters_mm, base_mm: float = 1.5):
     """A plate with `text` in braille once per (dot height, dot diameter), each row numbered in
     braille at its start, so a reader can pick what their printer makes legible."""
-
     rows = [(h, d) for h in heights_mm for d in diameters_mm]
     specs = [BrailleSpec(dot_diameter_mm=d, dot_height_mm=h) for h, d in rows]
     body = to_braille(text, table)

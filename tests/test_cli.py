@@ -126,3 +126,17 @@ def test_presets_count_the_triangles_of_the_mesher_in_use(image, capsys):
     assert f"{medium.mesh.n_triangles:,} triangles" in out and "mesher adaptive" in out
     assert main(["presets", str(image), "--mesher", "grid"]) == 0
     assert "95,742 triangles" in capsys.readouterr().out
+
+
+def test_parse_field_types_text_for_every_kind_of_field():
+    from tamp_os.params import parse_field
+
+    assert parse_field("relief_mm", " 2.5 ") == 2.5
+    assert parse_field("resolution_px", "128") == 128
+    assert parse_field("invert", "Yes") is True and parse_field("flip_x", "off") is False
+    assert parse_field("formats", "STL, .3mf") == ("stl", "3mf")
+    assert parse_field("caption", "FePt spheres") == "FePt spheres"
+    for name, text, needle in (("resolution_px", "1.5", "whole number"), ("invert", "maybe", "true or false"),
+                               ("relief_mm", "lots", "relief_mm: must be a number"), ("nosuch", "1", "unknown parameter")):
+        with pytest.raises(ParameterError, match=needle):
+            parse_field(name, text)

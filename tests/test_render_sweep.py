@@ -67,5 +67,5 @@ def test_vary_grid_and_errors():
     assert names == ["resolution_64_invert_False", "resolution_64_invert_True", "resolution_128_invert_False", "resolution_128_invert_True"]
     with pytest.raises(ParameterError, match="NAME=V1"):
         parse_vary(["nonsense=1"])
-    with pytest.raises(ParameterError, match="int"):
+    with pytest.raises(ParameterError, match="whole number"):
         parse_vary(["resolution=abc"])

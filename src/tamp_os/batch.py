@@ -25,7 +25,7 @@ from pathlib import Path
 from typing import Callable
 
 from .errors import InputError, ParameterError, TampError
-from .params import LithoParams
+from .params import LithoParams, parse_field
 
 log = logging.getLogger(__name__)
 
@@ -82,31 +82,6 @@ def collect_inputs(items, recursive: bool = False, include: tuple[str, ...] | No
     return found
 
 
-FIELD_TYPES = {f.name: f for f in dataclasses.fields(LithoParams)}
-
-
-def _cell_value(name: str, text: str, where: str):
-    f = FIELD_TYPES.get(name)
-    if f is None:
-        raise ParameterError(f"{where}: unknown column {name!r}; columns must be 'file' or parameter names such as preset, relief_mm, invert.")
-    default = f.default
-    try:
-        if isinstance(default, bool):
-            if text.lower() not in ("true", "false", "yes", "no", "1", "0"):
-                raise ValueError(text)
-            return text.lower() in ("true", "yes", "1")
-        if name == "formats":
-            return tuple(v.strip() for v in text.split(",") if v.strip())
-        lo = f.metadata["lo"]
-        if lo is None or f.metadata["choices"]:
-            return text
-        if isinstance(lo, int) and isinstance(f.metadata["hi"], int):
-            return int(text)
-        return float(text)
-    except ValueError:
-        raise ParameterError(f"{where}: column {name} cannot be {text!r}.") from None
-
-
 def read_overrides(path: Path) -> dict[str, dict]:
     """Per-image parameter changes from a CSV: a 'file' column (name or relative path) + parameters."""
     try:
@@ -119,8 +94,11 @@ def read_overrides(path: Path) -> dict[str, dict]:
     overrides = {}
     for number, row in enumerate(rows, start=2):
         where = f"{path} line {number}"
-        changes = {k: _cell_value(k, v.strip(), where) for k, v in row.items() if k != "file" and v and v.strip()}
-        LithoParams().replace(**changes)  # validate now, not in the middle of the batch
+        try:
+            changes = {k: parse_field(k, v) for k, v in row.items() if k != "file" and v and v.strip()}
+            LithoParams().replace(**changes)  # validate now, not in the middle of the batch
+        except ParameterError as exc:
+            raise ParameterError(f"{where}: {exc}") from None
         overrides[row["file"].strip()] = changes
     return overrides
 

@@ -126,6 +126,32 @@ class LithoParams:
         return dataclasses.replace(self, **changes)
 
 
+def parse_field(name: str, text: str):
+    """A field's value from text (a CSV cell, a form field, a --vary value), typed by the field.
+
+    Raises ParameterError naming the field, what it takes and the text received. Range checks
+    happen when the LithoParams is built.
+    """
+    fields = {f.name: f for f in dataclasses.fields(LithoParams)}
+    if name not in fields:
+        raise ParameterError(f"unknown parameter {name!r}; known: {', '.join(sorted(fields))}.")
+    f, text = fields[name], text.strip()
+    m = f.metadata
+    if isinstance(f.default, bool):
+        if text.lower() not in ("true", "false", "yes", "no", "1", "0", "on", "off"):
+            raise ParameterError(f"{name}: must be true or false; got {text!r}.")
+        return text.lower() in ("true", "yes", "1", "on")
+    if name == "formats":
+        return tuple(v.strip().lower().lstrip(".") for v in text.split(",") if v.strip())
+    if m["lo"] is None or m["choices"]:
+        return text
+    whole = isinstance(m["lo"], int) and isinstance(m["hi"], int)
+    try:
+        return int(text) if whole else float(text)
+    except ValueError:
+        raise ParameterError(f"{name}: must be a {'whole ' if whole else ''}number ({describe_range(f)}); got {text!r}.") from None
+
+
 def describe_range(f: dataclasses.Field) -> str:
     m = f.metadata
     if m["choices"]:

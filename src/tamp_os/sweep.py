@@ -12,8 +12,9 @@ import numpy as np
 
 from .errors import ParameterError
 from .export import write_atomic
-from .params import LithoParams
+from .params import LithoParams, parse_field
 
+FIELD_NAMES = {f.name for f in dataclasses.fields(LithoParams)}
 ALIASES = {"resolution": "resolution_px", "relief": "relief_mm", "base": "base_mm", "blur": "blur_px", "width": "width_mm", "error": "max_error_mm"}
 SHORT = {field: short for short, field in ALIASES.items()}
 FONT = "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf"
@@ -21,40 +22,18 @@ FONT = "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf"
 
 def parse_vary(specs: list[str]) -> dict[str, list]:
     """['resolution=64,128', 'relief=2,3'] -> {'resolution_px': [64, 128], 'relief_mm': [2.0, 3.0]}."""
-    fields = {f.name: f for f in dataclasses.fields(LithoParams)}
     out = {}
     for spec in specs:
         name, _, values = spec.partition("=")
         name = ALIASES.get(name.strip(), name.strip())
-        if name not in fields or not values.strip():
+        if name not in FIELD_NAMES or not values.strip():
             raise ParameterError(
                 f"--vary {spec!r}: write NAME=V1,V2,… with NAME a parameter ({', '.join(sorted(ALIASES))} or any field name)."
             )
-        f = fields[name]
-        lo, hi = f.metadata["lo"], f.metadata["hi"]
-        if isinstance(f.default, bool):
-            kind = _boolean
-        elif lo is None or f.metadata["choices"]:
-            kind = str
-        else:
-            kind = int if isinstance(lo, int) and isinstance(hi, int) else float
-        try:
-            parsed = [kind(v.strip()) for v in values.split(",") if v.strip()]
-        except ValueError:
-            raise ParameterError(f"--vary {spec!r}: {name} takes {kind.__name__} values.") from None
-        out[name] = parsed
+        out[name] = [parse_field(name, v) for v in values.split(",") if v.strip()]
     if not out:
         raise ParameterError("sweep: give at least one --vary NAME=V1,V2,…")
     return out
-
-
-def _boolean(text: str) -> bool:
-    if text.lower() not in ("true", "false", "yes", "no", "1", "0"):
-        raise ValueError(text)
-    return text.lower() in ("true", "yes", "1")
-
-
-_boolean.__name__ = "true/false"
 
 
 def _label(value) -> str:

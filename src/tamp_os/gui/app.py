@@ -19,8 +19,8 @@ from fastapi.staticfiles import StaticFiles
 from fastapi.templating import Jinja2Templates
 
 from ..errors import ParameterError, TampError
-from ..params import FORMATS, LithoParams
-from ..printers import PRESETS, all_printers
+from ..params import FORMATS, LithoParams, parse_field
+from ..printers import PRESETS, all_printers, get_printer
 from .jobs import JobStore, Upload, safe_name
 
 HERE = Path(__file__).parent
@@ -46,6 +46,7 @@ def create_app(limits: Limits | None = None, store: JobStore | None = None) -> F
             grace_s=float(env.get("TAMP_GUI_GRACE_S", 60)),
             slow_s=float(env.get("TAMP_GUI_SLOW_S", 0)),
         )
+
     @contextlib.asynccontextmanager
     async def lifespan(app):
         yield
@@ -55,7 +56,6 @@ def create_app(limits: Limits | None = None, store: JobStore | None = None) -> F
     app.state.store = store
     app.mount("/static", StaticFiles(directory=HERE / "static"), name="static")
     templates = Jinja2Templates(directory=HERE / "templates")
-    fields = {f.name: f for f in dataclasses.fields(LithoParams)}
 
     @app.middleware("http")
     async def headers(request: Request, call_next):
@@ -176,34 +176,14 @@ def create_app(limits: Limits | None = None, store: JobStore | None = None) -> F
         return RedirectResponse(f"/jobs/{job.id}", status_code=303)
 
     def _params(form) -> LithoParams:
-        changes = {}
-        for name in NUMBER_FIELDS:
-            text = (form.get(name) or "").strip()
-            if text:
-                kind = int if name == "resolution_px" else float
-                try:
-                    changes[name] = kind(text)
-                except ValueError:
-                    raise ParameterError(f"{name}: must be a {'whole ' if kind is int else ''}number ({_range(name)}); got {text!r}.") from None
-        for name in TEXT_FIELDS:
-            text = (form.get(name) or "").strip()
-            if text:
-                changes[name] = text
-        for name in FLAGS:
-            changes[name] = form.get(name) == "on"
+        changes = {name: parse_field(name, form.get(name) or "") for name in (*NUMBER_FIELDS, *TEXT_FIELDS) if (form.get(name) or "").strip()}
+        changes.update({name: form.get(name) == "on" for name in FLAGS})
         changes["printer"] = form.get("printer") or "standard"
         changes["preset"] = form.get("preset") or "medium"
         changes["formats"] = tuple(form.getlist("formats")) or ("stl",)
         params = LithoParams(**changes)
-        from ..printers import get_printer
-
         get_printer(params.printer)
         return params
-
-    def _range(name):
-        from ..params import describe_range
-
-        return describe_range(fields[name])
 
     @app.get("/jobs/{job_id}/status")
     async def status(job_id: str):

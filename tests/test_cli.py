@@ -140,3 +140,13 @@ def test_parse_field_types_text_for_every_kind_of_field():
                                ("relief_mm", "lots", "relief_mm: must be a number"), ("nosuch", "1", "unknown parameter")):
         with pytest.raises(ParameterError, match=needle):
             parse_field(name, text)
+
+
+def test_every_command_answers_help(capsys):
+    from tamp_os.cli import build_parser
+
+    parser = build_parser()
+    commands = next(a for a in parser._actions if a.dest == "command").choices
+    for name in [None, *commands]:
+        assert main(["--help"] if name is None else [name, "--help"]) == 0, name
+        assert "usage: tamp-os" in capsys.readouterr().out, name

@@ -24,6 +24,7 @@ def _param_options(parser: argparse.ArgumentParser) -> None:
         m = f.metadata
         flag = m["flag"] or "--" + f.name.replace("_", "-")
         help_text = f"{m['help']} ({describe_range(f)}; default {f.default if f.default is not None else 'derived'})"
+        help_text = help_text.replace("%", "%%")  # argparse formats help strings with %
         if f.name == "formats":
             group.add_argument(flag, dest=f.name, default=None, help=f"comma-separated: {', '.join(m['choices'])} (default stl)")
         elif isinstance(f.default, bool):

@@ -69,3 +69,11 @@ def test_vary_grid_and_errors():
         parse_vary(["nonsense=1"])
     with pytest.raises(ParameterError, match="whole number"):
         parse_vary(["resolution=abc"])
+
+
+def test_a_folder_renders_each_print_once(tmp_path):
+    from tamp_os.render import find_meshes
+
+    for name in ("a.stl", "a.3mf", "a.glb", "b.obj", "b.ply", "c.txt"):
+        (tmp_path / name).write_bytes(b"")
+    assert [p.name for p in find_meshes([tmp_path])] == ["a.stl", "b.obj"]

@@ -121,10 +121,16 @@ def render_file(path: Path, out_dir: Path, view: View) -> list[Path]:
 
 
 def find_meshes(items) -> list[Path]:
+    """Meshes named, and in folders one file per name (the same print in several formats is
+    rendered once, from the first of MESH_SUFFIXES present)."""
     found = []
     for item in map(Path, items):
         if item.is_dir():
-            found += sorted(p for p in item.iterdir() if p.suffix.lower() in MESH_SUFFIXES)
+            by_stem: dict[str, Path] = {}
+            for path in sorted(item.iterdir(), key=lambda p: (p.stem, MESH_SUFFIXES.index(p.suffix.lower()) if p.suffix.lower() in MESH_SUFFIXES else 99)):
+                if path.suffix.lower() in MESH_SUFFIXES:
+                    by_stem.setdefault(path.stem, path)
+            found += list(by_stem.values())
         else:
             found.append(item)
     return found

@@ -111,3 +111,11 @@ def test_overrides_recursive_include_and_name_collisions(tmp_path, capsys):
     bad.write_text("file,relief_mm\nimg00.png,lots\n")
     code, _, err = run(capsys, "batch", src, "-o", tmp_path / "x", "--overrides", bad)
     assert code == 2 and "line 2" in err and "relief_mm" in err
+
+
+def test_unreachable_dask_scheduler_is_a_clear_usage_error(tmp_path, capsys):
+    from tamp_os.gui import free_port
+
+    src = make_inputs(tmp_path / "in", good=1, hostile=0)
+    code, _, err = run(capsys, "batch", src, "-o", tmp_path / "out", "--dask-scheduler", f"tcp://127.0.0.1:{free_port()}")
+    assert code == 2 and "cannot reach a Dask scheduler" in err and "Traceback" not in err

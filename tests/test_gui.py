@@ -287,3 +287,16 @@ def test_slicing_from_the_web_app(server):
             time.sleep(0.3)
         page = client.get(f"/jobs/{job}").text
         assert "Printing:" in page and "g of PLA" in page and "p.gcode" in page
+
+
+def test_port_in_use_is_a_clear_message(capsys):
+    import socket
+
+    from tamp_os.cli import main
+
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        assert main(["gui", "--no-browser", "--port", str(port)]) == 2
+    assert "choose another port with --port" in capsys.readouterr().err

@@ -273,7 +273,15 @@ def cmd_batch(args) -> int:
             from .errors import MissingDependencyError
 
             raise MissingDependencyError("--dask-scheduler needs Dask: pip install 'dask[distributed]'.") from None
-        client = Client(args.dask_scheduler, timeout="20s")
+        try:
+            client = Client(args.dask_scheduler, timeout="10s")
+        except (OSError, TimeoutError) as exc:
+            from .errors import InputError
+
+            raise InputError(
+                f"--dask-scheduler: cannot reach a Dask scheduler at {args.dask_scheduler} ({exc}); check the address, "
+                f"or start one with 'dask scheduler', or leave the option out to use this computer's cores."
+            ) from None
         executor = client.get_executor()
     bar = None
     if sys.stderr.isatty():
@@ -345,6 +353,15 @@ def cmd_render(args) -> int:
 def cmd_gui(args) -> int:
     from .gui import serve
 
+    import socket
+
+    from .errors import ParameterError
+
+    with socket.socket() as probe:
+        try:
+            probe.bind((args.host, args.port))
+        except OSError as exc:
+            raise ParameterError(f"--port: cannot listen on {args.host}:{args.port} ({exc.strerror}); choose another port with --port.") from None
     url = f"http://{args.host}:{args.port}/"
     print(f"TAMP-OS web app at {url} (press Control-C to stop)", flush=True)
     if not args.no_browser:

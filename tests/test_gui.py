@@ -300,3 +300,19 @@ def test_port_in_use_is_a_clear_message(capsys):
         port = taken.getsockname()[1]
         assert main(["gui", "--no-browser", "--port", str(port)]) == 2
     assert "choose another port with --port" in capsys.readouterr().err
+
+
+def test_per_image_override_applies_to_that_image_only(server):
+    url, _ = server
+    with httpx.Client(base_url=url, timeout=120) as client:
+        files = []
+        for i in range(2):
+            buf = io.BytesIO()
+            Image.fromarray((np.random.default_rng(10 + i).random((30, 40)) * 255).astype(np.uint8)).save(buf, "PNG")
+            files.append(("images", (f"img{i}.png", buf.getvalue(), "image/png")))
+        job = client.post("/jobs", files=files).headers["location"].rsplit("/", 1)[1]
+        client.post(f"/jobs/{job}/generate", data={"preset": "low", "formats": "stl", "override_1": "high"})
+        while client.get(f"/jobs/{job}/status").json()["state"] != "done":
+            time.sleep(0.2)
+        page = client.get(f"/jobs/{job}").text
+        assert "grid 125 × 94" in page and "grid 500 × 375" in page

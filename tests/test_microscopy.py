@@ -234,3 +234,44 @@ def test_parse_label_accepts_only_one_clean_length():
     assert parse_label("2,5 um") == pytest.approx(2.5e-6)
     for bad in ("10 pm", "10 µm 20 µm", "about 10 µm", "10\nµm", ""):
         assert parse_label(bad) is None, bad
+
+
+@pytest.mark.parametrize("fill, points", [(255, [(400, 300), (300, 400)]), (0, [(120, 240), (300, 240)])])
+def test_drawn_arrows_are_removed(fill, points):
+    from PIL import ImageDraw
+
+    from tamp_os.annotations import detect_annotations
+
+    rng = np.random.default_rng(0)
+    image = Image.fromarray((90 + 40 * rng.random((480, 640))).astype(np.uint8))
+    draw = ImageDraw.Draw(image)
+    (x0, y0), (x1, y1) = points
+    draw.line(points, fill=fill, width=6)
+    # A triangular head at the second point, pointing along the shaft.
+    dx, dy = (x1 - x0) / np.hypot(x1 - x0, y1 - y0), (y1 - y0) / np.hypot(x1 - x0, y1 - y0)
+    tip = (x1 + 20 * dx, y1 + 20 * dy)
+    draw.polygon([tip, (x1 - 12 * dy, y1 + 12 * dx), (x1 + 12 * dy, y1 - 12 * dx)], fill=fill)
+    values = np.asarray(image).astype(np.float32)
+    mask, found = detect_annotations(values)
+    assert [a.kind for a in found] == ["arrow"]
+    drawn = np.asarray(image) == fill
+    assert mask[drawn].mean() > 0.99 and mask.sum() < 3 * drawn.sum()
+
+
+def test_no_false_annotations_on_natural_pictures(fixture):
+    import skimage.data
+
+    from tamp_os.annotations import detect_annotations
+    from tamp_os.cleanup import clean_source
+
+    for name in ("cell", "moon", "coins", "camera", "retina", "hubble_deep_field", "astronaut", "brick", "gravel", "horse", "clock"):
+        _, found = detect_annotations(read_image_array(getattr(skimage.data, name)()))
+        assert found == [], name
+    zeiss = clean_source(read_image(fixture("test_tiff_Zeiss_SEM_1k.tif")), pixel_size=None, remove_annotations=True)
+    assert zeiss.annotations == []  # its bright sample edge is not an arrow or a label
+
+
+def read_image_array(array):
+    from tamp_os.read import read_array
+
+    return read_array(array).values

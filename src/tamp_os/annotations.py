@@ -79,13 +79,45 @@ def detect_info_band(values: np.ndarray) -> tuple[int, int]:
     return top, bottom
 
 
+def is_arrow(solid: np.ndarray, image_size_px: int) -> bool:
+    """Whether a saturated blob is a drawn arrow: a straight shaft of even width ending in a head
+    at least twice as wide. Natural bright or dark features are rarely straight and of constant
+    width, so this rejects sphere rims, cracks and highlights."""
+    rows, cols = np.nonzero(solid)
+    if rows.size < 40:
+        return False
+    points = np.column_stack([rows, cols]).astype(np.float64)
+    points -= points.mean(axis=0)
+    _, spread, axes = np.linalg.svd(points, full_matrices=False)
+    along = points @ axes[0]
+    across = points @ axes[1]
+    length = float(along.max() - along.min())
+    if not (0.03 * image_size_px <= length <= 0.5 * image_size_px) or spread[1] <= 0 or spread[0] / spread[1] < 3:
+        return False
+    # Width of the blob in ten slices along its axis.
+    edges = np.linspace(along.min(), along.max() + 1e-9, 11)
+    widths = []
+    for a, b in zip(edges[:-1], edges[1:]):
+        inside = (along >= a) & (along < b)
+        widths.append(float(np.ptp(across[inside])) + 1 if inside.any() else 0.0)
+    widths = np.array(widths)
+    shaft = widths[2:8]
+    if shaft.min() <= 0 or shaft.max() > 1.5 * shaft.min() + 1 or np.median(shaft) > 0.15 * length:
+        return False  # not a straight shaft of even width
+    # A head at one end only, and the other end as thin as the shaft.
+    shaft_width = float(np.median(shaft))
+    start, end = widths[:2].max(), widths[-2:].max()
+    head, tail = max(start, end), min(start, end)
+    return head >= 2.0 * shaft_width and tail <= 1.5 * shaft_width + 1
+
+
 def detect_annotations(values: np.ndarray) -> tuple[np.ndarray, list[Annotation]]:
     """Mask of burned-in annotations inside the picture, and what they are.
 
     Scale-bar and label boxes: saturated (white or black) regions that, with holes (their text)
     filled, are nearly perfect rectangles and do hold text. Thin bars: saturated rectangles at
-    least 8x longer than tall and at most 3 % of the image high. Text near them (small saturated
-    glyphs within a box height) goes with them.
+    least 8x longer than tall and at most 3 % of the image high. Arrows: see is_arrow. Text near
+    boxes and bars (small saturated glyphs within a box height) goes with them.
     """
     finite = np.isfinite(values)
     lo, hi = float(values[finite].min()), float(values[finite].max())
@@ -96,6 +128,7 @@ def detect_annotations(values: np.ndarray) -> tuple[np.ndarray, list[Annotation]
     h, w = values.shape
     tolerance = 0.02 * (hi - lo)
     for saturated in (values >= hi - tolerance, values <= lo + tolerance):  # white, then black marks
+        found_before = len(found)
         labels, n = ndimage.label(saturated)
         if n == 0:
             continue
@@ -105,6 +138,10 @@ def detect_annotations(values: np.ndarray) -> tuple[np.ndarray, list[Annotation]
             if bh * bw < 60 or bh * bw > 0.08 * h * w or bh >= 0.5 * h or bw >= 0.9 * w:
                 continue
             solid = labels[sl] == i
+            if is_arrow(solid, max(h, w)):
+                found.append(Annotation("arrow", (sl[0].start, sl[0].stop), (sl[1].start, sl[1].stop)))
+                mask[sl] |= solid
+                continue
             region = ndimage.binary_fill_holes(solid)
             fill = region.sum() / (bh * bw)
             if fill < 0.95 or min(bh, bw) < 3:
@@ -118,18 +155,20 @@ def detect_annotations(values: np.ndarray) -> tuple[np.ndarray, list[Annotation]
             kind = "bar" if thin_bar and not has_text else "box"
             found.append(Annotation(kind, (sl[0].start, sl[0].stop), (sl[1].start, sl[1].stop)))
             mask[sl] |= region
-        # Glyphs of text beside a found bar or box (not inside: holes are already filled).
-        if found:
+        # Glyphs of text beside a bar or box of this colour (not inside: holes are already filled).
+        labelled = [a for a in found[found_before:] if a.kind in ("box", "bar")]
+        if labelled:
             near = np.zeros_like(mask)
-            for a in found:
+            for a in labelled:
                 pad = max(4, a.rows[1] - a.rows[0])
                 near[max(0, a.rows[0] - pad) : a.rows[1] + pad, max(0, a.cols[0] - 3 * pad) : a.cols[1] + 3 * pad] = True
             glyphs = saturated & near & ~mask
             labels, n = ndimage.label(glyphs)
             for i, sl in enumerate(ndimage.find_objects(labels), start=1):
                 bh, bw = sl[0].stop - sl[0].start, sl[1].stop - sl[1].start
-                if bh <= 0.06 * h and bw <= 0.06 * w:
-                    mask[sl] |= labels[sl] == i
+                glyph = labels[sl] == i
+                if bh <= 0.06 * h and bw <= 0.06 * w and glyph.sum() >= 6:  # letters, not noise specks
+                    mask[sl] |= glyph
                     found.append(Annotation("text", (sl[0].start, sl[0].stop), (sl[1].start, sl[1].stop)))
     if mask.any():
         mask = ndimage.binary_dilation(mask, iterations=2)  # JPEG halos around the edges

@@ -147,16 +147,16 @@ def convert_one(source: str, out_dir: str, params_json: str, stem: str) -> dict:
 
 
 def write_report(out_dir: Path, outcomes: list[dict]) -> None:
-    from .export import write_atomic
+    from .export import write_text
 
     buf = io.StringIO()
     writer = csv.writer(buf)
     writer.writerow(["input", "status", "outputs", "seconds", "error"])
     for o in outcomes:
         writer.writerow([o["input"], o["status"], " ".join(o["outputs"]), f"{o['seconds']:.3f}", o["error"]])
-    write_atomic(out_dir / f"{REPORT_NAME}.csv", lambda fh: fh.write(buf.getvalue().encode("utf-8")))
+    write_text(out_dir / f"{REPORT_NAME}.csv", buf.getvalue())
     text = json.dumps(outcomes, indent=2, ensure_ascii=False) + "\n"
-    write_atomic(out_dir / f"{REPORT_NAME}.json", lambda fh: fh.write(text.encode("utf-8")))
+    write_text(out_dir / f"{REPORT_NAME}.json", text)
 
 
 def run_batch(

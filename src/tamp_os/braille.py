@@ -18,7 +18,6 @@ from pathlib import Path
 from .errors import MissingDependencyError, ParameterError
 
 DEFAULT_TABLE = "en-ueb-g2.ctb"
-GRADE1_TABLE = "en-ueb-g1.ctb"
 BLANK = "\u2800"
 # North American Braille ASCII: the character for each cell 0x00-0x3F (dots 1-6 as bits 0-5).
 BRAILLE_ASCII = " A1B'K2L@CIF/MSP\"E3H9O6R^DJG>NTQ,*5<-U8V.%[$+X!&;:4\\0Z7(_?W]#Y)="

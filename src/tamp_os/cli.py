@@ -30,22 +30,18 @@ def _param_options(parser: argparse.ArgumentParser) -> None:
             group.add_argument(flag, dest=f.name, default=None, help=f"comma-separated: {', '.join(m['choices'])} (default stl)")
         elif isinstance(f.default, bool):
             group.add_argument(flag, dest=f.name, action="store_true", default=None, help=m["help"])
-        else:
-            kind = str if m["lo"] is None or m["choices"] else (int if isinstance(m["lo"], int) and isinstance(m["hi"], int) else float)
-            group.add_argument(flag, dest=f.name, type=kind, default=None, metavar=m["unit"].upper() or "VALUE", help=help_text)
+        else:  # typed later by params.parse_field, so every interface reports bad values alike
+            group.add_argument(flag, dest=f.name, default=None, metavar=m["unit"].upper() or "VALUE", help=help_text)
 
 
 def _params_from_args(args, base=None):
-    from .params import LithoParams
+    from .params import LithoParams, parse_field
 
     changes = {}
     for f in dataclasses.fields(LithoParams):
         value = getattr(args, f.name, None)
-        if value is None:
-            continue
-        if f.name == "formats":
-            value = tuple(v.strip().lower().lstrip(".") for v in value.split(",") if v.strip())
-        changes[f.name] = value
+        if value is not None:
+            changes[f.name] = parse_field(f.name, value) if isinstance(value, str) else value
     return (base or LithoParams()).replace(**changes)
 
 
@@ -451,7 +447,7 @@ def _numbers(text: str, name: str) -> list[float]:
 
 
 def cmd_braille_plate(args) -> int:
-    from .export import save_mesh, write_atomic
+    from .export import save_mesh, write_text
     from .tactile import braille_test_plate
 
     heights = _numbers(args.heights, "--heights")
@@ -466,7 +462,7 @@ def cmd_braille_plate(args) -> int:
     )
     written = [save_mesh(mesh, out / f"braille-test-plate.{fmt.strip()}", {"title": "TAMP-OS braille test plate", "description": description})
                for fmt in args.formats.split(",")]
-    written.append(write_atomic(out / "braille-test-plate.description.txt", lambda fh: fh.write((description + "\n").encode("utf-8"))))
+    written.append(write_text(out / "braille-test-plate.description.txt", description + "\n"))
     print(f"braille test plate: {len(rows)} rows, {mesh.n_triangles:,} triangles; wrote {', '.join(p.name for p in written)}")
     print(description)
     return EXIT_OK

@@ -32,13 +32,6 @@ class Mesh:
     def bounds_mm(self) -> np.ndarray:
         return np.array([self.vertices.min(axis=0), self.vertices.max(axis=0)])
 
-    def face_normals(self, start: int = 0, stop: int | None = None) -> np.ndarray:
-        """Unit normals of faces[start:stop] (computed in chunks by writers to bound memory)."""
-        tri = self.vertices[self.faces[start:stop]]
-        n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-        length = np.linalg.norm(n, axis=1, keepdims=True)
-        return n / np.where(length == 0, 1.0, length)
-
     def vertex_normals(self) -> np.ndarray:
         """Unit vertex normals: area-weighted sums of the face normals around each vertex.
 

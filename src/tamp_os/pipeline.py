@@ -17,7 +17,7 @@ from . import __version__
 from .adaptive import adaptive_solid
 from .cleanup import clean_source
 from .errors import InputError, ParameterError
-from .export import save_mesh, write_atomic
+from .export import save_mesh, write_png, write_text
 from .heightmap import heights_mm
 from .mesh import Mesh, grid_solid
 from .microscopy import scale_sentence
@@ -93,7 +93,7 @@ class Lithograph:
         else:
             written = [write(fmt) for fmt in formats]
         if self.params.save_masks and self.mask is not None:
-            written.append(write_atomic(folder / f"{stem}.annotations.png", lambda fh: _write_mask_png(self.mask, fh)))
+            written.append(write_png(folder / f"{stem}.annotations.png", (self.mask * 255).astype(np.uint8)))
         if self.params.gcode:
             sliced_from = next((p for p in written if p.suffix == ".stl"), None)
             if sliced_from is None:
@@ -105,20 +105,13 @@ class Lithograph:
             )
             written.append(Path(result.gcode))
             self.report["print"] = {**result.as_dict(), "gcode": Path(result.gcode).name, "summary": result.sentence()}
-        description = meta["description"] + "\n"
-        written.append(write_atomic(folder / f"{stem}.description.txt", lambda fh: fh.write(description.encode("utf-8"))))
+        written.append(write_text(folder / f"{stem}.description.txt", meta["description"] + "\n"))
         recipe = folder / f"{stem}{RECIPE_SUFFIX}"
         files = [p.name for p in written]
         text = json.dumps(recipe_dict(self, files), indent=2, ensure_ascii=False) + "\n"
-        write_atomic(recipe, lambda fh: fh.write(text.encode("utf-8")))
+        write_text(recipe, text)
         self.report["files"] = files + [recipe.name]
         return written + [recipe]
-
-
-def _write_mask_png(mask: np.ndarray, fh) -> None:
-    from PIL import Image
-
-    Image.fromarray((mask * 255).astype(np.uint8)).save(fh, format="PNG")
 
 
 @functools.lru_cache(maxsize=1)

@@ -53,7 +53,6 @@ class Picture:
     values: np.ndarray
     alpha: np.ndarray | None
     source: Source
-    raw: object = None  # the open tifffile/Pillow object's metadata for microscopy readers
 
 
 def read_image(path, *, page: int = 0, channel: str = "luminance", max_megapixels: float = 400.0, z_slice: int | None = None) -> Picture:

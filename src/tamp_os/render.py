@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import MissingDependencyError, ParameterError
-from .export import write_atomic
+from .export import write_png, write_text
 
 MESH_SUFFIXES = (".stl", ".obj", ".ply", ".glb", ".3mf")
 THEMES = {"light": ("white", "#b9b4ab"), "dark": ("#1e1e1e", "#c8c2b8")}
@@ -103,8 +103,6 @@ def alt_text(name: str, vertices: np.ndarray, view: View, closeup: bool) -> str:
 
 def render_file(path: Path, out_dir: Path, view: View) -> list[Path]:
     """Write renders/full/NAME.png and renders/closeup/NAME.png, each with NAME.alt.txt beside it."""
-    from PIL import Image
-    import io
 
     vertices, faces = _load(path)
     full, close = render_views(vertices, faces, view)
@@ -112,11 +110,8 @@ def render_file(path: Path, out_dir: Path, view: View) -> list[Path]:
     for kind, image in (("full", full), ("closeup", close)):
         folder = out_dir / "renders" / kind
         folder.mkdir(parents=True, exist_ok=True)
-        buf = io.BytesIO()
-        Image.fromarray(image).save(buf, format="PNG")
-        written.append(write_atomic(folder / f"{path.stem}.png", lambda fh: fh.write(buf.getvalue())))
-        text = alt_text(path.stem, vertices, view, kind == "closeup") + "\n"
-        written.append(write_atomic(folder / f"{path.stem}.alt.txt", lambda fh: fh.write(text.encode("utf-8"))))
+        written.append(write_png(folder / f"{path.stem}.png", image))
+        written.append(write_text(folder / f"{path.stem}.alt.txt", alt_text(path.stem, vertices, view, kind == "closeup") + "\n"))
     return written
 
 

@@ -4,14 +4,13 @@ named outputs, and a labelled contact sheet of the heightmaps (plus renders when
 from __future__ import annotations
 
 import dataclasses
-import io
 import itertools
 from pathlib import Path
 
 import numpy as np
 
 from .errors import ParameterError
-from .export import write_atomic
+from .export import write_png, write_text
 from .params import LithoParams, parse_field
 
 FIELD_NAMES = {f.name for f in dataclasses.fields(LithoParams)}
@@ -81,11 +80,7 @@ def contact_sheet(panels: list[tuple[str, np.ndarray]], panel_px: int = 320):
 
 
 def save_png(image, path: Path, alt: str) -> list[Path]:
-    buf = io.BytesIO()
-    image.save(buf, format="PNG")
-    written = [write_atomic(path, lambda fh: fh.write(buf.getvalue()))]
-    text = alt + "\n"
-    written.append(write_atomic(path.with_suffix(".alt.txt"), lambda fh: fh.write(text.encode("utf-8"))))
+    written = [write_png(path, image), write_text(path.with_suffix(".alt.txt"), alt + "\n")]
     return written
 
 

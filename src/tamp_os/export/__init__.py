@@ -73,5 +73,14 @@ def save_mesh(mesh: Mesh, path, metadata: dict | None = None) -> Path:
     return write_atomic(path, lambda fh: writer(mesh, fh, metadata or {}))
 
 
-def supported_extensions() -> list[str]:
-    return sorted(_registry())
+def write_text(path, text: str) -> Path:
+    """Write UTF-8 text atomically."""
+    return write_atomic(Path(path), lambda fh: fh.write(text.encode("utf-8")))
+
+
+def write_png(path, image) -> Path:
+    """Write a PIL image, or a uint8 array, as PNG atomically."""
+    from PIL import Image
+
+    picture = image if isinstance(image, Image.Image) else Image.fromarray(image)
+    return write_atomic(Path(path), lambda fh: picture.save(fh, format="PNG"))

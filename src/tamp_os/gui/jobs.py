@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import TampError
-from ..export import write_atomic
+from ..export import write_png
 from ..params import LithoParams
 
 JOB_ID = re.compile(r"^[0-9a-f]{32}$")
@@ -159,14 +159,6 @@ class JobStore:
         return buf.getvalue()
 
 
-def _png(path: Path, image: np.ndarray) -> None:
-    from PIL import Image
-
-    buf = io.BytesIO()
-    Image.fromarray(image).save(buf, format="PNG")
-    write_atomic(path, lambda fh: fh.write(buf.getvalue()))
-
-
 def convert(job: Job, upload: Upload) -> Result:
     from ..pipeline import make_lithograph
     from ..render import View, render_views
@@ -184,7 +176,7 @@ def convert(job: Job, upload: Upload) -> Result:
     h = litho.heightmap
     gray = ((h - h.min()) / ((h.max() - h.min()) or 1) * 255).astype(np.uint8)
     heightmap_png = f"{stem}.heightmap.png"
-    _png(job.out / heightmap_png, gray)
+    write_png(job.out / heightmap_png, gray)
     w, d, top = r["print_mm"]
     result = Result(
         upload.name, True, files=[p.name for p in written], heightmap_png=heightmap_png,
@@ -203,7 +195,7 @@ def convert(job: Job, upload: Upload) -> Result:
         with RENDER_LOCK:
             full, _ = render_views(litho.mesh.vertices, litho.mesh.faces, View(width_px=640, height_px=480))
         result.render_png = f"{stem}.render.png"
-        _png(job.out / result.render_png, full)
+        write_png(job.out / result.render_png, full)
         result.render_alt = (f"Rendered view of the printable relief of {upload.name}, {w:g} by {d:g} mm, seen from the front left "
                              f"and above, lit from the upper left.")
     except Exception as exc:  # previews are a help, not the product: report and go on

@@ -5,7 +5,7 @@ setup:
 	@bash scripts/setup.sh
 
 demo: setup
-	.venv/bin/python -m tamp_os.demo demo-output
+	.venv/bin/python scripts/demo.py demo-output
 
 test: setup
 	.venv/bin/python -m pytest $(PYTEST_ARGS)

@@ -65,7 +65,7 @@ def baseline(cols, out: Path):
 
 def big_stl_child() -> None:
     """Runs in a child so its peak RSS is its own: 4096² heightmap -> grid solid -> STL."""
-    from tamp_os.mesh import grid_solid
+    from tamp_os.mesh.solid import grid_solid
 
     rng = np.random.default_rng(0)
     heights = 1.0 + 3.0 * rng.random((4096, 4096))

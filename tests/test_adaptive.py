@@ -8,9 +8,9 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
 from tamp_os import make_lithograph
-from tamp_os.adaptive import adaptive_solid, insert_point
-from tamp_os.mesh import grid_volume_mm3
-from tamp_os.validate import check_solid
+from tamp_os.mesh.adaptive import adaptive_solid, insert_point
+from tamp_os.mesh.solid import grid_volume_mm3
+from tamp_os.mesh.validate import check_solid
 
 
 def surface_at_grid_nodes(mesh, rows, cols, width, depth):

@@ -10,8 +10,8 @@ from PIL import Image
 
 from tamp_os.cli import main
 from tamp_os.errors import ExportError
-from tamp_os.export import write_atomic
-from tamp_os.mesh import grid_solid
+from tamp_os.files import write_atomic
+from tamp_os.mesh.solid import grid_solid
 
 
 def png_claiming(width, height) -> bytes:

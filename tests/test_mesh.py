@@ -8,8 +8,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from tamp_os.mesh import boundary_edges, grid_solid, grid_top, grid_volume_mm3
-from tamp_os.validate import check_solid
+from tamp_os.mesh.solid import boundary_edges, grid_solid, grid_top, grid_volume_mm3
+from tamp_os.mesh.validate import check_solid
 
 heightmaps = st.tuples(st.integers(2, 24), st.integers(2, 24)).flatmap(
     lambda shape: arrays(np.float64, shape, elements=st.floats(0.2, 10.0, allow_nan=False))

@@ -12,7 +12,7 @@ from PIL import Image
 from tamp_os import make_lithograph
 from tamp_os.cli import main
 from tamp_os.errors import ParameterError
-from tamp_os.microscopy import read_scale, scale_sentence
+from tamp_os.clean.scale import read_scale, scale_sentence
 from tamp_os.read import read_image
 from tamp_os.units import parse_length_m
 
@@ -227,7 +227,7 @@ def test_unreadable_scale_bar_label_gives_no_scale(tmp_path):
 
 
 def test_parse_label_accepts_only_one_clean_length():
-    from tamp_os.scalebar import parse_label
+    from tamp_os.clean.scalebar import parse_label
 
     assert parse_label("10 µm\n") == pytest.approx(1e-5)
     assert parse_label("500nm") == pytest.approx(5e-7)
@@ -240,7 +240,7 @@ def test_parse_label_accepts_only_one_clean_length():
 def test_drawn_arrows_are_removed(fill, points):
     from PIL import ImageDraw
 
-    from tamp_os.annotations import detect_annotations
+    from tamp_os.clean.annotations import detect_annotations
 
     rng = np.random.default_rng(0)
     image = Image.fromarray((90 + 40 * rng.random((480, 640))).astype(np.uint8))
@@ -261,8 +261,8 @@ def test_drawn_arrows_are_removed(fill, points):
 def test_no_false_annotations_on_natural_pictures(fixture):
     import skimage.data
 
-    from tamp_os.annotations import detect_annotations
-    from tamp_os.cleanup import clean_source
+    from tamp_os.clean.annotations import detect_annotations
+    from tamp_os.clean.stage import clean_source
 
     for name in ("cell", "moon", "coins", "camera", "retina", "hubble_deep_field", "astronaut", "brick", "gravel", "horse", "clock"):
         _, found = detect_annotations(read_image_array(getattr(skimage.data, name)()))

@@ -9,7 +9,7 @@ from tamp_os import make_lithograph
 from tamp_os.errors import ExportError
 from tamp_os.export import save_mesh
 from tamp_os.export.step import _real, planar_faces
-from tamp_os.mesh import grid_solid
+from tamp_os.mesh.solid import grid_solid
 
 
 def occ_solids(path):

@@ -9,11 +9,11 @@ from scipy.sparse.csgraph import connected_components
 from conftest import need
 
 from tamp_os import make_lithograph
-from tamp_os.braille import BrailleSpec, cell_dots, liblouis_available, to_braille
+from tamp_os.tactile.braille import BrailleSpec, cell_dots, liblouis_available, to_braille
 from tamp_os.cli import main
 from tamp_os.errors import ParameterError
 from tamp_os.units import parse_length_m
-from tamp_os.validate import check_solid
+from tamp_os.mesh.validate import check_solid
 
 CAPTION = "FePt spheres imaged with a scanning electron microscope, 2024"
 
@@ -116,7 +116,7 @@ def decode_cells(centres, spec):
 
 
 def test_scale_bar_length_matches_its_braille_value(litho):
-    from tamp_os.braille import _LOUIS
+    from tamp_os.tactile.braille import _LOUIS
 
     base, dots, frame, bar, relief = classify(litho)
     bar_len = bar["hi"][0] - bar["lo"][0]
@@ -183,7 +183,7 @@ def test_description_says_where_everything_is(litho, tmp_path):
 
 def test_translation_matches_liblouis():
     need(liblouis_available(), "liblouis")
-    from tamp_os import braille
+    from tamp_os.tactile import braille
 
     cases = {"5 µm": "⠼⠑⠀⠨⠍⠍", "FePt": "⠠⠋⠑⠠⠏⠞", "SEM 2024": "⠠⠠⠎⠑⠍⠀⠼⠃⠚⠃⠙"}
     for text, cells in cases.items():

@@ -147,7 +147,7 @@ def convert_one(source: str, out_dir: str, params_json: str, stem: str) -> dict:
 
 
 def write_report(out_dir: Path, outcomes: list[dict]) -> None:
-    from .export import write_text
+    from .files import write_text
 
     buf = io.StringIO()
     writer = csv.writer(buf)

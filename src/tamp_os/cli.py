@@ -406,7 +406,7 @@ def cmd_estimate(args) -> int:
 
 
 def cmd_presets(args) -> int:
-    from .imagecheck import image_stats, suggest_preset
+    from .relief.suggest import image_stats, suggest_preset
     from .presets import megabytes, preset_rows
     from .printers import get_printer, height_levels
 
@@ -447,8 +447,9 @@ def _numbers(text: str, name: str) -> list[float]:
 
 
 def cmd_braille_plate(args) -> int:
-    from .export import save_mesh, write_text
-    from .tactile import braille_test_plate
+    from .export import save_mesh
+    from .files import write_text
+    from .tactile.furniture import braille_test_plate
 
     heights = _numbers(args.heights, "--heights")
     diameters = _numbers(args.diameters, "--diameters")
@@ -469,7 +470,7 @@ def cmd_braille_plate(args) -> int:
 
 
 def cmd_info(args) -> int:
-    from .cleanup import clean_source
+    from .clean.stage import clean_source
     from .read import read_image
     from .units import format_length
 

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from .errors import ParameterError
-from .braille import BrailleSpec
+from .tactile.braille import BrailleSpec
 from .printers import PRESETS
 from .units import parse_length_m
 

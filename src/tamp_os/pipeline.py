@@ -14,20 +14,21 @@ from pathlib import Path
 import numpy as np
 
 from . import __version__
-from .adaptive import adaptive_solid
-from .cleanup import clean_source
+from .mesh.adaptive import adaptive_solid
+from .clean.stage import clean_source
 from .errors import InputError, ParameterError
-from .export import save_mesh, write_png, write_text
-from .heightmap import heights_mm
-from .mesh import Mesh, grid_solid
-from .microscopy import scale_sentence
+from .export import save_mesh
+from .files import write_png, write_text
+from .relief.heightmap import heights_mm
+from .mesh.solid import Mesh, grid_solid
+from .clean.scale import scale_sentence
 from .params import LithoParams
-from .preprocess import prepare
+from .relief.preprocess import prepare
 from .printers import get_printer, height_levels
 from .read import Picture, read_array, read_image
-from .sizing import Layout, plan_layout
+from .relief.layout import Layout, plan_layout
 from .slicer import material, slice_mesh
-from .tactile import Furniture, add_furniture, choose_scale_bar_m
+from .tactile.furniture import Furniture, add_furniture, choose_scale_bar_m
 from .units import parse_length_m
 
 log = logging.getLogger(__name__)

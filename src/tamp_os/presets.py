@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from .params import LithoParams
 from .printers import ADAPTIVE_RATIO, PRESETS, estimate_file_bytes, get_printer, grid_triangles, height_levels
-from .sizing import plan_layout
+from .relief.layout import plan_layout
 
 
 def preset_rows(params: LithoParams, width_px: int = 4, height_px: int = 3, picture=None) -> list[dict]:

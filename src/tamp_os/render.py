@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import MissingDependencyError, ParameterError
-from .export import write_png, write_text
+from .files import write_png, write_text
 
 MESH_SUFFIXES = (".stl", ".obj", ".ply", ".glb", ".3mf")
 THEMES = {"light": ("white", "#b9b4ab"), "dark": ("#1e1e1e", "#c8c2b8")}

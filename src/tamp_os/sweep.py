@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import ParameterError
-from .export import write_png, write_text
+from .files import write_png, write_text
 from .params import LithoParams, parse_field
 
 FIELD_NAMES = {f.name for f in dataclasses.fields(LithoParams)}

@@ -1,16 +1,14 @@
-"""Exporters, chosen by file extension. Each writes a Mesh to an open binary file; files are
-opened only in `write_atomic`, which writes to a temporary name and renames it into place so a
-crash never leaves half a file that looks whole."""
+"""Exporters, chosen by file extension. Each writes a Mesh to an open binary file; the file
+itself is opened by `files.write_atomic`."""
 
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 from typing import BinaryIO, Callable
 
-from ..errors import ExportError, ParameterError
-from ..mesh import Mesh
+from ..errors import ParameterError
+from ..files import write_atomic
+from ..mesh.solid import Mesh
 
 Writer = Callable[[Mesh, BinaryIO, dict], None]
 
@@ -38,49 +36,8 @@ def exporter_for(path: Path) -> Writer:
     return writers[ext]
 
 
-def write_atomic(path: Path, write: Callable[[BinaryIO], None]) -> Path:
-    """Write through `write(file)` to a temporary file beside `path`, then rename it into place."""
-    path = Path(path)
-    if path.is_dir():
-        raise ExportError(f"{path}: is a folder; give a file name for the output (for example {path / 'print.stl'}).")
-    folder = path.parent if str(path.parent) else Path(".")
-    if not folder.is_dir():
-        raise ExportError(f"{folder}: the output folder does not exist; create it or choose another with -o.")
-    try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=folder)
-    except OSError as exc:
-        raise ExportError(f"{folder}: cannot write here ({exc.strerror}); choose another output folder with -o.") from None
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            write(fh)
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    except BaseException as exc:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        if isinstance(exc, OSError):
-            raise ExportError(f"{path}: writing failed ({exc.strerror or exc}); nothing was written.") from None
-        raise
-    return path
-
-
 def save_mesh(mesh: Mesh, path, metadata: dict | None = None) -> Path:
     """Write `mesh` to `path` in the format its extension names (metadata: title, description)."""
     path = Path(path)
     writer = exporter_for(path)
     return write_atomic(path, lambda fh: writer(mesh, fh, metadata or {}))
-
-
-def write_text(path, text: str) -> Path:
-    """Write UTF-8 text atomically."""
-    return write_atomic(Path(path), lambda fh: fh.write(text.encode("utf-8")))
-
-
-def write_png(path, image) -> Path:
-    """Write a PIL image, or a uint8 array, as PNG atomically."""
-    from PIL import Image
-
-    picture = image if isinstance(image, Image.Image) else Image.fromarray(image)
-    return write_atomic(Path(path), lambda fh: picture.save(fh, format="PNG"))

@@ -217,7 +217,7 @@ def create_app(limits: Limits | None = None, store: JobStore | None = None) -> F
 
 def _inspect(path: Path, name: str) -> Upload:
     """Read an upload once: refuse non-images, and suggest a preset from its contrast and detail."""
-    from ..imagecheck import image_stats, suggest_preset
+    from ..relief.suggest import image_stats, suggest_preset
     from ..read import read_image
 
     picture = read_image(path)

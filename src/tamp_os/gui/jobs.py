@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import TampError
-from ..export import write_png
+from ..files import write_png
 from ..params import LithoParams
 
 JOB_ID = re.compile(r"^[0-9a-f]{32}$")

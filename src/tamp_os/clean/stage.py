@@ -9,10 +9,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from .annotations import Annotation, clean
-from .microscopy import Scale, read_scale
-from .read import Picture
+from .scale import Scale, read_scale
+from ..read import Picture
 from .scalebar import scale_from_bar
-from .units import parse_length_m
+from ..units import parse_length_m
 
 
 @dataclass

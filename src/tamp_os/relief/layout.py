@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from .printers import preset_blur_px, preset_resolution_px
+from ..printers import preset_blur_px, preset_resolution_px
 
 
 @dataclass(frozen=True)

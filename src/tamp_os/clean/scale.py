@@ -14,7 +14,7 @@ import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .units import format_length, unit_factor_m
+from ..units import format_length, unit_factor_m
 
 PLAUSIBLE_M = (1e-13, 1e-2)  # 0.1 pm to 1 cm per pixel
 

@@ -15,7 +15,7 @@ import subprocess
 from dataclasses import dataclass
 from pathlib import Path
 
-from .errors import MissingDependencyError, ParameterError
+from ..errors import MissingDependencyError, ParameterError
 
 DEFAULT_TABLE = "en-ueb-g2.ctb"
 BLANK = "\u2800"

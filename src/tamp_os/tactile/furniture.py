@@ -21,9 +21,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .braille import BrailleSpec, block_size_mm, dot_centres, to_braille, wrap_cells
-from .errors import ParameterError
-from .mesh import INDEX, Mesh
-from .units import format_length
+from ..errors import ParameterError
+from ..mesh.solid import INDEX, Mesh
+from ..units import format_length
 
 CLEARANCE_MM = 4.0  # between distinct raised elements (standard: at least 3 mm)
 BORDER_MM = 8.0  # plate edge to the nearest element on the left, top and right

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .mesh import INDEX, Mesh, boundary_edges, close_top, grid_solid
+from .solid import INDEX, Mesh, boundary_edges, close_top, grid_solid
 
 
 def adaptive_top(heights: np.ndarray, width_mm: float, depth_mm: float, max_error_mm: float):

@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .mesh import Mesh
+from .solid import Mesh
 
 
 @dataclass

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .units import unit_factor_m
+from ..units import unit_factor_m
 
 LABEL = re.compile(r"^\s*([0-9]+(?:[.,][0-9]+)?)\s*(nm|µm|μm|um|mm)\s*$")
 

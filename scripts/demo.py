@@ -1,4 +1,4 @@
-"""`make demo`: convert built-in example images (shipped inside scikit-image) and, when present,
+"""`make demo` (not part of the installed package): convert built-in example images (shipped inside scikit-image) and, when present,
 the real microscope files in ../shared/fixtures, printing one plain line per file."""
 
 from __future__ import annotations
@@ -6,12 +6,12 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from .errors import TampError
-from .pipeline import make_lithograph
-from .read import read_array
+from tamp_os.errors import TampError
+from tamp_os.pipeline import make_lithograph
+from tamp_os.read import read_array
 
 BUILTIN = ("cell", "immunohistochemistry", "moon")
-FIXTURES = Path(__file__).resolve().parents[2] / ".." / "shared" / "fixtures"
+FIXTURES = Path(__file__).resolve().parents[2] / "shared" / "fixtures"  # the project's sibling folder
 
 
 def examples():
@@ -27,7 +27,7 @@ def examples():
 
 
 def main(argv=None) -> int:
-    from .cli import _line  # the same one-line summary as `tamp-os convert`
+    from tamp_os.cli import _line  # the same one-line summary as `tamp-os convert`
 
     import logging
 

@@ -9,6 +9,7 @@ from pathlib import Path
 from tamp_os.errors import TampError
 from tamp_os.pipeline import make_lithograph
 from tamp_os.read import read_array
+from tamp_os.report import summary_line
 
 BUILTIN = ("cell", "immunohistochemistry", "moon")
 FIXTURES = Path(__file__).resolve().parents[2] / "shared" / "fixtures"  # the project's sibling folder
@@ -27,8 +28,6 @@ def examples():
 
 
 def main(argv=None) -> int:
-    from tamp_os.cli import _line  # the same one-line summary as `tamp-os convert`
-
     import logging
 
     logging.basicConfig(level=logging.ERROR)  # warnings are printed as notes below each line
@@ -43,8 +42,8 @@ def main(argv=None) -> int:
             print(f"{name}: not converted: {exc}")
             failed += 1
             continue
-        print(_line(litho, written))
-        for warning in litho.report["warnings"]:
+        print(summary_line(litho.report, [p.name for p in written]))  # the same line as `tamp-os convert`
+        for warning in litho.report.warnings:
             print(f"  note: {warning}")
     print(f"demo: outputs in {out}/")
     return 1 if failed else 0

@@ -8,6 +8,8 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 FIXTURES = ROOT.parent / "shared" / "fixtures"
 STRICT = os.environ.get("TAMP_STRICT") == "1"
+# Offscreen rendering for tests that render in this process (the CLI and web app set it themselves).
+os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 
 
 def need(condition: bool, what: str) -> None:

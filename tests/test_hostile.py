@@ -105,16 +105,16 @@ def test_all_nan_float_tiff(tmp_path, capsys):
 @pytest.mark.parametrize(
     "option, value, needle",
     [
-        ("--width-mm", "0", "width_mm"),
-        ("--height-mm", "-5", "height_mm"),
-        ("--relief-mm", "0", "relief_mm: must be > 0"),
-        ("--base-mm", "-1", "base_mm"),
+        ("--width-mm", "0", "--width-mm"),
+        ("--height-mm", "-5", "--height-mm"),
+        ("--relief-mm", "0", "--relief-mm: must be > 0"),
+        ("--base-mm", "-1", "--base-mm"),
         ("--formats", "stl,docx", "formats"),
         ("--preset", "ultra", "preset"),
         ("--printer", "nosuch", "unknown profile"),
-        ("--nozzle-mm", "5", "nozzle_mm"),
-        ("--resolution-px", "1", "resolution_px"),
-        ("--stretch-low-pct", "99", "stretch_low_pct must be below"),
+        ("--nozzle-mm", "5", "--nozzle-mm"),
+        ("--resolution-px", "1", "--resolution-px"),
+        ("--stretch-low-pct", "99", "--stretch-low-pct must be below"),
     ],
 )
 def test_bad_parameters_are_usage_errors(tmp_path, capsys, option, value, needle):
@@ -131,7 +131,7 @@ def test_blur_given_twice(tmp_path, capsys):
     img.write_bytes(good_png_bytes())
     code, _, err = run(capsys, "convert", img, "--blur-px", "1", "--blur-mm", "1", "-o", tmp_path / "o")
     assert code == 2
-    assert_one_clear_error(err, "blur_px and blur_mm")
+    assert_one_clear_error(err, "--blur-px and --blur-mm")
 
 
 def test_missing_file_and_folder_as_input(tmp_path, capsys):

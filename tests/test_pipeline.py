@@ -70,7 +70,7 @@ def test_sizes_aspect_and_fit(gradient_image):
     lo, hi = litho.mesh.bounds_mm
     np.testing.assert_allclose(hi[:2], [80, 60])
     padded = make_lithograph(gradient_image, width_mm=80, height_mm=80)
-    assert any("--height-mm 60.0" in w for w in padded.report["warnings"])
+    assert any("height_mm to 60.0" in w for w in padded.report["warnings"])
     np.testing.assert_allclose(padded.mesh.bounds_mm[1][:2], [80, 80])
     # Padding prints at base level along the top and bottom edges.
     assert np.all(padded.heightmap[0] == 1.0) and np.all(padded.heightmap[-1] == 1.0)

@@ -12,6 +12,7 @@ from tamp_os import make_lithograph
 from tamp_os.cli import main
 from tamp_os.errors import MissingDependencyError
 from tamp_os.printers import get_printer
+from tamp_os.slicer import slice_outputs
 from tamp_os.slicer import SlicerError, estimate, material, mesh_info, slice_mesh
 
 
@@ -26,7 +27,7 @@ def fept_low(tmp_path_factory, request):
 
     folder = tmp_path_factory.mktemp("slice")
     litho = make_lithograph(FIXTURES / "fept_spheres_sem.png", preset="low", gcode=True)
-    litho.save(folder)
+    slice_outputs(litho, litho.save(folder))  # saving never slices; slicing is its own step
     return litho, folder
 
 

@@ -60,7 +60,7 @@ def test_holes_in_a_flat_region_become_inner_bounds():
 
 def test_too_many_triangles_refused_with_advice(tmp_path):
     mesh = grid_solid(np.random.default_rng(0).random((320, 320)) + 1, 10, 10)
-    with pytest.raises(ExportError, match="--max-error-mm"):
+    with pytest.raises(ExportError, match="max_error_mm"):
         save_mesh(mesh, tmp_path / "big.step", {})
     assert list(tmp_path.iterdir()) == []
 

@@ -207,8 +207,11 @@ def test_unicode_braille_is_used_as_is_and_bad_sizes_are_refused():
 
 
 def test_scale_bar_needs_a_scale(capsys, tmp_path):
-    with pytest.raises(ParameterError, match="--pixel-size"):
+    with pytest.raises(ParameterError, match="pixel_size"):
         make_lithograph(np.eye(20), scale_bar="5um")
+    # The command line says it in its own words.
+    assert main(["convert", str(_png(tmp_path)), "-o", str(tmp_path), "--scale-bar", "5um"]) == 1
+    assert "--pixel-size" in capsys.readouterr().err
     assert make_lithograph(np.eye(20)).report["tactile"] is None  # nothing asked, nothing added
 
 
@@ -221,3 +224,11 @@ def test_braille_test_plate_command(tmp_path, capsys):
     assert "2 rows" in out and "row 2: dots 0.8 mm high" in out
     heights = sorted({round(z, 2) for z in mesh.vertices[:, 2]})
     assert 1.5 + 0.6 in heights and 1.5 + 0.8 in heights
+
+
+def _png(tmp_path):
+    from PIL import Image
+
+    path = tmp_path / "eye.png"
+    Image.fromarray((np.eye(20) * 255).astype(np.uint8)).save(path)
+    return path

@@ -1,7 +1,6 @@
 """TAMP-OS: turn (microscopy) images into 3D-printable tactile lithographs at a known scale."""
 
-__version__ = "0.1.0"
-
+from .version import __version__  # noqa: E402
 from .errors import ExportError, InputError, MissingDependencyError, ParameterError, TampError  # noqa: E402
 from .params import LithoParams  # noqa: E402
 from .printers import BUILTIN_PRINTERS, PrinterProfile, get_printer  # noqa: E402

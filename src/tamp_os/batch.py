@@ -10,6 +10,7 @@ every input, so even a killed batch leaves an accurate batch-report.csv/json.
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import dataclasses
 import fnmatch
@@ -46,13 +47,12 @@ class Job:
 
 def name_jobs(jobs: list[Job]) -> list[Job]:
     """Give inputs that would write the same output names (a.png, a.tif) distinct stems (a_png, a_tif)."""
-    seen: dict[tuple, int] = {}
-    for job in jobs:
-        key = (job.out_dir, job.stem)
-        seen[key] = seen.get(key, 0) + 1
-    for job in jobs:
-        if seen[(job.out_dir, job.stem)] > 1:
-            job.stem = f"{job.source.stem}_{job.source.suffix.lstrip('.').lower()}"
+    from .outputs import distinct_stems
+
+    for folder in {job.out_dir for job in jobs}:
+        same = [job for job in jobs if job.out_dir == folder]
+        for job, stem in zip(same, distinct_stems([job.source for job in same])):
+            job.stem = stem
     return jobs
 
 
@@ -72,10 +72,14 @@ def collect_inputs(items, recursive: bool = False, include: tuple[str, ...] | No
     for item in map(Path, items):
         if item.is_dir():
             walker = item.rglob("*") if recursive else item.glob("*")
+            excluded = os.path.realpath(exclude_dir) if exclude_dir else None
             for path in sorted(walker):
-                if exclude_dir and exclude_dir.resolve() in path.resolve().parents:
+                if excluded and os.path.realpath(path).startswith(excluded + os.sep):
                     continue
-                if path.is_file() and any(fnmatch.fnmatch(path.name.lower(), p) for p in patterns):
+                # Regular files, and anything else with an image's name (a FIFO, a broken or looping
+                # link): those are reported as failed by the reader, never allowed to stop the batch.
+                wanted = any(fnmatch.fnmatch(path.name.lower(), p) for p in patterns)
+                if wanted and (path.is_file() or not path.is_dir()):
                     found.append((path, path.relative_to(item)))
         else:
             found.append((item, Path(item.name)))  # named explicitly: converted (or reported) as is
@@ -98,52 +102,82 @@ def read_overrides(path: Path) -> dict[str, dict]:
             changes = {k: parse_field(k, v) for k, v in row.items() if k != "file" and v and v.strip()}
             LithoParams().replace(**changes)  # validate now, not in the middle of the batch
         except ParameterError as exc:
-            raise ParameterError(f"{where}: {exc}") from None
+            raise ParameterError(f"{where}: {exc}", in_file=True) from None
         overrides[row["file"].strip()] = changes
     return overrides
 
 
-def _recipe_matches(recipe_path: Path, source: Path, params: LithoParams) -> list[str] | None:
-    """The outputs listed by an existing recipe if it records this input and these parameters."""
-    import hashlib
-
-    try:
-        recipe = json.loads(recipe_path.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return None
-    if recipe.get("params") != params.to_dict():
-        return None
-    try:
-        digest = hashlib.sha256(source.read_bytes()).hexdigest()
-    except OSError:
-        return None
-    if recipe.get("input", {}).get("sha256") != digest:
-        return None
-    outputs = recipe.get("outputs", [])
-    if not outputs or not all((recipe_path.parent / name).is_file() for name in outputs):
-        return None
-    return outputs + [recipe_path.name]
-
-
 def convert_one(source: str, out_dir: str, params_json: str, stem: str) -> dict:
     """Convert one input in a worker; never raises for a user-facing problem."""
-    from .pipeline import RECIPE_SUFFIX, make_lithograph
+    from .outputs import RECIPE_SUFFIX, recipe_outputs_if_current
+    from .pipeline import make_lithograph
 
     start = time.perf_counter()
     src, out = Path(source), Path(out_dir)
     params = LithoParams.from_json(params_json)
-    done = _recipe_matches(out / f"{stem}{RECIPE_SUFFIX}", src, params)
+    done = recipe_outputs_if_current(out / f"{stem}{RECIPE_SUFFIX}", src, params)
     if done:
         return dataclasses.asdict(Outcome(str(src), "skipped (up to date)", done, time.perf_counter() - start))
     try:
         litho = make_lithograph(src, params)
         written = litho.save(out, stem=stem)
+        if params.gcode:
+            from .slicer import slice_outputs
+
+            written = slice_outputs(litho, written)
     except TampError as exc:
         return dataclasses.asdict(Outcome(str(src), "failed", [], time.perf_counter() - start, str(exc)))
     except Exception as exc:  # a bug must not stop the batch either; report it plainly
         log.exception("unexpected error on %s", src)
         return dataclasses.asdict(Outcome(str(src), "failed", [], time.perf_counter() - start, f"{src}: unexpected error: {exc!r}"))
     return dataclasses.asdict(Outcome(str(src), "converted", [p.name for p in written], time.perf_counter() - start))
+
+
+LOCK_NAME = ".tamp-batch.lock"
+
+
+@contextlib.contextmanager
+def _folder_lock(out_dir: Path):
+    """Hold an exclusive lock on the output folder: a second batch into the same folder stops
+    with a clear message instead of deleting the first one's temporary files."""
+    import fcntl
+
+    with open(out_dir / LOCK_NAME, "a+") as fh:
+        try:
+            fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            raise InputError(
+                f"{out_dir}: another batch is writing into this folder now; wait for it to finish or choose another output folder."
+            ) from None
+        try:
+            yield
+        finally:
+            fcntl.flock(fh, fcntl.LOCK_UN)
+
+
+def exit_with_parent() -> None:
+    """Worker initializer: end this worker when the batch process that started it dies, so a
+    killed batch leaves no workers behind (Linux: the kernel's parent-death signal; elsewhere a
+    watcher thread that notices the parent is gone)."""
+    import signal
+    import threading
+
+    parent = os.getppid()
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        PR_SET_PDEATHSIG = 1
+        libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL)
+    except (OSError, AttributeError):
+        pass
+
+    def watch():
+        while os.getppid() == parent:
+            time.sleep(1.0)
+        os._exit(1)
+
+    threading.Thread(target=watch, daemon=True).start()
 
 
 def write_report(out_dir: Path, outcomes: list[dict]) -> None:
@@ -170,14 +204,19 @@ def run_batch(
     """Run every job on `executor` (any object with submit(fn, *args) -> future), or on a local
     process pool of `workers` processes. Returns the outcomes in input order."""
     out_dir.mkdir(parents=True, exist_ok=True)
-    name_jobs(jobs)
-    for folder in {job.out_dir for job in jobs}:
-        folder.mkdir(parents=True, exist_ok=True)
-        for stale in folder.glob(".*.part"):  # temporary files of a run that was killed mid-write
-            stale.unlink(missing_ok=True)
+    with _folder_lock(out_dir):
+        name_jobs(jobs)
+        for folder in {job.out_dir for job in jobs}:
+            folder.mkdir(parents=True, exist_ok=True)
+            for stale in folder.glob(".*.part"):  # temporary files of a run that was killed mid-write
+                stale.unlink(missing_ok=True)
+        return _run_locked(jobs, out_dir, executor, workers, on_done)
+
+
+def _run_locked(jobs: list[Job], out_dir: Path, executor, workers: int | None, on_done) -> list[dict]:
     own_pool = executor is None
     if own_pool:
-        executor = ProcessPoolExecutor(max_workers=workers or os.cpu_count() or 1)
+        executor = ProcessPoolExecutor(max_workers=workers or os.cpu_count() or 1, initializer=exit_with_parent)
     finished: queue.Queue = queue.Queue()
     outcomes: list[dict | None] = [None] * len(jobs)
     try:

@@ -14,6 +14,8 @@ import sys
 from pathlib import Path
 
 EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
+# Options named otherwise than their parameter (z_slice -> --slice); the rest are --name-with-dashes.
+OPTION_NAMES = {"z_slice": "--slice", "slice_timeout_s": "--timeout"}
 
 
 def _param_options(parser: argparse.ArgumentParser) -> None:
@@ -23,7 +25,7 @@ def _param_options(parser: argparse.ArgumentParser) -> None:
     group = parser.add_argument_group("lithograph parameters")
     for f in dataclasses.fields(LithoParams):
         m = f.metadata
-        flag = m["flag"] or "--" + f.name.replace("_", "-")
+        flag = _flags()[f.name]
         help_text = f"{m['help']} ({describe_range(f)}; default {f.default if f.default is not None else 'derived'})"
         help_text = help_text.replace("%", "%%")  # argparse formats help strings with %
         if f.name == "formats":
@@ -32,6 +34,33 @@ def _param_options(parser: argparse.ArgumentParser) -> None:
             group.add_argument(flag, dest=f.name, action="store_true", default=None, help=m["help"])
         else:  # typed later by params.parse_field, so every interface reports bad values alike
             group.add_argument(flag, dest=f.name, default=None, metavar=m["unit"].upper() or "VALUE", help=help_text)
+
+
+def _flags() -> dict[str, str]:
+    """Each LithoParams field and its option here (width_mm -> --width-mm, z_slice -> --slice)."""
+    from .params import LithoParams
+
+    return {f.name: OPTION_NAMES.get(f.name, "--" + f.name.replace("_", "-")) for f in dataclasses.fields(LithoParams)}
+
+
+def in_cli_words(message) -> str:
+    """A library message names parameters (pixel_size); say them as this command's options (--pixel-size).
+
+    Names with an underscore are replaced wherever they stand as a word, except in quotes (a file's
+    own keys); one-word names (page, channel) only where a message or its clause starts with them
+    ("page: ...", "x.tif: page must be ...").
+    """
+    import re
+
+    text = str(message)
+    if getattr(message, "in_file", False):
+        return text
+    for name, flag in _flags().items():
+        if "_" in name:
+            text = re.sub(rf"(?<![\w/.'\"-]){name}(?![\w'\"]|\.\w)", flag, text)
+        else:
+            text = re.sub(rf"(^|: ){name}(?=[ :])", rf"\g<1>{flag}", text)
+    return text
 
 
 def _params_from_args(args, base=None):
@@ -53,7 +82,12 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--debug", action="store_true", help="show full tracebacks and debug messages")
     parser.add_argument("--version", action="store_true", help="print the version and exit")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for add in (_add_convert_and_batch, _add_sweep_and_render, _add_slicing, _add_gui, _add_presets_and_plate, _add_info):
+        add(sub)
+    return parser
 
+
+def _add_convert_and_batch(sub) -> None:
     convert = sub.add_parser("convert", help="convert images to printable files", description="Convert images to printable files.")
     convert.add_argument("images", nargs="*", metavar="IMAGE", help="image files (read by content, any extension)")
     convert.add_argument("-o", "--output", default=".", metavar="DIR", help="output folder (default: current folder)")
@@ -72,6 +106,8 @@ def build_parser() -> argparse.ArgumentParser:
     batch.add_argument("--dask-scheduler", metavar="ADDRESS", help="run on a Dask cluster, e.g. tcp://127.0.0.1:8786")
     _param_options(batch)
 
+
+def _add_sweep_and_render(sub) -> None:
     sweep = sub.add_parser("sweep", help="one image with parameters varied, and a contact sheet")
     sweep.add_argument("image", metavar="IMAGE")
     sweep.add_argument("--vary", action="append", required=True, metavar="NAME=V1,V2",
@@ -90,6 +126,8 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument("--closeup-zoom", type=float, default=3.0, help="extra zoom of the close-up (default 3)")
     render.add_argument("--size", default="1200x900", metavar="WxH", help="image size in pixels (default 1200x900)")
 
+
+def _add_slicing(sub) -> None:
     slicer = sub.add_parser("slice", help="slice meshes with PrusaSlicer: G-code, print time, grams, cost")
     slicer.add_argument("meshes", nargs="+", metavar="MESH")
     estimate = sub.add_parser("estimate", help="mass and cost of meshes without slicing (assumptions stated)")
@@ -100,6 +138,8 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument("--filament-price", type=float, default=None, metavar="PER_KG", help="price per kg (default 25)")
     slicer.add_argument("--timeout", type=float, default=600.0, metavar="S", help="stop PrusaSlicer after S seconds (default 600)")
 
+
+def _add_gui(sub) -> None:
     gui = sub.add_parser("gui", help="start the accessible web app on this computer")
     gui.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1: this computer only)")
     gui.add_argument("--port", type=int, default=8765, help="port (default 8765)")
@@ -107,6 +147,8 @@ def build_parser() -> argparse.ArgumentParser:
     gui.add_argument("--max-file-mb", type=float, default=50.0, help="largest upload per image in MB (default 50)")
     gui.add_argument("--max-files", type=int, default=20, help="most images per job (default 20)")
 
+
+def _add_presets_and_plate(sub) -> None:
     presets = sub.add_parser("presets", help="show Low/Medium/High for a printer (and suggest one for an image)")
     presets.add_argument("image", nargs="?", metavar="IMAGE")
     _param_options(presets)
@@ -122,6 +164,8 @@ def build_parser() -> argparse.ArgumentParser:
     plate.add_argument("--diameters", default="1.4,1.5,1.6", metavar="MM,...", help="dot base diameters in mm (default 1.4,1.5,1.6)")
     plate.add_argument("--formats", default="stl", help="comma-separated output formats (default stl)")
 
+
+def _add_info(sub) -> None:
     info = sub.add_parser("info", help="describe an image file: size, bit depth, channels, metadata")
     info.add_argument("image", metavar="IMAGE")
     info.add_argument("--json", action="store_true", help="print JSON for scripts")
@@ -129,7 +173,6 @@ def build_parser() -> argparse.ArgumentParser:
     info.add_argument("--slice", type=int, default=None, help="z-stack slice (default: maximum-intensity projection)")
     info.add_argument("--channel", default="luminance", help="channel number or name (default: luminance / first)")
     info.add_argument("--pixel-size", default=None, help="physical pixel size to use, e.g. 4.2nm")
-    return parser
 
 
 def main(argv=None) -> int:
@@ -139,6 +182,7 @@ def main(argv=None) -> int:
     except SystemExit as exc:
         return int(exc.code or 0) and EXIT_USAGE
     logging.basicConfig(level=logging.DEBUG if args.debug else logging.ERROR, format="%(levelname)s: %(message)s")
+    os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")  # offscreen rendering with no display
     if args.version:
         from . import __version__
 
@@ -159,7 +203,7 @@ def main(argv=None) -> int:
     except TampError as exc:
         if args.debug:
             raise
-        print(f"error: {exc}", file=sys.stderr)
+        print(f"error: {in_cli_words(exc)}", file=sys.stderr)
         return EXIT_USAGE
     except KeyboardInterrupt:
         print("stopped.", file=sys.stderr)
@@ -183,7 +227,7 @@ def _run_each(items, action, debug: bool = False) -> int:
         except TampError as exc:
             if debug:
                 raise
-            print(f"error: {exc}", file=sys.stderr)
+            print(f"error: {in_cli_words(exc)}", file=sys.stderr)
             failed += 1
             continue
         for line in lines:
@@ -193,113 +237,73 @@ def _run_each(items, action, debug: bool = False) -> int:
     return EXIT_FAILED if failed else EXIT_OK
 
 
-def _line(litho, written) -> str:
-    r = litho.report
-    w, d, h = r["print_mm"]
-    scale = f"; {r['scale']}" if r.get("pixel_size_m") else ""
-    return (
-        f"{r['input']}: {w:g} × {d:g} × {h:g} mm, grid {r['grid'][0]} × {r['grid'][1]}, "
-        f"{r['triangles']:,} triangles, {r['height_levels']} height levels{scale}; "
-        f"wrote {', '.join(p.name for p in written)}"
-    )
-
-
-def _removed_notes(report) -> list[str]:
-    """Plain sentences for what was cropped or inpainted, printed under a file's line."""
-    crop, notes = report.get("crop") or {}, []
-    for side in ("top", "bottom"):
-        if crop.get(f"{side}_rows"):
-            notes.append(f"removed the data band: {crop[f'{side}_rows']} rows at the {side} ({crop['source']})")
-    if report.get("annotations"):
-        notes.append("removed burned-in annotations: " + "; ".join(report["annotations"]))
-    return notes
-
-
 def cmd_convert(args) -> int:
-    from .pipeline import load_recipe, make_lithograph
+    from .outputs import distinct_stems, load_recipe
+    from .pipeline import make_lithograph, resolve_printer
 
     jobs = []
     if args.recipe:
-        image, params, _ = load_recipe(args.recipe)
-        jobs.append((image, _params_from_args(args, params)))
+        image, params, printer, _ = load_recipe(args.recipe)
+        jobs.append((image, _params_from_args(args, params), printer))
     if not args.images and not jobs:
         print("error: give at least one IMAGE, or --recipe FILE.", file=sys.stderr)
         return EXIT_USAGE
-    from .printers import get_printer
-
     params = _params_from_args(args)  # validates options once, before any work
-    get_printer(params.printer)
-    jobs += [(Path(p), params) for p in args.images]
+    resolve_printer(params)
+    jobs += [(Path(p), params, None) for p in args.images]
+    stems = distinct_stems([image for image, _, _ in jobs])  # never overwrite an output of this run
 
-    def convert(job):
-        image, job_params = job
-        litho = make_lithograph(image, job_params)
-        written = litho.save(Path(args.output))
-        for warning in litho.report["warnings"]:
-            print(f"warning: {warning}", file=sys.stderr)
-        lines = [_line(litho, written)] + [f"  note: {note}" for note in _removed_notes(litho.report)]
-        if litho.report.get("print"):
-            lines.append(f"  print: {litho.report['print']['summary']}")
+    def convert(job_and_stem):
+        (image, job_params, printer), stem = job_and_stem
+        litho = make_lithograph(image, job_params, printer_profile=printer)
+        lines = _save_and_say(litho, Path(args.output), stem)
+        if stem != (image.stem or "lithograph"):
+            lines.append(f"  note: named {stem} because another input of this run has the same name")
         return lines
 
-    return _run_each(jobs, convert, args.debug)
+    return _run_each(list(zip(jobs, stems)), convert, args.debug)
+
+
+def _save_and_say(litho, out: Path, stem: str | None = None) -> list[str]:
+    """Save (and slice, when asked) one lithograph; its warnings to stderr, its lines returned."""
+    from .report import removed_notes, summary_line
+
+    written = litho.save(out, stem=stem)
+    if litho.params.gcode:
+        from .slicer import slice_outputs
+
+        written = slice_outputs(litho, written)
+    for warning in litho.report.warnings:
+        print(f"warning: {in_cli_words(warning)}", file=sys.stderr)
+    lines = [summary_line(litho.report, [p.name for p in written])] + [f"  note: {n}" for n in removed_notes(litho.report)]
+    if litho.report.print:
+        lines.append(f"  print: {litho.report.print['summary']}")
+    return lines
 
 
 def cmd_batch(args) -> int:
     from .batch import Job, collect_inputs, read_overrides, run_batch
-    from .printers import get_printer
+    from .pipeline import resolve_printer
 
     params = _params_from_args(args)
-    get_printer(params.printer)
+    resolve_printer(params)
+    if args.workers is not None and args.workers < 1:
+        print(f"error: --workers: give 1 or more worker processes; got {args.workers}.", file=sys.stderr)
+        return EXIT_USAGE
     out = Path(args.output)
     overrides = read_overrides(Path(args.overrides)) if args.overrides else {}
     inputs = collect_inputs(args.inputs, args.recursive, tuple(args.include) if args.include else None, exclude_dir=out)
     if not inputs:
         print("error: no images found; check the folder, or use --include '*.ext' for other file types.", file=sys.stderr)
         return EXIT_USAGE
-    jobs = []
-    for path, rel in inputs:
-        changes = overrides.get(str(rel), overrides.get(path.name, {}))
-        jobs.append(Job(path, out / rel.parent, params.replace(**changes)))
-    executor, client = None, None
-    if args.dask_scheduler:
-        try:
-            from distributed import Client
-        except ImportError:
-            from .errors import MissingDependencyError
-
-            raise MissingDependencyError("--dask-scheduler needs Dask: pip install 'dask[distributed]'.") from None
-        try:
-            client = Client(args.dask_scheduler, timeout="10s")
-        except (OSError, TimeoutError) as exc:
-            from .errors import InputError
-
-            raise InputError(
-                f"--dask-scheduler: cannot reach a Dask scheduler at {args.dask_scheduler} ({exc}); check the address, "
-                f"or start one with 'dask scheduler', or leave the option out to use this computer's cores."
-            ) from None
-        executor = client.get_executor()
-    bar = None
-    if sys.stderr.isatty():
-        from tqdm import tqdm
-
-        bar = tqdm(total=len(jobs), unit="image", file=sys.stderr)
-
-    def done(outcome, count, total):
-        name = Path(outcome["input"]).name
-        if bar:
-            bar.update(1)
-            if outcome["status"] == "failed":
-                bar.write(f"failed: {outcome['error']}")
-        else:
-            detail = outcome["error"] if outcome["status"] == "failed" else f"{outcome['seconds']:.1f} s"
-            print(f"{count} of {total}: {name} {outcome['status']} ({detail})", flush=True)
-
+    jobs = [Job(path, out / rel.parent, params.replace(**overrides.get(str(rel), overrides.get(path.name, {}))))
+            for path, rel in inputs]
+    client = _dask_client(args.dask_scheduler) if args.dask_scheduler else None
+    progress = _BatchProgress(len(jobs))
     try:
-        outcomes = run_batch(jobs, out, executor=executor, workers=args.workers, on_done=done)
+        outcomes = run_batch(jobs, out, executor=client.get_executor() if client else None, workers=args.workers, on_done=progress)
     finally:
-        if bar:
-            bar.close()
+        progress.close()
         if client:
             client.close()
     failed = [o for o in outcomes if o["status"] == "failed"]
@@ -309,14 +313,57 @@ def cmd_batch(args) -> int:
     return EXIT_FAILED if failed else EXIT_OK
 
 
+def _dask_client(address: str):
+    from .errors import InputError, MissingDependencyError
+
+    try:
+        from distributed import Client
+    except ImportError:
+        raise MissingDependencyError("--dask-scheduler needs Dask: pip install 'dask[distributed]'.") from None
+    try:
+        return Client(address, timeout="10s")
+    except (OSError, TimeoutError) as exc:
+        raise InputError(
+            f"--dask-scheduler: cannot reach a Dask scheduler at {address} ({exc}); check the address, "
+            f"or start one with 'dask scheduler', or leave the option out to use this computer's cores."
+        ) from None
+
+
+class _BatchProgress:
+    """A progress bar on a terminal; otherwise one plain line per finished input."""
+
+    def __init__(self, total: int):
+        self.bar = None
+        if sys.stderr.isatty():
+            from tqdm import tqdm
+
+            self.bar = tqdm(total=total, unit="image", file=sys.stderr)
+
+    def __call__(self, outcome: dict, count: int, total: int) -> None:
+        name = Path(outcome["input"]).name
+        if self.bar:
+            self.bar.update(1)
+            if outcome["status"] == "failed":
+                self.bar.write(f"failed: {in_cli_words(outcome['error'])}")
+        else:
+            detail = in_cli_words(outcome["error"]) if outcome["status"] == "failed" else f"{outcome['seconds']:.1f} s"
+            print(f"{count} of {total}: {name} {outcome['status']} ({detail})", flush=True)
+
+    def close(self) -> None:
+        if self.bar:
+            self.bar.close()
+
+
 def cmd_sweep(args) -> int:
     from .sweep import parse_vary, run_sweep
 
     params = _params_from_args(args)
     vary = parse_vary(args.vary)
     result = run_sweep(Path(args.image), params, vary, Path(args.output), render=not args.no_render)
+    from .report import summary_line
+
     for stem, litho in result["variants"]:
-        print(_line(litho, [p for p in result["written"] if p.name.startswith(stem + ".")]))
+        print(summary_line(litho.report, [p.name for p in result["written"] if p.name.startswith(stem + ".")]))
     sheets = [p.name for p in result["written"] if "_sweep_" in p.name and p.suffix == ".png"]
     print(f"sweep: {len(result['variants'])} variants; contact sheets {', '.join(sheets)} in {args.output}")
     return EXIT_OK
@@ -407,19 +454,20 @@ def cmd_estimate(args) -> int:
 
 def cmd_presets(args) -> int:
     from .relief.suggest import image_stats, suggest_preset
-    from .presets import megabytes, preset_rows
-    from .printers import get_printer, height_levels
+    from .preset_table import megabytes, preset_rows
+    from .pipeline import resolve_printer
+    from .printers import height_levels
 
     params = _params_from_args(args)
-    printer = get_printer(params.printer)
-    layer = params.layer_mm or printer.layer_mm
+    printer = resolve_printer(params)
+    layer = printer.layer_mm
     picture, suggestion = None, None
     if args.image:
         from .read import read_image
 
         picture = read_image(args.image, page=params.page, channel=params.channel, max_megapixels=params.max_megapixels)
         suggestion = suggest_preset(image_stats(picture.values, picture.alpha))
-    print(f"printer {printer.name}: nozzle {params.nozzle_mm or printer.nozzle_mm:g} mm, layer {layer:g} mm, mesher {params.mesher}")
+    print(f"printer {printer.name}: nozzle {printer.nozzle_mm:g} mm, layer {layer:g} mm, mesher {params.mesher}")
     print(f"height levels: {height_levels(params.relief_mm, layer)} (relief {params.relief_mm:g} mm ÷ layer {layer:g} mm)")
     for row in preset_rows(params, picture=picture):
         sizes = ", ".join(f"{fmt.upper()} {megabytes(n)}" for fmt, n in row["bytes"].items())
@@ -474,7 +522,7 @@ def cmd_info(args) -> int:
     from .read import read_image
     from .units import format_length
 
-    picture = read_image(args.image, page=args.page, max_megapixels=1e6, z_slice=args.slice, channel=args.channel)
+    picture = read_image(args.image, page=args.page, z_slice=args.slice, channel=args.channel)  # the same size guard as convert
     s = picture.source
     cleaned = clean_source(picture, pixel_size=args.pixel_size, remove_annotations=True)
     scale, crop, found = cleaned.scale, cleaned.crop, cleaned.annotations

@@ -8,6 +8,8 @@ import tempfile
 from pathlib import Path
 from typing import BinaryIO, Callable
 
+import numpy as np
+
 from .errors import ExportError
 
 
@@ -50,3 +52,11 @@ def write_png(path, image) -> Path:
 
     picture = image if isinstance(image, Image.Image) else Image.fromarray(image)
     return write_atomic(Path(path), lambda fh: picture.save(fh, format="PNG"))
+
+
+def to_uint8(values: np.ndarray, lo: float | None = None, hi: float | None = None) -> np.ndarray:
+    """`values` mapped from lo..hi (default: their own range) to 0..255 as uint8, for a PNG."""
+    values = np.asarray(values, dtype=np.float64)
+    lo = float(values.min()) if lo is None else lo
+    hi = float(values.max()) if hi is None else hi
+    return ((values - lo) / ((hi - lo) or 1) * 255).astype(np.uint8)

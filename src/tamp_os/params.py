@@ -23,10 +23,10 @@ FITS = ("pad", "crop", "stretch")
 MESHERS = ("adaptive", "grid")
 
 
-def _f(default, help, unit="", lo=None, hi=None, choices=None, lo_open=False, flag=None):
+def _f(default, help, unit="", lo=None, hi=None, choices=None, lo_open=False):
     return field(
         default=default,
-        metadata={"help": help, "unit": unit, "lo": lo, "hi": hi, "choices": choices, "lo_open": lo_open, "flag": flag},
+        metadata={"help": help, "unit": unit, "lo": lo, "hi": hi, "choices": choices, "lo_open": lo_open},
     )
 
 
@@ -51,7 +51,7 @@ class LithoParams:
     quantize: bool = _f(False, "round heights to whole layers")
     channel: str = _f("luminance", "luminance, or a channel: a number from 0 or red/green/blue/alpha")
     page: int = _f(0, "TIFF page or series to read", "", 0, 100000)
-    z_slice: int | None = _f(None, "z-stack slice to use (default: maximum-intensity projection)", "", 0, 100000, flag="--slice")
+    z_slice: int | None = _f(None, "z-stack slice to use (default: maximum-intensity projection)", "", 0, 100000)
     pixel_size: str | None = _f(None, "physical pixel size, overriding the file's, e.g. 4.2nm, 0.5um, 3 micron, 0.01mm")
     keep_annotations: bool = _f(False, "keep burned-in scale bars, labels and data bands (default: remove them)")
     save_masks: bool = _f(False, "write NAME.annotations.png showing what was removed")
@@ -70,7 +70,7 @@ class LithoParams:
     gcode: bool = _f(False, "also slice with PrusaSlicer to NAME.gcode and report print time, grams and cost")
     material: str = _f("PLA", "filament for slicing and estimates", choices=("PLA", "PETG", "ABS"))
     filament_price_per_kg: float = _f(25.0, "filament price per kg, in your currency", "", 0.0, 1000.0, lo_open=True)
-    slice_timeout_s: float = _f(600.0, "stop PrusaSlicer after this long", "s", 0.0, 86400.0, lo_open=True, flag="--timeout")
+    slice_timeout_s: float = _f(600.0, "stop PrusaSlicer after this long", "s", 0.0, 86400.0, lo_open=True)
     formats: tuple[str, ...] = _f(("stl",), "output formats", choices=FORMATS)
 
     def __post_init__(self):
@@ -105,10 +105,9 @@ class LithoParams:
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> "LithoParams":
-        names = {f.name for f in dataclasses.fields(cls)}
-        unknown = sorted(set(data) - names)
-        if unknown:
-            raise ParameterError(f"unknown parameter(s) {', '.join(unknown)}; known: {', '.join(sorted(names))}.")
+        if not isinstance(data, dict):
+            raise ParameterError(f"parameters: expected a mapping of parameter names to values; got {type(data).__name__}.")
+        _check_known(data)
         data = dict(data)
         if "formats" in data:
             data["formats"] = tuple(data["formats"])
@@ -119,23 +118,25 @@ class LithoParams:
         return cls.from_dict(json.loads(text))
 
     def replace(self, **changes) -> "LithoParams":
-        names = {f.name for f in dataclasses.fields(self)}
-        unknown = sorted(set(changes) - names)
-        if unknown:
-            raise ParameterError(f"unknown parameter(s) {', '.join(unknown)}; known: {', '.join(sorted(names))}.")
+        _check_known(changes)
         return dataclasses.replace(self, **changes)
 
 
+def _check_known(names) -> None:
+    known = {f.name for f in dataclasses.fields(LithoParams)}
+    unknown = sorted(set(names) - known)
+    if unknown:
+        raise ParameterError(f"unknown parameter(s) {', '.join(map(str, unknown))}; known: {', '.join(sorted(known))}.")
+
+
 def parse_field(name: str, text: str):
-    """A field's value from text (a CSV cell, a form field, a --vary value), typed by the field.
+    """A field's value from text (a CSV cell, a form field, a sweep value), typed by the field.
 
     Raises ParameterError naming the field, what it takes and the text received. Range checks
     happen when the LithoParams is built.
     """
-    fields = {f.name: f for f in dataclasses.fields(LithoParams)}
-    if name not in fields:
-        raise ParameterError(f"unknown parameter {name!r}; known: {', '.join(sorted(fields))}.")
-    f, text = fields[name], text.strip()
+    _check_known([name])
+    f, text = next(f for f in dataclasses.fields(LithoParams) if f.name == name), text.strip()
     m = f.metadata
     if isinstance(f.default, bool):
         if text.lower() not in ("true", "false", "yes", "no", "1", "0", "on", "off"):

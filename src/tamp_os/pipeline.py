@@ -1,171 +1,85 @@
-"""make_lithograph(): read -> preprocess -> heightmap -> mesh, and Lithograph.save()."""
+"""make_lithograph(): read -> clean -> relief -> mesh -> tactile furniture, returning data only.
+
+Writing files is outputs.py's job, slicing is slicer.py's; this module imports neither.
+"""
 
 from __future__ import annotations
 
-import functools
-import json
 import logging
-import os
 import time
-from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from . import __version__
-from .mesh.adaptive import adaptive_solid
-from .clean.stage import clean_source
-from .errors import InputError, ParameterError
-from .export import save_mesh
-from .files import write_png, write_text
-from .relief.heightmap import heights_mm
-from .mesh.solid import Mesh, grid_solid
 from .clean.scale import scale_sentence
+from .clean.stage import Cleaned, clean_source
+from .errors import ParameterError
+from .mesh.adaptive import adaptive_solid
+from .mesh.solid import Mesh, grid_solid
 from .params import LithoParams
-from .relief.preprocess import prepare
-from .printers import get_printer, height_levels
+from .printers import PrinterProfile, get_printer, height_levels
 from .read import Picture, read_array, read_image
+from .relief.heightmap import heights_mm
 from .relief.layout import Layout, plan_layout
-from .slicer import material, slice_mesh
-from .tactile.furniture import Furniture, add_furniture, choose_scale_bar_m
+from .relief.preprocess import Prepared, prepare
+from .report import Report
+from .tactile.furniture import Furniture, Placed, add_furniture, choose_scale_bar_m
 from .units import parse_length_m
 
 log = logging.getLogger(__name__)
 
-RECIPE_SUFFIX = ".tamp.json"
-PARALLEL_WRITE_TRIANGLES = 100_000
+MAX_GRID_ROWS, MAX_GRID_POINTS = 20000, 300e6
 
 
 @dataclass
 class Lithograph:
-    mesh: Mesh
-    heightmap: np.ndarray  # heights in mm, row 0 = top of the image = far edge of the print
+    """A finished lithograph in memory: nothing here has been written to disk."""
+
+    mesh: Mesh  # the closed solid, in mm
+    heightmap: np.ndarray  # (rows, cols) heights in mm, row 0 = top of the image = far edge of the print
     params: LithoParams
+    printer: PrinterProfile  # the profile with the user's nozzle and layer applied
     layout: Layout
     picture: Picture
-    report: dict = field(default_factory=dict)
-    mask: np.ndarray | None = None  # annotations removed from the (cropped) source image
+    report: Report
+    mask: np.ndarray | None = None  # (rows, cols) bool: annotations removed from the (cropped) source image
 
     @property
     def name(self) -> str:
         return Path(self.picture.source.name).stem or "lithograph"
 
     def metadata(self) -> dict:
-        return {
-            "title": f"Tactile lithograph of {self.picture.source.name}",
-            "description": describe(self),
-            "designer": "TAMP-OS",
-            "application": f"TAMP-OS {__version__}",
-        }
+        """Title, description, designer and application for the files; see `outputs.metadata`."""
+        from .outputs import metadata
+
+        return metadata(self)
 
     def save(self, target, formats=None, stem: str | None = None) -> list[Path]:
-        """Write the mesh in each format, a description and a recipe sidecar.
+        """Write the mesh in each format, a description and a recipe; see `outputs.save`."""
+        from .outputs import save
 
-        `target` is a folder (files are named `stem`, by default after the input) or a file name
-        whose extension picks the single format. Returns the paths written, recipe last.
-        """
-        target = Path(target)
-        if target.suffix and not target.is_dir():
-            folder, stem, formats = target.parent, target.stem, [target.suffix.lstrip(".").lower()]
-        else:
-            folder, stem = target, stem or self.name
-            formats = list(formats or self.params.formats)
-        if not folder.exists():
-            try:
-                folder.mkdir(parents=True)
-            except OSError as exc:
-                from .errors import ExportError
-
-                raise ExportError(f"{folder}: cannot create the output folder ({exc.strerror}); choose another with -o.") from None
-        meta = self.metadata()
-
-        def write(fmt):
-            start = time.perf_counter()
-            path = save_mesh(self.mesh, folder / f"{stem}.{fmt}", meta)
-            self.report["timings_s"][f"write_{fmt}"] = round(time.perf_counter() - start, 4)
-            return path
-
-        # Large meshes: the writers spend their time in NumPy and lib3mf's C code, which release
-        # the GIL, so writing the formats side by side uses both cores. Small ones: threads cost more.
-        if self.mesh.n_triangles > PARALLEL_WRITE_TRIANGLES and len(formats) > 1:
-            with ThreadPoolExecutor(max_workers=min(len(formats), os.cpu_count() or 1)) as pool:
-                written = list(pool.map(write, formats))
-        else:
-            written = [write(fmt) for fmt in formats]
-        if self.params.save_masks and self.mask is not None:
-            written.append(write_png(folder / f"{stem}.annotations.png", (self.mask * 255).astype(np.uint8)))
-        if self.params.gcode:
-            sliced_from = next((p for p in written if p.suffix == ".stl"), None)
-            if sliced_from is None:
-                sliced_from = save_mesh(self.mesh, folder / f"{stem}.stl", meta)
-                written.append(sliced_from)
-            result = slice_mesh(
-                sliced_from, get_printer(self.params.printer), material(self.params.material, self.params.filament_price_per_kg),
-                timeout_s=self.params.slice_timeout_s, layer_mm=self.report["layer_mm"], nozzle_mm=self.report["nozzle_mm"],
-            )
-            written.append(Path(result.gcode))
-            self.report["print"] = {**result.as_dict(), "gcode": Path(result.gcode).name, "summary": result.sentence()}
-        written.append(write_text(folder / f"{stem}.description.txt", meta["description"] + "\n"))
-        recipe = folder / f"{stem}{RECIPE_SUFFIX}"
-        files = [p.name for p in written]
-        text = json.dumps(recipe_dict(self, files), indent=2, ensure_ascii=False) + "\n"
-        write_text(recipe, text)
-        self.report["files"] = files + [recipe.name]
-        return written + [recipe]
+        return save(self, target, formats, stem)
 
 
-@functools.lru_cache(maxsize=1)
-def dependency_versions() -> dict[str, str]:
-    from importlib.metadata import PackageNotFoundError, version
-
-    out = {}
-    for name in ("numpy", "scipy", "scikit-image", "tifffile", "pillow", "trimesh", "lib3mf"):
-        try:
-            out[name] = version(name)
-        except PackageNotFoundError:
-            out[name] = "not installed"
-    return out
+def resolve_printer(params: LithoParams, printer: PrinterProfile | None = None) -> PrinterProfile:
+    """The printer numbers a print uses: the named (or given) profile with the user's nozzle and layer."""
+    return (printer or get_printer(params.printer)).with_overrides(params.nozzle_mm, params.layer_mm)
 
 
-def recipe_dict(litho: Lithograph, files: list[str]) -> dict:
-    src = litho.picture.source
-    return {
-        "tamp_os_version": __version__,
-        "input": {"name": src.name, "path": src.path, "sha256": src.sha256},
-        "params": litho.params.to_dict(),
-        "outputs": files,
-        "print": litho.report.get("print"),
-        "versions": dict(dependency_versions()),
-    }
+def layout_for(params: LithoParams, printer: PrinterProfile, image_w_px: int, image_h_px: int, preset: str | None = None) -> Layout:
+    """Print size and grid for an image of this size under these parameters (and preset)."""
+    return plan_layout(
+        image_w_px, image_h_px, width_mm=params.width_mm, height_mm=params.height_mm, default_width_mm=printer.width_mm,
+        fit=params.fit, preset=preset or params.preset, nozzle_mm=printer.nozzle_mm, resolution_px=params.resolution_px,
+        blur_px=params.blur_px, blur_mm=params.blur_mm,
+    )
 
 
-def load_recipe(path) -> tuple[Path, LithoParams, dict]:
-    """(input path, params, recipe) from a recipe sidecar; the input must still hash the same."""
-    import hashlib
+def make_lithograph(source, params: LithoParams | None = None, *, printer_profile: PrinterProfile | None = None, **changes) -> Lithograph:
+    """Make a lithograph from an image file, an array or a read Picture.
 
-    path = Path(path)
-    try:
-        recipe = json.loads(path.read_text(encoding="utf-8"))
-        params = LithoParams.from_dict(recipe["params"])
-        info = recipe["input"]
-    except (OSError, ValueError, KeyError, TypeError) as exc:
-        raise InputError(f"{path}: not a readable TAMP-OS recipe ({exc}).") from None
-    candidates = [Path(info["path"])] if info.get("path") else []
-    candidates.append(path.parent / info["name"])
-    for image in candidates:
-        if image.is_file():
-            if hashlib.sha256(image.read_bytes()).hexdigest() != info["sha256"]:
-                raise InputError(
-                    f"{path}: the input {image} has changed since the recipe was written (SHA-256 differs); "
-                    f"the same output cannot be rebuilt from it."
-                )
-            return image, params, recipe
-    raise InputError(f"{path}: its input {info['name']} was not found at {', '.join(map(str, candidates))}.")
-
-
-def make_lithograph(source, params: LithoParams | None = None, **changes) -> Lithograph:
-    """Make a lithograph from an image file or array.
+    `printer_profile` replaces the profile named by `params.printer` (a recipe brings its own).
 
     >>> litho = make_lithograph(np.eye(64), width_mm=50, relief_mm=2)   # doctest: +SKIP
     >>> litho.save("out/")                                              # doctest: +SKIP
@@ -173,71 +87,78 @@ def make_lithograph(source, params: LithoParams | None = None, **changes) -> Lit
     params = params or LithoParams()
     if changes:
         params = params.replace(**changes)
-    timings = {}
-    start = time.perf_counter()
+    timings: dict[str, float] = {}
+    clock = _Clock(timings)
+    with clock("read"):
+        picture = _read(source, params)
+    machine = resolve_printer(params, printer_profile)
+    with clock("annotations"):
+        cleaned = clean_source(picture, pixel_size=params.pixel_size, remove_annotations=not params.keep_annotations)
+    layout = layout_for(params, machine, cleaned.values.shape[1], cleaned.values.shape[0])
+    _check_grid(layout)
+    with clock("preprocess"):
+        prepared = _prepare(cleaned, layout, params)
+        heights = heights_mm(prepared.image, base_mm=params.base_mm, relief_mm=params.relief_mm,
+                             layer_mm=machine.layer_mm if params.quantize else None)
+    max_error = params.max_error_mm if params.max_error_mm is not None else machine.layer_mm / 2
+    with clock("mesh"):
+        if params.mesher == "adaptive":
+            mesh = adaptive_solid(heights, layout.width_mm, layout.depth_mm, max_error)
+        else:
+            mesh = grid_solid(heights, layout.width_mm, layout.depth_mm)
+    sample_per_mm = cleaned.scale.pixel_size_m * prepared.fitted_width_px / layout.width_mm if cleaned.scale.pixel_size_m else None
+    with clock("tactile"):
+        furniture = _furniture(params, sample_per_mm)
+        placed = None
+        if furniture.wanted:
+            mesh, placed = add_furniture(mesh, layout.width_mm, layout.depth_mm, params.base_mm, furniture)
+    report = _report(picture, cleaned, prepared, layout, params, machine, mesh, placed, max_error, timings)
+    return Lithograph(mesh=mesh, heightmap=heights, params=params, printer=machine, layout=layout, picture=picture,
+                      report=report, mask=cleaned.mask)
+
+
+class _Clock:
+    """`with clock("stage"):` adds the stage's wall time in seconds to `timings`."""
+
+    def __init__(self, timings: dict[str, float]):
+        self.timings, self.stage, self.start = timings, "", 0.0
+
+    def __call__(self, stage: str) -> "_Clock":
+        self.stage = stage
+        return self
+
+    def __enter__(self):
+        self.start = time.perf_counter()
+
+    def __exit__(self, *exc):
+        self.timings[self.stage] = time.perf_counter() - self.start
+
+
+def _read(source, params: LithoParams) -> Picture:
     if isinstance(source, Picture):
-        picture = source
-    elif isinstance(source, (str, Path)):
-        picture = read_image(
-            source, page=params.page, channel=params.channel, max_megapixels=params.max_megapixels, z_slice=params.z_slice
-        )
-    else:
-        picture = read_array(source, channel=params.channel)
-    timings["read"] = time.perf_counter() - start
+        return source
+    if isinstance(source, (str, Path)):
+        return read_image(source, page=params.page, channel=params.channel, max_megapixels=params.max_megapixels, z_slice=params.z_slice)
+    return read_array(source, channel=params.channel)
 
-    printer = get_printer(params.printer)
-    nozzle = params.nozzle_mm or printer.nozzle_mm
-    layer = params.layer_mm or printer.layer_mm
-    src = picture.source
-    start = time.perf_counter()
-    cleaned = clean_source(picture, pixel_size=params.pixel_size, remove_annotations=not params.keep_annotations)
-    values, alpha, scale = cleaned.values, cleaned.alpha, cleaned.scale
-    timings["annotations"] = time.perf_counter() - start
-    layout = plan_layout(
-        values.shape[1],
-        values.shape[0],
-        width_mm=params.width_mm,
-        height_mm=params.height_mm,
-        default_width_mm=printer.width_mm,
-        fit=params.fit,
-        preset=params.preset,
-        nozzle_mm=nozzle,
-        resolution_px=params.resolution_px,
-        blur_px=params.blur_px,
-        blur_mm=params.blur_mm,
-    )
-    if layout.rows > 20000 or layout.cols * layout.rows > 300e6:
+
+def _check_grid(layout: Layout) -> None:
+    if layout.rows > MAX_GRID_ROWS or layout.cols * layout.rows > MAX_GRID_POINTS:
         raise ParameterError(
-            f"resolution_px: {layout.cols}×{layout.rows} grid points is too many to mesh; lower --resolution-px or the preset."
+            f"resolution_px: {layout.cols}×{layout.rows} grid points is too many to mesh; lower resolution_px or the preset."
         )
-    start = time.perf_counter()
-    image, info = prepare(
-        values,
-        alpha,
-        rows=layout.rows,
-        cols=layout.cols,
-        target_aspect=layout.target_aspect,
-        fit=layout.fit,
-        low_pct=params.stretch_low_pct,
-        high_pct=params.stretch_high_pct,
-        sigma_px=layout.sigma_px,
-        invert=params.invert,
-        flip_x=params.flip_x,
+
+
+def _prepare(cleaned: Cleaned, layout: Layout, params: LithoParams) -> Prepared:
+    return prepare(
+        cleaned.values, cleaned.alpha, rows=layout.rows, cols=layout.cols, target_aspect=layout.target_aspect, fit=layout.fit,
+        low_pct=params.stretch_low_pct, high_pct=params.stretch_high_pct, sigma_px=layout.sigma_px,
+        invert=params.invert, flip_x=params.flip_x,
     )
-    heights = heights_mm(image, base_mm=params.base_mm, relief_mm=params.relief_mm, layer_mm=layer if params.quantize else None)
-    timings["preprocess"] = time.perf_counter() - start
 
-    start = time.perf_counter()
-    max_error = params.max_error_mm if params.max_error_mm is not None else layer / 2
-    if params.mesher == "adaptive":
-        mesh = adaptive_solid(heights, layout.width_mm, layout.depth_mm, max_error)
-    else:
-        mesh = grid_solid(heights, layout.width_mm, layout.depth_mm)
-    timings["mesh"] = time.perf_counter() - start
 
-    start = time.perf_counter()
-    sample_per_mm = scale.pixel_size_m * info["fitted_width_px"] / layout.width_mm if scale.pixel_size_m else None
-    furniture = Furniture(
+def _furniture(params: LithoParams, sample_per_mm: float | None) -> Furniture:
+    return Furniture(
         caption=params.caption,
         braille_table=params.braille_table,
         scale_bar_m=_scale_bar_m(params.scale_bar, sample_per_mm),
@@ -245,62 +166,64 @@ def make_lithograph(source, params: LithoParams | None = None, **changes) -> Lit
         frame_mm=params.frame_mm,
         spec=params.braille_spec(),
     )
-    placed = None
-    if furniture.wanted:
-        mesh, placed = add_furniture(mesh, layout.width_mm, layout.depth_mm, params.base_mm, furniture)
-    timings["tactile"] = time.perf_counter() - start
-
-    warnings = list(layout.warnings) + list(src.notes) + scale.warnings
-    if info["uniform"]:
-        warnings.append(f"{src.name}: the image is uniform (every usable pixel has the same value); the print is a flat plate.")
-    if params.base_mm < 0.8:
-        warnings.append(f"base_mm {params.base_mm} is below 0.8 mm; thin bases warp and break. 1.0–1.5 mm is typical.")
-    for w in warnings:
-        log.warning(w)
-    report = {
-        "input": src.name,
-        "print_mm": [round(float(v), 3) for v in mesh.bounds_mm[1]],
-        "relief_mm": [round(layout.width_mm, 3), round(layout.depth_mm, 3)],
-        "grid": [layout.cols, layout.rows],
-        "mm_per_px": round(layout.mm_per_px, 4),
-        "blur_px": round(layout.sigma_px, 3),
-        "printer": printer.name,
-        "nozzle_mm": nozzle,
-        "layer_mm": layer,
-        "height_levels": height_levels(params.relief_mm, layer),
-        "mesher": params.mesher,
-        "max_error_mm": max_error if params.mesher == "adaptive" else 0.0,
-        "triangles": mesh.n_triangles,
-        "vertices": len(mesh.vertices),
-        "uniform": info["uniform"],
-        "pixel_size_m": scale.pixel_size_m,
-        "pixel_size_source": scale.source,
-        "scale": scale_sentence(scale.pixel_size_m, info["fitted_width_px"] / layout.width_mm) if scale.pixel_size_m else "no physical scale is known",
-        "tactile": _tactile_report(placed),
-        "crop": cleaned.crop,
-        "annotations": [a.describe() for a in cleaned.annotations],
-        "warnings": warnings,
-        "timings_s": {k: round(v, 4) for k, v in timings.items()},
-        "files": [],
-    }
-    return Lithograph(mesh=mesh, heightmap=heights, params=params, layout=layout, picture=picture, report=report, mask=cleaned.mask)
 
 
 def _scale_bar_m(setting: str, sample_per_mm: float | None) -> float | None:
-    """The sample length the scale bar stands for, from --scale-bar auto|off|LENGTH."""
+    """The sample length the scale bar stands for, from scale_bar = auto | off | a length."""
     if setting == "off":
         return None
     if setting == "auto":
         return choose_scale_bar_m(sample_per_mm) if sample_per_mm else None
     if not sample_per_mm:
         raise ParameterError(
-            f"scale_bar: --scale-bar {setting} needs the image's pixel size, and none is known; "
-            f"give it with --pixel-size (for example --pixel-size 4.2nm) or use --scale-bar off."
+            f"scale_bar: a scale bar of {setting} needs the image's pixel size, and none is known; "
+            f"give pixel_size (for example 4.2nm) or set scale_bar to off."
         )
     return parse_length_m(setting, "scale_bar")
 
 
-def _tactile_report(placed) -> dict | None:
+def _warnings(picture: Picture, cleaned: Cleaned, prepared: Prepared, layout: Layout, params: LithoParams) -> list[str]:
+    warnings = list(layout.warnings) + list(picture.source.notes) + cleaned.scale.warnings
+    if prepared.uniform:
+        warnings.append(f"{picture.source.name}: the image is uniform (every usable pixel has the same value); the print is a flat plate.")
+    if params.base_mm < 0.8:
+        warnings.append(f"base_mm {params.base_mm} is below 0.8 mm; thin bases warp and break. 1.0–1.5 mm is typical.")
+    for w in warnings:
+        log.warning(w)
+    return warnings
+
+
+def _report(picture, cleaned, prepared, layout, params, machine, mesh, placed, max_error, timings) -> Report:
+    scale = cleaned.scale
+    source_px_per_print_mm = prepared.fitted_width_px / layout.width_mm
+    return Report(
+        input=picture.source.name,
+        print_mm=[round(float(v), 3) for v in mesh.bounds_mm[1]],
+        relief_mm=[round(layout.width_mm, 3), round(layout.depth_mm, 3)],
+        grid=[layout.cols, layout.rows],
+        mm_per_px=round(layout.mm_per_px, 4),
+        blur_px=round(layout.sigma_px, 3),
+        printer=machine.name,
+        nozzle_mm=machine.nozzle_mm,
+        layer_mm=machine.layer_mm,
+        height_levels=height_levels(params.relief_mm, machine.layer_mm),
+        mesher=params.mesher,
+        max_error_mm=max_error if params.mesher == "adaptive" else 0.0,
+        triangles=mesh.n_triangles,
+        vertices=len(mesh.vertices),
+        uniform=prepared.uniform,
+        pixel_size_m=scale.pixel_size_m,
+        pixel_size_source=scale.source,
+        scale=scale_sentence(scale.pixel_size_m, source_px_per_print_mm) if scale.pixel_size_m else "no physical scale is known",
+        tactile=_tactile_report(placed),
+        crop=cleaned.crop,
+        annotations=[a.describe() for a in cleaned.annotations],
+        warnings=_warnings(picture, cleaned, prepared, layout, params),
+        timings_s={k: round(v, 4) for k, v in timings.items()},
+    )
+
+
+def _tactile_report(placed: Placed | None) -> dict | None:
     if placed is None:
         return None
     return {
@@ -316,31 +239,3 @@ def _tactile_report(placed) -> dict | None:
         "braille_dots": placed.dots,
         "orientation": "cut corner at the top right",
     }
-
-
-def describe(litho: Lithograph) -> str:
-    """A plain-language description of the object for people who cannot see it."""
-    r, p = litho.report, litho.params
-    w, d, h = r["print_mm"]
-    rw, rd = r["relief_mm"]
-    raised = "dark" if p.invert else "bright"
-    parts = [
-        f"A tactile relief of the image {litho.picture.source.name}.",
-        f"The object is {w:g} mm wide, {d:g} mm deep and up to {h:g} mm high, on a {p.base_mm:g} mm base.",
-        f"The picture itself is {rw:g} by {rd:g} mm. The top edge of the image is the far edge of the print.",
-        f"The {raised} parts of the image are raised, up to {p.relief_mm:g} mm above the base.",
-        f"Scale: {r['scale']}.",
-    ]
-    t = r.get("tactile")
-    if t:
-        parts.append("The top right corner of the plate is cut off at 45 degrees: hold the print with that corner at the top right.")
-        if t["frame_box_mm"]:
-            parts.append(f"A raised frame {p.frame_mm:g} mm wide surrounds the picture.")
-        if t["scale_bar_box_mm"]:
-            parts.append(
-                f"Below the picture, at the left, a raised scale bar with end ticks stands for {t['scale_bar_label']} "
-                f"in the sample; its value is in braille to its right."
-            )
-        if t["caption_braille"]:
-            parts.append(f"Along the bottom margin, a braille caption reads: {p.caption}.")
-    return " ".join(parts)

@@ -7,6 +7,8 @@ not round to powers of two or cap at 512 px; adaptive meshing keeps large grids 
 
 from __future__ import annotations
 
+import dataclasses
+import functools
 import math
 import os
 from dataclasses import dataclass
@@ -22,6 +24,18 @@ class PrinterProfile:
     layer_mm: float
     width_mm: float
     description: str = ""
+
+    def with_overrides(self, nozzle_mm: float | None = None, layer_mm: float | None = None) -> "PrinterProfile":
+        """This profile with the user's nozzle and layer, where given: the numbers a print uses."""
+        return dataclasses.replace(self, nozzle_mm=nozzle_mm or self.nozzle_mm, layer_mm=layer_mm or self.layer_mm)
+
+    def as_dict(self) -> dict:
+        return dataclasses.asdict(self)
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "PrinterProfile":
+        """A profile stored in a recipe; checked like a user profile."""
+        return _profile_from_table(str(data.get("name", "recipe")), data, "the recipe")
 
 
 BUILTIN_PRINTERS: dict[str, PrinterProfile] = {
@@ -65,33 +79,45 @@ def load_user_profiles(path: Path | None = None) -> dict[str, PrinterProfile]:
         data = tomllib.loads(path.read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
         raise ParameterError(f"{path}: cannot read printer profiles ({exc}); fix or remove the file.") from exc
-    profiles = {}
-    for name, table in data.items():
-        if not isinstance(table, dict):
-            raise ParameterError(f"{path}: [{name}] must be a table with nozzle_mm, layer_mm and width_mm.")
-        try:
-            profile = PrinterProfile(
-                name=name,
-                nozzle_mm=float(table["nozzle_mm"]),
-                layer_mm=float(table["layer_mm"]),
-                width_mm=float(table.get("width_mm", 100.0)),
-                description=str(table.get("description", "user profile")),
-            )
-        except (KeyError, TypeError, ValueError) as exc:
-            raise ParameterError(
-                f"{path}: [{name}] needs numbers nozzle_mm and layer_mm (and optionally width_mm); problem: {exc}."
-            ) from exc
-        if not (0.05 <= profile.nozzle_mm <= 2.0 and 0.005 <= profile.layer_mm <= 1.0 and profile.width_mm > 0):
-            raise ParameterError(
-                f"{path}: [{name}] nozzle_mm must be 0.05–2.0, layer_mm 0.005–1.0 and width_mm > 0; "
-                f"got {profile.nozzle_mm}, {profile.layer_mm}, {profile.width_mm}."
-            )
-        profiles[name] = profile
-    return profiles
+    return {name: _profile_from_table(name, table, path) for name, table in data.items()}
+
+
+def _profile_from_table(name: str, table, where) -> PrinterProfile:
+    if not isinstance(table, dict):
+        raise ParameterError(f"{where}: [{name}] must be a table with 'nozzle_mm', 'layer_mm' and 'width_mm'.")
+    try:
+        profile = PrinterProfile(
+            name=name,
+            nozzle_mm=float(table["nozzle_mm"]),
+            layer_mm=float(table["layer_mm"]),
+            width_mm=float(table.get("width_mm", 100.0)),
+            description=str(table.get("description", "user profile")),
+        )
+    except (KeyError, TypeError, ValueError) as exc:
+        raise ParameterError(
+            f"{where}: [{name}] needs numbers 'nozzle_mm' and 'layer_mm' (and optionally 'width_mm'); problem: {exc}."
+        ) from None
+    if not (0.05 <= profile.nozzle_mm <= 2.0 and 0.005 <= profile.layer_mm <= 1.0 and 0 < profile.width_mm <= 1000):
+        raise ParameterError(
+            f"{where}: [{name}] 'nozzle_mm' must be 0.05–2.0, 'layer_mm' 0.005–1.0 and 'width_mm' 0–1000; "
+            f"got {profile.nozzle_mm}, {profile.layer_mm}, {profile.width_mm}."
+        )
+    return profile
 
 
 def all_printers() -> dict[str, PrinterProfile]:
-    return {**BUILTIN_PRINTERS, **load_user_profiles()}
+    """The built-in profiles and the user's (read once per version of the user's file)."""
+    path = user_profiles_path()
+    try:
+        stamp = path.stat().st_mtime_ns
+    except OSError:
+        stamp = None
+    return {**BUILTIN_PRINTERS, **_user_profiles_cached(path, stamp)}
+
+
+@functools.lru_cache(maxsize=4)
+def _user_profiles_cached(path: Path, stamp: int | None) -> dict[str, PrinterProfile]:
+    return load_user_profiles(path) if stamp is not None else {}
 
 
 def get_printer(name: str) -> PrinterProfile:

@@ -42,8 +42,18 @@ class View:
             raise ParameterError(f"theme: must be light or dark; got {self.theme!r}.")
 
 
+OFFSCREEN_ENV = {"VTK_DEFAULT_OPENGL_WINDOW": "vtkEGLRenderWindow"}  # EGL + Mesa: no X server needed
+
+
 def _pyvista():
-    os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+    # The entry points (cli.main, gui.serve) set OFFSCREEN_ENV; a library must not change the
+    # process environment behind its caller's back, so here we only say what is missing.
+    if not os.environ.get("VTK_DEFAULT_OPENGL_WINDOW") and not os.environ.get("DISPLAY"):
+        raise MissingDependencyError(
+            "rendering without a display needs the environment variable VTK_DEFAULT_OPENGL_WINDOW=vtkEGLRenderWindow "
+            "set before PyVista is imported (the tamp-os command and the web app set it; in a notebook run "
+            "os.environ.update(tamp_os.render.OFFSCREEN_ENV) first)."
+        )
     try:
         import pyvista
     except ImportError:

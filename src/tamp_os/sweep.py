@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import ParameterError
-from .files import write_png, write_text
+from .files import to_uint8, write_png, write_text
 from .params import LithoParams, parse_field
 
 FIELD_NAMES = {f.name for f in dataclasses.fields(LithoParams)}
@@ -27,11 +27,11 @@ def parse_vary(specs: list[str]) -> dict[str, list]:
         name = ALIASES.get(name.strip(), name.strip())
         if name not in FIELD_NAMES or not values.strip():
             raise ParameterError(
-                f"--vary {spec!r}: write NAME=V1,V2,… with NAME a parameter ({', '.join(sorted(ALIASES))} or any field name)."
+                f"vary {spec!r}: write NAME=V1,V2,… with NAME a parameter ({', '.join(sorted(ALIASES))} or any field name)."
             )
         out[name] = [parse_field(name, v) for v in values.split(",") if v.strip()]
     if not out:
-        raise ParameterError("sweep: give at least one --vary NAME=V1,V2,…")
+        raise ParameterError("sweep: give at least one parameter to vary, as NAME=V1,V2,…")
     return out
 
 
@@ -69,8 +69,7 @@ def contact_sheet(panels: list[tuple[str, np.ndarray]], panel_px: int = 320):
     draw = ImageDraw.Draw(sheet)
     for i, (label, image) in enumerate(panels):
         if image.dtype != np.uint8:
-            lo, hi = float(image.min()), float(image.max())
-            image = ((image - lo) / (hi - lo or 1) * 255).astype(np.uint8)
+            image = to_uint8(image)
         tile = Image.fromarray(image)
         tile.thumbnail((panel_px - 10, panel_px - 10))
         x, y = (i % cols) * panel_px, (i // cols) * (panel_px + label_h)

@@ -109,7 +109,7 @@ def write_step(mesh, fh, metadata: dict) -> None:
     if mesh.n_triangles > MAX_TRIANGLES:
         raise ExportError(
             f"STEP: {mesh.n_triangles:,} triangles is more than CAD programs import in reasonable time "
-            f"(limit {MAX_TRIANGLES:,}). Use the adaptive mesher with a larger --max-error-mm (for example 0.1), "
+            f"(limit {MAX_TRIANGLES:,}). Use the adaptive mesher with a larger max_error_mm (for example 0.1), "
             f"or a lower preset."
         )
     title = str(metadata.get("title", "lithograph")).replace("'", "")

@@ -130,7 +130,7 @@ def create_app(limits: Limits | None = None, store: JobStore | None = None) -> F
         return values
 
     def _cards(job, params):
-        from ..presets import preset_rows
+        from ..preset_table import preset_rows
 
         first = job.uploads[0]
         try:

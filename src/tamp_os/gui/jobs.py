@@ -15,10 +15,10 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import numpy as np
 
 from ..errors import TampError
-from ..files import write_png
+from ..files import to_uint8, write_png
+from ..report import web_summary
 from ..params import LithoParams
 
 JOB_ID = re.compile(r"^[0-9a-f]{32}$")
@@ -168,28 +168,22 @@ def convert(job: Job, upload: Upload) -> Result:
     try:
         litho = make_lithograph(upload.path, params)
         written = litho.save(job.out, stem=stem)
+        if params.gcode:
+            from ..slicer import slice_outputs
+
+            written = slice_outputs(litho, written)
     except TampError as exc:
         return Result(upload.name, False, str(exc).replace(str(upload.path), upload.name))
     except Exception as exc:  # keep the server alive and say what happened
         return Result(upload.name, False, f"{upload.name}: unexpected error ({exc.__class__.__name__}); please report it.")
-    r = litho.report
-    h = litho.heightmap
-    gray = ((h - h.min()) / ((h.max() - h.min()) or 1) * 255).astype(np.uint8)
     heightmap_png = f"{stem}.heightmap.png"
-    write_png(job.out / heightmap_png, gray)
-    w, d, top = r["print_mm"]
+    write_png(job.out / heightmap_png, to_uint8(litho.heightmap))
+    w, d, _ = litho.report.print_mm
     result = Result(
         upload.name, True, files=[p.name for p in written], heightmap_png=heightmap_png,
         heightmap_alt=(f"Heightmap of {upload.name}: brighter means higher on the print; "
                        f"{'dark' if params.invert else 'bright'} parts of the image are raised."),
-        summary=[
-            f"Print {w:g} × {d:g} mm, up to {top:g} mm high; grid {r['grid'][0]} × {r['grid'][1]}; "
-            f"{r['triangles']:,} triangles; {r['height_levels']} height levels.",
-            f"Scale: {r['scale']}.",
-            *[f"Note: {x}" for x in r["warnings"]],
-            *(["Removed: " + "; ".join(r["annotations"])] if r["annotations"] else []),
-            *([f"Printing: {r['print']['summary']}."] if r.get("print") else []),
-        ],
+        summary=web_summary(litho.report),
     )
     try:
         with RENDER_LOCK:

@@ -49,8 +49,8 @@ def plan_layout(
         suggested = width_mm * aspect
         warnings.append(
             f"width {width_mm:g} mm and height {height_mm:g} mm do not match the image's aspect ratio; "
-            f"the image was padded at base level to fit. For no padding use --height-mm {suggested:.1f} "
-            f"(or --fit crop, or --fit stretch to distort it)."
+            f"the image was padded at base level to fit. For no padding set height_mm to {suggested:.1f} "
+            f"(or set fit to crop, or to stretch to distort it)."
         )
     if fit is None:
         fit = "pad"

@@ -8,6 +8,8 @@ Row 0 stays the top of the image here; mesh.py places it at the far edge of the 
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from scipy import ndimage
 
@@ -96,6 +98,14 @@ def renormalize(image: np.ndarray) -> np.ndarray:
     return ((image - low) / (high - low)).astype(np.float32)
 
 
+@dataclass(frozen=True)
+class Prepared:
+    image: np.ndarray  # float32 (rows, cols) in 0..1, row 0 = top of the picture
+    stretch_source_range: tuple[float, float]  # source values mapped to 0 and 1
+    uniform: bool  # every usable source pixel had the same value
+    fitted_width_px: float  # source pixels across the picture after padding or cropping to the aspect
+
+
 def prepare(
     values: np.ndarray,
     alpha: np.ndarray | None,
@@ -110,7 +120,8 @@ def prepare(
     invert: bool,
     flip_x: bool,
 ):
-    """The whole preprocessing chain. Returns (image in 0..1 on rows×cols, info dict)."""
+    """The whole preprocessing chain: stretch on the source, fit the aspect, resample to rows × cols,
+    blur by `sigma_px` grid pixels, invert and mirror as asked. See `Prepared` for the result."""
     image, (low, high), uniform = stretch(values, alpha, low_pct, high_pct)
     image, alpha = fit_aspect(image, alpha, target_aspect, fit)
     fitted_width_px = image.shape[1]
@@ -124,5 +135,4 @@ def prepare(
         image = image * np.clip(resample(alpha, rows, cols), 0.0, 1.0)
     if flip_x:
         image = image[:, ::-1]
-    info = {"stretch_source_range": (low, high), "uniform": uniform, "fitted_width_px": fitted_width_px}
-    return np.ascontiguousarray(image, dtype=np.float32), info
+    return Prepared(np.ascontiguousarray(image, dtype=np.float32), (low, high), uniform, fitted_width_px)

@@ -1,31 +1,23 @@
-"""The Low/Medium/High table for a printer and an image: grid, mm per pixel, blur, height levels,
-triangles and estimated file sizes. Shared by `tamp-os presets` and the web app."""
+"""The Low/Medium/High table for a printer and an image, before anything is made: grid, mm per
+pixel, blur, height levels, triangles and estimated file sizes. Shared by `tamp-os presets` and the web app."""
 
 from __future__ import annotations
 
 from .params import LithoParams
-from .printers import ADAPTIVE_RATIO, PRESETS, estimate_file_bytes, get_printer, grid_triangles, height_levels
-from .relief.layout import plan_layout
+from .pipeline import layout_for, make_lithograph, resolve_printer
+from .printers import ADAPTIVE_RATIO, PRESETS, estimate_file_bytes, grid_triangles, height_levels
 
 
 def preset_rows(params: LithoParams, width_px: int = 4, height_px: int = 3, picture=None) -> list[dict]:
     """One row per preset. With a picture, the mesh is made for real, so the counts are exact."""
-    printer = get_printer(params.printer)
-    nozzle = params.nozzle_mm or printer.nozzle_mm
-    layer = params.layer_mm or printer.layer_mm
+    printer = resolve_printer(params)
     if picture is not None:
         width_px, height_px = picture.source.width, picture.source.height
     rows = []
     for preset in PRESETS:
-        layout = plan_layout(
-            width_px, height_px, width_mm=params.width_mm, height_mm=params.height_mm, default_width_mm=printer.width_mm,
-            fit=params.fit, preset=preset, nozzle_mm=nozzle, resolution_px=params.resolution_px,
-            blur_px=params.blur_px, blur_mm=params.blur_mm,
-        )
+        layout = layout_for(params, printer, width_px, height_px, preset)
         exact = picture is not None
         if exact:
-            from .pipeline import make_lithograph
-
             mesh = make_lithograph(picture, params.replace(preset=preset)).mesh
             tris, verts = mesh.n_triangles, len(mesh.vertices)
         else:
@@ -41,7 +33,7 @@ def preset_rows(params: LithoParams, width_px: int = 4, height_px: int = 3, pict
             "blur_px": layout.sigma_px,
             "width_mm": layout.width_mm,
             "depth_mm": layout.depth_mm,
-            "height_levels": height_levels(params.relief_mm, layer),
+            "height_levels": height_levels(params.relief_mm, printer.layer_mm),
             "triangles": tris,
             "exact": exact,
             "bytes": {fmt: estimate_file_bytes(fmt, tris, verts) for fmt in params.formats},

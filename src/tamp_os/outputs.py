@@ -1,0 +1,215 @@
+"""Writing a lithograph: output names, the mesh formats, the description, the mask and the recipe
+sidecar (NAME.tamp.json) that rebuilds the print exactly; reading a recipe back and matching it
+against an input (batch resume). Files are opened only through files.write_atomic."""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import json
+import os
+import time
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+
+from .errors import ExportError, InputError
+from .export import save_mesh
+from .files import to_uint8, write_png, write_text
+from .params import LithoParams
+from .printers import PrinterProfile
+from .report import describe
+from .version import __version__
+
+RECIPE_SUFFIX = ".tamp.json"
+PARALLEL_WRITE_TRIANGLES = 100_000
+
+
+def metadata(litho) -> dict:
+    """Title, description, designer and application, for formats that carry them (3MF, GLB)."""
+    return {
+        "title": f"Tactile lithograph of {litho.picture.source.name}",
+        "description": describe(litho.report, litho.params, litho.picture.source.name),
+        "designer": "TAMP-OS",
+        "application": f"TAMP-OS {__version__}",
+    }
+
+
+def save(litho, target, formats=None, stem: str | None = None) -> list[Path]:
+    """Write the mesh in each format, the mask if asked, a description and a recipe.
+
+    `target` is a folder (files are named `stem`, by default after the input) or a file name
+    whose extension picks the single format. Returns the paths written, recipe last.
+    """
+    folder, stem, formats = _target(litho, Path(target), formats, stem)
+    meta = metadata(litho)
+    written = [path for path, _ in write_meshes(litho.mesh, folder, stem, formats, meta).values()]
+    if litho.params.save_masks and litho.mask is not None:
+        written.append(write_png(folder / f"{stem}.annotations.png", to_uint8(litho.mask, 0.0, 1.0)))
+    written.append(write_text(folder / f"{stem}.description.txt", meta["description"] + "\n"))
+    recipe = write_recipe(litho, folder / f"{stem}{RECIPE_SUFFIX}", [p.name for p in written])
+    litho.report.files = [p.name for p in written] + [recipe.name]
+    return written + [recipe]
+
+
+def _target(litho, target: Path, formats, stem) -> tuple[Path, str, list[str]]:
+    if target.suffix and not target.is_dir():
+        folder, stem, formats = target.parent, target.stem, [target.suffix.lstrip(".").lower()]
+    else:
+        folder, stem = target, stem or litho.name
+        formats = list(formats or litho.params.formats)
+    if not folder.exists():
+        try:
+            folder.mkdir(parents=True)
+        except OSError as exc:
+            raise ExportError(f"{folder}: cannot create the output folder ({exc.strerror}); choose another.") from None
+    return folder, stem, formats
+
+
+def distinct_stems(paths: list[Path]) -> list[str]:
+    """Output names for inputs written into one folder in one run: each input's stem, or, where
+    two would share one (a.png, a.tif), stem_extension (a_png, a_tif), then a number if needed."""
+    stems = [Path(p).stem or "lithograph" for p in paths]
+    counts = {s: stems.count(s) for s in stems}
+    stems = [f"{s}_{Path(p).suffix.lstrip('.').lower()}" if counts[s] > 1 and Path(p).suffix else s for s, p in zip(stems, paths)]
+    seen: dict[str, int] = {}
+    out = []
+    for s in stems:
+        seen[s] = seen.get(s, 0) + 1
+        out.append(s if seen[s] == 1 else f"{s}_{seen[s]}")
+    return out
+
+
+def write_meshes(mesh, folder: Path, stem: str, formats: list[str], meta: dict) -> dict[str, tuple[Path, float]]:
+    """Write `mesh` as folder/stem.FMT for each format: {format: (path, seconds)}."""
+
+    def write(fmt):
+        start = time.perf_counter()
+        path = save_mesh(mesh, folder / f"{stem}.{fmt}", meta)
+        return fmt, (path, time.perf_counter() - start)
+
+    # Large meshes: the writers spend their time in NumPy and lib3mf's C code, which release
+    # the GIL, so writing the formats side by side uses both cores. Small ones: threads cost more.
+    if mesh.n_triangles > PARALLEL_WRITE_TRIANGLES and len(formats) > 1:
+        with ThreadPoolExecutor(max_workers=min(len(formats), os.cpu_count() or 1)) as pool:
+            return dict(pool.map(write, formats))
+    return dict(write(fmt) for fmt in formats)
+
+
+@functools.lru_cache(maxsize=1)
+def dependency_versions() -> dict[str, str]:
+    from importlib.metadata import PackageNotFoundError, version
+
+    out = {}
+    for name in ("numpy", "scipy", "scikit-image", "tifffile", "pillow", "trimesh", "lib3mf"):
+        try:
+            out[name] = version(name)
+        except PackageNotFoundError:
+            out[name] = "not installed"
+    return out
+
+
+def file_sha256(path: Path) -> str:
+    """SHA-256 of a file, read in blocks."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def recipe_dict(litho, files: list[str]) -> dict:
+    src = litho.picture.source
+    return {
+        "tamp_os_version": __version__,
+        "input": {"name": src.name, "path": src.path, "sha256": src.sha256},
+        "params": litho.params.to_dict(),
+        "outputs": files,
+        "print": litho.report.print,
+        "versions": dict(dependency_versions()),
+        "printer_profile": litho.printer.as_dict(),
+    }
+
+
+def write_recipe(litho, path: Path, files: list[str]) -> Path:
+    recipe = recipe_dict(litho, files)
+    if recipe["input"]["path"]:  # also relative to the recipe, so a moved folder still rebuilds
+        recipe["input"]["path_from_recipe"] = os.path.relpath(os.path.abspath(recipe["input"]["path"]), os.path.abspath(path.parent))
+    return write_text(path, json.dumps(recipe, indent=2, ensure_ascii=False) + "\n")
+
+
+def load_recipe(path) -> tuple[Path, LithoParams, PrinterProfile | None, dict]:
+    """(input path, params, printer profile, recipe) from a recipe; the input must still hash the same.
+
+    Only the input the recipe names is opened (beside the recipe, by its path relative to the
+    recipe, or by its recorded path), only if it is a regular file, and never quoted in an error.
+    """
+    path = Path(path)
+    recipe = _read_recipe(path)
+    info = recipe["input"]
+    try:
+        params = LithoParams.from_dict(recipe["params"])
+        profile = PrinterProfile.from_dict(recipe["printer_profile"]) if recipe.get("printer_profile") else None
+    except (TypeError, AttributeError) as exc:
+        raise InputError(f"{path}: not a usable TAMP-OS recipe ({exc.__class__.__name__} in its parameters).") from None
+    candidates = [Path(info["path"])] if info.get("path") else []
+    if info.get("path_from_recipe"):
+        candidates.insert(0, Path(os.path.normpath(path.parent / info["path_from_recipe"])))
+    candidates.append(path.parent / info["name"])
+    for image in candidates:
+        if image.is_file():
+            if file_sha256(image) != info["sha256"]:
+                raise InputError(
+                    f"{path}: the input {image} has changed since the recipe was written (SHA-256 differs); "
+                    f"the same output cannot be rebuilt from it."
+                )
+            return image, params, profile, recipe
+    raise InputError(f"{path}: its input {info['name']} was not found at {', '.join(map(str, candidates))}.")
+
+
+def _read_recipe(path: Path) -> dict:
+    """The recipe's JSON, checked for the fields a rebuild needs (the file's text is never echoed)."""
+    bad = f"{path}: not a readable TAMP-OS recipe"
+    if not path.is_file():
+        raise InputError(f"{path}: no such recipe file (or not a regular file).")
+    if path.stat().st_size > 10_000_000:
+        raise InputError(f"{bad} (larger than 10 MB; a recipe is a few kB).")
+    try:
+        recipe = json.loads(path.read_text(encoding="utf-8"))
+    except OSError as exc:
+        raise InputError(f"{bad} ({exc.strerror}).") from None
+    except (ValueError, RecursionError):  # not UTF-8 JSON, or nested too deeply to be ours
+        raise InputError(f"{bad} (not the JSON a recipe holds).") from None
+    info = recipe.get("input") if isinstance(recipe, dict) else None
+    if not isinstance(info, dict) or not isinstance(recipe.get("params"), dict):
+        raise InputError(f"{bad} (it needs an 'input' record and 'params').")
+    name, digest = info.get("name"), info.get("sha256")
+    if not isinstance(name, str) or not name or Path(name).name != name:
+        raise InputError(f"{bad} (its input 'name' must be a plain file name).")
+    if not isinstance(digest, str) or len(digest) != 64 or any(c not in "0123456789abcdef" for c in digest):
+        raise InputError(f"{bad} (its input needs a 'sha256' of 64 hexadecimal digits).")
+    for key in ("path", "path_from_recipe"):
+        if info.get(key) is not None and not isinstance(info[key], str):
+            raise InputError(f"{bad} (its input '{key}' must be text).")
+    return recipe
+
+
+def recipe_outputs_if_current(recipe_path: Path, source: Path, params: LithoParams) -> list[str] | None:
+    """The files an existing recipe lists, if it records this input and these parameters and
+    every file it lists is still there; else None (the input must be converted again)."""
+    try:
+        recipe = json.loads(recipe_path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    if not isinstance(recipe, dict) or recipe.get("params") != params.to_dict():
+        return None
+    try:
+        digest = file_sha256(source)
+    except OSError:
+        return None
+    if (recipe.get("input") or {}).get("sha256") != digest:
+        return None
+    outputs = recipe.get("outputs", [])
+    if not outputs or not all((recipe_path.parent / name).is_file() for name in outputs):
+        return None
+    return outputs + [recipe_path.name]

@@ -1,0 +1,118 @@
+"""What a lithograph is, in one typed Report, and the one place that says it in words: the CLI's
+one-line summary, the notes on what was removed, the description for people who cannot see the
+print, and the web app's summary lines."""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+
+from .params import LithoParams
+
+
+@dataclass
+class Report:
+    """Facts about one lithograph. Lengths in mm; `print_mm` is the whole object (width, depth,
+    height), `relief_mm` the picture's width and depth on the plate."""
+
+    input: str
+    print_mm: list[float]
+    relief_mm: list[float]
+    grid: list[int]  # grid points across and down (cols, rows)
+    mm_per_px: float
+    blur_px: float  # Gaussian blur sigma in grid pixels
+    printer: str
+    nozzle_mm: float
+    layer_mm: float
+    height_levels: int
+    mesher: str
+    max_error_mm: float
+    triangles: int
+    vertices: int
+    uniform: bool
+    pixel_size_m: float | None
+    pixel_size_source: str | None
+    scale: str  # a sentence: "1 mm on the print = ... in the sample"
+    tactile: dict | None
+    crop: dict
+    annotations: list[str]
+    warnings: list[str]
+    timings_s: dict[str, float]
+    files: list[str] = field(default_factory=list)
+    print: dict | None = None  # slicing results, once sliced
+
+    def as_dict(self) -> dict:
+        """The report as a plain dict (JSON-ready), with the keys of the earlier untyped report."""
+        d = dataclasses.asdict(self)
+        if d["print"] is None:
+            del d["print"]
+        return d
+
+    # Read-only dict-style access, kept for code and notebooks written against the old dict.
+    def __getitem__(self, key: str):
+        return self.as_dict()[key]
+
+    def get(self, key: str, default=None):
+        return self.as_dict().get(key, default)
+
+
+def summary_line(report: Report, written_names: list[str]) -> str:
+    """One plain line per converted file, as `tamp-os convert` prints it."""
+    w, d, h = report.print_mm
+    scale = f"; {report.scale}" if report.pixel_size_m else ""
+    return (
+        f"{report.input}: {w:g} × {d:g} × {h:g} mm, grid {report.grid[0]} × {report.grid[1]}, "
+        f"{report.triangles:,} triangles, {report.height_levels} height levels{scale}; "
+        f"wrote {', '.join(written_names)}"
+    )
+
+
+def removed_notes(report: Report) -> list[str]:
+    """Plain sentences for what was cropped or inpainted."""
+    crop, notes = report.crop or {}, []
+    for side in ("top", "bottom"):
+        if crop.get(f"{side}_rows"):
+            notes.append(f"removed the data band: {crop[f'{side}_rows']} rows at the {side} ({crop['source']})")
+    if report.annotations:
+        notes.append("removed burned-in annotations: " + "; ".join(report.annotations))
+    return notes
+
+
+def web_summary(report: Report) -> list[str]:
+    """The web app's result lines for one image."""
+    w, d, top = report.print_mm
+    return [
+        f"Print {w:g} × {d:g} mm, up to {top:g} mm high; grid {report.grid[0]} × {report.grid[1]}; "
+        f"{report.triangles:,} triangles; {report.height_levels} height levels.",
+        f"Scale: {report.scale}.",
+        *[f"Note: {x}" for x in report.warnings],
+        *(["Removed: " + "; ".join(report.annotations)] if report.annotations else []),
+        *([f"Printing: {report.print['summary']}."] if report.print else []),
+    ]
+
+
+def describe(report: Report, params: LithoParams, source_name: str) -> str:
+    """A plain-language description of the object for people who cannot see it."""
+    w, d, h = report.print_mm
+    rw, rd = report.relief_mm
+    raised = "dark" if params.invert else "bright"
+    parts = [
+        f"A tactile relief of the image {source_name}.",
+        f"The object is {w:g} mm wide, {d:g} mm deep and up to {h:g} mm high, on a {params.base_mm:g} mm base.",
+        f"The picture itself is {rw:g} by {rd:g} mm. The top edge of the image is the far edge of the print.",
+        f"The {raised} parts of the image are raised, up to {params.relief_mm:g} mm above the base.",
+        f"Scale: {report.scale}.",
+    ]
+    t = report.tactile
+    if t:
+        parts.append("The top right corner of the plate is cut off at 45 degrees: hold the print with that corner at the top right.")
+        if t["frame_box_mm"]:
+            parts.append(f"A raised frame {params.frame_mm:g} mm wide surrounds the picture.")
+        if t["scale_bar_box_mm"]:
+            parts.append(
+                f"Below the picture, at the left, a raised scale bar with end ticks stands for {t['scale_bar_label']} "
+                f"in the sample; its value is in braille to its right."
+            )
+        if t["caption_braille"]:
+            parts.append(f"Along the bottom margin, a braille caption reads: {params.caption}.")
+    return " ".join(parts)

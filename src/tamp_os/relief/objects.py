@@ -18,6 +18,8 @@ from skimage import filters, measure, segmentation
 from .scales import disk, gaussian_mm
 
 MAX_COVER = 0.7  # objects covering more than this share of the picture are the background
+GAP_MM = 1.5  # rim gaps up to 3 mm wide are bridged
+MAX_BORDER_SHARE = 0.2  # objects with more of their outline on the picture's border are ground
 MIN_SOLIDITY = 0.7  # pockets of ground enclosed between touching objects are concave: drop them
 CONVEX_SOLIDITY = 0.85  # objects at least this solid are filled out to their convex hull
 MIN_EDGE_RATIO = 2.7  # the steepest gradient near an outline, over the picture's median gradient
@@ -81,7 +83,19 @@ def _enclosed_by_edges(smooth, grad, pitch_mm, nozzle_mm, min_px) -> np.ndarray:
     edges = _edges(grad)
     # Close gaps of about a nozzle width along rims, then fill what the rims enclose.
     closed = ndimage.binary_closing(edges, structure=disk(1.5 * nozzle_mm / pitch_mm), border_value=0)
-    filled = ndimage.binary_fill_holes(closed)
+    # Enclosed = every region the edges cut off from the ground (the largest open region).
+    # Unlike a plain hole fill, an object cut by the picture's border still counts: the FePt
+    # spheres touch the top edge. Concave pockets of ground are dropped later by solidity.
+    # Opening the open space by a disk of GAP_MM cuts it at rim gaps narrower than 2 × GAP_MM
+    # (where a shaded side fades into its shadow), so a sphere's inside is its own region.
+    regions, n = ndimage.label(ndimage.binary_opening(~closed, structure=disk(GAP_MM / pitch_mm)))
+    if n == 0:
+        return regions
+    ground = 1 + int(np.argmax(np.bincount(regions.ravel())[1:]))
+    filled = (regions > 0) & (regions != ground)
+    # Give back what the opening shaved off the insides (never the ground), then the rim band.
+    filled |= ndimage.binary_dilation(filled, structure=disk(GAP_MM / pitch_mm)) & ~closed & (regions != ground)
+    filled |= closed & ndimage.binary_dilation(filled, structure=disk(4 * nozzle_mm / pitch_mm))
     # Interiors without the edge band, opened so thin unclosed rims vanish; touching objects
     # stay apart because the edge between them is removed here.
     interior = ndimage.binary_opening(filled & ~closed, structure=disk(2 * nozzle_mm / pitch_mm))
@@ -146,7 +160,12 @@ def _distinct(labels: np.ndarray, smooth: np.ndarray, grad: np.ndarray, reach_px
 def _keep(labels: np.ndarray, min_px: int, total_px: int) -> np.ndarray:
     """Drop objects smaller than min_px, larger than half the picture, or concave pockets."""
     keep = np.zeros(labels.max() + 1, bool)
+    # Pixels on the picture's border, per object: ground cut off by the border is not an object.
+    rim = np.concatenate([labels[0], labels[-1], labels[1:-1, 0], labels[1:-1, -1]])
+    on_border = np.bincount(rim, minlength=labels.max() + 1)
     for region in measure.regionprops(labels):
+        if on_border[region.label] > MAX_BORDER_SHARE * region.perimeter:
+            continue
         if min_px <= region.area <= 0.5 * total_px and region.solidity >= MIN_SOLIDITY:
             keep[region.label] = True
     return np.where(keep[labels], labels, 0)

@@ -127,7 +127,8 @@ def make_relief(
     check_style(style, options, mm_per_px)
     if style == "reference" or uniform:
         reason = "brightness mapped to height, as the reference workflow does" if style == "reference" else "the picture is uniform: a flat plate"
-        return ReliefResult(heights_mm(image01, base_mm=base_mm, relief_mm=relief_mm, layer_mm=layer_mm), style, reason)
+        used = "reference" if style == "auto" else style
+        return ReliefResult(heights_mm(image01, base_mm=base_mm, relief_mm=relief_mm, layer_mm=layer_mm), used, reason)
     grid = WorkGrid.plan(image01.shape, mm_per_px, options.nozzle_mm / 2)
     work = grid.down(image01)
     if style == "auto":

@@ -1,0 +1,118 @@
+"""Legibility of every relief style: fixtures, scikit-image pictures and synthetic ground truth.
+
+For each picture the grid image comes from today's pipeline at Medium (100 mm wide, 3 mm
+relief): image01 = (reference heights − base) / relief. Each style then makes heights, and the
+legibility report measures them. Prints a Markdown table, and a speed line for 4096².
+With --png DIR, writes each relief as a grey PNG (black = base, white = top) to look at.
+
+    PYTHONPATH=src .venv/bin/python benchmarks/bench_legibility.py [--png /work/screens/relief]
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "tests"))
+
+from synthetic import all_synthetic  # noqa: E402
+from tamp_os.relief.legibility import assess  # noqa: E402
+from tamp_os.relief.preprocess import prepare  # noqa: E402
+from tamp_os.relief.styles import STYLES, make_relief  # noqa: E402
+
+FIXTURES = ROOT.parent / "shared" / "fixtures"
+SKIMAGE = ("cell", "coins", "moon", "immunohistochemistry", "microaneurysms", "retina", "camera")
+BASE, RELIEF, LAYER, NOZZLE = 1.0, 3.0, 0.12, 0.4
+
+
+def pictures():
+    """(name, image01 on the Medium grid, mm per px, known object mask or None)."""
+    from tamp_os.pipeline import make_lithograph
+
+    for path in sorted(FIXTURES.glob("*")):
+        if path.suffix.lower() in (".md",):
+            continue
+        try:
+            litho = make_lithograph(path, mesher="grid", scale_bar="off")
+        except Exception as exc:  # an unreadable fixture is reported, not fatal
+            print(f"<!-- {path.name}: {exc} -->")
+            continue
+        yield path.name, (litho.heightmap - BASE) / RELIEF, litho.layout.mm_per_px, None, litho.report["uniform"]
+    import skimage.data
+
+    for name in SKIMAGE:
+        litho = make_lithograph(np.asarray(getattr(skimage.data, name)()), mesher="grid")
+        yield name, (litho.heightmap - BASE) / RELIEF, litho.layout.mm_per_px, None, litho.report["uniform"]
+    for syn in all_synthetic(192, 256):
+        rows, cols = syn.image.shape
+        image, _ = prepare(syn.image, None, rows=rows, cols=cols, target_aspect=(rows - 1) / (cols - 1), fit="stretch",
+                           low_pct=2, high_pct=98, sigma_px=1.2, invert=False, flip_x=False)
+        yield f"synthetic {syn.name}", image, 100.0 / (cols - 1), syn.objects, False
+
+
+def row(name, style, made, report, known, seconds):
+    lift = (report.object_lift_mm, report.lowest_lift_mm) if known is not None else None
+    found = f"{made.object_count}" if made.objects is not None else "–"
+    step = f"{report.smallest_step_mm:.2f}" if report.smallest_step_mm is not None else "–"
+    lift_s = f"{lift[0]:.2f} / {lift[1]:.2f}" if lift is not None else "–"
+    return (f"| {name} | {style}{' → ' + made.style if style == 'auto' else ''} | {report.fine_share:.1%} | "
+            f"{report.levels_used} | {step} | {report.narrow_area_mm2:.0f} | {found} | {lift_s} | {seconds * 1000:.0f} |")
+
+
+def main(png_dir: Path | None):
+    print("| picture | style | fine share | levels | smallest step mm | narrow mm² | objects | known objects' lift mm (median / lowest) | style ms |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    summary: dict[str, list[float]] = {s: [] for s in STYLES}
+    for name, image, mm, known, uniform in pictures():
+        for style in STYLES:
+            start = time.perf_counter()
+            made = make_relief(image.astype(np.float32), style=style, mm_per_px=mm, base_mm=BASE, relief_mm=RELIEF,
+                               layer_mm=LAYER, uniform=uniform)
+            seconds = time.perf_counter() - start
+            objects = known if known is not None else made.objects
+            report = assess(made.heights_mm, mm, nozzle_mm=NOZZLE, layer_mm=LAYER, objects=objects)
+            summary[style].append(report.fine_share)
+            print(row(name, style, made, report, known, seconds))
+            if png_dir is not None:
+                grey = np.clip((made.heights_mm - BASE) / RELIEF * 255, 0, 255).astype(np.uint8)
+                from PIL import Image
+
+                safe = name.replace(" ", "_").replace(".", "_")
+                Image.fromarray(grey).save(png_dir / f"{safe}__{style}.png")
+    print()
+    print("| style | median fine share | worst fine share |")
+    print("|---|---|---|")
+    for style, shares in summary.items():
+        print(f"| {style} | {np.median(shares):.1%} | {max(shares):.1%} |")
+    speed()
+
+
+def speed():
+    """Each style's extra work at 4096² (100 mm wide: 0.024 mm pitch), one run each."""
+    rng = np.random.default_rng(0)
+    from scipy import ndimage
+
+    image = ndimage.zoom(rng.random((256, 256)).astype(np.float32), 16, order=1)
+    print()
+    print("| 4096² (100 mm) | " + " | ".join(STYLES) + " |")
+    print("|---|" + "---|" * len(STYLES))
+    times = []
+    for style in STYLES:
+        start = time.perf_counter()
+        make_relief(image, style=style, mm_per_px=100 / 4095, base_mm=BASE, relief_mm=RELIEF)
+        times.append(f"{(time.perf_counter() - start):.2f} s")
+    print("| time | " + " | ".join(times) + " |")
+
+
+if __name__ == "__main__":
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--png", type=Path, default=None)
+    args = parser.parse_args()
+    if args.png:
+        args.png.mkdir(parents=True, exist_ok=True)
+    main(args.png)

@@ -1,0 +1,201 @@
+"""How a relief will read under a fingertip, measured on the final heights in millimetres.
+
+Figures (all on the print): the share of the relief's variance finer than a fingertip (what a
+Gaussian low-pass of sigma = 1 mm leaves), the height levels used and the smallest step between
+neighbouring regions, the area of features narrower than two nozzle widths, the steepest slope,
+and the objects' lift above the ground around them; then plain sentences with advice.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import numpy as np
+from scipy import ndimage
+from skimage import measure
+
+from .scales import WorkGrid, disk
+
+FINGERTIP_SIGMA_MM = 1.0
+FINE_SHARE_WARN = 0.2  # above this, the print feels like sandpaper
+STEP_MM = 0.5  # steps fingers tell apart reliably
+MANY_LEVELS = 8  # more distinct levels than this read as a continuous surface
+NARROW_HEIGHT_MM = 0.25  # narrow features lower than this are texture, not features
+LIFT_MM = 1.0  # an object should stand at least this far above its surroundings
+
+
+@dataclass(frozen=True)
+class Legibility:
+    """The legibility figures of one relief (lengths in mm, areas in mm²).
+
+    fine_share : variance finer than a fingertip ÷ total variance (0..1).
+    levels_used : distinct heights (to `quantum_mm`) that each cover at least a fingertip's area.
+    smallest_step_mm : smallest height step between neighbouring fingertip-sized regions, or None.
+    narrow_area_mm2 : area of raised or sunk features narrower than two nozzle widths.
+    narrow_share : that area ÷ the relief's area.
+    steepest_slope_deg : steepest slope (99.9th percentile, so one pixel cannot decide it).
+    object_count : objects given to the report (found by a style, or known).
+    object_lift_mm : median over objects of (object median height − ground around it), or None.
+    lowest_lift_mm : the least-lifted object's lift, or None.
+    relief_span_mm : 1st to 99th percentile of the heights.
+    verdicts : plain sentences with advice.
+    """
+
+    fine_share: float
+    levels_used: int
+    smallest_step_mm: float | None
+    narrow_area_mm2: float
+    narrow_share: float
+    steepest_slope_deg: float
+    object_count: int
+    object_lift_mm: float | None
+    lowest_lift_mm: float | None
+    relief_span_mm: float
+    verdicts: tuple[str, ...]
+
+    def as_dict(self) -> dict:
+        out = asdict(self)
+        out["verdicts"] = list(self.verdicts)
+        return out
+
+
+def assess(
+    heights_mm: np.ndarray,
+    mm_per_px: float,
+    *,
+    nozzle_mm: float = 0.4,
+    layer_mm: float | None = None,
+    objects: np.ndarray | None = None,
+    min_area_mm2: float = 6.0,
+) -> Legibility:
+    """Measure a relief's legibility.
+
+    Parameters
+    ----------
+    heights_mm : (rows, cols) heights in mm (base included; only differences matter).
+    mm_per_px : grid pitch in mm.
+    nozzle_mm : nozzle diameter in mm (narrow features are those under 2 × nozzle_mm).
+    layer_mm : layer height; heights are compared to this quantum (default 0.1 mm).
+    objects : (rows, cols) labels or bool mask of objects (0/False = ground), or None.
+    min_area_mm2 : a fingertip-sized area: smaller regions are not counted as levels.
+    """
+    h = np.asarray(heights_mm, dtype=np.float64)
+    grid = WorkGrid.plan(h.shape, mm_per_px, nozzle_mm / 4)  # narrow features need nozzle/4
+    work = grid.down(h).astype(np.float64)
+    pitch = grid.pitch_mm
+    span = float(np.percentile(h, 99) - np.percentile(h, 1))
+    quantum = max(layer_mm or 0.1, 1e-3)
+    fine = _fine_share(h, mm_per_px)
+    levels, step = _levels_and_step(h, quantum, max(1, int(min_area_mm2 / mm_per_px**2)))
+    narrow_mm2 = _narrow_area(work, pitch, nozzle_mm)
+    gy, gx = np.gradient(work, pitch)
+    slope = float(np.degrees(np.arctan(np.percentile(np.hypot(gx, gy), 99.9))))
+    count, lift, lowest = _lifts(h, objects, mm_per_px)
+    area = h.size * mm_per_px**2
+    figures = dict(
+        fine_share=fine, levels_used=levels, smallest_step_mm=step, narrow_area_mm2=narrow_mm2,
+        narrow_share=narrow_mm2 / area if area else 0.0, steepest_slope_deg=slope, object_count=count,
+        object_lift_mm=lift, lowest_lift_mm=lowest, relief_span_mm=span,
+    )
+    return Legibility(**figures, verdicts=verdicts(figures, nozzle_mm))
+
+
+def _fine_share(h: np.ndarray, mm_per_px: float) -> float:
+    total = float(h.var())
+    if total <= 1e-12:
+        return 0.0
+    low = ndimage.gaussian_filter(h, FINGERTIP_SIGMA_MM / mm_per_px, mode="nearest")
+    return float((h - low).var() / total)
+
+
+def _levels_and_step(h: np.ndarray, quantum: float, min_px: int) -> tuple[int, float | None]:
+    """Distinct quantised heights covering >= min_px, and the smallest step between
+    neighbouring regions (connected areas of one quantised height) that are both that big."""
+    q = np.round((h - h.min()) / quantum).astype(np.int64)
+    values, counts = np.unique(q, return_counts=True)
+    levels = int((counts >= min_px).sum())
+    if levels < 2:
+        return levels, None
+    regions = measure.label(q, background=-1, connectivity=1)
+    big = (np.bincount(regions.ravel()) >= min_px)[regions]
+    steps = []
+    for a, b, ok in ((q[:, 1:], q[:, :-1], big[:, 1:] & big[:, :-1]), (q[1:], q[:-1], big[1:] & big[:-1])):
+        d = np.abs(a - b)[ok]
+        d = d[d > 0]
+        if d.size:
+            steps.append(int(d.min()))
+    return levels, (min(steps) * quantum if steps else None)
+
+
+def _narrow_area(work: np.ndarray, pitch: float, nozzle_mm: float) -> float:
+    """Area of ridges and grooves that an opening/closing two nozzle widths wide removes."""
+    foot = disk(nozzle_mm / pitch)
+    ridges = work - ndimage.grey_opening(work, footprint=foot)
+    grooves = ndimage.grey_closing(work, footprint=foot) - work
+    return float(((ridges > NARROW_HEIGHT_MM) | (grooves > NARROW_HEIGHT_MM)).sum() * pitch**2)
+
+
+def _lifts(h: np.ndarray, objects, mm_per_px: float) -> tuple[int, float | None, float | None]:
+    """Each object's median height minus the median of the ground 1–3 mm around it."""
+    if objects is None:
+        return 0, None, None
+    labels = np.asarray(objects)
+    if labels.dtype == bool:
+        labels = ndimage.label(labels)[0]
+    n = int(labels.max())
+    if n == 0:
+        return 0, None, None
+    mask = labels > 0
+    near = ndimage.binary_dilation(mask, iterations=max(1, round(3 / mm_per_px)))
+    ground = near & ~ndimage.binary_dilation(mask, iterations=max(1, round(1 / mm_per_px)))
+    # Each ground pixel belongs to its nearest object.
+    _, (iy, ix) = ndimage.distance_transform_edt(~mask, return_indices=True)
+    owner = np.where(ground, labels[iy, ix], 0)
+    index = np.arange(1, n + 1)
+    inside = np.asarray(ndimage.median(h, labels, index))
+    around = np.asarray(ndimage.median(h, owner, index), dtype=np.float64)
+    around = np.where(np.isfinite(around), around, np.median(h[~mask]) if (~mask).any() else 0.0)
+    lifts = inside - around
+    return n, float(np.median(lifts)), float(lifts.min())
+
+
+def verdicts(f: dict, nozzle_mm: float) -> tuple[str, ...]:
+    """Plain sentences, each with advice where something reads badly."""
+    if f["relief_span_mm"] < 0.05 and f["levels_used"] <= 1:
+        return ("This print is a flat plate: there is nothing raised to feel.",)
+    out = []
+    share = f["fine_share"]
+    if share > FINE_SHARE_WARN:
+        out.append(
+            f"{share:.0%} of this relief's height variation is finer than a fingertip resolves (about 1 mm), so it is "
+            f"felt as roughness, not as shape; try relief_style structure, or a larger detail_mm."
+        )
+    else:
+        out.append(f"Most of the relief is shape a fingertip can follow: only {share:.0%} of its variation is finer than about 1 mm.")
+    levels, step = f["levels_used"], f["smallest_step_mm"]
+    if levels > MANY_LEVELS:
+        out.append(f"The heights vary continuously ({levels} layer levels in use): read it as a landscape, not as distinct levels.")
+    elif step is not None and step < STEP_MM - 1e-9:
+        out.append(
+            f"{levels} height levels; the smallest step between neighbouring regions is {step:.2g} mm, under the "
+            f"{STEP_MM} mm fingers tell apart reliably; try fewer levels or a taller relief."
+        )
+    elif step is not None:
+        out.append(f"{levels} distinct height levels, at least {step:.2g} mm apart: easy to tell apart by touch.")
+    if f["narrow_share"] > 0.05:
+        out.append(
+            f"{f['narrow_area_mm2']:.0f} mm² ({f['narrow_share']:.0%} of the picture) is ridges or grooves narrower than two "
+            f"nozzle widths ({2 * nozzle_mm:g} mm): they may not print and read as noise; a larger detail_mm removes them."
+        )
+    if f["object_count"]:
+        lift, low = f["object_lift_mm"], f["lowest_lift_mm"]
+        n = f["object_count"]
+        if lift < LIFT_MM:
+            out.append(
+                f"The {n} object{'s' * (n != 1)} stand only {lift:.2g} mm (median) above the ground around them; "
+                f"a finger may not find them; try relief_style objects."
+            )
+        else:
+            out.append(f"{n} object{'s' * (n != 1)} stand {lift:.2g} mm (median; lowest {low:.2g} mm) above the ground around them.")
+    out.append(f"The steepest slope is {f['steepest_slope_deg']:.0f} degrees.")
+    return tuple(out)

@@ -1,0 +1,273 @@
+"""Relief styles: from the prepared picture to heights in millimetres, deciding what is raised.
+
+Every style takes the image the pipeline prepares today (`preprocess.prepare`: percentile
+stretch on the source, resampled to the grid, blurred, inverted when asked; 0..1, row 0 = top)
+and the grid pitch, and returns heights in mm with what it found. So `invert` and the stretch
+work with every style, upstream of it.
+
+- reference: today's mapping, base + relief × brightness (bit-identical heights).
+- structure: fingertip-scale shape. Edge-preserving smoothing at `detail_mm` gives the large
+  shape most of the relief; regions enclosed by strong edges (objects) are lifted; detail
+  finer than `detail_mm` stays as a texture at most `texture_mm` high.
+- levels: `level_count` plateaus (2–5) from multi-level Otsu thresholds of that shape; regions
+  under a fingertip's area are merged into their neighbours; outlines smoothed at nozzle scale.
+- objects: objects found (enclosed by edges, else bright blobs) raised as domes or rounded
+  plateaus over a flat background carrying only the `texture_mm` texture.
+- auto: picks one of the above from the picture and says why.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from skimage import filters
+
+from ..errors import ParameterError
+from .heightmap import heights_mm
+from .objects import ObjectMap, dome_profile, find_objects
+from .scales import WorkGrid, gaussian_mm, guided_smooth, robust_unit
+
+STYLES = ("reference", "structure", "levels", "objects", "auto")
+LEVEL_RANGE = (2, 5)
+MIN_STEP_MM = 0.5  # height step fingers tell apart reliably
+DOME_ROUND_DETAILS = 5  # domes up to 2 × 5 × detail_mm across; wider objects get rounded plateaus
+
+
+@dataclass(frozen=True)
+class StyleOptions:
+    """Settings of the relief styles (all lengths on the print, in mm).
+
+    detail_mm : finest shape a finger should read as shape; finer detail becomes texture.
+    texture_mm : peak-to-peak height of that fine texture (0 = none).
+    level_count : plateaus of the `levels` style, 2–5.
+    min_area_mm2 : smallest region (`levels`) or object (`objects`) kept: about a fingertip.
+    nozzle_mm : nozzle diameter; outlines are smoothed at this scale.
+    """
+
+    detail_mm: float = 2.0
+    texture_mm: float = 0.3
+    level_count: int = 3
+    min_area_mm2: float = 6.0
+    nozzle_mm: float = 0.4
+
+
+@dataclass(frozen=True)
+class ReliefResult:
+    """What a style made.
+
+    heights_mm : (rows, cols) float64 heights in mm, base included.
+    style : the style that made them (auto resolves to one of the others).
+    reason : one sentence saying why this style (auto) or what it did.
+    objects : (rows, cols) int32 labels of the objects found (0 = background), or None.
+    levels_mm : heights above the base of the plateaus (`levels`), else ().
+    notes : further sentences for the report (adjustments made, nothing found...).
+    """
+
+    heights_mm: np.ndarray
+    style: str
+    reason: str
+    objects: np.ndarray | None = None
+    levels_mm: tuple[float, ...] = ()
+    notes: tuple[str, ...] = field(default_factory=tuple)
+
+    @property
+    def object_count(self) -> int:
+        return 0 if self.objects is None else int(self.objects.max())
+
+
+def check_style(style: str, options: StyleOptions, mm_per_px: float) -> None:
+    """Raise one ParameterError naming the parameter, its range and the value, if any is bad."""
+    if style not in STYLES:
+        raise ParameterError(f"relief_style: must be one of {', '.join(STYLES)}; got {style!r}.")
+    if not (math.isfinite(options.detail_mm) and options.detail_mm >= mm_per_px and options.detail_mm <= 50):
+        raise ParameterError(
+            f"detail_mm: must be between the grid pitch ({mm_per_px:.3g} mm) and 50 mm; got {options.detail_mm!r}. "
+            f"Use a larger detail_mm or a finer grid (a higher preset or resolution_px)."
+        )
+    if not (math.isfinite(options.texture_mm) and 0 <= options.texture_mm <= 2):
+        raise ParameterError(f"texture_mm: must be between 0 and 2 mm; got {options.texture_mm!r}.")
+    lo, hi = LEVEL_RANGE
+    if isinstance(options.level_count, bool) or not isinstance(options.level_count, (int, np.integer)) or not lo <= options.level_count <= hi:
+        raise ParameterError(f"level_count: must be a whole number from {lo} to {hi}; got {options.level_count!r}.")
+    if not (math.isfinite(options.min_area_mm2) and 0 <= options.min_area_mm2 <= 1000):
+        raise ParameterError(f"min_area_mm2: must be between 0 and 1000 mm²; got {options.min_area_mm2!r}.")
+    if not (math.isfinite(options.nozzle_mm) and 0.05 <= options.nozzle_mm <= 2):
+        raise ParameterError(f"nozzle_mm: must be between 0.05 and 2 mm; got {options.nozzle_mm!r}.")
+
+
+def make_relief(
+    image01: np.ndarray,
+    *,
+    style: str,
+    mm_per_px: float,
+    base_mm: float,
+    relief_mm: float,
+    layer_mm: float | None = None,
+    options: StyleOptions = StyleOptions(),
+    uniform: bool = False,
+) -> ReliefResult:
+    """Heights in mm from the prepared image, in the given relief style.
+
+    Parameters
+    ----------
+    image01 : (rows, cols) float, 0..1, from `preprocess.prepare` (row 0 = top of the image).
+    style : one of STYLES.
+    mm_per_px : grid pitch in mm (`Layout.mm_per_px`).
+    base_mm, relief_mm : base thickness and relief height in mm.
+    layer_mm : when given, heights are rounded to whole layers (as `heights_mm` does).
+    options : StyleOptions.
+    uniform : the picture is uniform (prepare's info['uniform']): every style gives a flat plate.
+
+    Returns
+    -------
+    ReliefResult with heights (rows, cols) float64 in mm.
+    """
+    check_style(style, options, mm_per_px)
+    if style == "reference" or uniform:
+        reason = "brightness mapped to height, as the reference workflow does" if style == "reference" else "the picture is uniform: a flat plate"
+        used = "reference" if style == "auto" else style
+        return ReliefResult(heights_mm(image01, base_mm=base_mm, relief_mm=relief_mm, layer_mm=layer_mm), used, reason)
+    grid = WorkGrid.plan(image01.shape, mm_per_px, options.nozzle_mm / 2)
+    work = grid.down(image01)
+    if style == "auto":
+        style, reason = choose_style(work, pitch_mm=grid.pitch_mm, options=options)
+    else:
+        reason = ""
+    made = _STYLE_FUNCS[style](work, grid.pitch_mm, relief_mm, options)
+    relief01 = np.clip(grid.up(made.relief01, nearest=style == "levels"), 0.0, 1.0)
+    labels = None
+    if made.objects is not None and made.objects.count:
+        labels = grid.up(made.objects.labels.astype(np.float32), nearest=True).astype(np.int32)
+    heights = heights_mm(relief01, base_mm=base_mm, relief_mm=relief_mm, layer_mm=layer_mm)
+    levels = tuple(float(h) for h in np.unique(heights) - base_mm) if style == "levels" else ()
+    return ReliefResult(heights, style, reason or made.summary, labels, levels, made.notes)
+
+
+@dataclass(frozen=True)
+class _Made:
+    relief01: np.ndarray  # working grid, 0..1 of the relief
+    summary: str
+    objects: ObjectMap | None = None
+    notes: tuple[str, ...] = ()
+
+
+def large_shape(work: np.ndarray, pitch_mm: float, options: StyleOptions) -> np.ndarray:
+    """Fingertip-scale shape of the picture, 0..1 (working grid).
+
+    Noise is first damped by a Gaussian of detail/4; the self-guided filter then flattens
+    what varies less than about 0.1 of the range within `detail_mm` and keeps larger steps as
+    steps; half of the very-large-scale trend (8 × detail) is removed so that dim objects on
+    a dark side still rise; the 1st–99th percentiles are spread over the relief.
+    """
+    damped = gaussian_mm(work, options.detail_mm / 4, pitch_mm)
+    shape = guided_smooth(damped, options.detail_mm / pitch_mm, eps=0.01)
+    trend = gaussian_mm(shape, 8 * options.detail_mm, pitch_mm)
+    return robust_unit(shape - 0.5 * trend)
+
+
+def fine_texture(work: np.ndarray, pitch_mm: float, options: StyleOptions) -> np.ndarray:
+    """Detail between the nozzle and `detail_mm` scales, softly bounded to -0.5..0.5."""
+    band = gaussian_mm(work, options.nozzle_mm / 2, pitch_mm) - gaussian_mm(work, options.detail_mm / 2, pitch_mm)
+    scale = float(np.percentile(np.abs(band), 99)) if band.size else 0.0
+    if scale <= 1e-6:
+        return np.zeros_like(band)
+    return (0.5 * np.tanh(band / scale)).astype(np.float32)
+
+
+def _with_texture(shape01: np.ndarray, work, pitch_mm, relief_mm, options) -> np.ndarray:
+    """Shape over (relief − texture), plus the texture band on top."""
+    share = min(options.texture_mm / relief_mm, 0.5) if relief_mm > 0 else 0.0
+    if share <= 0:
+        return shape01
+    return (1.0 - share) * shape01 + share * (0.5 + fine_texture(work, pitch_mm, options))
+
+
+def structure_shape(work: np.ndarray, pitch_mm: float, options: StyleOptions) -> tuple[np.ndarray, ObjectMap]:
+    """The `structure` style's shape before texture, 0..1, and the objects it lifted.
+
+    Regions enclosed by strong edges read as objects (SEM spheres inside their rims): they are
+    lifted by half the relief as domes, keeping their own fingertip-scale shading on top.
+    """
+    shape = large_shape(work, pitch_mm, options)
+    found = find_objects(work, pitch_mm=pitch_mm, min_area_mm2=options.min_area_mm2, nozzle_mm=options.nozzle_mm)
+    if found.count:
+        domes = dome_profile(found.labels, pitch_mm=pitch_mm, round_mm=DOME_ROUND_DETAILS * options.detail_mm)
+        shape = robust_unit(0.5 * shape + 0.5 * domes, 0.5, 99.5)
+    return shape, found
+
+
+def _structure(work, pitch_mm, relief_mm, options) -> _Made:
+    shape, found = structure_shape(work, pitch_mm, options)
+    summary = f"fingertip-scale shape (detail {options.detail_mm:g} mm) with a texture of at most {options.texture_mm:g} mm"
+    if found.count:
+        summary += f"; {found.count} enclosed object{'s' * (found.count != 1)} lifted"
+    return _Made(_with_texture(shape, work, pitch_mm, relief_mm, options), summary, found)
+
+
+def _objects(work, pitch_mm, relief_mm, options) -> _Made:
+    found = find_objects(work, pitch_mm=pitch_mm, min_area_mm2=options.min_area_mm2, nozzle_mm=options.nozzle_mm)
+    if not found.count:
+        made = _structure(work, pitch_mm, relief_mm, options)
+        note = "objects: no objects were found (nothing enclosed by edges, no compact bright blobs); the structure style was used instead."
+        return _Made(made.relief01, made.summary, None, (note,))
+    domes = dome_profile(found.labels, pitch_mm=pitch_mm, round_mm=DOME_ROUND_DETAILS * options.detail_mm)
+    summary = f"{found.count} object{'s' * (found.count != 1)} raised as domes over a flat, lightly textured background"
+    return _Made(_with_texture(domes, work, pitch_mm, relief_mm, options), summary, found)
+
+
+def _levels(work, pitch_mm, relief_mm, options) -> _Made:
+    from .levels import plateau_classes
+
+    count, notes = options.level_count, []
+    while count > 2 and relief_mm / (count - 1) < MIN_STEP_MM:
+        count -= 1
+    if count != options.level_count:
+        notes.append(
+            f"level_count: {options.level_count} levels in a {relief_mm:g} mm relief would make steps under "
+            f"{MIN_STEP_MM} mm, which fingers do not tell apart; {count} levels were used."
+        )
+    shape, found = structure_shape(work, pitch_mm, options)
+    classes = plateau_classes(shape, count, pitch_mm=pitch_mm, options=options)
+    used = int(np.unique(classes).size)
+    if used < count:
+        notes.append(f"levels: only {used} of {count} levels are large enough to feel in this picture.")
+    summary = f"{used} plateaus, {relief_mm / max(count - 1, 1):.2g} mm apart"
+    return _Made((classes / max(count - 1, 1)).astype(np.float32), summary, found, tuple(notes))
+
+
+_STYLE_FUNCS = {"structure": _structure, "objects": _objects, "levels": _levels}
+
+
+def choose_style(work: np.ndarray, *, pitch_mm: float, options: StyleOptions) -> tuple[str, str]:
+    """(style, one sentence why) from the picture on the working grid."""
+    found = find_objects(work, pitch_mm=pitch_mm, min_area_mm2=options.min_area_mm2, nozzle_mm=options.nozzle_mm)
+    if found.count and found.method == "edges" and 0.03 <= found.cover <= MAX_OBJECT_COVER:
+        inside = float(np.median(work[found.mask]))
+        outside = float(np.median(work[~found.mask]))
+        if inside - outside < 0.15:
+            return "objects", (
+                f"auto chose objects: {found.count} object{'s' * (found.count != 1)} outlined by edges but hardly brighter "
+                f"than the ground (as in secondary-electron SEM), so brightness alone would not raise them"
+            )
+    classes = min(options.level_count, 3)
+    if np.ptp(work) > 1e-6:
+        thresholds = filters.threshold_multiotsu(work, classes=classes)
+        separation = _separation(work, thresholds)
+        if separation >= 0.9:
+            return "levels", f"auto chose levels: the picture is made of {classes} distinct brightness levels (separation {separation:.2f})"
+    return "structure", "auto chose structure: continuous tones, so the fingertip-scale shape is raised and finer detail kept as low texture"
+
+
+MAX_OBJECT_COVER = 0.6
+
+
+def _separation(image: np.ndarray, thresholds: np.ndarray) -> float:
+    """Share of the variance between the Otsu classes (1 = perfectly separate levels)."""
+    classes = np.digitize(image, thresholds)
+    total = float(image.var())
+    if total <= 0:
+        return 0.0
+    within = sum(float(image[classes == k].var()) * float((classes == k).mean()) for k in np.unique(classes))
+    return 1.0 - within / total

@@ -22,6 +22,7 @@ class PrinterProfile:
     layer_mm: float
     width_mm: float
     description: str = ""
+    prusa_preset: str | None = None  # a PrusaSlicer system printer preset: slice with its bed and firmware
 
 
 BUILTIN_PRINTERS: dict[str, PrinterProfile] = {
@@ -97,6 +98,10 @@ def all_printers() -> dict[str, PrinterProfile]:
 def get_printer(name: str) -> PrinterProfile:
     printers = all_printers()
     if name not in printers:
+        from .prusa_presets import bundles, system_printer_profile
+
+        if bundles():  # a PrusaSlicer system preset; its error lists close names
+            return system_printer_profile(name)
         raise ParameterError(
             f"printer: unknown profile {name!r}; choose one of {', '.join(sorted(printers))}, "
             f"or add it to {user_profiles_path()}."

@@ -153,6 +153,9 @@ def _add_presets_and_plate(sub) -> None:
     presets.add_argument("image", nargs="?", metavar="IMAGE")
     _param_options(presets)
 
+    printers = sub.add_parser("printers", help="list printer profiles and PrusaSlicer's system printers for --printer")
+    printers.add_argument("--vendor", default=None, help="only this vendor's system printers (e.g. PrusaResearch, Creality)")
+
     plate = sub.add_parser(
         "braille-test-plate", help="a plate of the same braille at several dot heights and diameters",
         description="Print this, read it, and pick the dot height and diameter your printer makes legible.",
@@ -197,7 +200,7 @@ def main(argv=None) -> int:
         commands = {
             "convert": cmd_convert, "batch": cmd_batch, "presets": cmd_presets, "info": cmd_info,
             "braille-test-plate": cmd_braille_plate, "sweep": cmd_sweep, "render": cmd_render,
-            "slice": cmd_slice, "estimate": cmd_estimate, "gui": cmd_gui,
+            "slice": cmd_slice, "estimate": cmd_estimate, "gui": cmd_gui, "printers": cmd_printers,
         }
         return commands[args.command](args)
     except TampError as exc:
@@ -479,6 +482,22 @@ def cmd_presets(args) -> int:
         )
     if suggestion:
         print(f"suggested for {Path(args.image).name}: {suggestion[0].capitalize()}, because {suggestion[1]}.")
+    return EXIT_OK
+
+
+def cmd_printers(args) -> int:
+    from .printers import all_printers
+    from .prusa_presets import system_printers
+
+    print("Profiles (G-code from these is for estimates only, not for a real printer):")
+    for p in all_printers().values():
+        print(f"{p.name}: nozzle {p.nozzle_mm:g} mm, layer {p.layer_mm:g} mm, width {p.width_mm:g} mm, {p.description}")
+    found = [p for p in system_printers() if not args.vendor or p.vendor.lower() == args.vendor.lower()]
+    print(f"PrusaSlicer system printers ({len(found)}; give the name in quotes to --printer for G-code you can print):")
+    for p in found:
+        print(p.line())
+    if not found:
+        print("none found: install PrusaSlicer (apt-get install prusa-slicer), or check the --vendor name.")
     return EXIT_OK
 
 

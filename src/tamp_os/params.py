@@ -33,7 +33,7 @@ def _f(default, help, unit="", lo=None, hi=None, choices=None, lo_open=False):
 @dataclass(frozen=True)
 class LithoParams:
     preset: str = _f("medium", "grid density from the nozzle: low, medium or high", choices=tuple(PRESETS))
-    printer: str = _f("standard", "printer profile (standard, fine, large or one of yours)")
+    printer: str = _f("standard", "printer profile (standard, fine, large, one of yours, or a PrusaSlicer system printer: see the printers command)")
     nozzle_mm: float | None = _f(None, "nozzle diameter (default: from the printer)", "mm", 0.05, 2.0)
     layer_mm: float | None = _f(None, "layer height (default: from the printer)", "mm", 0.005, 1.0)
     width_mm: float | None = _f(None, "print width (default: from the printer, or from the height)", "mm", 5.0, 1000.0)

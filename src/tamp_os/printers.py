@@ -24,6 +24,7 @@ class PrinterProfile:
     layer_mm: float
     width_mm: float
     description: str = ""
+    prusa_preset: str | None = None  # a PrusaSlicer system printer preset: slice with its bed and firmware
 
     def with_overrides(self, nozzle_mm: float | None = None, layer_mm: float | None = None) -> "PrinterProfile":
         """This profile with the user's nozzle and layer, where given: the numbers a print uses."""
@@ -123,6 +124,10 @@ def _user_profiles_cached(path: Path, stamp: int | None) -> dict[str, PrinterPro
 def get_printer(name: str) -> PrinterProfile:
     printers = all_printers()
     if name not in printers:
+        from .prusa_presets import bundles, system_printer_profile
+
+        if bundles():  # a PrusaSlicer system preset; its error lists close names
+            return system_printer_profile(name)
         raise ParameterError(
             f"printer: unknown profile {name!r}; choose one of {', '.join(sorted(printers))}, "
             f"or add it to {user_profiles_path()}."

@@ -5,6 +5,12 @@ PrusaSlicer runs headless: we create its configuration with `--save` from the pr
 material (density, price per kg), slice to G-code beside the mesh, and read the figures it
 writes as G-code comments. A missing slicer, a slicer error or a timeout raise SlicerError with a
 clear message; the mesh is never touched.
+
+When the printer profile names a PrusaSlicer system preset (a real printer such as an Original
+Prusa MINI), the G-code gets that printer's bed, firmware flavour, start G-code and the vendor's
+filament temperatures (prusa_presets.py resolves the vendor bundle); our print settings (layer,
+infill, perimeters) go on top. Otherwise the printer is a generic 300 × 300 mm machine and the
+G-code is for estimates only: the result, its sentence and a comment at the top of the file say so.
 """
 
 from __future__ import annotations
@@ -21,6 +27,8 @@ import numpy as np
 
 from .errors import MissingDependencyError, ParameterError, TampError
 from .printers import PrinterProfile
+
+GENERIC_NOTE = "generic printer profile: the G-code is for estimates only, not for sending to a printer"
 
 INFILL = 0.15
 PERIMETERS = 2
@@ -67,6 +75,8 @@ class SliceResult:
     layers: int
     material: str
     price_per_kg: float
+    printer: str = "generic"
+    for_estimates_only: bool = True
 
     def as_dict(self) -> dict:
         return asdict(self)
@@ -75,6 +85,7 @@ class SliceResult:
         return (
             f"{_duration(self.print_time_s)} to print, {self.filament_g:.1f} g of {self.material} "
             f"({self.filament_mm / 1000:.2f} m of filament), costing {self.cost:.2f} at {self.price_per_kg:g} per kg"
+            + (f" ({GENERIC_NOTE})" if self.for_estimates_only else f", sliced for {self.printer}")
         )
 
 
@@ -93,24 +104,42 @@ def prusa_slicer() -> str:
     return exe
 
 
-def config_args(printer: PrinterProfile, mat: Material, layer_mm: float | None = None, nozzle_mm: float | None = None) -> list[str]:
-    layer = layer_mm or printer.layer_mm
-    nozzle = nozzle_mm or printer.nozzle_mm
+def print_args(layer: float, nozzle: float, mat: Material) -> list[str]:
+    """Our print settings (the reference's: 15 % gyroid, no supports) and the material's density and price."""
     return [
         "--layer-height", f"{layer:g}",
         "--first-layer-height", f"{max(layer, min(FIRST_LAYER_MM, 0.75 * nozzle)):g}",
-        "--nozzle-diameter", f"{nozzle:g}",
         "--fill-density", f"{INFILL * 100:g}%",
         "--fill-pattern", "gyroid",
         "--perimeters", str(PERIMETERS),
         "--top-solid-layers", str(TOP_LAYERS),
         "--bottom-solid-layers", str(BOTTOM_LAYERS),
-        "--filament-diameter", "1.75",
         "--filament-density", f"{mat.density_g_cm3:g}",
         "--filament-cost", f"{mat.price_per_kg:g}",
-        "--bed-shape", "0x0,300x0,300x300,0x300",
         "--skirts", "1",
     ]
+
+
+def config_args(printer: PrinterProfile, mat: Material, layer_mm: float | None = None, nozzle_mm: float | None = None) -> list[str]:
+    """The generic printer: our print settings on a 300 × 300 mm bed with a 1.75 mm filament."""
+    layer = layer_mm or printer.layer_mm
+    nozzle = nozzle_mm or printer.nozzle_mm
+    return [*print_args(layer, nozzle, mat), "--nozzle-diameter", f"{nozzle:g}", "--filament-diameter", "1.75",
+            "--bed-shape", "0x0,300x0,300x300,0x300"]
+
+
+def _preset_config(folder: Path, printer: PrinterProfile, mat: Material, layer_mm, nozzle_mm) -> tuple[Path, list[str]]:
+    """config.ini from the system preset, and our print settings to give on the command line (they win)."""
+    from .prusa_presets import preset_config
+
+    resolved = preset_config(printer.prusa_preset, mat.name)
+    nozzle = resolved.printer.nozzle_mm
+    if nozzle_mm and abs(nozzle_mm - nozzle) > 1e-6:
+        raise ParameterError(
+            f"nozzle_mm: the printer preset {printer.prusa_preset!r} has a {nozzle:g} mm nozzle; got {nozzle_mm:g}. "
+            f"Choose the preset for your nozzle (list them with the printers command) or leave nozzle_mm unset."
+        )
+    return resolved.write(folder / "config.ini"), print_args(layer_mm or printer.layer_mm, nozzle, mat)
 
 
 def _run(args: list[str], timeout_s: float, what: str) -> subprocess.CompletedProcess:
@@ -128,20 +157,28 @@ def slice_mesh(mesh_path, printer: PrinterProfile, mat: Material, *, timeout_s: 
     exe = prusa_slicer()
     gcode = mesh_path.with_suffix(".gcode")
     with tempfile.TemporaryDirectory(prefix="tamp-slice-") as tmp:
-        config = Path(tmp) / "config.ini"
-        saved = _run([exe, "--save", str(config), *config_args(printer, mat, layer_mm, nozzle_mm)], 60, str(mesh_path))
-        if saved.returncode != 0 or not config.is_file():
-            raise SlicerError(f"{mesh_path}: PrusaSlicer could not create its configuration ({_last_error(saved)}).")
+        if printer.prusa_preset:
+            config, extra = _preset_config(Path(tmp), printer, mat, layer_mm, nozzle_mm)
+        else:
+            config, extra = Path(tmp) / "config.ini", []
+            saved = _run([exe, "--save", str(config), *config_args(printer, mat, layer_mm, nozzle_mm)], 60, str(mesh_path))
+            if saved.returncode != 0 or not config.is_file():
+                raise SlicerError(f"{mesh_path}: PrusaSlicer could not create its configuration ({_last_error(saved)}).")
         partial = gcode.with_name(f".{gcode.name}.part")
         try:
-            done = _run([exe, "--export-gcode", "--load", str(config), "--output", str(partial), str(mesh_path)], timeout_s, str(mesh_path))
+            done = _run([exe, "--export-gcode", "--load", str(config), *extra, "--output", str(partial), str(mesh_path)], timeout_s, str(mesh_path))
             if done.returncode != 0 or not partial.is_file():
                 raise SlicerError(f"{mesh_path}: PrusaSlicer failed ({_last_error(done)}); the mesh is kept.")
-            result = parse_gcode(partial.read_text(encoding="utf-8", errors="replace"), mat)
+            text = partial.read_text(encoding="utf-8", errors="replace")
+            result = parse_gcode(text, mat)
+            if not printer.prusa_preset:  # say it in the file too, where a printer's user will look
+                partial.write_text(f"; TAMP-OS: {GENERIC_NOTE}.\n{text}", encoding="utf-8")
             os.replace(partial, gcode)
         finally:
             partial.unlink(missing_ok=True)
     result.gcode = str(gcode)
+    result.printer = printer.prusa_preset or "generic"
+    result.for_estimates_only = not printer.prusa_preset
     return result
 
 

@@ -1,0 +1,211 @@
+"""A 2-D tactile graphic (swell paper, braille embossers) as data: what goes where, in mm.
+
+Coordinates are plate millimetres with the origin at the bottom-left corner and +y towards the
+far edge, as in every mesh; the region map's top row lies at the far edge. Only the drawing code
+(tactile2d.py) turns them into page coordinates.
+
+The layout follows the 3-D plate's (tactile.furniture): the picture at the top, the scale bar and
+its braille value below it, the braille caption below that, the cut corner at the top right, and
+at least CLEARANCE_MM between distinct elements.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import ParameterError
+from ..tactile.braille import BrailleSpec, block_size_mm, cell_dots, to_braille, wrap_cells
+from ..tactile.furniture import BORDER_MM, BOTTOM_BORDER_MM, CLEARANCE_MM, CORNER_CUT_MM, TICK_LENGTH_MM, Furniture
+from ..units import format_length
+
+MAX_LEVELS = 3  # textures a reader tells apart by touch: outline only, dots, lines
+PAGE_SIZES_MM = {"a4": (210.0, 297.0), "letter": (215.9, 279.4)}
+
+
+@dataclass(frozen=True)
+class BrailleText:
+    """Lines of Unicode braille whose first line's top dots touch y = top_mm, starting at x = left_mm."""
+
+    lines: tuple[str, ...]
+    left_mm: float
+    top_mm: float
+
+    def box(self, spec: BrailleSpec) -> tuple[float, float, float, float]:
+        """x0, y0, x1, y1 of the dots' outer edges (mm)."""
+        w, h = block_size_mm(list(self.lines), spec)
+        return self.left_mm, self.top_mm - h, self.left_mm + w, self.top_mm
+
+    @property
+    def dots(self) -> int:
+        return sum(len(cell_dots(cell)) for line in self.lines for cell in line)
+
+
+@dataclass(frozen=True)
+class ScaleBar2D:
+    """A bar of length_mm from x0_mm, centred on y_mm, with end ticks, and its braille value."""
+
+    x0_mm: float
+    y_mm: float
+    length_mm: float
+    label: BrailleText
+    text: str = ""
+
+    def box(self) -> tuple[float, float, float, float]:
+        return self.x0_mm, self.y_mm - TICK_LENGTH_MM / 2, self.x0_mm + self.length_mm, self.y_mm + TICK_LENGTH_MM / 2
+
+
+@dataclass(frozen=True)
+class Graphic2D:
+    """Everything a 2-D tactile graphic shows.
+
+    regions: int array (rows, cols); 0 = background, 1..N = levels or objects.
+    mm_per_px: size of one region-map pixel on paper.
+    picture_origin_mm: bottom-left corner of the picture on the plate.
+    textures: texture name per region value ('outline', 'dots' or 'lines'); empty means the
+    levels default (1 -> outline, 2 -> dots, 3 -> lines).
+    """
+
+    regions: np.ndarray
+    mm_per_px: float
+    plate_mm: tuple[float, float]
+    picture_origin_mm: tuple[float, float]
+    caption: BrailleText | None = None
+    scale_bar: ScaleBar2D | None = None
+    frame_box: tuple[float, float, float, float] | None = None
+    corner_cut_mm: float = CORNER_CUT_MM
+    spec: BrailleSpec = field(default_factory=BrailleSpec)
+    textures: dict[int, str] = field(default_factory=dict)
+
+    @property
+    def picture_box(self) -> tuple[float, float, float, float]:
+        rows, cols = self.regions.shape
+        x0, y0 = self.picture_origin_mm
+        return x0, y0, x0 + cols * self.mm_per_px, y0 + rows * self.mm_per_px
+
+    @property
+    def braille_dots(self) -> int:
+        return sum(t.dots for t in (self.caption, self.scale_bar.label if self.scale_bar else None) if t)
+
+    def element_boxes(self) -> dict[str, tuple[float, float, float, float]]:
+        """Bounding boxes of the distinct elements, for checking the clearances between them."""
+        boxes = {"picture": self.picture_box}
+        if self.scale_bar:
+            boxes["scale bar"] = self.scale_bar.box()
+            boxes["scale value"] = self.scale_bar.label.box(self.spec)
+        if self.caption:
+            boxes["caption"] = self.caption.box(self.spec)
+        return boxes
+
+
+def regions_from_image(image01: np.ndarray, levels: int = MAX_LEVELS) -> np.ndarray:
+    """A region map from a 0..1 image by multi-Otsu thresholds: 0 = background, 1..levels.
+
+    A stand-in for the `levels` relief style (that style makes the real region maps).
+
+    Parameters
+    ----------
+    image01 : (rows, cols) float array in 0..1
+    levels : 1..3 raised levels above the background
+
+    Returns
+    -------
+    (rows, cols) int32 array of 0..levels
+    """
+    from skimage.filters import threshold_multiotsu
+
+    if not 1 <= levels <= MAX_LEVELS:
+        raise ParameterError(f"levels: must be 1–{MAX_LEVELS} (textures that differ by touch); got {levels}.")
+    img = np.asarray(image01, dtype=np.float64)
+    if img.ndim != 2:
+        raise ParameterError(f"region map: need a 2-D image; got shape {img.shape}.")
+    try:
+        thresholds = threshold_multiotsu(img, classes=levels + 1)
+    except ValueError:  # too few distinct values for Otsu (e.g. a uniform image): even steps
+        thresholds = np.linspace(0, 1, levels + 2)[1:-1]
+    return np.digitize(img, thresholds).astype(np.int32)
+
+
+def _rows_below(furniture: Furniture, inner_w: float) -> tuple[list[str], float | None, str | None, list[str]]:
+    """Scale-bar label lines, bar length, label text and caption lines that fit inner_w mm."""
+    spec = furniture.spec
+    label_lines, bar_mm, label = [], None, None
+    if furniture.scale_bar_m is not None and furniture.sample_m_per_print_mm:
+        bar_mm = furniture.scale_bar_m / furniture.sample_m_per_print_mm
+        label = format_length(furniture.scale_bar_m).replace(".0 ", " ")
+        label_lines = [to_braille(label, furniture.braille_table)]
+        label_w = block_size_mm(label_lines, spec)[0]
+        if bar_mm + CLEARANCE_MM + label_w > inner_w:
+            raise ParameterError(
+                f"scale_bar: {bar_mm:.1f} mm plus its braille value ({label_w:.1f} mm) does not fit the "
+                f"{inner_w:.1f} mm of the graphic; choose a shorter scale_bar or a wider print."
+            )
+    caption_lines = []
+    if furniture.caption:
+        cells = int((inner_w - spec.dot_spacing_mm - spec.dot_diameter_mm) // spec.cell_spacing_mm) + 1
+        caption_lines = wrap_cells(to_braille(furniture.caption, furniture.braille_table), cells)
+    return label_lines, bar_mm, label, caption_lines
+
+
+def layout_graphic(regions: np.ndarray, mm_per_px: float, furniture: Furniture | None = None,
+                   textures: dict[int, str] | None = None) -> Graphic2D:
+    """Place the picture, scale bar, braille value and caption on a plate, as the 3-D plate does.
+
+    Parameters
+    ----------
+    regions : (rows, cols) int array, 0 = background
+    mm_per_px : picture pixel size on paper (mm)
+    furniture : caption, braille table, scale bar and frame (frame_mm > 0 draws a frame line)
+    """
+    if mm_per_px <= 0 or not np.isfinite(mm_per_px):
+        raise ParameterError(f"mm_per_px: must be a positive number; got {mm_per_px}.")
+    furniture = furniture or Furniture()
+    spec = furniture.spec
+    rows, cols = np.shape(regions)
+    width, depth = cols * mm_per_px, rows * mm_per_px
+    side = BORDER_MM + (furniture.frame_mm + CLEARANCE_MM if furniture.frame_mm else 0.0)
+    plate_w = width + 2 * side
+    label_lines, bar_mm, label, caption_lines = _rows_below(furniture, plate_w - 2 * BORDER_MM)
+    label_h = block_size_mm(label_lines, spec)[1]
+    caption_h = block_size_mm(caption_lines, spec)[1]
+    heights = [h for h in (max(TICK_LENGTH_MM, label_h) if label_lines else 0.0, caption_h) if h]
+    below = side if not heights else (side - BORDER_MM) + sum(CLEARANCE_MM + h for h in heights) + BOTTOM_BORDER_MM
+    plate_d = below + depth + side
+    cursor = below - (side - BORDER_MM)  # the lowest edge of the picture or its frame
+    scale_bar = caption = None
+    if label_lines:
+        cursor -= CLEARANCE_MM
+        mid = cursor - heights[0] / 2
+        label_x = BORDER_MM + bar_mm + CLEARANCE_MM
+        scale_bar = ScaleBar2D(BORDER_MM, mid, bar_mm, BrailleText(tuple(label_lines), label_x, mid + label_h / 2), label)
+        cursor -= heights[0]
+    if caption_lines:
+        caption = BrailleText(tuple(caption_lines), BORDER_MM, cursor - CLEARANCE_MM)
+    frame_box = None
+    if furniture.frame_mm:
+        gap = CLEARANCE_MM + furniture.frame_mm / 2  # the frame line's centre
+        frame_box = (side - gap, below - gap, side + width + gap, below + depth + gap)
+    return Graphic2D(np.asarray(regions), mm_per_px, (plate_w, plate_d), (side, below), caption, scale_bar,
+                     frame_box, spec=spec, textures=dict(textures or {}))
+
+
+def page_placement(plate_mm: tuple[float, float], page_size: str | None) -> tuple[tuple[float, float], tuple[float, float]]:
+    """Page size and the plate's offset on it (mm): the plate's own size, or centred on a4/letter.
+
+    Portrait first, landscape when only that fits; a ParameterError when neither does.
+    """
+    w, d = plate_mm
+    if page_size in (None, "", "plate"):
+        return (w, d), (0.0, 0.0)
+    key = page_size.lower()
+    if key not in PAGE_SIZES_MM:
+        raise ParameterError(f"page_size: must be one of plate, {', '.join(PAGE_SIZES_MM)}; got {page_size!r}.")
+    pw, ph = PAGE_SIZES_MM[key]
+    for page in ((pw, ph), (ph, pw)):
+        if w <= page[0] + 1e-9 and d <= page[1] + 1e-9:
+            return page, ((page[0] - w) / 2, (page[1] - d) / 2)
+    raise ParameterError(
+        f"page_size {key}: the graphic is {w:.1f} × {d:.1f} mm and does not fit a {pw:g} × {ph:g} mm page in either "
+        f"orientation; make the print smaller (width_mm) or use page_size plate (the graphic's own size)."
+    )

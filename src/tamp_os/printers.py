@@ -93,6 +93,7 @@ def _profile_from_table(name: str, table, where) -> PrinterProfile:
             layer_mm=float(table["layer_mm"]),
             width_mm=float(table.get("width_mm", 100.0)),
             description=str(table.get("description", "user profile")),
+            prusa_preset=str(table["prusa_preset"]) if table.get("prusa_preset") else None,
         )
     except (KeyError, TypeError, ValueError) as exc:
         raise ParameterError(

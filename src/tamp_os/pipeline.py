@@ -15,7 +15,7 @@ import numpy as np
 
 from . import __version__
 from .mesh.adaptive import adaptive_solid
-from .clean.stage import clean_source
+from .clean.stage import clean_picture
 from .errors import InputError, ParameterError
 from .export import save_mesh
 from .files import write_png, write_text
@@ -49,11 +49,11 @@ class Lithograph:
 
     @property
     def name(self) -> str:
-        return Path(self.picture.source.name).stem or "lithograph"
+        return Path(self.picture.file.name).stem or "lithograph"
 
     def metadata(self) -> dict:
         return {
-            "title": f"Tactile lithograph of {self.picture.source.name}",
+            "title": f"Tactile lithograph of {self.picture.file.name}",
             "description": describe(self),
             "designer": "TAMP-OS",
             "application": f"TAMP-OS {__version__}",
@@ -129,7 +129,7 @@ def dependency_versions() -> dict[str, str]:
 
 
 def recipe_dict(litho: Lithograph, files: list[str]) -> dict:
-    src = litho.picture.source
+    src = litho.picture.file
     return {
         "tamp_os_version": __version__,
         "input": {"name": src.name, "path": src.path, "sha256": src.sha256},
@@ -188,10 +188,10 @@ def make_lithograph(source, params: LithoParams | None = None, **changes) -> Lit
     printer = get_printer(params.printer)
     nozzle = params.nozzle_mm or printer.nozzle_mm
     layer = params.layer_mm or printer.layer_mm
-    src = picture.source
+    src = picture.file
     start = time.perf_counter()
-    cleaned = clean_source(picture, pixel_size=params.pixel_size, remove_annotations=not params.keep_annotations)
-    values, alpha, scale = cleaned.values, cleaned.alpha, cleaned.scale
+    cleaned = clean_picture(picture, pixel_size=params.pixel_size, remove_annotations=not params.keep_annotations)
+    values, alpha, scale = cleaned.values, cleaned.alpha, cleaned.pixel_size
     timings["annotations"] = time.perf_counter() - start
     layout = plan_layout(
         values.shape[1],
@@ -236,7 +236,7 @@ def make_lithograph(source, params: LithoParams | None = None, **changes) -> Lit
     timings["mesh"] = time.perf_counter() - start
 
     start = time.perf_counter()
-    sample_per_mm = scale.pixel_size_m * info["fitted_width_px"] / layout.width_mm if scale.pixel_size_m else None
+    sample_per_mm = scale.metres * info["fitted_width_px"] / layout.width_mm if scale.metres else None
     furniture = Furniture(
         caption=params.caption,
         braille_table=params.braille_table,
@@ -250,7 +250,7 @@ def make_lithograph(source, params: LithoParams | None = None, **changes) -> Lit
         mesh, placed = add_furniture(mesh, layout.width_mm, layout.depth_mm, params.base_mm, furniture)
     timings["tactile"] = time.perf_counter() - start
 
-    warnings = list(layout.warnings) + list(src.notes) + scale.warnings
+    warnings = list(layout.warnings) + list(src.notes) + list(scale.warnings)
     if info["uniform"]:
         warnings.append(f"{src.name}: the image is uniform (every usable pixel has the same value); the print is a flat plate.")
     if params.base_mm < 0.8:
@@ -273,11 +273,11 @@ def make_lithograph(source, params: LithoParams | None = None, **changes) -> Lit
         "triangles": mesh.n_triangles,
         "vertices": len(mesh.vertices),
         "uniform": info["uniform"],
-        "pixel_size_m": scale.pixel_size_m,
-        "pixel_size_source": scale.source,
-        "scale": scale_sentence(scale.pixel_size_m, info["fitted_width_px"] / layout.width_mm) if scale.pixel_size_m else "no physical scale is known",
+        "pixel_size_m": scale.metres,
+        "pixel_size_source": scale.provenance,
+        "scale": scale_sentence(scale.metres, info["fitted_width_px"] / layout.width_mm) if scale.metres else "no physical scale is known",
         "tactile": _tactile_report(placed),
-        "crop": cleaned.crop,
+        "crop": cleaned.band.as_dict(),
         "annotations": [a.describe() for a in cleaned.annotations],
         "warnings": warnings,
         "timings_s": {k: round(v, 4) for k, v in timings.items()},
@@ -325,7 +325,7 @@ def describe(litho: Lithograph) -> str:
     rw, rd = r["relief_mm"]
     raised = "dark" if p.invert else "bright"
     parts = [
-        f"A tactile relief of the image {litho.picture.source.name}.",
+        f"A tactile relief of the image {litho.picture.file.name}.",
         f"The object is {w:g} mm wide, {d:g} mm deep and up to {h:g} mm high, on a {p.base_mm:g} mm base.",
         f"The picture itself is {rw:g} by {rd:g} mm. The top edge of the image is the far edge of the print.",
         f"The {raised} parts of the image are raised, up to {p.relief_mm:g} mm above the base.",

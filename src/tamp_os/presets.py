@@ -14,7 +14,7 @@ def preset_rows(params: LithoParams, width_px: int = 4, height_px: int = 3, pict
     nozzle = params.nozzle_mm or printer.nozzle_mm
     layer = params.layer_mm or printer.layer_mm
     if picture is not None:
-        width_px, height_px = picture.source.width, picture.source.height
+        width_px, height_px = picture.file.width, picture.file.height
     rows = []
     for preset in PRESETS:
         layout = plan_layout(

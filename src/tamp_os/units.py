@@ -25,7 +25,7 @@ def unit_factor_m(unit: str) -> float | None:
     return _FACTORS_M.get(unit.strip().lower().replace("\u00b5", "µ"))
 
 
-def parse_length_m(text: str, name: str = "--pixel-size") -> float:
+def parse_length_m(text: str, name: str = "pixel_size") -> float:
     """'4.2nm' -> 4.2e-9. Raises ParameterError naming `name` when it cannot be read."""
     match = re.fullmatch(r"\s*([0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)\s*([a-zA-Zµμ]+)\s*", text)
     factor = unit_factor_m(match.group(2)) if match else None

@@ -219,7 +219,7 @@ def test_scale_bar_label_supplies_the_pixel_size_when_it_reads_cleanly(tmp_path)
     path = picture_with_scale_bar(tmp_path, "10 µm")
     litho = make_lithograph(path, preset="low")
     assert litho.report["pixel_size_m"] == pytest.approx(10e-6 / 200, rel=1e-6)
-    assert "OCR" in litho.report["pixel_size_source"]
+    assert litho.report["pixel_size_source"] == "scale bar label"
     assert any("bar" in a for a in litho.report["annotations"])  # and the bar is removed
 
 

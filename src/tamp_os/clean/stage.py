@@ -14,7 +14,7 @@ from . import annotations as marks
 from .annotations import Annotation
 from .band import Band, band_from_metadata, detect_info_band
 from .scale import PixelSize, read_pixel_size
-from .scalebar import scale_from_bar
+from .scalebar import scale_from_bars
 
 
 @dataclass(frozen=True)
@@ -68,10 +68,29 @@ def clean_picture(picture: Picture, *, pixel_size: str | None, remove_annotation
     if not remove_annotations:
         return Cleaned(values, alpha, size, band, [], None)
     removal = marks.remove_annotations(values)
-    if size.metres is None and removal.annotations:
-        metres, where = scale_from_bar(values, removal.annotations)
-        if metres:
-            size = PixelSize(metres, where, size.warnings)
-        elif any(a.kind == "bar" for a in removal.annotations):
-            size = replace(size, warnings=size.warnings + (where,))
+    if size.metres is None:
+        size = _scale_from_bars(picture.values, band, values, removal.annotations, size)
     return Cleaned(removal.values, alpha, size, band, removal.annotations, removal.mask)
+
+
+def _scale_from_bars(source: np.ndarray, band: Band, picture: np.ndarray, found: list[Annotation], size: PixelSize) -> PixelSize:
+    """The pixel size read from burned-in scale bars, used only when the file records none.
+
+    Bars are looked for in the cropped band, at the top and bottom quarter of the picture, and
+    in label boxes; `size` is returned with a warning when a bar was seen but not read.
+    """
+    h = source.shape[0]
+    regions = [source[:band.top_rows]] if band.top_rows >= 5 else []
+    regions += [source[h - band.bottom_rows :]] if band.bottom_rows >= 5 else []
+    for a in found:
+        if a.kind == "bar":  # a bar found among the annotations, with room for its label
+            margin, length = max(6 * (a.rows[1] - a.rows[0]), 40), a.cols[1] - a.cols[0]
+            regions.append(picture[max(0, a.rows[0] - margin) : a.rows[1] + margin, max(0, a.cols[0] - length // 4) : a.cols[1] + length // 4])
+    quarter = max(1, picture.shape[0] // 4)
+    boxes = [picture[a.rows[0] : a.rows[1], a.cols[0] : a.cols[1]] for a in found if a.kind == "box"]
+    reading = scale_from_bars(regions, boxes, strips=[picture[-quarter:], picture[:quarter]])
+    if reading.metres is not None:
+        return PixelSize(reading.metres, reading.detail, size.warnings)
+    if reading.bar_seen:
+        return replace(size, warnings=size.warnings + (reading.detail,))
+    return size

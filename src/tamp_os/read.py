@@ -90,8 +90,7 @@ def read_image(path, *, page: int = 0, channel: str = "luminance", max_megapixel
     z_slice : one z slice instead of the maximum-intensity projection.
     """
     path = Path(path)
-    if path.is_dir():
-        raise InputError(f"{path}: is a folder, not an image file; give an image file (folders are converted in a batch).")
+    _refuse_special(path)
     try:
         data = path.read_bytes()
     except FileNotFoundError:
@@ -111,6 +110,23 @@ def read_image(path, *, page: int = 0, channel: str = "luminance", max_megapixel
     if decoded.channel_chosen:
         channel = "luminance"  # the channel was chosen among the TIFF's planes
     return _to_picture(decoded, channel, name=path.name, sha=sha, path=str(path))
+
+
+def _refuse_special(path: Path) -> None:
+    """Refuse folders, FIFOs, devices and sockets before opening: reading them hangs or never ends."""
+    import stat
+
+    try:
+        mode = path.stat().st_mode
+    except FileNotFoundError:
+        raise InputError(f"{path}: no such file; check the name and folder.") from None
+    except OSError as exc:
+        raise InputError(f"{path}: cannot be read ({exc.strerror}); check its permissions.") from None
+    if stat.S_ISDIR(mode):
+        raise InputError(f"{path}: is a folder, not an image file; give an image file (folders are converted in a batch).")
+    if not stat.S_ISREG(mode):
+        kind = "a named pipe (FIFO)" if stat.S_ISFIFO(mode) else "a device or socket"
+        raise InputError(f"{path}: is {kind}, not a regular file; save the image to a file and give that file.")
 
 
 def read_array(array, *, channel: str = "luminance", name: str = "array") -> Picture:
@@ -178,6 +194,9 @@ def _read_tiff(path, page, max_megapixels, z_slice=None, channel="luminance") ->
             meta = {"tiff_series_axes": axes, "tiff_series": len(series), **_vendor_blocks(tif)}
             tags = {tag.code: tag.value for tag in tif.pages[0].tags}
             plane = _reduce_axes(path, chosen.asarray(), axes, page, z_slice, channel, meta)
+            if chosen.keyframe.photometric == tifffile.PHOTOMETRIC.SEPARATED and plane.array.ndim == 3:
+                plane.array = _cmyk_to_rgb(plane.array)
+                plane.notes.append("CMYK (separated) TIFF: converted to RGB, then to luminance.")
             return _Decoded("TIFF", plane.array, meta, max(len(series), plane.planes), tags, plane.notes, plane.channel_chosen)
     except (InputError, ParameterError):
         raise
@@ -185,6 +204,18 @@ def _read_tiff(path, page, max_megapixels, z_slice=None, channel="luminance") ->
         raise InputError(f"{path}: not enough memory to read this TIFF; try a smaller image.") from None
     except Exception as exc:
         raise InputError(f"{path}: a damaged or unsupported TIFF ({exc}); re-export it from the microscope software.") from None
+
+
+def _cmyk_to_rgb(cmyk: np.ndarray) -> np.ndarray:
+    """(H, W, 4+) ink amounts C, M, Y, K -> (H, W, 3) float32 RGB on the same scale.
+
+    The naive conversion (no colour profile) that Pillow also uses: R = (1 − C)(1 − K).
+    Without it, K would be read as an alpha channel.
+    """
+    top = _alpha_scale(cmyk.dtype)
+    inks = cmyk[..., :4].astype(np.float32) / np.float32(top)
+    rgb = (1 - inks[..., :3]) * (1 - inks[..., 3:4])
+    return rgb * np.float32(top)
 
 
 def _channel_names(meta) -> list[str]:
@@ -339,10 +370,28 @@ def _read_pillow(path, data, page, max_megapixels) -> _Decoded:
     meta = {"pillow_mode": im.mode}
     if "dpi" in im.info:
         meta["dpi_not_physical"] = im.info["dpi"]
+    im, notes = _apply_orientation(im)
     array = _pillow_array(im)
     if im.mode == "I" and array.size and array.min() >= 0 and array.max() <= 65535:
         meta["note_int32"] = "32-bit integer pixels"
-    return _Decoded(fmt, array, meta, frames)
+    return _Decoded(fmt, array, meta, frames, notes=notes)
+
+
+EXIF_ORIENTATION = 0x0112
+ORIENTATION_WORDS = {2: "mirrored left to right", 3: "turned 180°", 4: "flipped top to bottom", 5: "transposed",
+                     6: "turned 90° clockwise", 7: "transversed", 8: "turned 90° counter-clockwise"}
+
+
+def _apply_orientation(im):
+    """Turn the picture upright as its EXIF orientation tag says (as every viewer does), and say so."""
+    from PIL import ImageOps
+
+    orientation = im.getexif().get(EXIF_ORIENTATION, 1)
+    if orientation not in ORIENTATION_WORDS:
+        return im, []
+    turned = ImageOps.exif_transpose(im)
+    note = f"EXIF orientation {orientation}: the picture was {ORIENTATION_WORDS[orientation]} to stand upright, as viewers show it."
+    return turned, [note]
 
 
 def _pillow_array(im) -> np.ndarray:

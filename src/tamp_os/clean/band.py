@@ -94,7 +94,8 @@ def detect_info_band(values: np.ndarray) -> tuple[int, int]:
 
     A data band is a run of full-width rows at an edge whose most common value (the band's
     background, nearly always white or black) covers most of each row, between 2 % and 30 % of
-    the image height, plus up to 3 rows of frame line next to it.
+    the image height, plus up to 3 rows of frame line next to it, and that holds marks (text
+    or a scale bar): a plain margin is not a data band.
     """
     finite = values[np.isfinite(values)]
     lo, hi = float(finite.min()), float(finite.max())
@@ -106,5 +107,24 @@ def detect_info_band(values: np.ndarray) -> tuple[int, int]:
     row_std = filled.std(axis=1) / (hi - lo)
     h = values.shape[0]
     bottom = _band_run(list(range(h - 1, -1, -1)), bandlike, fraction, row_std)
+    if bottom and not _holds_marks(filled[h - bottom + 3 :], lo, hi):  # not the frame rows next to the picture
+        bottom = 0
     top = _band_run(list(range(h)), bandlike, fraction, row_std) if not bottom else 0
+    if top and not _holds_marks(filled[: top - 3], lo, hi):
+        top = 0
     return top, bottom
+
+
+def _holds_marks(band: np.ndarray, lo: float, hi: float) -> bool:
+    """Whether rows of uniform background hold text or a scale bar (a data band) rather than
+    nothing (a black or white margin, which is left alone: it is not known to be unwanted)."""
+    from scipy import ndimage
+
+    if band.size == 0:
+        return False
+    background = np.median(band)
+    ink = np.abs(band - background) > 0.5 * (hi - lo)
+    if ink.sum() < 0.002 * ink.size:
+        return False
+    _, marks = ndimage.label(ink)
+    return marks >= 3

@@ -12,22 +12,27 @@ from PIL import Image
 from tamp_os import make_lithograph
 from tamp_os.cli import main
 from tamp_os.errors import ParameterError
-from tamp_os.clean.scale import read_scale, scale_sentence
+from tamp_os.clean.band import band_from_metadata
+from tamp_os.clean.scale import USER_GIVEN, read_pixel_size, scale_sentence
 from tamp_os.read import read_image
 from tamp_os.units import parse_length_m
 
 
 def scale_of(path, override=None):
-    pic = read_image(path)
-    s = pic.source
-    return read_scale(s.metadata, s.path, s.width, s.height, override)
+    f = read_image(path).file
+    return read_pixel_size(f.metadata, f.tiff_tags, f.path, f.width, override)
+
+
+def band_of(path):
+    f = read_image(path).file
+    return band_from_metadata(f.metadata, f.tiff_tags, f.path, f.height)
 
 
 def test_zeiss_pixel_size_and_data_zone(fixture):
     path = fixture("test_tiff_Zeiss_SEM_1k.tif")
     scale = scale_of(path)
-    assert scale.pixel_size_m == pytest.approx(2.677e-3 / 1024, rel=1e-9)
-    assert scale.pixel_size_m == pytest.approx(2.614e-6, rel=1e-3)
+    assert scale.metres == pytest.approx(2.677e-3 / 1024, rel=1e-9)
+    assert scale.metres == pytest.approx(2.614e-6, rel=1e-3)
     litho = make_lithograph(path, mesher="grid")
     crop = litho.report["crop"]
     assert 76 <= crop["bottom_rows"] <= 84 and crop["top_rows"] == 0
@@ -42,8 +47,8 @@ def test_fei_pixel_size_and_exactly_442_rows(fixture):
     for name in ("FEI-Helios-Ebeam-8bits.tif", "FEI-Helios-Ebeam-16bits.tif"):
         path = fixture(name)
         scale = scale_of(path)
-        assert scale.pixel_size_m == pytest.approx(3.3724e-6, rel=1e-9)
-        assert scale.crop_bottom == 471 - 442
+        assert scale.metres == pytest.approx(3.3724e-6, rel=1e-9)
+        assert band_of(path).bottom_rows == 471 - 442
         litho = make_lithograph(path)
         assert litho.report["crop"]["bottom_rows"] == 29
         assert litho.layout.depth_mm == pytest.approx(100 * 442 / 512)
@@ -52,13 +57,13 @@ def test_fei_pixel_size_and_exactly_442_rows(fixture):
 
 
 def test_imagej_dm3_and_no_scale_fixtures(fixture):
-    assert scale_of(fixture("test_loading_image_saved_with_imageJ.tif")).pixel_size_m == pytest.approx(0.16867e-6, rel=1e-4)
+    assert scale_of(fixture("test_loading_image_saved_with_imageJ.tif")).metres == pytest.approx(0.16867e-6, rel=1e-4)
     dm = scale_of(fixture("test_STEM_image.dm3"))
-    assert dm.pixel_size_m == pytest.approx(0.2485e-9, rel=1e-3) and "DigitalMicrograph" in dm.source
+    assert dm.metres == pytest.approx(0.2485e-9, rel=1e-3) and "DigitalMicrograph" in dm.provenance
     fept = scale_of(fixture("fept_spheres_sem.png"))
-    assert fept.pixel_size_m is None and fept.source == "none"
+    assert fept.metres is None and fept.provenance == "none"
     jeol = scale_of(fixture("JEOL-SightX-TEM-mag-dummy.tif"))
-    assert jeol.pixel_size_m is None  # its 93 dpi resolution tag is not a physical size
+    assert jeol.metres is None  # its 93 dpi resolution tag is not a physical size
     assert any("not a physical pixel size" in w for w in jeol.warnings)
 
 
@@ -97,7 +102,7 @@ def test_info_json_reports_scale_crop_annotations(fixture, capsys):
     assert 76 <= facts["crop"]["bottom_rows"] <= 84 and facts["annotations"] == []
     assert main(["info", "--json", str(fixture("fept_spheres_sem.png")), "--pixel-size", "25nm"]) == 0
     facts = json.loads(capsys.readouterr().out)
-    assert facts["pixel_size_m"] == pytest.approx(25e-9) and facts["pixel_size_source"] == "--pixel-size"
+    assert facts["pixel_size_m"] == pytest.approx(25e-9) and facts["pixel_size_source"] == USER_GIVEN
     assert len(facts["annotations"]) == 1
 
 
@@ -111,53 +116,53 @@ def test_tescan_tag_and_sidecar(tmp_path):
     text = "[MAIN]\nDevice=TESCAN MIRA\nPixelSizeX=4.5e-09\nPixelSizeY=4.5e-09\nImageStripSize=6\n"
     tagged = write_tiff(tmp_path / "tescan.tif", extratags=[(50431, "s", 0, text, True)])
     scale = scale_of(tagged)
-    assert scale.pixel_size_m == pytest.approx(4.5e-9) and "50431" in scale.source
-    assert scale.crop_bottom == 6
+    assert scale.metres == pytest.approx(4.5e-9) and "50431" in scale.provenance
+    assert band_of(tagged).bottom_rows == 6
     plain = write_tiff(tmp_path / "tescan2.tif")
     (tmp_path / "tescan2.hdr").write_text(text)
     scale = scale_of(plain)
-    assert scale.pixel_size_m == pytest.approx(4.5e-9) and "tescan2.hdr" in scale.source
+    assert scale.metres == pytest.approx(4.5e-9) and "tescan2.hdr" in scale.provenance
 
 
 def test_jeol_and_hitachi_sidecars(tmp_path):
     jeol = write_tiff(tmp_path / "jeol.tif")
     (tmp_path / "jeol.txt").write_text("$CM_FORMAT JEOL/SEM\n$$SM_MICRON_BAR 120\n$$SM_MICRON_MARKER 10um\n")
-    assert scale_of(jeol).pixel_size_m == pytest.approx(10e-6 / 120)
+    assert scale_of(jeol).metres == pytest.approx(10e-6 / 120)
     hitachi = write_tiff(tmp_path / "hitachi.tif")
     (tmp_path / "hitachi.txt").write_text("[SemImageFile]\nInstructName=S-4800\nPixelSize=7.8125\n")
     scale = scale_of(hitachi)
-    assert scale.pixel_size_m == pytest.approx(7.8125e-9) and "Hitachi" in scale.source
+    assert scale.metres == pytest.approx(7.8125e-9) and "Hitachi" in scale.provenance
 
 
 def test_ome_and_imagej_variants(tmp_path):
     ome = write_tiff(tmp_path / "a.ome.tif", ome=True, metadata={"axes": "YX", "PhysicalSizeX": 65.0, "PhysicalSizeXUnit": "nm"})
-    assert scale_of(ome).pixel_size_m == pytest.approx(65e-9)
+    assert scale_of(ome).metres == pytest.approx(65e-9)
     for unit, per_unit, expected in (("um", 2.0, 0.5e-6), ("\\u00B5m", 4.0, 0.25e-6), ("micron", 5.0, 0.2e-6), ("nm", 0.1, 10e-9)):
         path = write_tiff(tmp_path / f"ij_{per_unit}.tif", imagej=True, resolution=(per_unit, per_unit), metadata={"unit": unit})
-        assert scale_of(path).pixel_size_m == pytest.approx(expected, rel=1e-6), unit
+        assert scale_of(path).metres == pytest.approx(expected, rel=1e-6), unit
 
 
 @pytest.mark.parametrize("bad", ["-4.5e-09", "0", "abc", "1e5"])
 def test_broken_metadata_falls_back_with_a_warning(tmp_path, bad):
     path = write_tiff(tmp_path / "t.tif", extratags=[(50431, "s", 0, f"[MAIN]\nPixelSizeX={bad}\n", True)])
     scale = scale_of(path)
-    assert scale.pixel_size_m is None and scale.warnings
+    assert scale.metres is None and scale.warnings
     litho = make_lithograph(path)  # still converts
     assert litho.report["scale"] == "no physical scale is known"
     (tmp_path / "t.txt").write_text("PixelSize=12\n")  # a valid fallback source
-    assert scale_of(path).pixel_size_m == pytest.approx(12e-9)
+    assert scale_of(path).metres == pytest.approx(12e-9)
 
 
 def test_contradictory_fei_rows_are_ignored(tmp_path):
     meta = "[Scan]\nPixelWidth=2e-9\n[Image]\nResolutionY=5000\n"
     path = write_tiff(tmp_path / "fei.tif", extratags=[(34682, "s", 0, meta, True)])
     scale = scale_of(path)
-    assert scale.pixel_size_m == pytest.approx(2e-9) and scale.crop_bottom == 0
+    assert scale.metres == pytest.approx(2e-9) and band_of(path) is None
 
 
 def test_override_and_the_scale_sentence(fixture):
     litho = make_lithograph(fixture("test_tiff_Zeiss_SEM_1k.tif"), pixel_size="1um")
-    assert litho.report["pixel_size_source"] == "--pixel-size"
+    assert litho.report["pixel_size_source"] == USER_GIVEN
     assert any("overrides" in w for w in litho.report["warnings"])
     # 1024 source pixels across 100 mm: 1 mm of print = 10.24 px = 10.24 µm; magnification ≈ 97.7×
     assert litho.report["scale"] == "1 mm on the print = 10.24 µm in the sample (magnification 97.7×)"
@@ -174,7 +179,7 @@ def test_parse_length(value, unit):
 
 @pytest.mark.parametrize("text", ["", "4.2", "nm", "4.2 parsecs", "-3nm", "0um"])
 def test_parse_length_refuses_with_a_clear_message(text):
-    with pytest.raises(ParameterError, match="pixel-size"):
+    with pytest.raises(ParameterError, match="pixel_size"):
         parse_length_m(text)
 
 
@@ -214,7 +219,7 @@ def test_scale_bar_label_supplies_the_pixel_size_when_it_reads_cleanly(tmp_path)
     path = picture_with_scale_bar(tmp_path, "10 µm")
     litho = make_lithograph(path, preset="low")
     assert litho.report["pixel_size_m"] == pytest.approx(10e-6 / 200, rel=1e-6)
-    assert "OCR" in litho.report["pixel_size_source"]
+    assert litho.report["pixel_size_source"] == "scale bar label"
     assert any("bar" in a for a in litho.report["annotations"])  # and the bar is removed
 
 
@@ -262,12 +267,12 @@ def test_no_false_annotations_on_natural_pictures(fixture):
     import skimage.data
 
     from tamp_os.clean.annotations import detect_annotations
-    from tamp_os.clean.stage import clean_source
+    from tamp_os.clean.stage import clean_picture
 
     for name in ("cell", "moon", "coins", "camera", "retina", "hubble_deep_field", "astronaut", "brick", "gravel", "horse", "clock"):
         _, found = detect_annotations(read_image_array(getattr(skimage.data, name)()))
         assert found == [], name
-    zeiss = clean_source(read_image(fixture("test_tiff_Zeiss_SEM_1k.tif")), pixel_size=None, remove_annotations=True)
+    zeiss = clean_picture(read_image(fixture("test_tiff_Zeiss_SEM_1k.tif")), pixel_size=None, remove_annotations=True)
     assert zeiss.annotations == []  # its bright sample edge is not an arrow or a label
 
 

@@ -30,12 +30,12 @@ def save_pil(tmp_path, name, image, **kw):
 )
 def test_fixtures_load_with_size_and_depth(fixture, name, width, height, dtype):
     pic = read_image(fixture(name))
-    assert (pic.source.width, pic.source.height) == (width, height)
+    assert (pic.file.width, pic.file.height) == (width, height)
     assert pic.values.shape == (height, width)
     if name.endswith(".png"):
-        assert pic.source.format == "JPEG" and pic.source.dtype == "uint8" and pic.source.channels == 3
+        assert pic.file.format == "JPEG" and pic.file.dtype == "uint8" and pic.file.channels == 3
     else:
-        assert pic.source.dtype == dtype
+        assert pic.file.dtype == dtype
 
 
 def test_fixture_values_are_kept_at_full_precision(fixture):
@@ -82,7 +82,7 @@ def test_rgba_transparency_becomes_zero_weight(tmp_path):
     rgba[:, :4, 3] = 0
     pic = read_image(save_pil(tmp_path, "a.png", Image.fromarray(rgba, "RGBA")))
     assert pic.alpha is not None and np.all(pic.alpha[:, :4] == 0) and np.all(pic.alpha[:, 4:] == 1)
-    assert pic.source.transparent_pixels == 40
+    assert pic.file.transparent_pixels == 40
 
 
 def test_la_and_palette_with_transparency(tmp_path):
@@ -119,7 +119,7 @@ def test_animated_gif_first_frame_and_page_choice(tmp_path):
     frames[0].save(path, save_all=True, append_images=frames[1:])
     assert read_image(path).values.mean() == pytest.approx(10, abs=1)
     assert read_image(path, page=1).values.mean() == pytest.approx(200, abs=1)
-    assert read_image(path).source.pages == 2
+    assert read_image(path).file.pages == 2
 
 
 def test_multipage_and_ome_tiff_page_choice(tmp_path):
@@ -131,10 +131,10 @@ def test_multipage_and_ome_tiff_page_choice(tmp_path):
     ome = tmp_path / "s.ome.tif"
     tifffile.imwrite(ome, stack, ome=True, photometric="minisblack", metadata={"axes": "ZYX"})
     pic = read_image(ome)  # a z-stack: maximum-intensity projection by default
-    assert pic.values.mean() == 2000 and "ome_metadata" in pic.source.metadata
-    assert any("maximum-intensity projection" in n for n in pic.source.notes)
+    assert pic.values.mean() == 2000 and "ome_metadata" in pic.file.metadata
+    assert any("maximum-intensity projection" in n for n in pic.file.notes)
     assert read_image(ome, z_slice=1).values.mean() == 1000
-    with pytest.raises(ParameterError, match="--slice must be 0–2"):
+    with pytest.raises(ParameterError, match="z_slice must be 0–2"):
         read_image(ome, z_slice=3)
     with pytest.raises(ParameterError, match="page"):
         read_image(path, page=3)
@@ -146,17 +146,17 @@ def test_float_tiff_with_nan_and_inf_is_reported(tmp_path):
     path = tmp_path / "f.tif"
     tifffile.imwrite(path, data)
     pic = read_image(path)
-    assert pic.source.nonfinite_pixels == 2
+    assert pic.file.nonfinite_pixels == 2
     assert pic.alpha[0, 0] == 0 and pic.alpha[1, 1] == 0 and pic.alpha[2, 2] == 1
-    assert any("NaN" in n for n in pic.source.notes)
+    assert any("NaN" in n for n in pic.file.notes)
 
 
 def test_bomb_guard_reads_only_the_header(tmp_path):
     path = tmp_path / "big.png"
     Image.new("L", (5000, 5000)).save(path)
-    with pytest.raises(InputError, match="--max-megapixels"):
+    with pytest.raises(InputError, match="max_megapixels"):
         read_image(path, max_megapixels=1)
-    assert read_image(path, max_megapixels=30).source.width == 5000
+    assert read_image(path, max_megapixels=30).file.width == 5000
 
 
 def test_arrays_are_read_like_files():
@@ -172,7 +172,7 @@ def test_multichannel_tiff_channel_by_number_or_name(tmp_path):
     tifffile.imwrite(path, data, ome=True, photometric="minisblack",
                      metadata={"axes": "ZCYX", "Channel": {"Name": ["DAPI", "GFP", "RFP"]}})
     pic = read_image(path)
-    assert pic.values.mean() == 100 and any("3 channels (DAPI, GFP, RFP)" in n for n in pic.source.notes)
+    assert pic.values.mean() == 100 and any("3 channels (DAPI, GFP, RFP)" in n for n in pic.file.notes)
     assert read_image(path, channel="GFP").values.mean() == 200
     assert read_image(path, channel="2").values.mean() == 300
     with pytest.raises(ParameterError, match="DAPI"):

@@ -537,14 +537,14 @@ def cmd_braille_plate(args) -> int:
 
 
 def cmd_info(args) -> int:
-    from .clean.stage import clean_source
+    from .clean.stage import clean_picture
     from .read import read_image
     from .units import format_length
 
     picture = read_image(args.image, page=args.page, z_slice=args.slice, channel=args.channel)  # the same size guard as convert
-    s = picture.source
-    cleaned = clean_source(picture, pixel_size=args.pixel_size, remove_annotations=True)
-    scale, crop, found = cleaned.scale, cleaned.crop, cleaned.annotations
+    s = picture.file
+    cleaned = clean_picture(picture, pixel_size=args.pixel_size, remove_annotations=True)
+    scale, crop, found = cleaned.pixel_size, cleaned.band.as_dict(), cleaned.annotations
     meta_found = sorted(k for k in s.metadata if not k.startswith("_"))
     facts = {
         "file": s.path,
@@ -557,13 +557,13 @@ def cmd_info(args) -> int:
         "pages": s.pages,
         "sha256": s.sha256,
         "metadata_found": meta_found,
-        "pixel_size_m": scale.pixel_size_m,
-        "pixel_size_source": scale.source,
+        "pixel_size_m": scale.metres,
+        "pixel_size_source": scale.provenance,
         "crop": crop,
         "annotations": [a.describe() for a in found],
         "nonfinite_pixels": s.nonfinite_pixels,
         "transparent_pixels": s.transparent_pixels,
-        "notes": s.notes + scale.warnings,
+        "notes": s.notes + list(scale.warnings),
     }
     if args.json:
         print(json.dumps(facts, indent=2, ensure_ascii=False))
@@ -571,8 +571,8 @@ def cmd_info(args) -> int:
     print(f"{Path(args.image).name}: {s.format}, {s.width} × {s.height} pixels, {s.bit_depth}-bit {s.dtype}, "
           f"{s.channels} channel{'s' if s.channels != 1 else ''}, {s.pages} page{'s' if s.pages != 1 else ''}")
     print(f"metadata found: {', '.join(meta_found) if meta_found else 'none'}")
-    if scale.pixel_size_m:
-        print(f"pixel size: {format_length(scale.pixel_size_m)}, from {scale.source}")
+    if scale.metres:
+        print(f"pixel size: {format_length(scale.metres)}, from {scale.provenance}")
     else:
         print("pixel size: not known (give it with --pixel-size, for example --pixel-size 4.2nm)")
     removed = [f"{crop['top_rows']} rows at the top"] if crop["top_rows"] else []

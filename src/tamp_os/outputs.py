@@ -28,8 +28,8 @@ PARALLEL_WRITE_TRIANGLES = 100_000
 def metadata(litho) -> dict:
     """Title, description, designer and application, for formats that carry them (3MF, GLB)."""
     return {
-        "title": f"Tactile lithograph of {litho.picture.source.name}",
-        "description": describe(litho.report, litho.params, litho.picture.source.name),
+        "title": f"Tactile lithograph of {litho.picture.file.name}",
+        "description": describe(litho.report, litho.params, litho.picture.file.name),
         "designer": "TAMP-OS",
         "application": f"TAMP-OS {__version__}",
     }
@@ -119,7 +119,7 @@ def file_sha256(path: Path) -> str:
 
 
 def recipe_dict(litho, files: list[str]) -> dict:
-    src = litho.picture.source
+    src = litho.picture.file
     return {
         "tamp_os_version": __version__,
         "input": {"name": src.name, "path": src.path, "sha256": src.sha256},

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from .clean.scale import scale_sentence
-from .clean.stage import Cleaned, clean_source
+from .clean.stage import Cleaned, clean_picture
 from .errors import ParameterError
 from .mesh.adaptive import adaptive_solid
 from .mesh.solid import Mesh, grid_solid
@@ -47,7 +47,7 @@ class Lithograph:
 
     @property
     def name(self) -> str:
-        return Path(self.picture.source.name).stem or "lithograph"
+        return Path(self.picture.file.name).stem or "lithograph"
 
     def metadata(self) -> dict:
         """Title, description, designer and application for the files; see `outputs.metadata`."""
@@ -93,7 +93,7 @@ def make_lithograph(source, params: LithoParams | None = None, *, printer_profil
         picture = _read(source, params)
     machine = resolve_printer(params, printer_profile)
     with clock("annotations"):
-        cleaned = clean_source(picture, pixel_size=params.pixel_size, remove_annotations=not params.keep_annotations)
+        cleaned = clean_picture(picture, pixel_size=params.pixel_size, remove_annotations=not params.keep_annotations)
     layout = layout_for(params, machine, cleaned.values.shape[1], cleaned.values.shape[0])
     _check_grid(layout)
     with clock("preprocess"):
@@ -106,7 +106,7 @@ def make_lithograph(source, params: LithoParams | None = None, *, printer_profil
             mesh = adaptive_solid(heights, layout.width_mm, layout.depth_mm, max_error)
         else:
             mesh = grid_solid(heights, layout.width_mm, layout.depth_mm)
-    sample_per_mm = cleaned.scale.pixel_size_m * prepared.fitted_width_px / layout.width_mm if cleaned.scale.pixel_size_m else None
+    sample_per_mm = cleaned.pixel_size.metres * prepared.fitted_width_px / layout.width_mm if cleaned.pixel_size.metres else None
     with clock("tactile"):
         furniture = _furniture(params, sample_per_mm)
         placed = None
@@ -183,9 +183,9 @@ def _scale_bar_m(setting: str, sample_per_mm: float | None) -> float | None:
 
 
 def _warnings(picture: Picture, cleaned: Cleaned, prepared: Prepared, layout: Layout, params: LithoParams) -> list[str]:
-    warnings = list(layout.warnings) + list(picture.source.notes) + cleaned.scale.warnings
+    warnings = list(layout.warnings) + list(picture.file.notes) + list(cleaned.pixel_size.warnings)
     if prepared.uniform:
-        warnings.append(f"{picture.source.name}: the image is uniform (every usable pixel has the same value); the print is a flat plate.")
+        warnings.append(f"{picture.file.name}: the image is uniform (every usable pixel has the same value); the print is a flat plate.")
     if params.base_mm < 0.8:
         warnings.append(f"base_mm {params.base_mm} is below 0.8 mm; thin bases warp and break. 1.0–1.5 mm is typical.")
     for w in warnings:
@@ -194,10 +194,10 @@ def _warnings(picture: Picture, cleaned: Cleaned, prepared: Prepared, layout: La
 
 
 def _report(picture, cleaned, prepared, layout, params, machine, mesh, placed, max_error, timings) -> Report:
-    scale = cleaned.scale
+    scale = cleaned.pixel_size
     source_px_per_print_mm = prepared.fitted_width_px / layout.width_mm
     return Report(
-        input=picture.source.name,
+        input=picture.file.name,
         print_mm=[round(float(v), 3) for v in mesh.bounds_mm[1]],
         relief_mm=[round(layout.width_mm, 3), round(layout.depth_mm, 3)],
         grid=[layout.cols, layout.rows],
@@ -212,11 +212,11 @@ def _report(picture, cleaned, prepared, layout, params, machine, mesh, placed, m
         triangles=mesh.n_triangles,
         vertices=len(mesh.vertices),
         uniform=prepared.uniform,
-        pixel_size_m=scale.pixel_size_m,
-        pixel_size_source=scale.source,
-        scale=scale_sentence(scale.pixel_size_m, source_px_per_print_mm) if scale.pixel_size_m else "no physical scale is known",
+        pixel_size_m=scale.metres,
+        pixel_size_source=scale.provenance,
+        scale=scale_sentence(scale.metres, source_px_per_print_mm) if scale.metres else "no physical scale is known",
         tactile=_tactile_report(placed),
-        crop=cleaned.crop,
+        crop=cleaned.band.as_dict(),
         annotations=[a.describe() for a in cleaned.annotations],
         warnings=_warnings(picture, cleaned, prepared, layout, params),
         timings_s={k: round(v, 4) for k, v in timings.items()},

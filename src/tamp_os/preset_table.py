@@ -12,7 +12,7 @@ def preset_rows(params: LithoParams, width_px: int = 4, height_px: int = 3, pict
     """One row per preset. With a picture, the mesh is made for real, so the counts are exact."""
     printer = resolve_printer(params)
     if picture is not None:
-        width_px, height_px = picture.source.width, picture.source.height
+        width_px, height_px = picture.file.width, picture.file.height
     rows = []
     for preset in PRESETS:
         layout = layout_for(params, printer, width_px, height_px, preset)

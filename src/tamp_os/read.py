@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import hashlib
 import logging
-import warnings
+import struct
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -27,8 +27,12 @@ DM_MAGIC = (b"\x00\x00\x00\x03", b"\x00\x00\x00\x04")
 
 
 @dataclass
-class Source:
-    """What we know about an input: where it came from and what it holds."""
+class ImageFile:
+    """What we know about an input image: where it came from and what it holds.
+
+    `metadata` holds the vendor blocks tifffile or the DM reader found (public keys only);
+    `tiff_tags` the raw tags of the first TIFF page, by tag code (empty for other formats).
+    """
 
     name: str
     sha256: str
@@ -41,6 +45,7 @@ class Source:
     pages: int = 1
     path: str | None = None
     metadata: dict = field(default_factory=dict)
+    tiff_tags: dict[int, object] = field(default_factory=dict)
     nonfinite_pixels: int = 0
     transparent_pixels: int = 0
     notes: list[str] = field(default_factory=list)
@@ -48,17 +53,44 @@ class Source:
 
 @dataclass
 class Picture:
-    """A grayscale image: values (float32, NaN where unknown) and opacity weights (None = opaque)."""
+    """A grayscale image and what is known about the file it came from.
+
+    values : (H, W) float32, NaN where unknown.
+    alpha : (H, W) float32 opacity weights in 0..1, or None when fully opaque.
+    file : the facts about the input file.
+    """
 
     values: np.ndarray
     alpha: np.ndarray | None
-    source: Source
+    file: ImageFile
+
+
+@dataclass
+class _Decoded:
+    """One decoder's result, before it becomes a Picture."""
+
+    format: str
+    array: np.ndarray  # (H, W) or (H, W, S)
+    metadata: dict
+    pages: int
+    tiff_tags: dict[int, object] = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)
+    channel_chosen: bool = False  # a channel was already picked among the file's planes
 
 
 def read_image(path, *, page: int = 0, channel: str = "luminance", max_megapixels: float = 400.0, z_slice: int | None = None) -> Picture:
+    """Read an image file by its content into a Picture.
+
+    Parameters
+    ----------
+    path : the file (TIFF, DM3/DM4, or anything Pillow reads).
+    page : the TIFF series, plane or frame to read (0-based).
+    channel : "luminance", a channel number, a colour name or an OME channel name.
+    max_megapixels : refuse images above this many pixels (checked from the header).
+    z_slice : one z slice instead of the maximum-intensity projection.
+    """
     path = Path(path)
-    if path.is_dir():
-        raise InputError(f"{path}: is a folder, not an image file; give an image file or use 'tamp-os batch'.")
+    _refuse_special(path)
     try:
         data = path.read_bytes()
     except FileNotFoundError:
@@ -70,14 +102,31 @@ def read_image(path, *, page: int = 0, channel: str = "luminance", max_megapixel
     sha = hashlib.sha256(data).hexdigest()
     head = data[:8]
     if head[:4] in TIFF_MAGIC:
-        fmt, array, meta, pages = _read_tiff(path, page, max_megapixels, z_slice, channel)
-        if meta.pop("_channel_used", False):
-            channel = "luminance"  # the channel was chosen among the TIFF's planes
+        decoded = _read_tiff(path, page, max_megapixels, z_slice, channel)
     elif head[:4] in DM_MAGIC:
-        fmt, array, meta, pages = _read_dm(path, max_megapixels)
+        decoded = _read_dm(path, max_megapixels)
     else:
-        fmt, array, meta, pages = _read_pillow(path, data, page, max_megapixels)
-    return _to_picture(array, fmt, meta, pages, channel, name=path.name, sha=sha, path=str(path))
+        decoded = _read_pillow(path, data, page, max_megapixels)
+    if decoded.channel_chosen:
+        channel = "luminance"  # the channel was chosen among the TIFF's planes
+    return _to_picture(decoded, channel, name=path.name, sha=sha, path=str(path))
+
+
+def _refuse_special(path: Path) -> None:
+    """Refuse folders, FIFOs, devices and sockets before opening: reading them hangs or never ends."""
+    import stat
+
+    try:
+        mode = path.stat().st_mode
+    except FileNotFoundError:
+        raise InputError(f"{path}: no such file; check the name and folder.") from None
+    except OSError as exc:
+        raise InputError(f"{path}: cannot be read ({exc.strerror}); check its permissions.") from None
+    if stat.S_ISDIR(mode):
+        raise InputError(f"{path}: is a folder, not an image file; give an image file (folders are converted in a batch).")
+    if not stat.S_ISREG(mode):
+        kind = "a named pipe (FIFO)" if stat.S_ISFIFO(mode) else "a device or socket"
+        raise InputError(f"{path}: is {kind}, not a regular file; save the image to a file and give that file.")
 
 
 def read_array(array, *, channel: str = "luminance", name: str = "array") -> Picture:
@@ -88,7 +137,7 @@ def read_array(array, *, channel: str = "luminance", name: str = "array") -> Pic
     if array.dtype.kind not in "uif":
         raise InputError(f"{name}: arrays must hold numbers, got dtype {array.dtype}.")
     sha = hashlib.sha256(np.ascontiguousarray(array).tobytes() + str(array.shape).encode()).hexdigest()
-    return _to_picture(array, "array", {}, 1, channel, name=name, sha=sha, path=None)
+    return _to_picture(_Decoded("array", array, {}, 1), channel, name=name, sha=sha, path=None)
 
 
 def _bits(dtype: np.dtype) -> int:
@@ -101,11 +150,24 @@ def _check_size(path, shape, max_megapixels) -> None:
         raise InputError(
             f"{path}: the image claims {w}×{h} pixels ({h * w / 1e6:.0f} Mpx), above the limit of "
             f"{max_megapixels:g} Mpx that guards against decompression bombs. If you trust the file, "
-            f"raise the limit with --max-megapixels {int(h * w / 1e6) + 1}."
+            f"raise the limit: max_megapixels = {int(h * w / 1e6) + 1}."
         )
 
 
-def _read_tiff(path, page, max_megapixels, z_slice=None, channel="luminance"):
+def _vendor_blocks(tif) -> dict:
+    """The metadata blocks tifffile decodes for microscope vendors and ImageJ/OME."""
+    meta = {}
+    for attr in ("fei_metadata", "sem_metadata", "imagej_metadata", "ome_metadata"):
+        try:
+            value = getattr(tif, attr, None)
+        except Exception:  # a broken vendor block must not stop the image from loading
+            value = None
+        if value:
+            meta[attr] = value
+    return meta
+
+
+def _read_tiff(path, page, max_megapixels, z_slice=None, channel="luminance") -> _Decoded:
     """One 2-D plane (or Y X S colour plane) from a TIFF series.
 
     Axes other than Y, X and S (colour samples) are reduced: Z by a maximum-intensity projection
@@ -121,7 +183,7 @@ def _read_tiff(path, page, max_megapixels, z_slice=None, channel="luminance"):
                 raise InputError(f"{path}: a TIFF without any image in it.")
             if len(series) > 1:
                 if page >= len(series):
-                    raise ParameterError(f"{path}: --page must be 0–{len(series) - 1} (series in this file); got {page}.")
+                    raise ParameterError(f"{path}: page must be 0–{len(series) - 1} (series in this file); got {page}.")
                 chosen, page = series[page], 0
             else:
                 chosen = series[0]
@@ -129,25 +191,31 @@ def _read_tiff(path, page, max_megapixels, z_slice=None, channel="luminance"):
             if "Y" not in axes or "X" not in axes:
                 raise InputError(f"{path}: TIFF series with axes {axes!r} has no 2-D image plane.")
             _check_size(path, (shape[axes.index("Y")], shape[axes.index("X")]), max_megapixels)
-            meta = {"tiff_series_axes": axes, "tiff_series": len(series)}
-            meta["_tiff_tags"] = {tag.code: tag.value for tag in tif.pages[0].tags}
-            for attr in ("fei_metadata", "sem_metadata", "imagej_metadata", "ome_metadata"):
-                try:
-                    value = getattr(tif, attr, None)
-                except Exception:  # a broken vendor block must not stop the image from loading
-                    value = None
-                if value:
-                    meta[attr] = value
-            array = chosen.asarray()
-            array, notes, planes = _reduce_axes(path, array, axes, page, z_slice, channel, meta)
-            meta["_notes"] = notes
-            return "TIFF", array, meta, max(len(series), planes)
+            meta = {"tiff_series_axes": axes, "tiff_series": len(series), **_vendor_blocks(tif)}
+            tags = {tag.code: tag.value for tag in tif.pages[0].tags}
+            plane = _reduce_axes(path, chosen.asarray(), axes, page, z_slice, channel, meta)
+            if chosen.keyframe.photometric == tifffile.PHOTOMETRIC.SEPARATED and plane.array.ndim == 3:
+                plane.array = _cmyk_to_rgb(plane.array)
+                plane.notes.append("CMYK (separated) TIFF: converted to RGB, then to luminance.")
+            return _Decoded("TIFF", plane.array, meta, max(len(series), plane.planes), tags, plane.notes, plane.channel_chosen)
     except (InputError, ParameterError):
         raise
     except MemoryError:
         raise InputError(f"{path}: not enough memory to read this TIFF; try a smaller image.") from None
     except Exception as exc:
         raise InputError(f"{path}: a damaged or unsupported TIFF ({exc}); re-export it from the microscope software.") from None
+
+
+def _cmyk_to_rgb(cmyk: np.ndarray) -> np.ndarray:
+    """(H, W, 4+) ink amounts C, M, Y, K -> (H, W, 3) float32 RGB on the same scale.
+
+    The naive conversion (no colour profile) that Pillow also uses: R = (1 − C)(1 − K).
+    Without it, K would be read as an alpha channel.
+    """
+    top = _alpha_scale(cmyk.dtype)
+    inks = cmyk[..., :4].astype(np.float32) / np.float32(top)
+    rgb = (1 - inks[..., :3]) * (1 - inks[..., 3:4])
+    return rgb * np.float32(top)
 
 
 def _channel_names(meta) -> list[str]:
@@ -160,55 +228,76 @@ def _channel_names(meta) -> list[str]:
     return re.findall(r"<Channel[^>]*\sName=\"([^\"]*)\"", xml)
 
 
-def _reduce_axes(path, array, axes, page, z_slice, channel, meta):
-    notes = []
-    planes = 1
-    if "C" in axes:
-        n = array.shape[axes.index("C")]
-        names = _channel_names(meta)
-        if channel.isdigit():
-            index = int(channel)
-        elif channel in names:
-            index = names.index(channel)
-        elif channel == "luminance":
-            index = 0
-            if n > 1:
-                named = f" ({', '.join(names)})" if names else ""
-                notes.append(f"{n} channels{named}; using channel 0. Choose another with --channel N or a name.")
-        else:
-            raise ParameterError(f"{path}: --channel {channel!r} is not one of 0–{n - 1}{' or ' + ', '.join(names) if names else ''}.")
-        if not 0 <= index < n:
-            raise ParameterError(f"{path}: --channel must be 0–{n - 1}; got {index}.")
-        array = np.take(array, index, axis=axes.index("C"))
-        axes = axes.replace("C", "")
-        meta["_channel_used"] = True
+@dataclass
+class _Plane:
+    array: np.ndarray  # (H, W) or (H, W, S)
+    planes: int = 1  # planes the page index chose among
+    notes: list[str] = field(default_factory=list)
+    channel_chosen: bool = False
+
+
+def _reduce_axes(path, array, axes, page, z_slice, channel, meta) -> _Plane:
+    """Reduce an n-D TIFF series to one (H, W) or (H, W, S) plane: channel, then Z, then page."""
+    notes: list[str] = []
+    chosen = "C" in axes
+    if chosen:
+        array, axes = _pick_channel(path, array, axes, channel, meta, notes)
     if "Z" in axes:
-        n = array.shape[axes.index("Z")]
-        if z_slice is None:
-            array = array.max(axis=axes.index("Z"))
-            if n > 1:
-                notes.append(f"z-stack of {n} slices: maximum-intensity projection (choose one with --slice K).")
-        else:
-            if not 0 <= z_slice < n:
-                raise ParameterError(f"{path}: --slice must be 0–{n - 1} (slices in this stack); got {z_slice}.")
-            array = np.take(array, z_slice, axis=axes.index("Z"))
-        axes = axes.replace("Z", "")
-    leading = [i for i, a in enumerate(axes) if a not in "YXS"]
-    if leading:
-        planes = int(np.prod([array.shape[i] for i in leading]))
-        if page >= planes:
-            raise ParameterError(f"{path}: --page must be 0–{planes - 1} (planes in this file); got {page}.")
-        keep = [a for a in axes if a in "YXS"]
-        array = np.moveaxis(array, leading, range(len(leading))).reshape((planes,) + tuple(array.shape[axes.index(a)] for a in keep))[page]
-        axes = "".join(keep)
-    elif page:
-        raise ParameterError(f"{path}: --page {page} asked for, but the file has a single image plane.")
+        array, axes = _pick_z(path, array, axes, z_slice, notes)
+    array, axes, planes = _pick_page(path, array, axes, page)
     if "S" in axes and axes.index("S") < axes.index("Y"):
         array = np.moveaxis(array, 0, -1)  # planar RGB -> Y X S
-    return array, notes, planes
+    return _Plane(array, planes, notes, chosen)
 
 
-def _read_dm(path, max_megapixels):
+def _pick_channel(path, array, axes, channel, meta, notes):
+    n = array.shape[axes.index("C")]
+    names = _channel_names(meta)
+    if channel.isdigit():
+        index = int(channel)
+    elif channel in names:
+        index = names.index(channel)
+    elif channel == "luminance":
+        index = 0
+        if n > 1:
+            named = f" ({', '.join(names)})" if names else ""
+            notes.append(f"{n} channels{named}; using channel 0. Choose another with the channel parameter (a number or a name).")
+    else:
+        raise ParameterError(f"{path}: channel {channel!r} is not one of 0–{n - 1}{' or ' + ', '.join(names) if names else ''}.")
+    if not 0 <= index < n:
+        raise ParameterError(f"{path}: channel must be 0–{n - 1}; got {index}.")
+    return np.take(array, index, axis=axes.index("C")), axes.replace("C", "")
+
+
+def _pick_z(path, array, axes, z_slice, notes):
+    n = array.shape[axes.index("Z")]
+    if z_slice is None:
+        array = array.max(axis=axes.index("Z"))
+        if n > 1:
+            notes.append(f"z-stack of {n} slices: maximum-intensity projection (choose one slice with z_slice).")
+    else:
+        if not 0 <= z_slice < n:
+            raise ParameterError(f"{path}: z_slice must be 0–{n - 1} (slices in this stack); got {z_slice}.")
+        array = np.take(array, z_slice, axis=axes.index("Z"))
+    return array, axes.replace("Z", "")
+
+
+def _pick_page(path, array, axes, page):
+    leading = [i for i, a in enumerate(axes) if a not in "YXS"]
+    if not leading:
+        if page:
+            raise ParameterError(f"{path}: page {page} asked for, but the file has a single image plane.")
+        return array, axes, 1
+    planes = int(np.prod([array.shape[i] for i in leading]))
+    if page >= planes:
+        raise ParameterError(f"{path}: page must be 0–{planes - 1} (planes in this file); got {page}.")
+    keep = [a for a in axes if a in "YXS"]
+    shape = (planes,) + tuple(array.shape[axes.index(a)] for a in keep)
+    array = np.moveaxis(array, leading, range(len(leading))).reshape(shape)[page]
+    return array, "".join(keep), planes
+
+
+def _read_dm(path, max_megapixels) -> _Decoded:
     try:
         from rsciio.digitalmicrograph import file_reader
     except ImportError:
@@ -224,45 +313,89 @@ def _read_dm(path, max_megapixels):
     while array.ndim > 2:
         array = array[0]
     _check_size(path, array.shape, max_megapixels)
-    return "DM", array, {"dm_axes": item.get("axes", []), "dm_metadata": item.get("metadata", {})}, 1
+    return _Decoded("DM", array, {"dm_axes": item.get("axes", []), "dm_metadata": item.get("metadata", {})}, 1)
 
 
-def _read_pillow(path, data, page, max_megapixels):
-    import io
+def _open_pillow(stream):
+    """Open an image with Pillow's format plugins, reading only its header.
 
+    `Image.open` checks the size against the process-wide `Image.MAX_IMAGE_PIXELS`; changing
+    that per call would race between the web app's conversion threads. Calling the registered
+    plugin factories directly skips that check, and `_check_size` applies ours instead.
+    """
     from PIL import Image, UnidentifiedImageError
 
-    fmt = "image"
-    with warnings.catch_warnings():
-        # Our own size check below replaces Pillow's bomb guard so the message can be ours.
-        warnings.simplefilter("ignore", Image.DecompressionBombWarning)
-        old_limit = Image.MAX_IMAGE_PIXELS
-        Image.MAX_IMAGE_PIXELS = None
+    Image.preinit()  # the common formats first, in the order Image.open tries them
+    Image.init()  # then every other plugin; both are cheap after the first call
+    prefix = stream.read(16)
+    for fmt in Image.ID:
+        factory, accept = Image.OPEN[fmt]
+        accepted = True if accept is None else accept(prefix)
+        if not accepted or isinstance(accepted, str):  # a str explains a refusal
+            continue
+        stream.seek(0)
         try:
-            im = Image.open(io.BytesIO(data))
-            fmt = im.format or "image"
-            _check_size(path, (im.size[1], im.size[0]), max_megapixels)
-            frames = getattr(im, "n_frames", 1)
-            if page:
-                if page >= frames:
-                    raise ParameterError(f"{path}: --page must be 0–{frames - 1} (frames in this file); got {page}.")
-                im.seek(page)
-            im.load()
-        except UnidentifiedImageError:
-            start = data[:16]
-            raise InputError(
-                f"{path}: not an image that can be read (the file starts with {start!r}); "
-                f"supported: PNG, JPEG, TIFF, BMP, GIF, WebP, DM3/DM4."
-            ) from None
-        except (InputError, ParameterError):
-            raise
-        except (OSError, SyntaxError, ValueError, EOFError) as exc:
-            raise InputError(f"{path}: the {fmt} file is damaged or truncated ({exc}).") from None
-        finally:
-            Image.MAX_IMAGE_PIXELS = old_limit
+            return factory(stream, "")
+        except (SyntaxError, IndexError, TypeError, struct.error):
+            continue
+    raise UnidentifiedImageError("cannot identify image file")
+
+
+def _read_pillow(path, data, page, max_megapixels) -> _Decoded:
+    import io
+
+    from PIL import UnidentifiedImageError
+
+    fmt = "image"
+    try:
+        im = _open_pillow(io.BytesIO(data))
+        fmt = im.format or "image"
+        _check_size(path, (im.size[1], im.size[0]), max_megapixels)
+        frames = getattr(im, "n_frames", 1)
+        if page:
+            if page >= frames:
+                raise ParameterError(f"{path}: page must be 0–{frames - 1} (frames in this file); got {page}.")
+            im.seek(page)
+        im.load()
+    except UnidentifiedImageError:
+        start = data[:16]
+        raise InputError(
+            f"{path}: not an image that can be read (the file starts with {start!r}); "
+            f"supported: PNG, JPEG, TIFF, BMP, GIF, WebP, DM3/DM4."
+        ) from None
+    except (InputError, ParameterError):
+        raise
+    except (OSError, SyntaxError, ValueError, EOFError) as exc:
+        raise InputError(f"{path}: the {fmt} file is damaged or truncated ({exc}).") from None
     meta = {"pillow_mode": im.mode}
     if "dpi" in im.info:
         meta["dpi_not_physical"] = im.info["dpi"]
+    im, notes = _apply_orientation(im)
+    array = _pillow_array(im)
+    if im.mode == "I" and array.size and array.min() >= 0 and array.max() <= 65535:
+        meta["note_int32"] = "32-bit integer pixels"
+    return _Decoded(fmt, array, meta, frames, notes=notes)
+
+
+EXIF_ORIENTATION = 0x0112
+ORIENTATION_WORDS = {2: "mirrored left to right", 3: "turned 180°", 4: "flipped top to bottom", 5: "transposed",
+                     6: "turned 90° clockwise", 7: "transversed", 8: "turned 90° counter-clockwise"}
+
+
+def _apply_orientation(im):
+    """Turn the picture upright as its EXIF orientation tag says (as every viewer does), and say so."""
+    from PIL import ImageOps
+
+    orientation = im.getexif().get(EXIF_ORIENTATION, 1)
+    if orientation not in ORIENTATION_WORDS:
+        return im, []
+    turned = ImageOps.exif_transpose(im)
+    note = f"EXIF orientation {orientation}: the picture was {ORIENTATION_WORDS[orientation]} to stand upright, as viewers show it."
+    return turned, [note]
+
+
+def _pillow_array(im) -> np.ndarray:
+    """(H, W) or (H, W, S) pixels at the image's own precision, colour models turned into RGB."""
     mode = im.mode
     if mode == "P" or mode == "PA":
         im = im.convert("RGBA" if ("transparency" in im.info or mode == "PA") else "RGB")
@@ -272,14 +405,11 @@ def _read_pillow(path, data, page, max_megapixels):
         im = im.convert("RGB")
     elif mode == "I;16B" or mode == "I;16L" or mode == "I;16N":
         im = im.convert("I;16")
-    array = np.asarray(im)
-    if mode == "I" and array.size and array.min() >= 0 and array.max() <= 65535:
-        meta["note_int32"] = "32-bit integer pixels"
-    return fmt, array, meta, frames
+    return np.asarray(im)
 
 
-def _to_picture(array, fmt, meta, pages, channel, *, name, sha, path) -> Picture:
-    array = np.asarray(array)
+def _to_picture(decoded: _Decoded, channel, *, name, sha, path) -> Picture:
+    array = np.asarray(decoded.array)
     if array.ndim == 3 and array.shape[-1] == 1:
         array = array[..., 0]
     if array.ndim not in (2, 3) or (array.ndim == 3 and array.shape[-1] not in (2, 3, 4)):
@@ -289,35 +419,41 @@ def _to_picture(array, fmt, meta, pages, channel, *, name, sha, path) -> Picture
         raise InputError(
             f"{name}: the image is {w}×{h} pixels; at least 2×2 is needed to make a relief."
         )
-    n_channels = 1 if array.ndim == 2 else array.shape[-1]
-    source = Source(
+    file = ImageFile(
         name=name,
         sha256=sha,
-        format=fmt,
+        format=decoded.format,
         width=w,
         height=h,
         dtype=str(array.dtype),
         bit_depth=_bits(array.dtype),
-        channels=n_channels,
-        pages=pages,
+        channels=1 if array.ndim == 2 else array.shape[-1],
+        pages=decoded.pages,
         path=path,
-        metadata=meta,
+        metadata=decoded.metadata,
+        tiff_tags=decoded.tiff_tags,
+        notes=list(decoded.notes),
     )
-    source.notes.extend(meta.pop("_notes", []))
     values, alpha = _grayscale(array, channel, name)
+    values, alpha = _weigh_unknown(file, values, alpha)
+    if file.nonfinite_pixels == h * w:
+        raise InputError(f"{name}: every pixel is NaN or infinite; there is no image to print.")
+    return Picture(values=values, alpha=alpha, file=file)
+
+
+def _weigh_unknown(file: ImageFile, values, alpha):
+    """Give NaN/inf pixels zero weight; count them and the transparent ones in `file`."""
     bad = ~np.isfinite(values)
-    source.nonfinite_pixels = int(bad.sum())
-    if source.nonfinite_pixels:
-        source.notes.append(f"{source.nonfinite_pixels} pixels were NaN or infinite; they are printed at base level.")
+    file.nonfinite_pixels = int(bad.sum())
+    if file.nonfinite_pixels:
+        file.notes.append(f"{file.nonfinite_pixels} pixels were NaN or infinite; they are printed at base level.")
         values = np.where(bad, np.nan, values).astype(np.float32)
         alpha = np.where(bad, 0.0, 1.0 if alpha is None else alpha).astype(np.float32)
     if alpha is not None:
-        source.transparent_pixels = int((alpha < 1.0).sum())
-        if source.transparent_pixels:
-            source.notes.append(f"{source.transparent_pixels} pixels are (partly) transparent; transparent means base level.")
-    if source.nonfinite_pixels == h * w:
-        raise InputError(f"{name}: every pixel is NaN or infinite; there is no image to print.")
-    return Picture(values=values, alpha=alpha, source=source)
+        file.transparent_pixels = int((alpha < 1.0).sum())
+        if file.transparent_pixels:
+            file.notes.append(f"{file.transparent_pixels} pixels are (partly) transparent; transparent means base level.")
+    return values, alpha
 
 
 def _alpha_scale(dtype) -> float:
@@ -328,7 +464,7 @@ def _grayscale(array, channel: str, name: str):
     """(values, alpha) from any pixel layout; values keep their full source precision in float."""
     if array.ndim == 2:
         if channel not in ("luminance", "0"):
-            raise ParameterError(f"{name}: --channel {channel} asked for, but the image has a single channel; use luminance.")
+            raise ParameterError(f"{name}: channel {channel} asked for, but the image has a single channel; use luminance.")
         return array.astype(np.float32), None
     n = array.shape[-1]
     has_alpha = n in (2, 4)
@@ -344,6 +480,6 @@ def _grayscale(array, channel: str, name: str):
     index = CHANNEL_NAMES.get(channel.lower()) if not channel.isdigit() else int(channel)
     if index is None or index >= n:
         raise ParameterError(
-            f"{name}: --channel must be luminance, a number 0–{n - 1} or a colour name the image has; got {channel!r}."
+            f"{name}: channel must be luminance, a number 0–{n - 1} or a colour name the image has; got {channel!r}."
         )
     return array[..., index].astype(np.float32), (None if index == n - 1 and has_alpha else alpha)

@@ -8,6 +8,8 @@ from .errors import ParameterError
 
 _FACTORS_M = {
     "pm": 1e-12,
+    "å": 1e-10,  # Ångström (TEM work); the Angstrom sign U+212B is folded into U+00C5 below
+    "angstrom": 1e-10,
     "nm": 1e-9,
     "um": 1e-6,
     "µm": 1e-6,
@@ -22,21 +24,34 @@ _FACTORS_M = {
 
 def unit_factor_m(unit: str) -> float | None:
     """Metres per `unit`, or None when the unit is not a length we know."""
-    return _FACTORS_M.get(unit.strip().lower().replace("\u00b5", "µ"))
+    return _FACTORS_M.get(unit.strip().replace("\u212b", "\u00c5").lower().replace("\u00b5", "µ"))
 
 
-def parse_length_m(text: str, name: str = "--pixel-size") -> float:
-    """'4.2nm' -> 4.2e-9. Raises ParameterError naming `name` when it cannot be read."""
-    match = re.fullmatch(r"\s*([0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)\s*([a-zA-Zµμ]+)\s*", text)
+PIXEL_SIZE_RANGE_M = (1e-12, 1.0)  # 1 pm to 1 m per pixel: anything else is a typo
+
+
+def parse_length_m(text: str, name: str = "pixel_size", range_m: tuple[float, float] | None = None) -> float:
+    """'4.2nm' -> 4.2e-9. Raises ParameterError naming `name` when it cannot be read.
+
+    range_m : the allowed (lowest, highest) value in metres; PIXEL_SIZE_RANGE_M for `pixel_size`.
+    """
+    if range_m is None and name == "pixel_size":
+        range_m = PIXEL_SIZE_RANGE_M
+    match = re.fullmatch(r"\s*([-+]?[0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)\s*([a-zA-Zµμ\u00c5\u212b]+)\s*", str(text))
     factor = unit_factor_m(match.group(2)) if match else None
     if not match or factor is None:
         raise ParameterError(
-            f"{name}: cannot read {text!r} as a length; give a number and a unit, "
-            f"for example 4.2nm, 0.5um, 3 micron or 0.01mm (units: nm, µm, um, micron, mm)."
+            f"{name}: cannot read {text!r} as a length; give a number and a unit, for example 4.2nm, "
+            f"0.5um, 3 micron, 12Å or 0.01mm (units: pm, Å, nm, µm, um, micron, mm, cm, m)."
         )
     value = float(match.group(1)) * factor
     if value <= 0:
         raise ParameterError(f"{name}: must be greater than 0, got {text!r}.")
+    if range_m and not range_m[0] <= value <= range_m[1]:
+        raise ParameterError(
+            f"{name}: must be between {format_length(range_m[0])} and {format_length(range_m[1])}; got {text!r} "
+            f"({value:g} m). Check the unit."
+        )
     return value
 
 

@@ -1,7 +1,6 @@
-"""Burned-in annotations: the data band under SEM images, and scale-bar boxes, bars and labels
-inside the picture. Detected from the pixels (vendor metadata, when it records the band, is used
-first by microscopy.py); the band is cropped, everything else is inpainted so it does not print
-as a raised block."""
+"""Burned-in annotations inside the picture: scale-bar boxes, bars, their labels and drawn
+arrows. Detected from the pixels and inpainted, so they do not print as raised blocks. (The data
+band beside the picture is cropped instead: clean/band.py.)"""
 
 from __future__ import annotations
 
@@ -19,64 +18,6 @@ class Annotation:
 
     def describe(self) -> str:
         return f"{self.kind} at rows {self.rows[0]}–{self.rows[1] - 1}, columns {self.cols[0]}–{self.cols[1] - 1}"
-
-
-def _row_mode_fraction(values: np.ndarray, lo: float, hi: float) -> tuple[np.ndarray, np.ndarray]:
-    """Per row: the most common value (in 256 bins over lo..hi) and the fraction of pixels in it."""
-    bins = np.clip(((values - lo) / (hi - lo) * 255).astype(np.int64), 0, 255)
-    rows = values.shape[0]
-    keys = (np.arange(rows)[:, None] * 256 + bins).ravel()
-    counts = np.bincount(keys, minlength=rows * 256).reshape(rows, 256)
-    mode = counts.argmax(axis=1)
-    return mode, counts[np.arange(rows), mode] / values.shape[1]
-
-
-def detect_info_band(values: np.ndarray) -> tuple[int, int]:
-    """(rows to remove at the top, rows to remove at the bottom) for a data band, else (0, 0).
-
-    A data band is a run of full-width rows at an edge whose most common value (the band's
-    background, nearly always white or black) covers most of each row, between 2 % and 30 % of
-    the image height, plus up to 3 rows of frame line next to it.
-    """
-    finite = values[np.isfinite(values)]
-    lo, hi = float(finite.min()), float(finite.max())
-    if hi <= lo:
-        return 0, 0
-    filled = np.where(np.isfinite(values), values, lo)
-    mode, fraction = _row_mode_fraction(filled, lo, hi)
-    extreme = (mode <= 12) | (mode >= 243)
-    bandlike = (fraction >= 0.6) & extreme
-    h = values.shape[0]
-
-    def run_from(order) -> int:
-        count, misses, last_good = 0, 0, 0
-        for r in order:
-            count += 1
-            if bandlike[r]:
-                misses, last_good = 0, count
-            else:
-                misses += 1
-                if misses > 6:  # a line of text may break the background for a few rows
-                    break
-        if not 0.02 * h <= last_good <= 0.30 * h:
-            return 0
-        # Bands are uniform across the image; the picture above them is not: compare to be sure.
-        band_rows = list(order)[:last_good]
-        if fraction[band_rows].mean() < 0.75:
-            return 0
-        # Swallow a thin frame line (a few rows of low variation) between band and picture.
-        row_std = filled.std(axis=1) / (hi - lo)
-        extra = 0
-        for r in list(order)[last_good : last_good + 3]:
-            if row_std[r] < 0.1:
-                extra += 1
-            else:
-                break
-        return last_good + extra
-
-    bottom = run_from(range(h - 1, -1, -1))
-    top = run_from(range(h)) if not bottom else 0
-    return top, bottom
 
 
 def is_arrow(solid: np.ndarray, image_size_px: int) -> bool:
@@ -158,21 +99,28 @@ def detect_annotations(values: np.ndarray) -> tuple[np.ndarray, list[Annotation]
         # Glyphs of text beside a bar or box of this colour (not inside: holes are already filled).
         labelled = [a for a in found[found_before:] if a.kind in ("box", "bar")]
         if labelled:
-            near = np.zeros_like(mask)
-            for a in labelled:
-                pad = max(4, a.rows[1] - a.rows[0])
-                near[max(0, a.rows[0] - pad) : a.rows[1] + pad, max(0, a.cols[0] - 3 * pad) : a.cols[1] + 3 * pad] = True
-            glyphs = saturated & near & ~mask
-            labels, n = ndimage.label(glyphs)
-            for i, sl in enumerate(ndimage.find_objects(labels), start=1):
-                bh, bw = sl[0].stop - sl[0].start, sl[1].stop - sl[1].start
-                glyph = labels[sl] == i
-                if bh <= 0.06 * h and bw <= 0.06 * w and glyph.sum() >= 6:  # letters, not noise specks
-                    mask[sl] |= glyph
-                    found.append(Annotation("text", (sl[0].start, sl[0].stop), (sl[1].start, sl[1].stop)))
+            found += _mark_glyphs(saturated, mask, labelled)
     if mask.any():
         mask = ndimage.binary_dilation(mask, iterations=2)  # JPEG halos around the edges
     return mask, _merge_text(found)
+
+
+def _mark_glyphs(saturated: np.ndarray, mask: np.ndarray, labelled: list[Annotation]) -> list[Annotation]:
+    """Add to `mask` (in place) the letters of the same colour beside each box or bar."""
+    h, w = mask.shape
+    near = np.zeros_like(mask)
+    for a in labelled:
+        pad = max(4, a.rows[1] - a.rows[0])
+        near[max(0, a.rows[0] - pad) : a.rows[1] + pad, max(0, a.cols[0] - 3 * pad) : a.cols[1] + 3 * pad] = True
+    labels, _ = ndimage.label(saturated & near & ~mask)
+    glyphs = []
+    for i, sl in enumerate(ndimage.find_objects(labels), start=1):
+        bh, bw = sl[0].stop - sl[0].start, sl[1].stop - sl[1].start
+        glyph = labels[sl] == i
+        if bh <= 0.06 * h and bw <= 0.06 * w and glyph.sum() >= 6:  # letters, not noise specks
+            mask[sl] |= glyph
+            glyphs.append(Annotation("text", (sl[0].start, sl[0].stop), (sl[1].start, sl[1].stop)))
+    return glyphs
 
 
 def _merge_text(found: list[Annotation]) -> list[Annotation]:
@@ -228,23 +176,21 @@ def inpaint(values: np.ndarray, mask: np.ndarray) -> np.ndarray:
     return out
 
 
-def clean(values: np.ndarray, alpha: np.ndarray | None, *, crop_top: int, crop_bottom: int, crop_source: str, remove: bool):
-    """Crop the data band and inpaint annotations. Returns (values, alpha, crop, annotations, mask).
+@dataclass(frozen=True)
+class Removal:
+    """Annotations found in a picture and the picture without them.
 
-    A band the vendor records (crop_source set) is always cropped: it is not part of the image.
-    Detected bands and annotations are removed only when `remove` is true.
+    values : (H, W) float32, the masked pixels inpainted.
+    mask : (H, W) bool, True where an annotation was removed.
+    annotations : what was found, in plain terms (Annotation.describe()).
     """
-    if not crop_source and remove:
-        crop_top, crop_bottom = detect_info_band(values)
-        crop_source = "detected data band" if crop_top or crop_bottom else ""
-    if crop_top + crop_bottom >= values.shape[0] - 1:
-        crop_top = crop_bottom = 0
-        crop_source = ""
-    stop = values.shape[0] - crop_bottom
-    values = values[crop_top:stop]
-    alpha = None if alpha is None else alpha[crop_top:stop]
-    crop = {"top_rows": crop_top, "bottom_rows": crop_bottom, "left_columns": 0, "right_columns": 0, "source": crop_source or None}
-    if not remove:
-        return values, alpha, crop, [], None
+
+    values: np.ndarray
+    mask: np.ndarray
+    annotations: list[Annotation]
+
+
+def remove_annotations(values: np.ndarray) -> Removal:
+    """Find burned-in boxes, bars, labels and arrows in `values` (H, W) and inpaint them."""
     mask, found = detect_annotations(values)
-    return inpaint(values, mask), alpha, crop, found, mask
+    return Removal(inpaint(values, mask), mask, found)

@@ -4,44 +4,93 @@ no scale. Used by the pipeline and by `tamp-os info`, so both report the same fa
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .annotations import Annotation, clean
-from .scale import Scale, read_scale
 from ..read import Picture
-from .scalebar import scale_from_bar
 from ..units import parse_length_m
+from . import annotations as marks
+from .annotations import Annotation
+from .band import Band, band_from_metadata, detect_info_band
+from .scale import PixelSize, read_pixel_size
+from .scalebar import scale_from_bars
 
 
-@dataclass
+@dataclass(frozen=True)
 class Cleaned:
+    """A picture ready for preprocessing, and what cleaning found and removed.
+
+    values : (H', W) float32, the band cropped and annotations inpainted.
+    alpha : (H', W) float32 opacity in 0..1, or None.
+    pixel_size : the physical pixel size and its provenance.
+    band : the rows cropped from the source image.
+    annotations : burned-in annotations removed (empty when removal is off).
+    mask : (H', W) bool where annotations were removed, or None when removal is off.
+    """
+
     values: np.ndarray
     alpha: np.ndarray | None
-    scale: Scale
-    crop: dict
+    pixel_size: PixelSize
+    band: Band
     annotations: list[Annotation]
     mask: np.ndarray | None
 
 
-def clean_source(picture: Picture, *, pixel_size: str | None, remove_annotations: bool) -> Cleaned:
-    src = picture.source
+def _band(picture: Picture, remove_annotations: bool) -> Band:
+    """The vendor's band, always cropped; a detected one only when annotations are removed."""
+    file, height = picture.file, picture.values.shape[0]
+    band = band_from_metadata(file.metadata, file.tiff_tags, file.path, height)
+    if band is None and remove_annotations:
+        top, bottom = detect_info_band(picture.values)
+        band = Band(top, bottom, "detected data band" if top or bottom else "")
+    if band is None or band.top_rows + band.bottom_rows >= height - 1:
+        return Band()
+    return band
+
+
+def clean_picture(picture: Picture, *, pixel_size: str | None, remove_annotations: bool) -> Cleaned:
+    """Scale, band crop and annotation removal for one picture.
+
+    Parameters
+    ----------
+    picture : the image as read.
+    pixel_size : the user's pixel size as text ("4.2nm"), or None to use the file's.
+    remove_annotations : detect and remove data bands and burned-in annotations.
+    """
+    file = picture.file
     override_m = parse_length_m(pixel_size, "pixel_size") if pixel_size else None
-    scale = read_scale(src.metadata, src.path, src.width, src.height, override_m)
-    values, alpha, crop, found, mask = clean(
-        picture.values,
-        picture.alpha,
-        crop_top=scale.crop_top,
-        crop_bottom=scale.crop_bottom,
-        crop_source=scale.crop_source,
-        remove=remove_annotations,
-    )
-    if scale.pixel_size_m is None and found:
-        raw = picture.values[crop["top_rows"] : picture.values.shape[0] - crop["bottom_rows"]]
-        size, where = scale_from_bar(raw, found)
-        if size:
-            scale.pixel_size_m, scale.source = size, where
-        elif any(a.kind == "bar" for a in found):
-            scale.warnings.append(where)
-    return Cleaned(values, alpha, scale, crop, found, mask)
+    size = read_pixel_size(file.metadata, file.tiff_tags, file.path, file.width, override_m)
+    band = _band(picture, remove_annotations)
+    rows = band.rows(picture.values.shape[0])
+    values = picture.values[rows]
+    alpha = None if picture.alpha is None else picture.alpha[rows]
+    if not remove_annotations:
+        return Cleaned(values, alpha, size, band, [], None)
+    removal = marks.remove_annotations(values)
+    if size.metres is None:
+        size = _scale_from_bars(picture.values, band, values, removal.annotations, size)
+    return Cleaned(removal.values, alpha, size, band, removal.annotations, removal.mask)
+
+
+def _scale_from_bars(source: np.ndarray, band: Band, picture: np.ndarray, found: list[Annotation], size: PixelSize) -> PixelSize:
+    """The pixel size read from burned-in scale bars, used only when the file records none.
+
+    Bars are looked for in the cropped band, at the top and bottom quarter of the picture, and
+    in label boxes; `size` is returned with a warning when a bar was seen but not read.
+    """
+    h = source.shape[0]
+    regions = [source[:band.top_rows]] if band.top_rows >= 5 else []
+    regions += [source[h - band.bottom_rows :]] if band.bottom_rows >= 5 else []
+    for a in found:
+        if a.kind == "bar":  # a bar found among the annotations, with room for its label
+            margin, length = max(6 * (a.rows[1] - a.rows[0]), 40), a.cols[1] - a.cols[0]
+            regions.append(picture[max(0, a.rows[0] - margin) : a.rows[1] + margin, max(0, a.cols[0] - length // 4) : a.cols[1] + length // 4])
+    quarter = max(1, picture.shape[0] // 4)
+    boxes = [picture[a.rows[0] : a.rows[1], a.cols[0] : a.cols[1]] for a in found if a.kind == "box"]
+    reading = scale_from_bars(regions, boxes, strips=[picture[-quarter:], picture[:quarter]])
+    if reading.metres is not None:
+        return PixelSize(reading.metres, reading.detail, size.warnings)
+    if reading.bar_seen:
+        return replace(size, warnings=size.warnings + (reading.detail,))
+    return size

@@ -222,4 +222,4 @@ def _inspect(path: Path, name: str) -> Upload:
 
     picture = read_image(path)
     preset, reason = suggest_preset(image_stats(picture.values, picture.alpha))
-    return Upload(name, path, picture.source.width, picture.source.height, preset, reason)
+    return Upload(name, path, picture.file.width, picture.file.height, preset, reason)

@@ -42,7 +42,7 @@ def test_hostile_inputs_never_stop_the_batch(tmp_path, capsys):
     assert sorted(os.path.basename(r["input"]) for r in failed) == [f"bad{i}.png" for i in range(5)]
     assert all(r["error"] and r["input"].split("/")[-1] in r["error"] for r in failed)
     csv_rows = (tmp_path / "out" / "batch-report.csv").read_text(encoding="utf-8").splitlines()
-    assert len(csv_rows) == 31 and csv_rows[0] == "input,status,outputs,seconds,error"
+    assert len(csv_rows) == 31 and csv_rows[0] == "input,status,outputs,seconds,error,warnings,touch"
     assert len(list((tmp_path / "out").glob("*.3mf"))) == 25
     # A rerun redoes nothing that is already right.
     code, out, _ = run(capsys, "batch", src, "-o", tmp_path / "out", "--preset", "low", "--workers", "2", "--formats", "stl,3mf")

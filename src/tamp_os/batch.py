@@ -63,6 +63,8 @@ class Outcome:
     outputs: list[str] = field(default_factory=list)
     seconds: float = 0.0
     error: str = ""
+    warnings: list[str] = field(default_factory=list)  # the print's warnings (a flat plate is named here)
+    touch: list[str] = field(default_factory=list)  # what a finger will find (legibility verdicts)
 
 
 def collect_inputs(items, recursive: bool = False, include: tuple[str, ...] | None = None, exclude_dir: Path | None = None):
@@ -130,7 +132,13 @@ def convert_one(source: str, out_dir: str, params_json: str, stem: str) -> dict:
     except Exception as exc:  # a bug must not stop the batch either; report it plainly
         log.exception("unexpected error on %s", src)
         return dataclasses.asdict(Outcome(str(src), "failed", [], time.perf_counter() - start, f"{src}: unexpected error: {exc!r}"))
-    return dataclasses.asdict(Outcome(str(src), "converted", [p.name for p in written], time.perf_counter() - start))
+    from .report import touch_notes
+
+    warnings = list(litho.report.warnings)
+    if litho.report.uniform:
+        warnings.insert(0, "flat plate: the image is uniform, so nothing is raised")
+    return dataclasses.asdict(Outcome(str(src), "converted", [p.name for p in written], time.perf_counter() - start,
+                                      warnings=warnings, touch=touch_notes(litho.report)))
 
 
 LOCK_NAME = ".tamp-batch.lock"
@@ -185,9 +193,10 @@ def write_report(out_dir: Path, outcomes: list[dict]) -> None:
 
     buf = io.StringIO()
     writer = csv.writer(buf)
-    writer.writerow(["input", "status", "outputs", "seconds", "error"])
+    writer.writerow(["input", "status", "outputs", "seconds", "error", "warnings", "touch"])
     for o in outcomes:
-        writer.writerow([o["input"], o["status"], " ".join(o["outputs"]), f"{o['seconds']:.3f}", o["error"]])
+        writer.writerow([o["input"], o["status"], " ".join(o["outputs"]), f"{o['seconds']:.3f}", o["error"],
+                         " | ".join(o.get("warnings", [])), " ".join(o.get("touch", []))])
     write_text(out_dir / f"{REPORT_NAME}.csv", buf.getvalue())
     text = json.dumps(outcomes, indent=2, ensure_ascii=False) + "\n"
     write_text(out_dir / f"{REPORT_NAME}.json", text)

@@ -82,7 +82,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--debug", action="store_true", help="show full tracebacks and debug messages")
     parser.add_argument("--version", action="store_true", help="print the version and exit")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    for add in (_add_convert_and_batch, _add_sweep_and_render, _add_slicing, _add_gui, _add_presets_and_plate, _add_info):
+    for add in (_add_convert_and_batch, _add_sweep_and_render, _add_slicing, _add_gui, _add_presets_and_plate, _add_check, _add_info):
         add(sub)
     return parser
 
@@ -168,6 +168,15 @@ def _add_presets_and_plate(sub) -> None:
     plate.add_argument("--formats", default="stl", help="comma-separated output formats (default stl)")
 
 
+def _add_check(sub) -> None:
+    check = sub.add_parser("check", help="what a finger will find: the legibility report of an image or a mesh",
+                           description="Measure a relief by touch: fine texture, height levels and steps, narrow "
+                                       "features, slopes and objects, with advice. An image is made into a relief "
+                                       "first (with the options given); a mesh (.stl, .3mf, .glb, .obj, .ply) is measured as it is.")
+    check.add_argument("inputs", nargs="+", metavar="IMAGE_OR_MESH")
+    _param_options(check)
+
+
 def _add_info(sub) -> None:
     info = sub.add_parser("info", help="describe an image file: size, bit depth, channels, metadata")
     info.add_argument("image", metavar="IMAGE")
@@ -201,6 +210,7 @@ def main(argv=None) -> int:
             "convert": cmd_convert, "batch": cmd_batch, "presets": cmd_presets, "info": cmd_info,
             "braille-test-plate": cmd_braille_plate, "sweep": cmd_sweep, "render": cmd_render,
             "slice": cmd_slice, "estimate": cmd_estimate, "gui": cmd_gui, "printers": cmd_printers,
+            "check": cmd_check,
         }
         return commands[args.command](args)
     except TampError as exc:
@@ -456,9 +466,9 @@ def cmd_estimate(args) -> int:
 
 
 def cmd_presets(args) -> int:
-    from .relief.suggest import image_stats, suggest_preset
     from .preset_table import megabytes, preset_rows
-    from .pipeline import resolve_printer
+    from .relief.touch import suggest_by_touch
+    from .pipeline import layout_for, resolve_printer
     from .printers import height_levels
 
     params = _params_from_args(args)
@@ -469,7 +479,8 @@ def cmd_presets(args) -> int:
         from .read import read_image
 
         picture = read_image(args.image, page=params.page, channel=params.channel, max_megapixels=params.max_megapixels)
-        suggestion = suggest_preset(image_stats(picture.values, picture.alpha))
+        width = layout_for(params, printer, picture.file.width, picture.file.height).width_mm
+        suggestion = suggest_by_touch(picture.values, picture.alpha, width_mm=width, nozzle_mm=printer.nozzle_mm)
     print(f"printer {printer.name}: nozzle {printer.nozzle_mm:g} mm, layer {layer:g} mm, mesher {params.mesher}")
     print(f"height levels: {height_levels(params.relief_mm, layer)} (relief {params.relief_mm:g} mm ÷ layer {layer:g} mm)")
     for row in preset_rows(params, picture=picture):
@@ -481,7 +492,7 @@ def cmd_presets(args) -> int:
             f"{about}{row['triangles']:,} triangles, estimated {sizes}"
         )
     if suggestion:
-        print(f"suggested for {Path(args.image).name}: {suggestion[0].capitalize()}, because {suggestion[1]}.")
+        print(f"suggested for {Path(args.image).name}: {suggestion.preset.capitalize()}, because {suggestion.reason}.")
     return EXIT_OK
 
 
@@ -499,6 +510,27 @@ def cmd_printers(args) -> int:
     if not found:
         print("none found: install PrusaSlicer (apt-get install prusa-slicer), or check the --vendor name.")
     return EXIT_OK
+
+
+def cmd_check(args) -> int:
+    from .pipeline import make_lithograph, resolve_printer
+    from .touchcheck import MESH_SUFFIXES, check_mesh
+
+    params = _params_from_args(args)
+    printer = resolve_printer(params)
+
+    def check_one(item):
+        path = Path(item)
+        if path.suffix.lower() in MESH_SUFFIXES:
+            verdicts = check_mesh(path, nozzle_mm=printer.nozzle_mm, layer_mm=printer.layer_mm).verdicts
+            head = f"{path.name} (mesh, measured as it is):"
+        else:
+            report = make_lithograph(path, params).report
+            verdicts = report.legibility["verdicts"]
+            head = f"{path.name} (relief style {report.relief_style}: {report.relief_reason}):"
+        return [head] + [f"  {v}" for v in verdicts]
+
+    return _run_each(args.inputs, check_one, args.debug)
 
 
 def _numbers(text: str, name: str) -> list[float]:

@@ -126,6 +126,7 @@ def recipe_dict(litho, files: list[str]) -> dict:
         "params": litho.params.to_dict(),
         "outputs": files,
         "print": litho.report.print,
+        "relief": {"style": litho.report.relief_style, "reason": litho.report.relief_reason, "legibility": litho.report.legibility},
         "versions": dict(dependency_versions()),
         "printer_profile": litho.printer.as_dict(),
     }

@@ -21,6 +21,8 @@ from .units import parse_length_m
 FORMATS = ("stl", "3mf", "glb", "obj", "ply", "step")
 FITS = ("pad", "crop", "stretch")
 MESHERS = ("adaptive", "grid")
+# The relief styles (relief/styles.py implements them; a test keeps the two lists equal).
+RELIEF_STYLES = ("reference", "structure", "levels", "objects", "auto")
 
 
 def _f(default, help, unit="", lo=None, hi=None, choices=None, lo_open=False):
@@ -49,6 +51,18 @@ class LithoParams:
     stretch_low_pct: float = _f(2.0, "lower percentile of the contrast stretch", "%", 0.0, 100.0)
     stretch_high_pct: float = _f(98.0, "upper percentile of the contrast stretch", "%", 0.0, 100.0)
     quantize: bool = _f(False, "round heights to whole layers")
+    relief_style: str = _f(
+        "structure",
+        "how the picture becomes heights: structure (shapes a finger can find, fine detail as low texture), "
+        "levels (a few flat plateaus), objects (particles and cells raised as domes), auto (chosen from the "
+        "picture), reference (brightness = height, as the published workflow)",
+        choices=RELIEF_STYLES,
+    )
+    detail_mm: float | None = _f(
+        None, "finest shape read as shape; finer detail becomes texture (default: 2 mm, or the grid pitch if coarser)", "mm", 0.05, 50.0
+    )
+    texture_mm: float = _f(0.3, "height of the fine texture kept on the shapes (0 = none)", "mm", 0.0, 2.0)
+    level_count: int = _f(3, "plateaus of the levels style", "", 2, 5)
     channel: str = _f("luminance", "luminance, or a channel: a number from 0 or red/green/blue/alpha")
     page: int = _f(0, "TIFF page or series to read", "", 0, 100000)
     z_slice: int | None = _f(None, "z-stack slice to use (default: maximum-intensity projection)", "", 0, 100000)

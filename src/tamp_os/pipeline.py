@@ -20,9 +20,10 @@ from .mesh.solid import Mesh, grid_solid
 from .params import LithoParams
 from .printers import PrinterProfile, get_printer, height_levels
 from .read import Picture, read_array, read_image
-from .relief.heightmap import heights_mm
+from .relief.legibility import Legibility, assess
 from .relief.layout import Layout, plan_layout
 from .relief.preprocess import Prepared, prepare
+from .relief.styles import ReliefResult, StyleOptions, make_relief
 from .report import Report
 from .tactile.furniture import Furniture, Placed, add_furniture, choose_scale_bar_m
 from .units import parse_length_m
@@ -30,6 +31,7 @@ from .units import parse_length_m
 log = logging.getLogger(__name__)
 
 MAX_GRID_ROWS, MAX_GRID_POINTS = 20000, 300e6
+DEFAULT_DETAIL_MM = 2.0  # about what a fingertip resolves as shape
 
 
 @dataclass
@@ -98,8 +100,11 @@ def make_lithograph(source, params: LithoParams | None = None, *, printer_profil
     _check_grid(layout)
     with clock("preprocess"):
         prepared = _prepare(cleaned, layout, params)
-        heights = heights_mm(prepared.image, base_mm=params.base_mm, relief_mm=params.relief_mm,
-                             layer_mm=machine.layer_mm if params.quantize else None)
+    with clock("relief"):
+        relief = _relief(prepared, layout, params, machine)
+        heights = relief.heights_mm
+    with clock("legibility"):
+        legibility = assess(heights, layout.mm_per_px, nozzle_mm=machine.nozzle_mm, layer_mm=machine.layer_mm, objects=relief.objects)
     max_error = params.max_error_mm if params.max_error_mm is not None else machine.layer_mm / 2
     with clock("mesh"):
         if params.mesher == "adaptive":
@@ -113,6 +118,9 @@ def make_lithograph(source, params: LithoParams | None = None, *, printer_profil
         if furniture.wanted:
             mesh, placed = add_furniture(mesh, layout.width_mm, layout.depth_mm, params.base_mm, furniture)
     report = _report(picture, cleaned, prepared, layout, params, machine, mesh, placed, max_error, timings)
+    report.relief_style, report.relief_reason = relief.style, relief.reason
+    report.legibility = _legibility_report(legibility, relief)
+    report.warnings += list(relief.notes)
     return Lithograph(mesh=mesh, heightmap=heights, params=params, printer=machine, layout=layout, picture=picture,
                       report=report, mask=cleaned.mask)
 
@@ -155,6 +163,23 @@ def _prepare(cleaned: Cleaned, layout: Layout, params: LithoParams) -> Prepared:
         low_pct=params.stretch_low_pct, high_pct=params.stretch_high_pct, sigma_px=layout.sigma_px,
         invert=params.invert, flip_x=params.flip_x,
     )
+
+
+def _relief(prepared: Prepared, layout: Layout, params: LithoParams, machine: PrinterProfile) -> ReliefResult:
+    """Heights in mm from the prepared image, in the chosen relief style."""
+    # Unset, the detail scale is a fingertip's (2 mm), or the grid pitch where the grid is coarser.
+    detail_mm = params.detail_mm if params.detail_mm is not None else max(DEFAULT_DETAIL_MM, layout.mm_per_px)
+    options = StyleOptions(detail_mm=detail_mm, texture_mm=params.texture_mm, level_count=params.level_count,
+                           nozzle_mm=machine.nozzle_mm)
+    return make_relief(prepared.image, style=params.relief_style, mm_per_px=layout.mm_per_px, base_mm=params.base_mm,
+                       relief_mm=params.relief_mm, layer_mm=machine.layer_mm if params.quantize else None,
+                       options=options, uniform=prepared.uniform)
+
+
+def _legibility_report(legibility: Legibility, relief: ReliefResult) -> dict:
+    out = legibility.as_dict()
+    out["levels_mm"] = [round(v, 3) for v in relief.levels_mm]
+    return out
 
 
 def _furniture(params: LithoParams, sample_per_mm: float | None) -> Furniture:

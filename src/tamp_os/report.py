@@ -40,6 +40,9 @@ class Report:
     timings_s: dict[str, float]
     files: list[str] = field(default_factory=list)
     print: dict | None = None  # slicing results, once sliced
+    relief_style: str = "reference"  # the style that made the heights (auto resolved)
+    relief_reason: str = ""  # why that style, or what it did, in one sentence
+    legibility: dict | None = None  # relief.legibility.Legibility.as_dict(): figures and verdicts
 
     def as_dict(self) -> dict:
         """The report as a plain dict (JSON-ready), with the keys of the earlier untyped report."""
@@ -60,11 +63,17 @@ def summary_line(report: Report, written_names: list[str]) -> str:
     """One plain line per converted file, as `tamp-os convert` prints it."""
     w, d, h = report.print_mm
     scale = f"; {report.scale}" if report.pixel_size_m else ""
+    levels = "a flat plate" if report.uniform else f"{report.height_levels} height levels"
     return (
         f"{report.input}: {w:g} × {d:g} × {h:g} mm, grid {report.grid[0]} × {report.grid[1]}, "
-        f"{report.triangles:,} triangles, {report.height_levels} height levels{scale}; "
+        f"{report.triangles:,} triangles, {levels}, relief style {report.relief_style}{scale}; "
         f"wrote {', '.join(written_names)}"
     )
+
+
+def touch_notes(report: Report) -> list[str]:
+    """The legibility verdicts: what a finger will find, with advice."""
+    return list((report.legibility or {}).get("verdicts", []))
 
 
 def removed_notes(report: Report) -> list[str]:
@@ -85,6 +94,8 @@ def web_summary(report: Report) -> list[str]:
         f"Print {w:g} × {d:g} mm, up to {top:g} mm high; grid {report.grid[0]} × {report.grid[1]}; "
         f"{report.triangles:,} triangles; {report.height_levels} height levels.",
         f"Scale: {report.scale}.",
+        f"Relief style: {report.relief_style} ({report.relief_reason}).",
+        *[f"Touch: {x}" for x in touch_notes(report)],
         *[f"Note: {x}" for x in report.warnings],
         *(["Removed: " + "; ".join(report.annotations)] if report.annotations else []),
         *([f"Printing: {report.print['summary']}."] if report.print else []),
@@ -95,14 +106,15 @@ def describe(report: Report, params: LithoParams, source_name: str) -> str:
     """A plain-language description of the object for people who cannot see it."""
     w, d, h = report.print_mm
     rw, rd = report.relief_mm
-    raised = "dark" if params.invert else "bright"
     parts = [
         f"A tactile relief of the image {source_name}.",
         f"The object is {w:g} mm wide, {d:g} mm deep and up to {h:g} mm high, on a {params.base_mm:g} mm base.",
         f"The picture itself is {rw:g} by {rd:g} mm. The top edge of the image is the far edge of the print.",
-        f"The {raised} parts of the image are raised, up to {params.relief_mm:g} mm above the base.",
+        _what_is_raised(report, params),
         f"Scale: {report.scale}.",
     ]
+    if not report.uniform and touch_notes(report):
+        parts.append("What a finger will find: " + " ".join(touch_notes(report)))
     t = report.tactile
     if t:
         parts.append("The top right corner of the plate is cut off at 45 degrees: hold the print with that corner at the top right.")
@@ -116,3 +128,24 @@ def describe(report: Report, params: LithoParams, source_name: str) -> str:
         if t["caption_braille"]:
             parts.append(f"Along the bottom margin, a braille caption reads: {params.caption}.")
     return " ".join(parts)
+
+
+def _what_is_raised(report: Report, params: LithoParams) -> str:
+    """One sentence on what stands up from the base, by relief style."""
+    raised, lowered = ("dark", "bright") if params.invert else ("bright", "dark")
+    up = f"{params.relief_mm:g} mm"
+    if report.uniform:
+        return "The image is uniform, so the print is a flat plate with no raised parts."
+    if report.relief_style == "levels":
+        levels = (report.legibility or {}).get("levels_mm") or []
+        heights = ", ".join(f"{v:g}" for v in levels)
+        return (f"The picture is made of {len(levels)} flat levels, {heights} mm above the base: "
+                f"{lowered} parts of the image lowest, {raised} parts highest.")
+    if report.relief_style == "objects":
+        n = (report.legibility or {}).get("object_count", 0)
+        return (f"{n} object{'s' if n != 1 else ''} found in the picture stand{'s' if n == 1 else ''} up as rounded domes, "
+                f"up to {up} above the base, over a flat, lightly textured background.")
+    if report.relief_style == "structure":
+        return (f"The {raised} parts of the image are raised, up to {up} above the base, simplified to shapes a "
+                f"fingertip can follow; finer detail is kept only as a low texture.")
+    return f"The {raised} parts of the image are raised, up to {up} above the base."

@@ -1,7 +1,8 @@
 """Check that a mesh is a printable solid: closed, 2-manifold, wound outward, no degenerate faces.
 
-Used by tests and by `tamp-os` after writing; independent libraries (trimesh, manifold3d,
-lib3mf) check the same things in the test suite.
+check_solid looks at the mesh by vertex index, as it is held in memory (tests use it; nothing in
+the product calls it yet). Independent libraries (trimesh, manifold3d, lib3mf) check the same
+things in the test suite.
 """
 
 from __future__ import annotations

@@ -9,11 +9,13 @@ already Unicode braille (U+2800-U+28FF) is used as it is.
 
 from __future__ import annotations
 
+import functools
 import importlib.util
 import shutil
 import subprocess
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from ..errors import MissingDependencyError, ParameterError
 
@@ -64,9 +66,10 @@ class BrailleSpec:
         return 2 * self.dot_spacing_mm + self.dot_diameter_mm
 
 
-def _load_louis():
+def _load_binding():
+    """The liblouis Python module, also from Debian's dist-packages; None when it is not usable."""
     try:
-        import louis  # noqa: F401
+        import louis
 
         return louis
     except ImportError:
@@ -84,37 +87,60 @@ def _load_louis():
     return None
 
 
-_LOUIS = None
+@dataclass(frozen=True)
+class Liblouis:
+    """A liblouis translator: its Python binding when given, else its `lou_translate` command.
+
+    `Liblouis.system()` finds both once per process (cached); tests build one with
+    `binding=None` to use the command only.
+    """
+
+    binding: Any = None  # the `louis` module, or None
+    command: str | None = None  # path of lou_translate, or None
+
+    @staticmethod
+    @functools.lru_cache(maxsize=1)
+    def system() -> "Liblouis":
+        return Liblouis(binding=_load_binding(), command=shutil.which("lou_translate"))
+
+    @property
+    def available(self) -> bool:
+        return self.binding is not None or self.command is not None
+
+    def translate(self, text: str, table: str) -> str:
+        """Unicode braille cells for `text` (spaces kept as spaces)."""
+        if self.binding is not None:
+            louis = self.binding
+            try:
+                return louis.translateString([table], text, mode=louis.dotsIO | louis.ucBrl)
+            except RuntimeError as exc:
+                raise ParameterError(f"braille table {table!r}: liblouis cannot use it ({exc}); see 'lou_checktable'.") from None
+        if self.command is None:
+            raise MissingDependencyError(INSTALL_HINT)
+        done = subprocess.run(
+            [self.command, "--forward", table], input=text, capture_output=True, text=True, encoding="utf-8", errors="replace", timeout=30
+        )
+        if done.returncode != 0:
+            raise ParameterError(f"braille table {table!r}: lou_translate failed ({done.stderr.strip()}).")
+        return "".join(chr(0x2800 + BRAILLE_ASCII.index(ch)) for ch in map(_fold, done.stdout.rstrip("\n")) if ch in BRAILLE_ASCII)
 
 
 def liblouis_available() -> bool:
-    global _LOUIS
-    if _LOUIS is None:
-        _LOUIS = _load_louis() or False
-    return bool(_LOUIS) or shutil.which("lou_translate") is not None
+    return Liblouis.system().available
 
 
 def is_unicode_braille(text: str) -> bool:
     return bool(text) and all("\u2800" <= ch <= "\u28ff" or ch in " \n" for ch in text)
 
 
-def to_braille(text: str, table: str = DEFAULT_TABLE) -> str:
-    """Unicode braille for `text` (e.g. '5 µm' -> '⠼⠑⠀⠨⠍⠍' with UEB)."""
+def to_braille(text: str, table: str = DEFAULT_TABLE, translator: Liblouis | None = None) -> str:
+    """Unicode braille for `text` (e.g. '5 µm' -> '⠼⠑⠀⠨⠍⠍' with UEB); blanks as U+2800.
+
+    `translator` defaults to the system's liblouis (`Liblouis.system()`).
+    """
     if is_unicode_braille(text):
         return text.replace(" ", BLANK)
-    liblouis_available()
-    if _LOUIS:
-        try:
-            return _LOUIS.translateString([table], text, mode=_LOUIS.dotsIO | _LOUIS.ucBrl).replace(" ", BLANK)
-        except RuntimeError as exc:
-            raise ParameterError(f"braille table {table!r}: liblouis cannot use it ({exc}); see 'lou_checktable'.") from None
-    exe = shutil.which("lou_translate")
-    if exe is None:
-        raise MissingDependencyError(INSTALL_HINT)
-    done = subprocess.run([exe, "--forward", table], input=text, capture_output=True, text=True, encoding="utf-8", errors="replace", timeout=30)
-    if done.returncode != 0:
-        raise ParameterError(f"braille table {table!r}: lou_translate failed ({done.stderr.strip()}).")
-    return "".join(chr(0x2800 + BRAILLE_ASCII.index(ch)) for ch in map(_fold, done.stdout.rstrip("\n")) if ch in BRAILLE_ASCII)
+    return (translator or Liblouis.system()).translate(text, table).replace(" ", BLANK)
 
 
 def _fold(ch: str) -> str:

@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .braille import BrailleSpec, block_size_mm, dot_centres, to_braille, wrap_cells
+from .braille import DEFAULT_TABLE, BrailleSpec, block_size_mm, dot_centres, to_braille, wrap_cells
 from ..errors import ParameterError
 from ..mesh.solid import INDEX, Mesh
 from ..units import format_length
@@ -43,7 +43,7 @@ class Furniture:
     """What to add; None/empty means leave it out."""
 
     caption: str | None = None
-    braille_table: str = "en-ueb-g2.ctb"
+    braille_table: str = DEFAULT_TABLE
     scale_bar_m: float | None = None  # the sample length the bar stands for
     sample_m_per_print_mm: float | None = None
     frame_mm: float = 0.0
@@ -128,26 +128,42 @@ def _fuse(parts, plate_w: float, plate_d: float, top_mm: float) -> Mesh:
     return Mesh(vertices=np.asarray(out.vert_properties, dtype=np.float64)[:, :3], faces=np.asarray(out.tri_verts, dtype=INDEX))
 
 
-def add_furniture(relief: Mesh, width_mm: float, depth_mm: float, base_mm: float, furniture: Furniture) -> tuple[Mesh, Placed]:
-    """The relief on a grown plate with the requested furniture, fused into one solid."""
-    import manifold3d as m3
+Box = tuple[float, float, float, float]  # x0, y0, x1, y1 in mm, plate coordinates
 
-    spec = furniture.spec
-    frame = furniture.frame_mm
+
+@dataclass
+class Plan:
+    """Where every part goes, in mm on the plate, before any geometry is built."""
+
+    placed: Placed
+    frame_ring: tuple[Box, Box] | None = None  # outer and inner outline of the frame
+    bar_boxes: list[Box] = field(default_factory=list)  # the bar, then its two end ticks
+    dot_centres: list[tuple[float, float]] = field(default_factory=list)
+
+
+def _scale_label(furniture: Furniture) -> tuple[float, str, list[str]]:
+    """The bar length on the print (mm), its label and the label in braille lines."""
+    bar_mm = furniture.scale_bar_m / furniture.sample_m_per_print_mm
+    label = format_length(furniture.scale_bar_m).replace(".0 ", " ")
+    return bar_mm, label, [to_braille(label, furniture.braille_table)]
+
+
+def plan_furniture(width_mm: float, depth_mm: float, furniture: Furniture) -> Plan:
+    """Plan the plate: its size, the relief's origin, and boxes and dot centres for each element.
+
+    Pure layout (no geometry): the relief of `width_mm` × `depth_mm` sits above rows for the
+    scale bar and the caption; every element keeps CLEARANCE_MM from every other.
+    """
+    spec, frame = furniture.spec, furniture.frame_mm
     side = BORDER_MM + (frame + CLEARANCE_MM if frame else 0.0)
     plate_w = width_mm + 2 * side
     inner_w = plate_w - 2 * BORDER_MM
-    # Rows below the relief, from the relief downwards.
-    rows_h = []
+    rows_h = []  # rows below the relief, from the relief downwards
     label_lines: list[str] = []
-    bar_mm, label = None, None
     if furniture.scale_bar_m is not None:
-        bar_mm = furniture.scale_bar_m / furniture.sample_m_per_print_mm
-        label = format_length(furniture.scale_bar_m).replace(".0 ", " ")
-        label_lines = [to_braille(label, furniture.braille_table)]
+        bar_mm, label, label_lines = _scale_label(furniture)
         label_w, label_h = block_size_mm(label_lines, spec)
-        needed = bar_mm + CLEARANCE_MM + label_w
-        if needed > inner_w:
+        if bar_mm + CLEARANCE_MM + label_w > inner_w:
             raise ParameterError(
                 f"scale bar: {bar_mm:.1f} mm plus its braille label ({label_w:.1f} mm) does not fit the "
                 f"{inner_w:.1f} mm of the plate; choose a shorter --scale-bar or a wider print."
@@ -161,50 +177,73 @@ def add_furniture(relief: Mesh, width_mm: float, depth_mm: float, base_mm: float
     below = (side - BORDER_MM if frame else 0.0) + sum(CLEARANCE_MM + h for h in rows_h) + BOTTOM_BORDER_MM
     if not rows_h:
         below = side
-    plate_d = below + depth_mm + side
     ox, oy = side, below
-    placed = Placed(plate_mm=(plate_w, plate_d), relief_origin_mm=(ox, oy))
-
-    top = base_mm
-    parts = [_box(0, 0, plate_w, plate_d, 0, base_mm)]
-    verts = relief.vertices + np.array([ox, oy, 0.0])
-    parts.append(m3.Manifold(m3.Mesh(vert_properties=verts.astype(np.float32), tri_verts=relief.faces.astype(np.uint32))))
+    plan = Plan(placed=Placed(plate_mm=(plate_w, below + depth_mm + side), relief_origin_mm=(ox, oy)))
     if frame:
         x0, y0 = ox - CLEARANCE_MM - frame, oy - CLEARANCE_MM - frame
         x1, y1 = ox + width_mm + CLEARANCE_MM + frame, oy + depth_mm + CLEARANCE_MM + frame
-        ring = _box(x0, y0, x1, y1, top - 0.2, top + FRAME_HEIGHT_MM) - _box(
-            x0 + frame, y0 + frame, x1 - frame, y1 - frame, top - 1.0, top + FRAME_HEIGHT_MM + 1.0
-        )
-        parts.append(ring)
-        placed.frame_box = (x0, y0, x1, y1)
+        plan.frame_ring = ((x0, y0, x1, y1), (x0 + frame, y0 + frame, x1 - frame, y1 - frame))
+        plan.placed.frame_box = (x0, y0, x1, y1)
     cursor = oy - (CLEARANCE_MM + frame if frame else 0.0)
-    sink = min(0.4, base_mm / 2)
-    dome = _dome(spec, sink)
-    centres: list[tuple[float, float]] = []
-    if bar_mm is not None:
-        row_h = rows_h[0]
-        cursor -= CLEARANCE_MM
-        mid = cursor - row_h / 2
-        x0 = BORDER_MM
-        parts.append(_box(x0, mid - BAR_WIDTH_MM / 2, x0 + bar_mm, mid + BAR_WIDTH_MM / 2, top - sink, top + BAR_HEIGHT_MM))
-        for tx in (x0, x0 + bar_mm - TICK_WIDTH_MM):
-            parts.append(_box(tx, mid - TICK_LENGTH_MM / 2, tx + TICK_WIDTH_MM, mid + TICK_LENGTH_MM / 2, top - sink, top + BAR_HEIGHT_MM))
-        placed.scale_bar_box = (x0, mid - TICK_LENGTH_MM / 2, x0 + bar_mm, mid + TICK_LENGTH_MM / 2)
-        lx = x0 + bar_mm + CLEARANCE_MM
-        centres += dot_centres(label_lines, spec, lx, mid + label_h / 2)
-        placed.scale_label = label
-        placed.scale_label_braille = label_lines[0]
-        placed.scale_label_box = (lx, mid - label_h / 2, lx + label_w, mid + label_h / 2)
-        cursor -= row_h
+    if label_lines:
+        cursor = _plan_scale_bar(plan, spec, (bar_mm, label, label_lines), cursor - CLEARANCE_MM, rows_h[0])
     if caption_lines:
         cursor -= CLEARANCE_MM
         w, h = block_size_mm(caption_lines, spec)
-        centres += dot_centres(caption_lines, spec, BORDER_MM, cursor)
-        placed.caption_braille = caption_lines
-        placed.caption_box = (BORDER_MM, cursor - h, BORDER_MM + w, cursor)
-    parts += [dome.translate((x, y, top)) for x, y in centres]
-    placed.dots = len(centres)
-    return _fuse(parts, plate_w, plate_d, top), placed
+        plan.dot_centres += dot_centres(caption_lines, spec, BORDER_MM, cursor)
+        plan.placed.caption_braille = caption_lines
+        plan.placed.caption_box = (BORDER_MM, cursor - h, BORDER_MM + w, cursor)
+    plan.placed.dots = len(plan.dot_centres)
+    return plan
+
+
+def _plan_scale_bar(plan: Plan, spec: BrailleSpec, bar: tuple[float, str, list[str]], top_mm: float, row_h: float) -> float:
+    """Put the bar, its ticks and its label in the row whose top is at `top_mm`; return its bottom.
+
+    `bar` is (length on the print in mm, label, label in braille lines).
+    """
+    bar_mm, label, label_lines = bar
+    label_w, label_h = block_size_mm(label_lines, spec)
+    mid = top_mm - row_h / 2
+    x0 = BORDER_MM
+    plan.bar_boxes.append((x0, mid - BAR_WIDTH_MM / 2, x0 + bar_mm, mid + BAR_WIDTH_MM / 2))
+    for tx in (x0, x0 + bar_mm - TICK_WIDTH_MM):
+        plan.bar_boxes.append((tx, mid - TICK_LENGTH_MM / 2, tx + TICK_WIDTH_MM, mid + TICK_LENGTH_MM / 2))
+    lx = x0 + bar_mm + CLEARANCE_MM
+    plan.dot_centres += dot_centres(label_lines, spec, lx, mid + label_h / 2)
+    placed = plan.placed
+    placed.scale_bar_box = (x0, mid - TICK_LENGTH_MM / 2, x0 + bar_mm, mid + TICK_LENGTH_MM / 2)
+    placed.scale_label = label
+    placed.scale_label_braille = label_lines[0]
+    placed.scale_label_box = (lx, mid - label_h / 2, lx + label_w, mid + label_h / 2)
+    return top_mm - row_h
+
+
+def build_parts(relief: Mesh, plan: Plan, base_mm: float, spec: BrailleSpec) -> list:
+    """manifold3d solids for the plate, the relief moved to its origin, and each planned element."""
+    import manifold3d as m3
+
+    plate_w, plate_d = plan.placed.plate_mm
+    top = base_mm
+    parts = [_box(0, 0, plate_w, plate_d, 0, base_mm)]
+    verts = relief.vertices + np.array([*plan.placed.relief_origin_mm, 0.0])
+    parts.append(m3.Manifold(m3.Mesh(vert_properties=verts.astype(np.float32), tri_verts=relief.faces.astype(np.uint32))))
+    if plan.frame_ring:
+        outer, inner = plan.frame_ring
+        parts.append(_box(*outer, top - 0.2, top + FRAME_HEIGHT_MM) - _box(*inner, top - 1.0, top + FRAME_HEIGHT_MM + 1.0))
+    sink = min(0.4, base_mm / 2)
+    dome = _dome(spec, sink)  # made before the bar: manifold3d numbers meshes in creation order
+    parts += [_box(*box, top - sink, top + BAR_HEIGHT_MM) for box in plan.bar_boxes]
+    parts += [dome.translate((x, y, top)) for x, y in plan.dot_centres]
+    return parts
+
+
+def add_furniture(relief: Mesh, width_mm: float, depth_mm: float, base_mm: float, furniture: Furniture) -> tuple[Mesh, Placed]:
+    """The relief on a grown plate with the requested furniture, fused into one solid."""
+    plan = plan_furniture(width_mm, depth_mm, furniture)
+    parts = build_parts(relief, plan, base_mm, furniture.spec)
+    plate_w, plate_d = plan.placed.plate_mm
+    return _fuse(parts, plate_w, plate_d, base_mm), plan.placed
 
 
 def braille_test_plate(text: str, table: str, heights_mm, diameters_mm, base_mm: float = 1.5):

@@ -207,7 +207,9 @@ def test_unicode_braille_is_used_as_is_and_bad_sizes_are_refused():
 def test_scale_bar_needs_a_scale(capsys, tmp_path):
     with pytest.raises(ParameterError, match="--pixel-size"):
         make_lithograph(np.eye(20), scale_bar="5um")
-    assert make_lithograph(np.eye(20)).report["tactile"] is None  # nothing asked, nothing added
+    assert make_lithograph(np.eye(20), orientation_corner="none").report["tactile"] is None  # nothing asked, nothing added
+    plain = make_lithograph(np.eye(20)).report["tactile"]  # the cut corner only (on every plate by default)
+    assert plain["orientation"] and plain["scale_bar_box_mm"] is None and not plain["caption_braille"] and plain["braille_dots"] == 0
 
 
 def test_braille_test_plate_command(tmp_path, capsys):

@@ -17,7 +17,7 @@ from . import __version__
 from .mesh.adaptive import adaptive_solid
 from .clean.stage import clean_source
 from .errors import InputError, ParameterError
-from .export import save_mesh
+from .export import check_export, save_mesh
 from .files import write_png, write_text
 from .relief.heightmap import heights_mm
 from .mesh.solid import Mesh, grid_solid
@@ -28,7 +28,7 @@ from .printers import get_printer, height_levels
 from .read import Picture, read_array, read_image
 from .relief.layout import Layout, plan_layout
 from .slicer import material, slice_mesh
-from .tactile.furniture import Furniture, add_furniture, choose_scale_bar_m
+from .tactile.furniture import Furniture, add_furniture
 from .units import parse_length_m
 
 log = logging.getLogger(__name__)
@@ -79,10 +79,12 @@ class Lithograph:
 
                 raise ExportError(f"{folder}: cannot create the output folder ({exc.strerror}); choose another with -o.") from None
         meta = self.metadata()
+        # Every format is checked before any is written: a failure leaves no file.
+        check_export(self.mesh, [folder / f"{stem}.{fmt}" for fmt in formats + (["stl"] if self.params.gcode else [])])
 
         def write(fmt):
             start = time.perf_counter()
-            path = save_mesh(self.mesh, folder / f"{stem}.{fmt}", meta)
+            path = save_mesh(self.mesh, folder / f"{stem}.{fmt}", meta, checked=True)
             self.report["timings_s"][f"write_{fmt}"] = round(time.perf_counter() - start, 4)
             return path
 
@@ -98,7 +100,7 @@ class Lithograph:
         if self.params.gcode:
             sliced_from = next((p for p in written if p.suffix == ".stl"), None)
             if sliced_from is None:
-                sliced_from = save_mesh(self.mesh, folder / f"{stem}.stl", meta)
+                sliced_from = save_mesh(self.mesh, folder / f"{stem}.stl", meta, checked=True)
                 written.append(sliced_from)
             result = slice_mesh(
                 sliced_from, get_printer(self.params.printer), material(self.params.material, self.params.filament_price_per_kg),
@@ -241,16 +243,18 @@ def make_lithograph(source, params: LithoParams | None = None, **changes) -> Lit
         caption=params.caption,
         braille_table=params.braille_table,
         scale_bar_m=_scale_bar_m(params.scale_bar, sample_per_mm),
+        auto_scale_bar=params.scale_bar == "auto",
+        corner_cut=params.orientation_corner == "cut",
         sample_m_per_print_mm=sample_per_mm,
         frame_mm=params.frame_mm,
         spec=params.braille_spec(),
     )
     placed = None
-    if furniture.wanted:
+    if furniture.wanted or furniture.corner_cut:
         mesh, placed = add_furniture(mesh, layout.width_mm, layout.depth_mm, params.base_mm, furniture)
     timings["tactile"] = time.perf_counter() - start
 
-    warnings = list(layout.warnings) + list(src.notes) + scale.warnings
+    warnings = list(layout.warnings) + list(src.notes) + scale.warnings + (placed.notes if placed else [])
     if info["uniform"]:
         warnings.append(f"{src.name}: the image is uniform (every usable pixel has the same value); the print is a flat plate.")
     if params.base_mm < 0.8:
@@ -290,8 +294,8 @@ def _scale_bar_m(setting: str, sample_per_mm: float | None) -> float | None:
     """The sample length the scale bar stands for, from --scale-bar auto|off|LENGTH."""
     if setting == "off":
         return None
-    if setting == "auto":
-        return choose_scale_bar_m(sample_per_mm) if sample_per_mm else None
+    if setting == "auto":  # chosen by the furniture layout, to fit the plate
+        return None
     if not sample_per_mm:
         raise ParameterError(
             f"scale_bar: --scale-bar {setting} needs the image's pixel size, and none is known; "
@@ -314,7 +318,8 @@ def _tactile_report(placed) -> dict | None:
         "scale_label_box_mm": placed.scale_label_box,
         "frame_box_mm": placed.frame_box,
         "braille_dots": placed.dots,
-        "orientation": "cut corner at the top right",
+        "scale_label_beside": placed.scale_label_beside,
+        "orientation": "cut corner at the top right" if placed.corner_cut_mm else None,
     }
 
 
@@ -333,13 +338,14 @@ def describe(litho: Lithograph) -> str:
     ]
     t = r.get("tactile")
     if t:
-        parts.append("The top right corner of the plate is cut off at 45 degrees: hold the print with that corner at the top right.")
+        if t["orientation"]:
+            parts.append("The top right corner of the plate is cut off at 45 degrees: hold the print with that corner at the top right.")
         if t["frame_box_mm"]:
             parts.append(f"A raised frame {p.frame_mm:g} mm wide surrounds the picture.")
         if t["scale_bar_box_mm"]:
             parts.append(
                 f"Below the picture, at the left, a raised scale bar with end ticks stands for {t['scale_bar_label']} "
-                f"in the sample; its value is in braille to its right."
+                f"in the sample; its value is in braille {'to its right' if t['scale_label_beside'] else 'below it'}."
             )
         if t["caption_braille"]:
             parts.append(f"Along the bottom margin, a braille caption reads: {p.caption}.")

@@ -203,7 +203,7 @@ def write_step(mesh, fh, metadata: dict) -> None:
     """Write `mesh` (mm) as one faceted MANIFOLD_SOLID_BREP in an AP214 STEP file."""
     check_step(mesh)
     title = str(metadata.get("title", "lithograph")).replace("'", "")
-    title = title.encode("ascii", "replace").decode()
+    title = "".join(ch if " " <= ch <= "~" and ch != "\\" else "?" for ch in title)  # STEP strings: printable ASCII
     out = _Entities()
     shape, gctx, placement = _product_context(out, title)
     topology = _Topology(out, mesh.vertices)

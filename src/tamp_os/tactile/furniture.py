@@ -140,7 +140,7 @@ def plan_furniture(width_mm: float, depth_mm: float, furniture: Furniture) -> Pl
     caption_lines: list[str] = []
     if furniture.caption:
         cells = int((inner_w - spec.dot_spacing_mm - spec.dot_diameter_mm) // spec.cell_spacing_mm) + 1
-        caption_lines = wrap_cells(to_braille(furniture.caption, furniture.braille_table), cells)
+        caption_lines = wrap_cells(to_braille(furniture.caption, furniture.braille_table, what="caption"), cells)
         rows_h.append(block_size_mm(caption_lines, spec)[1])
     below = (side - BORDER_MM if frame else 0.0) + sum(CLEARANCE_MM + h for h in rows_h) + BOTTOM_BORDER_MM
     if not rows_h:

@@ -54,7 +54,8 @@ def test_uniform_image_gives_flat_plate_and_warning(fixture):
     assert np.all(litho.heightmap == litho.params.base_mm)
     assert any("uniform" in w for w in litho.report["warnings"])
     check = check_solid(litho.mesh)
-    assert check.ok and check.volume_mm3 == pytest.approx(100 * 100 * 1.0, rel=1e-9)
+    # a 100 × 100 × 1 mm plate less its cut corner (legs of 8 mm)
+    assert check.ok and check.volume_mm3 == pytest.approx(100 * 100 * 1.0 - 8 * 8 / 2 * 1.0, rel=1e-6)
 
 
 def test_fixtures_convert_to_valid_solids(fixtures_dir):
@@ -84,7 +85,7 @@ def test_presets_follow_the_nozzle():
     assert preset_resolution_px("medium", 0.4, 100) == 250
     assert preset_resolution_px("high", 0.4, 100) == 500
     assert height_levels(3.0, 0.12) == 25
-    litho = make_lithograph(np.eye(40) * 255, preset="high", printer="fine", mesher="grid")
+    litho = make_lithograph(np.eye(40) * 255, preset="high", printer="fine", mesher="grid", orientation_corner="none")
     assert litho.report["grid"][0] == 800 and litho.report["layer_mm"] == 0.08
     assert litho.mesh.n_triangles == grid_triangles(*litho.report["grid"])
 

@@ -116,15 +116,16 @@ def decode_cells(centres, spec):
 
 
 def test_scale_bar_length_matches_its_braille_value(litho):
-    from tamp_os.tactile.braille import _LOUIS
+    from tamp_os.tactile.braille import Liblouis
 
     base, dots, frame, bar, relief = classify(litho)
     bar_len = bar["hi"][0] - bar["lo"][0]
     label_dots = [d for d in dots if d["lo"][0] > bar["hi"][0] and d["lo"][1] > bar["lo"][1] - 1]
     label = [dot_measure(litho.mesh, d, base)[0] for d in label_dots]
     braille = decode_cells(np.array(label), BrailleSpec())
-    need(bool(_LOUIS), "the liblouis Python binding for back-translation")
-    text = _LOUIS.backTranslateString(["en-ueb-g2.ctb"], braille, mode=_LOUIS.ucBrl)
+    louis = Liblouis.system().binding
+    need(louis is not None, "the liblouis Python binding for back-translation")
+    text = louis.backTranslateString(["en-ueb-g2.ctb"], braille, mode=louis.ucBrl)
     value_m = parse_length_m(text)
     sample_m_per_mm = 1e-6 * 80 / 80  # 1 µm pixels, 80 source pixels across 80 mm
     assert bar_len == pytest.approx(value_m / sample_m_per_mm, rel=0.01)
@@ -189,12 +190,9 @@ def test_translation_matches_liblouis():
     for text, cells in cases.items():
         assert braille.to_braille(text, "en-ueb-g1.ctb").replace("\u2800", " ") == cells.replace("\u2800", " ")
     # The command-line fallback gives the same cells as the Python binding.
-    saved = braille._LOUIS
-    try:
-        braille._LOUIS = False
-        fallback = {t: braille.to_braille(t) for t in ("5 µm", "FePt Spheres, SEM", "Grade two contracts words")}
-    finally:
-        braille._LOUIS = saved
+    command_only = braille.Liblouis(binding=None, command=braille.Liblouis.system().command)
+    need(command_only.available, "the lou_translate command")
+    fallback = {t: braille.to_braille(t, translator=command_only) for t in ("5 µm", "FePt Spheres, SEM", "Grade two contracts words")}
     assert fallback == {t: braille.to_braille(t) for t in fallback}
 
 
@@ -212,7 +210,9 @@ def test_scale_bar_needs_a_scale(capsys, tmp_path):
     # The command line says it in its own words.
     assert main(["convert", str(_png(tmp_path)), "-o", str(tmp_path), "--scale-bar", "5um"]) == 1
     assert "--pixel-size" in capsys.readouterr().err
-    assert make_lithograph(np.eye(20)).report["tactile"] is None  # nothing asked, nothing added
+    assert make_lithograph(np.eye(20), orientation_corner="none").report["tactile"] is None  # nothing asked, nothing added
+    plain = make_lithograph(np.eye(20)).report["tactile"]  # the cut corner only (on every plate by default)
+    assert plain["orientation"] and plain["scale_bar_box_mm"] is None and not plain["caption_braille"] and plain["braille_dots"] == 0
 
 
 def test_braille_test_plate_command(tmp_path, capsys):

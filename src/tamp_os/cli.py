@@ -75,6 +75,8 @@ def _params_from_args(args, base=None):
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from .tactile.braille import DEFAULT_TABLE
+
     parser = argparse.ArgumentParser(
         prog="tamp-os",
         description="Turn images, above all microscopy images, into 3D-printable tactile lithographs.",
@@ -162,7 +164,7 @@ def _add_presets_and_plate(sub) -> None:
     )
     plate.add_argument("-o", "--output", default=".", metavar="DIR", help="output folder (default: current folder)")
     plate.add_argument("--text", default="Tactile 123", help="the text to repeat (default: Tactile 123)")
-    plate.add_argument("--braille-table", default="en-ueb-g2.ctb", help="liblouis table (default en-ueb-g2.ctb)")
+    plate.add_argument("--braille-table", default=DEFAULT_TABLE, help=f"liblouis table (default {DEFAULT_TABLE})")
     plate.add_argument("--heights", default="0.5,0.7,0.9", metavar="MM,...", help="dot heights in mm (default 0.5,0.7,0.9)")
     plate.add_argument("--diameters", default="1.4,1.5,1.6", metavar="MM,...", help="dot base diameters in mm (default 1.4,1.5,1.6)")
     plate.add_argument("--formats", default="stl", help="comma-separated output formats (default stl)")

@@ -14,7 +14,7 @@ from pathlib import Path
 
 
 from .errors import ExportError, InputError
-from .export import save_mesh
+from .export import check_export, save_mesh
 from .files import to_uint8, write_png, write_text
 from .params import LithoParams
 from .printers import PrinterProfile
@@ -43,6 +43,8 @@ def save(litho, target, formats=None, stem: str | None = None) -> list[Path]:
     """
     folder, stem, formats = _target(litho, Path(target), formats, stem)
     meta = metadata(litho)
+    # The mesh as written, and every format's own limits, are checked before any file is written.
+    check_export(litho.mesh, [folder / f"{stem}.{fmt}" for fmt in formats])
     written = [path for path, _ in write_meshes(litho.mesh, folder, stem, formats, meta).values()]
     if litho.params.save_masks and litho.mask is not None:
         written.append(write_png(folder / f"{stem}.annotations.png", to_uint8(litho.mask, 0.0, 1.0)))
@@ -85,7 +87,7 @@ def write_meshes(mesh, folder: Path, stem: str, formats: list[str], meta: dict) 
 
     def write(fmt):
         start = time.perf_counter()
-        path = save_mesh(mesh, folder / f"{stem}.{fmt}", meta)
+        path = save_mesh(mesh, folder / f"{stem}.{fmt}", meta, checked=True)
         return fmt, (path, time.perf_counter() - start)
 
     # Large meshes: the writers spend their time in NumPy and lib3mf's C code, which release

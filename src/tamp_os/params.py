@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from .errors import ParameterError
-from .tactile.braille import BrailleSpec
+from .tactile.braille import DEFAULT_TABLE, BrailleSpec
 from .printers import PRESETS
 from .units import parse_length_m
 
@@ -71,8 +71,9 @@ class LithoParams:
     save_masks: bool = _f(False, "write NAME.annotations.png showing what was removed")
     max_megapixels: float = _f(400.0, "refuse larger images (decompression-bomb guard)", "Mpx", 0.0, 1e6, lo_open=True)
     caption: str | None = _f(None, "braille caption along the bottom margin (text, or Unicode braille as is)")
-    braille_table: str = _f("en-ueb-g2.ctb", "liblouis table for braille (en-ueb-g1.ctb for grade 1, or any other)")
+    braille_table: str = _f(DEFAULT_TABLE, "liblouis table for braille (en-ueb-g1.ctb for grade 1, or any other)")
     scale_bar: str = _f("auto", "auto (when the pixel size is known), off, or a length such as 5um")
+    orientation_corner: str = _f("cut", "orientation mark: cut (top right corner cut off, as on braille cards) or none", choices=("cut", "none"))
     frame_mm: float = _f(0.0, "width of a raised frame around the relief (0 = none)", "mm", 0.0, 10.0)
     dot_diameter_mm: float = _f(1.5, "braille dot base diameter", "mm", *BrailleSpec.RANGES["dot_diameter_mm"])
     dot_height_mm: float = _f(0.7, "braille dot height", "mm", *BrailleSpec.RANGES["dot_height_mm"])

@@ -25,7 +25,7 @@ from .relief.layout import Layout, plan_layout
 from .relief.preprocess import Prepared, prepare
 from .relief.styles import ReliefResult, StyleOptions, make_relief
 from .report import Report
-from .tactile.furniture import Furniture, Placed, add_furniture, choose_scale_bar_m
+from .tactile.furniture import Furniture, Placed, add_furniture
 from .units import parse_length_m
 
 log = logging.getLogger(__name__)
@@ -115,9 +115,10 @@ def make_lithograph(source, params: LithoParams | None = None, *, printer_profil
     with clock("tactile"):
         furniture = _furniture(params, sample_per_mm)
         placed = None
-        if furniture.wanted:
+        if furniture.wanted or furniture.corner_cut:
             mesh, placed = add_furniture(mesh, layout.width_mm, layout.depth_mm, params.base_mm, furniture)
     report = _report(picture, cleaned, prepared, layout, params, machine, mesh, placed, max_error, timings)
+    report.warnings += list(placed.notes) if placed else []
     report.relief_style, report.relief_reason = relief.style, relief.reason
     report.legibility = _legibility_report(legibility, relief)
     report.warnings += list(relief.notes)
@@ -187,6 +188,8 @@ def _furniture(params: LithoParams, sample_per_mm: float | None) -> Furniture:
         caption=params.caption,
         braille_table=params.braille_table,
         scale_bar_m=_scale_bar_m(params.scale_bar, sample_per_mm),
+        auto_scale_bar=params.scale_bar == "auto",
+        corner_cut=params.orientation_corner == "cut",
         sample_m_per_print_mm=sample_per_mm,
         frame_mm=params.frame_mm,
         spec=params.braille_spec(),
@@ -197,8 +200,8 @@ def _scale_bar_m(setting: str, sample_per_mm: float | None) -> float | None:
     """The sample length the scale bar stands for, from scale_bar = auto | off | a length."""
     if setting == "off":
         return None
-    if setting == "auto":
-        return choose_scale_bar_m(sample_per_mm) if sample_per_mm else None
+    if setting == "auto":  # chosen by the furniture layout, to fit the plate
+        return None
     if not sample_per_mm:
         raise ParameterError(
             f"scale_bar: a scale bar of {setting} needs the image's pixel size, and none is known; "
@@ -262,5 +265,6 @@ def _tactile_report(placed: Placed | None) -> dict | None:
         "scale_label_box_mm": placed.scale_label_box,
         "frame_box_mm": placed.frame_box,
         "braille_dots": placed.dots,
-        "orientation": "cut corner at the top right",
+        "scale_label_beside": placed.scale_label_beside,
+        "orientation": "cut corner at the top right" if placed.corner_cut_mm else None,
     }

@@ -117,13 +117,14 @@ def describe(report: Report, params: LithoParams, source_name: str) -> str:
         parts.append("What a finger will find: " + " ".join(touch_notes(report)))
     t = report.tactile
     if t:
-        parts.append("The top right corner of the plate is cut off at 45 degrees: hold the print with that corner at the top right.")
+        if t["orientation"]:
+            parts.append("The top right corner of the plate is cut off at 45 degrees: hold the print with that corner at the top right.")
         if t["frame_box_mm"]:
             parts.append(f"A raised frame {params.frame_mm:g} mm wide surrounds the picture.")
         if t["scale_bar_box_mm"]:
             parts.append(
                 f"Below the picture, at the left, a raised scale bar with end ticks stands for {t['scale_bar_label']} "
-                f"in the sample; its value is in braille to its right."
+                f"in the sample; its value is in braille {'to its right' if t['scale_label_beside'] else 'below it'}."
             )
         if t["caption_braille"]:
             parts.append(f"Along the bottom margin, a braille caption reads: {params.caption}.")

@@ -1,43 +1,90 @@
 """Exporters, chosen by file extension. Each writes a Mesh to an open binary file; the file
-itself is opened by `files.write_atomic`."""
+itself is opened by `files.write_atomic`.
+
+Nothing is written unless everything can be: `check_export` runs the solid check on the mesh as
+it will be written (float32 positions merged, as slicers read an STL) and every chosen format's
+own check (STEP's size limit) first, and raises ExportError instead of writing a file.
+"""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
-from typing import BinaryIO, Callable
+from typing import BinaryIO, Callable, Iterable
 
-from ..errors import ParameterError
+from ..errors import ExportError, ParameterError
 from ..files import write_atomic
 from ..mesh.solid import Mesh
 
 Writer = Callable[[Mesh, BinaryIO, dict], None]
 
 
-def _registry() -> dict[str, Writer]:
+def _no_check(mesh: Mesh) -> None:
+    """Formats that can hold any mesh."""
+
+
+@dataclass(frozen=True)
+class Exporter:
+    """One format: `write(mesh, file, metadata)`, and `check(mesh)`, which raises ExportError
+    when this format cannot hold the mesh (run before any file is written)."""
+
+    write: Writer
+    check: Callable[[Mesh], None] = _no_check
+
+
+def _registry() -> dict[str, Exporter]:
     from . import glb, plain, step, stl, threemf
 
     return {
-        "stl": stl.write_stl,
-        "3mf": threemf.write_3mf,
-        "glb": glb.write_glb,
-        "obj": plain.write_obj,
-        "ply": plain.write_ply,
-        "step": step.write_step,
+        "stl": Exporter(stl.write_stl),
+        "3mf": Exporter(threemf.write_3mf),
+        "glb": Exporter(glb.write_glb),
+        "obj": Exporter(plain.write_obj),
+        "ply": Exporter(plain.write_ply),
+        "step": Exporter(step.write_step, step.check_step),
     }
 
 
+def format_of(path: Path) -> str:
+    """The format a file name asks for ('stp' is 'step'); ParameterError if none writes it."""
+    ext = Path(path).suffix.lower().lstrip(".")
+    ext = "step" if ext == "stp" else ext
+    if ext not in _registry():
+        raise ParameterError(f"{path}: no exporter for '.{ext}'; choose one of {', '.join('.' + k for k in _registry())}.")
+    return ext
+
+
 def exporter_for(path: Path) -> Writer:
-    ext = path.suffix.lower().lstrip(".")
-    writers = _registry()
-    if ext == "stp":
-        ext = "step"
-    if ext not in writers:
-        raise ParameterError(f"{path}: no exporter for '.{ext}'; choose one of {', '.join('.' + k for k in writers)}.")
-    return writers[ext]
+    return _registry()[format_of(path)].write
 
 
-def save_mesh(mesh: Mesh, path, metadata: dict | None = None) -> Path:
-    """Write `mesh` to `path` in the format its extension names (metadata: title, description)."""
+def check_export(mesh: Mesh, paths: Iterable) -> None:
+    """Raise ExportError unless `mesh` is a sound solid as written and every path's format can hold it.
+
+    Run once before writing a set of files, so that a failure leaves no file at all.
+    """
+    from ..mesh.validate import check_as_written
+
+    paths = [Path(p) for p in paths]
+    exporters = {format_of(p): _registry()[format_of(p)] for p in paths}
+    check = check_as_written(mesh)
+    if not check.ok:
+        names = ", ".join(p.name for p in paths)
+        raise ExportError(
+            f"{names}: the mesh is not a closed solid as a slicer reads it ({'; '.join(check.problems)}); "
+            f"nothing was written. This is a fault in TAMP-OS, not in your input: please report it with the input and settings."
+        )
+    for exporter in exporters.values():
+        exporter.check(mesh)
+
+
+def save_mesh(mesh: Mesh, path, metadata: dict | None = None, *, checked: bool = False) -> Path:
+    """Write `mesh` to `path` in the format its extension names (metadata: title, description).
+
+    The mesh is checked first (see check_export) unless `checked` says the caller already did.
+    """
     path = Path(path)
     writer = exporter_for(path)
+    if not checked:
+        check_export(mesh, [path])
     return write_atomic(path, lambda fh: writer(mesh, fh, metadata or {}))

@@ -105,23 +105,20 @@ def _outline_loops(group_faces: np.ndarray, normal: np.ndarray, vertices: np.nda
     return [loops[outer]] + [loop for i, loop in enumerate(loops) if i != outer]
 
 
-def write_step(mesh, fh, metadata: dict) -> None:
-    if mesh.n_triangles > MAX_TRIANGLES:
-        raise ExportError(
-            f"STEP: {mesh.n_triangles:,} triangles is more than CAD programs import in reasonable time "
-            f"(limit {MAX_TRIANGLES:,}). Use the adaptive mesher with a larger max_error_mm (for example 0.1), "
-            f"or a lower preset."
-        )
-    title = str(metadata.get("title", "lithograph")).replace("'", "")
-    title = title.encode("ascii", "replace").decode()
-    lines: list[str] = []
-    counter = [0]
+class _Entities:
+    """The numbered entity lines of a STEP DATA section (#1=...;, #2=...;)."""
 
-    def add(entity: str) -> int:
-        counter[0] += 1
-        lines.append(f"#{counter[0]}={entity};")
-        return counter[0]
+    def __init__(self):
+        self.lines: list[str] = []
 
+    def add(self, entity: str) -> int:
+        self.lines.append(f"#{len(self.lines) + 1}={entity};")
+        return len(self.lines)
+
+
+def _product_context(out: _Entities, title: str) -> tuple[int, int, int]:
+    """Product, units and placement entities; returns (shape definition, geometric context, placement)."""
+    add = out.add
     app = add("APPLICATION_CONTEXT('automotive design')")
     add(f"APPLICATION_PROTOCOL_DEFINITION('international standard','automotive_design',2000,#{app})")
     pctx = add(f"PRODUCT_CONTEXT('',#{app},'mechanical')")
@@ -142,52 +139,79 @@ def write_step(mesh, fh, metadata: dict) -> None:
     z_axis = add("DIRECTION('',(0.,0.,1.))")
     x_axis = add("DIRECTION('',(1.,0.,0.))")
     placement = add(f"AXIS2_PLACEMENT_3D('',#{origin},#{z_axis},#{x_axis})")
+    return shape, gctx, placement
 
-    vertices = mesh.vertices
-    point_ids: dict[int, int] = {}
-    vertex_ids: dict[int, int] = {}
-    edge_ids: dict[tuple[int, int], int] = {}
 
-    def vertex(i: int) -> int:
-        if i not in vertex_ids:
-            point_ids[i] = add(f"CARTESIAN_POINT('',{_triple(vertices[i])})")
-            vertex_ids[i] = add(f"VERTEX_POINT('',#{point_ids[i]})")
-        return vertex_ids[i]
+class _Topology:
+    """Shared vertices and edges of the B-rep: each mesh vertex and edge is written once."""
 
-    def oriented_edge(s: int, t: int) -> int:
-        key = (min(s, t), max(s, t))
-        if key not in edge_ids:
+    def __init__(self, out: _Entities, vertices: np.ndarray):
+        self.out, self.vertices = out, vertices
+        self.point_ids: dict[int, int] = {}
+        self.vertex_ids: dict[int, int] = {}
+        self.edge_ids: dict[tuple[int, int], int] = {}
+
+    def vertex(self, i: int) -> int:
+        if i not in self.vertex_ids:
+            self.point_ids[i] = self.out.add(f"CARTESIAN_POINT('',{_triple(self.vertices[i])})")
+            self.vertex_ids[i] = self.out.add(f"VERTEX_POINT('',#{self.point_ids[i]})")
+        return self.vertex_ids[i]
+
+    def oriented_edge(self, s: int, t: int) -> int:
+        add, key = self.out.add, (min(s, t), max(s, t))
+        if key not in self.edge_ids:
             lo, hi = key
-            v_lo, v_hi = vertex(lo), vertex(hi)
-            d = vertices[hi] - vertices[lo]
+            v_lo, v_hi = self.vertex(lo), self.vertex(hi)
+            d = self.vertices[hi] - self.vertices[lo]
             length = float(np.linalg.norm(d))
             direction = add(f"DIRECTION('',{_triple(d / length)})")
             vector = add(f"VECTOR('',#{direction},{_real(length)})")
-            line = add(f"LINE('',#{point_ids[lo]},#{vector})")
-            edge_ids[key] = add(f"EDGE_CURVE('',#{v_lo},#{v_hi},#{line},.T.)")
-        return add(f"ORIENTED_EDGE('',*,*,#{edge_ids[key]},{'.T.' if s < t else '.F.'})")
+            line = add(f"LINE('',#{self.point_ids[lo]},#{vector})")
+            self.edge_ids[key] = add(f"EDGE_CURVE('',#{v_lo},#{v_hi},#{line},.T.)")
+        return add(f"ORIENTED_EDGE('',*,*,#{self.edge_ids[key]},{'.T.' if s < t else '.F.'})")
 
-    face_ids = []
-    for normal, loops in planar_faces(vertices, mesh.faces):
+    def face(self, normal: np.ndarray, loops: list[list[int]]) -> int:
+        """An ADVANCED_FACE on its plane, bounded by `loops` (outer first)."""
+        add = self.out.add
         bound_ids = []
         for k, loop in enumerate(loops):
-            edges = [oriented_edge(loop[i], loop[(i + 1) % len(loop)]) for i in range(len(loop))]
+            edges = [self.oriented_edge(loop[i], loop[(i + 1) % len(loop)]) for i in range(len(loop))]
             edge_loop = add(f"EDGE_LOOP('',({','.join(f'#{e}' for e in edges)}))")
             kind = "FACE_OUTER_BOUND" if k == 0 else "FACE_BOUND"
             bound_ids.append(add(f"{kind}('',#{edge_loop},.T.)"))
         first = loops[0]
-        ref = vertices[first[1]] - vertices[first[0]]
+        ref = self.vertices[first[1]] - self.vertices[first[0]]
         ref = ref - np.dot(ref, normal) * normal
         axis = add(f"DIRECTION('',{_triple(normal)})")
         ref_dir = add(f"DIRECTION('',{_triple(ref / np.linalg.norm(ref))})")
-        plane_place = add(f"AXIS2_PLACEMENT_3D('',#{point_ids[first[0]]},#{axis},#{ref_dir})")
+        plane_place = add(f"AXIS2_PLACEMENT_3D('',#{self.point_ids[first[0]]},#{axis},#{ref_dir})")
         plane = add(f"PLANE('',#{plane_place})")
-        face_ids.append(add(f"ADVANCED_FACE('',({','.join(f'#{b}' for b in bound_ids)}),#{plane},.T.)"))
-    shell = add(f"CLOSED_SHELL('',({','.join(f'#{f}' for f in face_ids)}))")
-    brep = add(f"MANIFOLD_SOLID_BREP('{title}',#{shell})")
-    rep = add(f"ADVANCED_BREP_SHAPE_REPRESENTATION('',(#{placement},#{brep}),#{gctx})")
-    add(f"SHAPE_DEFINITION_REPRESENTATION(#{shape},#{rep})")
+        return add(f"ADVANCED_FACE('',({','.join(f'#{b}' for b in bound_ids)}),#{plane},.T.)")
 
+
+def check_step(mesh) -> None:
+    """Raise ExportError when the mesh is too big for a STEP file CAD programs can open."""
+    if mesh.n_triangles > MAX_TRIANGLES:
+        raise ExportError(
+            f"STEP: {mesh.n_triangles:,} triangles is more than CAD programs import in reasonable time "
+            f"(limit {MAX_TRIANGLES:,}). Use the adaptive mesher with a larger max_error_mm (for example 0.1), "
+            f"or a lower preset."
+        )
+
+
+def write_step(mesh, fh, metadata: dict) -> None:
+    """Write `mesh` (mm) as one faceted MANIFOLD_SOLID_BREP in an AP214 STEP file."""
+    check_step(mesh)
+    title = str(metadata.get("title", "lithograph")).replace("'", "")
+    title = "".join(ch if " " <= ch <= "~" and ch != "\\" else "?" for ch in title)  # STEP strings: printable ASCII
+    out = _Entities()
+    shape, gctx, placement = _product_context(out, title)
+    topology = _Topology(out, mesh.vertices)
+    face_ids = [topology.face(normal, loops) for normal, loops in planar_faces(mesh.vertices, mesh.faces)]
+    shell = out.add(f"CLOSED_SHELL('',({','.join(f'#{f}' for f in face_ids)}))")
+    brep = out.add(f"MANIFOLD_SOLID_BREP('{title}',#{shell})")
+    rep = out.add(f"ADVANCED_BREP_SHAPE_REPRESENTATION('',(#{placement},#{brep}),#{gctx})")
+    out.add(f"SHAPE_DEFINITION_REPRESENTATION(#{shape},#{rep})")
     header = (
         "ISO-10303-21;\nHEADER;\n"
         f"FILE_DESCRIPTION(('{title}'),'2;1');\n"
@@ -195,5 +219,5 @@ def write_step(mesh, fh, metadata: dict) -> None:
         "FILE_SCHEMA(('AUTOMOTIVE_DESIGN { 1 0 10303 214 1 1 1 1 }'));\nENDSEC;\nDATA;\n"
     )
     fh.write(header.encode("ascii"))
-    fh.write("\n".join(lines).encode("ascii"))
+    fh.write("\n".join(out.lines).encode("ascii"))
     fh.write(b"\nENDSEC;\nEND-ISO-10303-21;\n")

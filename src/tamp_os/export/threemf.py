@@ -39,6 +39,15 @@ def _keep_locale():
         locale.setlocale(locale.LC_ALL, saved)
 
 
+def xml_text(value) -> str:
+    """`value` as text XML 1.0 can hold: characters it forbids (control characters other than tab,
+    newline and return; lone surrogates; U+FFFE/U+FFFF) become U+FFFD. lib3mf escapes & < > itself."""
+    return "".join(
+        ch if ch in "\t\n\r" or ("\x20" <= ch <= "\ud7ff") or ("\ue000" <= ch <= "\ufffd") or ch >= "\U00010000" else "\ufffd"
+        for ch in str(value)
+    )
+
+
 def write_3mf(mesh, fh, metadata: dict) -> None:
     with _keep_locale():
         _write_3mf(mesh, fh, metadata)
@@ -51,7 +60,7 @@ def _write_3mf(mesh, fh, metadata: dict) -> None:
     model = wrapper.CreateModel()
     model.SetUnit(lib3mf.ModelUnit.MilliMeter)
     obj = model.AddMeshObject()
-    obj.SetName(metadata.get("title", "TAMP-OS lithograph"))
+    obj.SetName(xml_text(metadata.get("title", "TAMP-OS lithograph")))
     vertices = np.ascontiguousarray(mesh.vertices, dtype=np.float32)
     faces = np.ascontiguousarray(mesh.faces, dtype=np.uint32)
     wrapper.checkError(
@@ -74,7 +83,7 @@ def _write_3mf(mesh, fh, metadata: dict) -> None:
     for key in ("Title", "Description", "Designer", "Application"):
         value = metadata.get(key.lower())
         if value:
-            group.AddMetaData("", key, str(value), "string", True)
+            group.AddMetaData("", key, xml_text(value), "string", True)
     # WriteToFile is about 3x faster than WriteToBuffer (which returns a Python list of ints),
     # so lib3mf writes a private temporary file that we then copy into the atomic output.
     with tempfile.TemporaryDirectory(prefix="tamp-3mf-") as tmp:

@@ -13,8 +13,8 @@ import numpy as np
 from .solid import INDEX, Mesh, boundary_edges, close_top, grid_solid
 
 
-def adaptive_top(heights: np.ndarray, width_mm: float, depth_mm: float, max_error_mm: float):
-    """(vertices in mm, counter-clockwise faces) of an error-bounded top surface."""
+def _delatin_top(heights: np.ndarray, width_mm: float, depth_mm: float, max_error_mm: float):
+    """pydelatin's triangulation as (vertices in mm, faces), z taken from the heightmap itself."""
     from pydelatin import Delatin
 
     rows, cols = heights.shape
@@ -31,15 +31,27 @@ def adaptive_top(heights: np.ndarray, width_mm: float, depth_mm: float, max_erro
     vertices[:, 2] = heights[row, col]
     vertices[col == cols - 1, 0] = width_mm  # exact bounds, free of rounding
     vertices[row == 0, 1] = depth_mm
-    faces = tin.triangles.astype(INDEX)
-    # The highest grid point may lie inside a triangle (within the error bound); insert it so
-    # the print reaches exactly base + relief.
+    return vertices, tin.triangles.astype(INDEX)
+
+
+def adaptive_top(heights: np.ndarray, width_mm: float, depth_mm: float, max_error_mm: float):
+    """(vertices in mm, counter-clockwise faces) of an error-bounded top surface.
+
+    The highest grid point is always a vertex, so the print reaches exactly base + relief.
+    """
+    rows, cols = heights.shape
     top_row, top_col = np.unravel_index(np.argmax(heights), heights.shape)
     peak = np.array([top_col * (width_mm / (cols - 1)), (rows - 1 - top_row) * (depth_mm / (rows - 1)), heights[top_row, top_col]])
     if top_col == cols - 1:
         peak[0] = width_mm
     if top_row == 0:
         peak[1] = depth_mm
+    vertices, faces = _delatin_top(heights, width_mm, depth_mm, max_error_mm)
+    if (vertices == peak).all(axis=1).any():
+        return vertices, faces
+    # Inserting the peak lifts the surface around it by up to the error there, which could
+    # double the error at its neighbours: triangulate to half the bound, then insert it.
+    vertices, faces = _delatin_top(heights, width_mm, depth_mm, max_error_mm / 2)
     return insert_point(vertices, faces, peak)
 
 

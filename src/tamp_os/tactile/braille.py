@@ -9,11 +9,15 @@ already Unicode braille (U+2800-U+28FF) is used as it is.
 
 from __future__ import annotations
 
+import functools
 import importlib.util
+import re
 import shutil
 import subprocess
+import unicodedata
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from ..errors import MissingDependencyError, ParameterError
 
@@ -64,9 +68,10 @@ class BrailleSpec:
         return 2 * self.dot_spacing_mm + self.dot_diameter_mm
 
 
-def _load_louis():
+def _load_binding():
+    """The liblouis Python module, also from Debian's dist-packages; None when it is not usable."""
     try:
-        import louis  # noqa: F401
+        import louis
 
         return louis
     except ImportError:
@@ -84,37 +89,92 @@ def _load_louis():
     return None
 
 
-_LOUIS = None
+@dataclass(frozen=True)
+class Liblouis:
+    """A liblouis translator: its Python binding when given, else its `lou_translate` command.
+
+    `Liblouis.system()` finds both once per process (cached); tests build one with
+    `binding=None` to use the command only.
+    """
+
+    binding: Any = None  # the `louis` module, or None
+    command: str | None = None  # path of lou_translate, or None
+
+    @staticmethod
+    @functools.lru_cache(maxsize=1)
+    def system() -> "Liblouis":
+        return Liblouis(binding=_load_binding(), command=shutil.which("lou_translate"))
+
+    @property
+    def available(self) -> bool:
+        return self.binding is not None or self.command is not None
+
+    def translate(self, text: str, table: str) -> str:
+        """Unicode braille cells for `text` (spaces kept as spaces)."""
+        if self.binding is not None:
+            louis = self.binding
+            try:
+                return louis.translateString([table], text, mode=louis.dotsIO | louis.ucBrl)
+            except RuntimeError as exc:
+                raise ParameterError(f"braille table {table!r}: liblouis cannot use it ({exc}); see 'lou_checktable'.") from None
+        if self.command is None:
+            raise MissingDependencyError(INSTALL_HINT)
+        done = subprocess.run(
+            [self.command, "--forward", table], input=text, capture_output=True, text=True, encoding="utf-8", errors="replace", timeout=30
+        )
+        if done.returncode != 0:
+            raise ParameterError(f"braille table {table!r}: lou_translate failed ({done.stderr.strip()}).")
+        out = done.stdout.rstrip("\n")
+        if re.search(r"\\[xy][0-9a-f]", out.lower()):  # '\x4e2d/', '\y1f600/': a character the table lacks
+            # mark it as dots mode does (a dot-7 cell), so to_braille refuses it
+            return "\u2873"
+        return "".join(chr(0x2800 + BRAILLE_ASCII.index(ch)) for ch in map(_fold, out) if ch in BRAILLE_ASCII)
 
 
 def liblouis_available() -> bool:
-    global _LOUIS
-    if _LOUIS is None:
-        _LOUIS = _load_louis() or False
-    return bool(_LOUIS) or shutil.which("lou_translate") is not None
+    return Liblouis.system().available
 
 
 def is_unicode_braille(text: str) -> bool:
     return bool(text) and all("\u2800" <= ch <= "\u28ff" or ch in " \n" for ch in text)
 
 
-def to_braille(text: str, table: str = DEFAULT_TABLE) -> str:
-    """Unicode braille for `text` (e.g. '5 µm' -> '⠼⠑⠀⠨⠍⠍' with UEB)."""
+def unwritable_characters(text: str) -> list[str]:
+    """Control and other non-printing characters in `text` (any braille table would garble them)."""
+    return sorted({ch for ch in text if ch != "\n" and unicodedata.category(ch) in ("Cc", "Cf", "Cs", "Co", "Cn")})
+
+
+def _has_escape(cells: str) -> bool:
+    """liblouis writes a character its table lacks as an escape ('\\x1f600/' in Braille ASCII,
+    cells with dot 7 in dots mode); six-dot tables never raise dots 7 or 8 otherwise."""
+    return any(ord(ch) - 0x2800 >= 0x40 for ch in cells) or "\u2804\u2873\u282d" in cells
+
+
+def _name(ch: str) -> str:
+    return f"U+{ord(ch):04X} {unicodedata.name(ch, 'unnamed')}" + (f" ({ch})" if ch.isprintable() else "")
+
+
+def to_braille(text: str, table: str = DEFAULT_TABLE, translator: Liblouis | None = None, what: str = "text") -> str:
+    """Unicode braille for `text` (e.g. '5 µm' -> '⠼⠑⠀⠨⠍⠍' with UEB); blanks as U+2800.
+
+    `translator` defaults to the system's liblouis (`Liblouis.system()`). Characters the table
+    cannot write (control characters, and emoji or scripts it lacks, which liblouis would turn
+    into escape codes) raise ParameterError naming them and `what` (the parameter, e.g. caption).
+    """
+    bad = unwritable_characters(text)
+    if bad:
+        raise ParameterError(f"{what}: control characters cannot be written in braille: {', '.join(map(_name, bad))}; remove them.")
     if is_unicode_braille(text):
         return text.replace(" ", BLANK)
-    liblouis_available()
-    if _LOUIS:
-        try:
-            return _LOUIS.translateString([table], text, mode=_LOUIS.dotsIO | _LOUIS.ucBrl).replace(" ", BLANK)
-        except RuntimeError as exc:
-            raise ParameterError(f"braille table {table!r}: liblouis cannot use it ({exc}); see 'lou_checktable'.") from None
-    exe = shutil.which("lou_translate")
-    if exe is None:
-        raise MissingDependencyError(INSTALL_HINT)
-    done = subprocess.run([exe, "--forward", table], input=text, capture_output=True, text=True, encoding="utf-8", errors="replace", timeout=30)
-    if done.returncode != 0:
-        raise ParameterError(f"braille table {table!r}: lou_translate failed ({done.stderr.strip()}).")
-    return "".join(chr(0x2800 + BRAILLE_ASCII.index(ch)) for ch in map(_fold, done.stdout.rstrip("\n")) if ch in BRAILLE_ASCII)
+    translator = translator or Liblouis.system()
+    cells = translator.translate(text, table)
+    if _has_escape(cells):
+        bad = [ch for ch in sorted(set(text)) if not ch.isspace() and _has_escape(translator.translate(ch, table))]
+        raise ParameterError(
+            f"{what}: the braille table {table} cannot write {', '.join(map(_name, bad)) or 'some characters'} "
+            f"(liblouis would emboss escape codes); remove them, choose another braille_table, or give the text as Unicode braille."
+        )
+    return cells.replace(" ", BLANK)
 
 
 def _fold(ch: str) -> str:

@@ -9,8 +9,16 @@ Layout (seen from above, far edge at the top):
     |  caption in braille, wrapped          |
     +---------------------------------------+
 
-The plate grows to hold them; every element keeps at least CLEARANCE_MM from every other. All
-parts are fused with the relief into one closed 2-manifold solid by manifold3d.
+Three steps: plan_furniture (pure layout: boxes and dot centres in mm) -> build_parts (manifold3d
+solids) -> fuse (one union, minus the corner). The plate grows to hold the furniture; every
+element keeps at least CLEARANCE_MM from every other. A plate without furniture is the relief
+alone with its corner cut.
+
+Parts overlap, they never touch: slicers merge an STL's vertices by position, and two parts that
+share a face (a tick's top in the bar's top plane, a relief pixel at base height in the plate's
+top) leave pinched edges used by four faces. So the plate top lies SEAM_MM below base_mm, the
+relief's own bottom and every raised element reach down into the plate, and the bar with its
+end ticks is one extruded outline.
 """
 
 from __future__ import annotations
@@ -20,15 +28,17 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .braille import BrailleSpec, block_size_mm, dot_centres, to_braille, wrap_cells
-from ..errors import ParameterError
+from .braille import DEFAULT_TABLE, BrailleSpec, block_size_mm, dot_centres, to_braille, wrap_cells
+from .scalebar import GAP_MM, ScaleBar, auto_scale_bar, chosen_scale_bar
+from ..errors import ExportError
 from ..mesh.solid import INDEX, Mesh
-from ..units import format_length
 
 CLEARANCE_MM = 4.0  # between distinct raised elements (standard: at least 3 mm)
 BORDER_MM = 8.0  # plate edge to the nearest element on the left, top and right
 BOTTOM_BORDER_MM = 6.0
 CORNER_CUT_MM = 8.0  # legs of the cut corner at the top right
+CORNER_SHARE = 0.4  # on a small plate the legs are at most this share of its shorter side
+SEAM_MM = 0.002  # the plate top lies this far below base_mm: no face shared with the relief
 BAR_WIDTH_MM = 1.5
 BAR_HEIGHT_MM = 1.0
 TICK_WIDTH_MM = 1.0
@@ -37,21 +47,31 @@ FRAME_HEIGHT_MM = 1.0
 DOME_SEGMENTS = 24  # vertices on the base circle; the base ring lies exactly on the diameter
 DOME_STEPS = 6  # rings up the spherical cap
 
+Box = tuple[float, float, float, float]  # x0, y0, x1, y1 in mm, plate coordinates
+
 
 @dataclass
 class Furniture:
-    """What to add; None/empty means leave it out."""
+    """What to add; None/empty means leave it out.
+
+    scale_bar_m is a length the user chose; auto_scale_bar asks for a round length that fits
+    (both need sample_m_per_print_mm, the sample length one print millimetre stands for).
+    """
 
     caption: str | None = None
-    braille_table: str = "en-ueb-g2.ctb"
-    scale_bar_m: float | None = None  # the sample length the bar stands for
+    braille_table: str = DEFAULT_TABLE
+    scale_bar_m: float | None = None
+    auto_scale_bar: bool = False
     sample_m_per_print_mm: float | None = None
     frame_mm: float = 0.0
+    corner_cut: bool = True
     spec: BrailleSpec = field(default_factory=BrailleSpec)
 
     @property
     def wanted(self) -> bool:
-        return bool(self.caption) or self.scale_bar_m is not None or self.frame_mm > 0
+        """Whether any element besides the cut corner is asked for."""
+        bar = (self.scale_bar_m is not None or self.auto_scale_bar) and bool(self.sample_m_per_print_mm)
+        return bool(self.caption) or bar or self.frame_mm > 0
 
 
 @dataclass
@@ -61,28 +81,185 @@ class Placed:
     plate_mm: tuple[float, float]
     relief_origin_mm: tuple[float, float]
     caption_braille: list[str] = field(default_factory=list)
-    caption_box: tuple[float, float, float, float] | None = None  # x0, y0, x1, y1
-    scale_bar_box: tuple[float, float, float, float] | None = None
+    caption_box: Box | None = None
+    scale_bar_box: Box | None = None
     scale_label: str | None = None
     scale_label_braille: str | None = None
-    scale_label_box: tuple[float, float, float, float] | None = None
-    frame_box: tuple[float, float, float, float] | None = None
+    scale_label_box: Box | None = None
+    scale_label_beside: bool = True  # the label is right of the bar (else below it)
+    frame_box: Box | None = None
+    corner_cut_mm: float = 0.0  # legs of the cut corner; 0 = no corner cut
     dots: int = 0
+    notes: list[str] = field(default_factory=list)  # what was left out, and why
 
 
-def choose_scale_bar_m(sample_m_per_print_mm: float, lo_mm: float = 10.0, hi_mm: float = 40.0) -> float:
-    """A round length (1, 2 or 5 × 10^n) whose bar is 10–40 mm on the print, nearest 20 mm."""
-    best = None
-    start = math.floor(math.log10(sample_m_per_print_mm * lo_mm)) - 1
-    for exponent in range(start, start + 4):
-        for mantissa in (1, 2, 5):
-            value = mantissa * 10.0**exponent
-            bar = value / sample_m_per_print_mm
-            if lo_mm <= bar <= hi_mm and (best is None or abs(bar - 20) < abs(best / sample_m_per_print_mm - 20)):
-                best = value
-    if best is None:  # the decade search always finds one for a 4x range; keep a clear failure anyway
-        raise ParameterError("scale bar: no round length fits 10–40 mm at this scale; give one with --scale-bar.")
-    return best
+@dataclass
+class Plan:
+    """Where every part goes, in mm on the plate, before any geometry is built."""
+
+    placed: Placed
+    frame_ring: tuple[Box, Box] | None = None  # outer and inner outline of the frame
+    bar_outline: list[tuple[float, float]] = field(default_factory=list)  # bar and end ticks, one polygon
+    dot_centres: list[tuple[float, float]] = field(default_factory=list)
+
+
+def corner_legs_mm(plate_w: float, plate_d: float) -> float:
+    """Legs of the orientation corner: CORNER_CUT_MM, less on a plate too small for it."""
+    return min(CORNER_CUT_MM, CORNER_SHARE * min(plate_w, plate_d))
+
+
+def _scale_bar(furniture: Furniture, inner_w: float) -> tuple[ScaleBar | None, list[str]]:
+    """The scale bar to place (or None) and notes on why one was left out."""
+    per_mm = furniture.sample_m_per_print_mm
+    if not per_mm:
+        return None, []
+    args = (per_mm, inner_w, furniture.spec, furniture.braille_table)
+    if furniture.scale_bar_m is not None:
+        return chosen_scale_bar(furniture.scale_bar_m, *args), []
+    if not furniture.auto_scale_bar:
+        return None, []
+    bar = auto_scale_bar(*args)
+    if bar is None:
+        return None, [f"scale_bar: the plate has no room for a scale bar of at least 8 mm ({inner_w:.1f} mm inside its borders); it was left out. The scale is in the description."]
+    return bar, []
+
+
+def plan_furniture(width_mm: float, depth_mm: float, furniture: Furniture) -> Plan:
+    """Plan the plate: its size, the relief's origin, and boxes and dot centres for each element.
+
+    Pure layout (no geometry): the relief of `width_mm` × `depth_mm` sits above rows for the
+    scale bar and the caption; every element keeps CLEARANCE_MM from every other. The plate
+    widens (the relief stays centred) when a scale label's longest word needs it.
+    """
+    spec, frame = furniture.spec, furniture.frame_mm
+    side = BORDER_MM + (frame + CLEARANCE_MM if frame else 0.0)
+    inner_w = width_mm + 2 * side - 2 * BORDER_MM
+    bar, notes = _scale_bar(furniture, inner_w)
+    rows_h = [bar.row_mm[1]] if bar else []  # rows below the relief, from the relief downwards
+    inner_w = max(inner_w, bar.row_mm[0] if bar else 0.0)
+    caption_lines: list[str] = []
+    if furniture.caption:
+        cells = int((inner_w - spec.dot_spacing_mm - spec.dot_diameter_mm) // spec.cell_spacing_mm) + 1
+        caption_lines = wrap_cells(to_braille(furniture.caption, furniture.braille_table, what="caption"), cells)
+        rows_h.append(block_size_mm(caption_lines, spec)[1])
+    below = (side - BORDER_MM if frame else 0.0) + sum(CLEARANCE_MM + h for h in rows_h) + BOTTOM_BORDER_MM
+    if not rows_h:
+        below = side
+    plate_w = inner_w + 2 * BORDER_MM
+    ox, oy = (plate_w - width_mm) / 2, below
+    plate_d = below + depth_mm + side
+    placed = Placed(plate_mm=(plate_w, plate_d), relief_origin_mm=(ox, oy), notes=notes)
+    placed.corner_cut_mm = corner_legs_mm(plate_w, plate_d) if furniture.corner_cut else 0.0
+    plan = Plan(placed=placed)
+    if frame:
+        x0, y0 = ox - CLEARANCE_MM - frame, oy - CLEARANCE_MM - frame
+        x1, y1 = ox + width_mm + CLEARANCE_MM + frame, oy + depth_mm + CLEARANCE_MM + frame
+        plan.frame_ring = ((x0, y0, x1, y1), (x0 + frame, y0 + frame, x1 - frame, y1 - frame))
+        placed.frame_box = (x0, y0, x1, y1)
+    cursor = oy - (CLEARANCE_MM + frame if frame else 0.0)
+    if bar:
+        cursor = _plan_scale_bar(plan, bar, cursor - CLEARANCE_MM)
+    if caption_lines:
+        cursor -= CLEARANCE_MM
+        w, h = block_size_mm(caption_lines, spec)
+        plan.dot_centres += dot_centres(caption_lines, spec, BORDER_MM, cursor)
+        placed.caption_braille = caption_lines
+        placed.caption_box = (BORDER_MM, cursor - h, BORDER_MM + w, cursor)
+    placed.dots = len(plan.dot_centres)
+    return plan
+
+
+def _bar_outline(x0: float, x1: float, mid: float) -> list[tuple[float, float]]:
+    """The bar and its two end ticks as one counter-clockwise outline (an I-beam on its side)."""
+    t, hb, ht = TICK_WIDTH_MM, BAR_WIDTH_MM / 2, TICK_LENGTH_MM / 2
+    return [
+        (x0, mid - ht), (x0 + t, mid - ht), (x0 + t, mid - hb), (x1 - t, mid - hb), (x1 - t, mid - ht), (x1, mid - ht),
+        (x1, mid + ht), (x1 - t, mid + ht), (x1 - t, mid + hb), (x0 + t, mid + hb), (x0 + t, mid + ht), (x0, mid + ht),
+    ]  # fmt: skip
+
+
+def _plan_scale_bar(plan: Plan, bar: ScaleBar, top_mm: float) -> float:
+    """Put the bar, its ticks and its label in the row whose top is at `top_mm`; return its bottom."""
+    label_w, label_h = bar.label_size_mm
+    row_h = bar.row_mm[1]
+    x0 = BORDER_MM
+    mid = top_mm - row_h / 2 if bar.beside else top_mm - TICK_LENGTH_MM / 2
+    plan.bar_outline = _bar_outline(x0, x0 + bar.length_mm, mid)
+    if bar.beside:
+        lx, ly = x0 + bar.length_mm + GAP_MM, mid + label_h / 2
+    else:
+        lx, ly = x0, top_mm - TICK_LENGTH_MM - GAP_MM
+    plan.dot_centres += dot_centres(list(bar.label_lines), bar.spec, lx, ly)
+    placed = plan.placed
+    placed.scale_bar_box = (x0, mid - TICK_LENGTH_MM / 2, x0 + bar.length_mm, mid + TICK_LENGTH_MM / 2)
+    placed.scale_label = bar.label
+    placed.scale_label_braille = "\u2800".join(bar.label_lines)
+    placed.scale_label_box = (lx, ly - label_h, lx + label_w, ly)
+    placed.scale_label_beside = bar.beside
+    return top_mm - row_h
+
+
+def _relief_part(relief: Mesh, origin_mm: tuple[float, float], bottom_mm: float):
+    """The relief as a manifold3d solid at its origin, its bottom raised to `bottom_mm` (inside the plate)."""
+    import manifold3d as m3
+
+    verts = relief.vertices + np.array([*origin_mm, 0.0])
+    verts[relief.vertices[:, 2] <= 0.0, 2] = bottom_mm  # close_top puts the bottom at exactly z = 0
+    return m3.Manifold(m3.Mesh(vert_properties=verts.astype(np.float32), tri_verts=relief.faces.astype(np.uint32)))
+
+
+def _extrude(outlines, z0: float, z1: float):
+    """Polygons (outer outline, then holes) extruded from z0 to z1."""
+    import manifold3d as m3
+
+    return m3.Manifold.extrude(m3.CrossSection(outlines), z1 - z0).translate((0, 0, z0))
+
+
+def _rect(box: Box) -> list[tuple[float, float]]:
+    x0, y0, x1, y1 = box
+    return [(x0, y0), (x1, y0), (x1, y1), (x0, y1)]
+
+
+def build_parts(relief: Mesh, plan: Plan, base_mm: float, spec: BrailleSpec) -> list:
+    """manifold3d solids: the plate, the relief at its origin, and each planned element.
+
+    Raised elements stand on z = base_mm and reach `sink` into the plate, whose top is SEAM_MM
+    lower, so every pair of parts overlaps instead of touching.
+    """
+    plate_w, plate_d = plan.placed.plate_mm
+    seam = min(SEAM_MM, base_mm / 10)
+    sink = min(0.4, base_mm / 2)
+    plate_top = base_mm - seam
+    parts = [_extrude([_rect((0, 0, plate_w, plate_d))], 0.0, plate_top)]
+    parts.append(_relief_part(relief, plan.placed.relief_origin_mm, plate_top / 2))
+    if plan.frame_ring:
+        outer, inner = plan.frame_ring
+        parts.append(_extrude([_rect(outer), _rect(inner)[::-1]], base_mm - sink, base_mm + FRAME_HEIGHT_MM))
+    if plan.bar_outline:
+        parts.append(_extrude([plan.bar_outline], base_mm - sink, base_mm + BAR_HEIGHT_MM))
+    dome = _dome(spec, sink)
+    parts += [dome.translate((x, y, base_mm)) for x, y in plan.dot_centres]
+    return parts
+
+
+def add_furniture(relief: Mesh, width_mm: float, depth_mm: float, base_mm: float, furniture: Furniture) -> tuple[Mesh, Placed]:
+    """The relief on a grown plate with the requested furniture, fused into one solid.
+
+    Without furniture the relief is the plate, with its corner cut (when asked). Sizes in mm;
+    the relief's outline is [0, width_mm] × [0, depth_mm].
+    """
+    if not furniture.wanted:
+        placed = Placed(plate_mm=(width_mm, depth_mm), relief_origin_mm=(0.0, 0.0))
+        if not furniture.corner_cut:
+            return relief, placed
+        placed.corner_cut_mm = corner_legs_mm(width_mm, depth_mm)
+        solid = _relief_part(relief, (0.0, 0.0), 0.0)
+        top = float(relief.vertices[:, 2].max())
+        return _fuse([solid], placed, top), placed
+    plan = plan_furniture(width_mm, depth_mm, furniture)
+    parts = build_parts(relief, plan, base_mm, furniture.spec)
+    top = max(float(relief.vertices[:, 2].max()), base_mm + max(BAR_HEIGHT_MM, FRAME_HEIGHT_MM, furniture.spec.dot_height_mm))
+    return _fuse(parts, plan.placed, top), plan.placed
 
 
 def _dome(spec: BrailleSpec, sink_mm: float):
@@ -102,109 +279,24 @@ def _dome(spec: BrailleSpec, sink_mm: float):
     return m3.Manifold.revolve(m3.CrossSection([profile]), DOME_SEGMENTS)
 
 
-def _box(x0, y0, x1, y1, z0, z1):
-    import manifold3d as m3
-
-    return m3.Manifold.cube((x1 - x0, y1 - y0, z1 - z0)).translate((x0, y0, z0))
-
-
-def _corner_cut(plate_w: float, plate_d: float, height: float):
-    """A prism that removes the top-right corner: legs of CORNER_CUT_MM along both edges."""
-    import manifold3d as m3
-
-    reach = CORNER_CUT_MM + 1.0  # the triangle overhangs the plate by 1 mm on each side
+def _corner_cut(plate_w: float, plate_d: float, legs_mm: float, top_mm: float):
+    """A prism that removes the top-right corner: legs of `legs_mm` along both edges."""
+    reach = legs_mm + 1.0  # the triangle overhangs the plate by 1 mm on each side
     corner = [(plate_w - reach, plate_d + 1), (plate_w + 1, plate_d - reach), (plate_w + 1, plate_d + 1)]
-    return m3.Manifold.extrude(m3.CrossSection([corner]), height).translate((0, 0, -1))
+    return _extrude([corner], -1.0, top_mm + 1.0)
 
 
-def _fuse(parts, plate_w: float, plate_d: float, top_mm: float) -> Mesh:
-    """Union of all parts, minus the orientation corner, as one Mesh."""
+def _fuse(parts, placed: Placed, top_mm: float) -> Mesh:
+    """Union of all parts, minus the orientation corner (if any), as one Mesh; top_mm bounds the parts."""
     import manifold3d as m3
 
-    solid = m3.Manifold.batch_boolean(parts, m3.OpType.Add) - _corner_cut(plate_w, plate_d, top_mm + 10)
+    solid = m3.Manifold.batch_boolean(parts, m3.OpType.Add) if len(parts) > 1 else parts[0]
+    if placed.corner_cut_mm > 0:
+        solid = solid - _corner_cut(*placed.plate_mm, placed.corner_cut_mm, top_mm)
     if solid.status() != m3.Error.NoError or solid.is_empty():
-        raise ParameterError(f"tactile furniture: fusing the parts failed ({solid.status()}); please report this input.")
+        raise ExportError(f"tactile furniture: fusing the parts failed ({solid.status()}); please report this input and its settings.")
     out = solid.to_mesh()
     return Mesh(vertices=np.asarray(out.vert_properties, dtype=np.float64)[:, :3], faces=np.asarray(out.tri_verts, dtype=INDEX))
-
-
-def add_furniture(relief: Mesh, width_mm: float, depth_mm: float, base_mm: float, furniture: Furniture) -> tuple[Mesh, Placed]:
-    """The relief on a grown plate with the requested furniture, fused into one solid."""
-    import manifold3d as m3
-
-    spec = furniture.spec
-    frame = furniture.frame_mm
-    side = BORDER_MM + (frame + CLEARANCE_MM if frame else 0.0)
-    plate_w = width_mm + 2 * side
-    inner_w = plate_w - 2 * BORDER_MM
-    # Rows below the relief, from the relief downwards.
-    rows_h = []
-    label_lines: list[str] = []
-    bar_mm, label = None, None
-    if furniture.scale_bar_m is not None:
-        bar_mm = furniture.scale_bar_m / furniture.sample_m_per_print_mm
-        label = format_length(furniture.scale_bar_m).replace(".0 ", " ")
-        label_lines = [to_braille(label, furniture.braille_table)]
-        label_w, label_h = block_size_mm(label_lines, spec)
-        needed = bar_mm + CLEARANCE_MM + label_w
-        if needed > inner_w:
-            raise ParameterError(
-                f"scale bar: {bar_mm:.1f} mm plus its braille label ({label_w:.1f} mm) does not fit the "
-                f"{inner_w:.1f} mm of the plate; choose a shorter --scale-bar or a wider print."
-            )
-        rows_h.append(max(TICK_LENGTH_MM, label_h))
-    caption_lines: list[str] = []
-    if furniture.caption:
-        cells = int((inner_w - spec.dot_spacing_mm - spec.dot_diameter_mm) // spec.cell_spacing_mm) + 1
-        caption_lines = wrap_cells(to_braille(furniture.caption, furniture.braille_table), cells)
-        rows_h.append(block_size_mm(caption_lines, spec)[1])
-    below = (side - BORDER_MM if frame else 0.0) + sum(CLEARANCE_MM + h for h in rows_h) + BOTTOM_BORDER_MM
-    if not rows_h:
-        below = side
-    plate_d = below + depth_mm + side
-    ox, oy = side, below
-    placed = Placed(plate_mm=(plate_w, plate_d), relief_origin_mm=(ox, oy))
-
-    top = base_mm
-    parts = [_box(0, 0, plate_w, plate_d, 0, base_mm)]
-    verts = relief.vertices + np.array([ox, oy, 0.0])
-    parts.append(m3.Manifold(m3.Mesh(vert_properties=verts.astype(np.float32), tri_verts=relief.faces.astype(np.uint32))))
-    if frame:
-        x0, y0 = ox - CLEARANCE_MM - frame, oy - CLEARANCE_MM - frame
-        x1, y1 = ox + width_mm + CLEARANCE_MM + frame, oy + depth_mm + CLEARANCE_MM + frame
-        ring = _box(x0, y0, x1, y1, top - 0.2, top + FRAME_HEIGHT_MM) - _box(
-            x0 + frame, y0 + frame, x1 - frame, y1 - frame, top - 1.0, top + FRAME_HEIGHT_MM + 1.0
-        )
-        parts.append(ring)
-        placed.frame_box = (x0, y0, x1, y1)
-    cursor = oy - (CLEARANCE_MM + frame if frame else 0.0)
-    sink = min(0.4, base_mm / 2)
-    dome = _dome(spec, sink)
-    centres: list[tuple[float, float]] = []
-    if bar_mm is not None:
-        row_h = rows_h[0]
-        cursor -= CLEARANCE_MM
-        mid = cursor - row_h / 2
-        x0 = BORDER_MM
-        parts.append(_box(x0, mid - BAR_WIDTH_MM / 2, x0 + bar_mm, mid + BAR_WIDTH_MM / 2, top - sink, top + BAR_HEIGHT_MM))
-        for tx in (x0, x0 + bar_mm - TICK_WIDTH_MM):
-            parts.append(_box(tx, mid - TICK_LENGTH_MM / 2, tx + TICK_WIDTH_MM, mid + TICK_LENGTH_MM / 2, top - sink, top + BAR_HEIGHT_MM))
-        placed.scale_bar_box = (x0, mid - TICK_LENGTH_MM / 2, x0 + bar_mm, mid + TICK_LENGTH_MM / 2)
-        lx = x0 + bar_mm + CLEARANCE_MM
-        centres += dot_centres(label_lines, spec, lx, mid + label_h / 2)
-        placed.scale_label = label
-        placed.scale_label_braille = label_lines[0]
-        placed.scale_label_box = (lx, mid - label_h / 2, lx + label_w, mid + label_h / 2)
-        cursor -= row_h
-    if caption_lines:
-        cursor -= CLEARANCE_MM
-        w, h = block_size_mm(caption_lines, spec)
-        centres += dot_centres(caption_lines, spec, BORDER_MM, cursor)
-        placed.caption_braille = caption_lines
-        placed.caption_box = (BORDER_MM, cursor - h, BORDER_MM + w, cursor)
-    parts += [dome.translate((x, y, top)) for x, y in centres]
-    placed.dots = len(centres)
-    return _fuse(parts, plate_w, plate_d, top), placed
 
 
 def braille_test_plate(text: str, table: str, heights_mm, diameters_mm, base_mm: float = 1.5):
@@ -216,9 +308,10 @@ def braille_test_plate(text: str, table: str, heights_mm, diameters_mm, base_mm:
     lines = [to_braille(f"{i + 1}", table) + "\u2800" + body for i in range(len(rows))]
     width = max(block_size_mm([line], specs[0])[0] for line in lines) + 2 * BORDER_MM
     depth = len(rows) * specs[0].line_spacing_mm + 2 * BOTTOM_BORDER_MM
-    parts = [_box(0, 0, width, depth, 0, base_mm)]
+    parts = [_extrude([_rect((0, 0, width, depth))], 0.0, base_mm - min(SEAM_MM, base_mm / 10))]
     for i, (line, spec) in enumerate(zip(lines, specs)):
         dome = _dome(spec, min(0.4, base_mm / 2))
         top_y = depth - BOTTOM_BORDER_MM - i * spec.line_spacing_mm
         parts += [dome.translate((x, y, base_mm)) for x, y in dot_centres([line], spec, BORDER_MM, top_y)]
-    return _fuse(parts, width, depth, base_mm), rows, lines
+    placed = Placed(plate_mm=(width, depth), relief_origin_mm=(0.0, 0.0), corner_cut_mm=corner_legs_mm(width, depth))
+    return _fuse(parts, placed, base_mm + max(h for h, _ in rows)), rows, lines

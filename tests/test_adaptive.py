@@ -80,12 +80,12 @@ def test_adaptive_volume_within_error_times_area_on_blurred_reliefs(spec, width,
 
 
 def test_error_bound_on_a_real_micrograph_at_every_grid_node(fixture):
-    # No cut corner: every grid node of the relief stays on the print.
-    litho = make_lithograph(fixture("fept_spheres_sem.png"), resolution_px=160, max_error_mm=0.06, orientation_corner="none")
+    # No cut corner and no scale bar: every top face belongs to the relief's grid.
+    litho = make_lithograph(fixture("fept_spheres_sem.png"), resolution_px=160, max_error_mm=0.06, orientation_corner="none", scale_bar="off")
     rows, cols = litho.heightmap.shape
     z = surface_at_grid_nodes(litho.mesh, rows, cols, litho.layout.width_mm, litho.layout.depth_mm)
     assert np.abs(z - litho.heightmap).max() <= 0.06 + 1e-4
-    grid = make_lithograph(fixture("fept_spheres_sem.png"), resolution_px=160, mesher="grid", orientation_corner="none")
+    grid = make_lithograph(fixture("fept_spheres_sem.png"), resolution_px=160, mesher="grid", orientation_corner="none", scale_bar="off")
     assert litho.mesh.n_triangles * 8 < grid.mesh.n_triangles
     # On a real (blurred) picture the volume is within e × area of the full grid's, and close.
     area = litho.layout.width_mm * litho.layout.depth_mm
@@ -102,7 +102,7 @@ def test_default_is_adaptive_with_half_a_layer_and_zero_means_the_grid(gradient_
 
 
 def test_orientation_holds_for_adaptive_meshes(gradient_image):
-    litho = make_lithograph(gradient_image, width_mm=64, resolution_px=64, blur_px=0)
+    litho = make_lithograph(gradient_image, width_mm=64, resolution_px=64, blur_px=0, relief_style="reference")
     rows, cols = litho.heightmap.shape
     z = surface_at_grid_nodes(litho.mesh, rows, cols, litho.layout.width_mm, litho.layout.depth_mm)
     # The bright block at the image's top left is at row ~10, column ~12 of the grid.

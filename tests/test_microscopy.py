@@ -69,8 +69,8 @@ def test_imagej_dm3_and_no_scale_fixtures(fixture):
 
 def test_fept_scale_bar_box_is_removed(fixture):
     path = fixture("fept_spheres_sem.png")
-    kept = make_lithograph(path, keep_annotations=True, mesher="grid", resolution_px=256)
-    clean = make_lithograph(path, mesher="grid", resolution_px=256)
+    kept = make_lithograph(path, keep_annotations=True, mesher="grid", resolution_px=256, relief_style="reference")
+    clean = make_lithograph(path, mesher="grid", resolution_px=256, relief_style="reference")
     assert clean.report["annotations"] and "box" in clean.report["annotations"][0]
     rows, cols = clean.heightmap.shape
     # The box covers source rows 707-745 and columns 20-177 of 1024 x 768.

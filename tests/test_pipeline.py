@@ -19,20 +19,20 @@ def top_height_at(mesh, x, y):
 
 
 def test_print_seen_from_above_looks_like_the_image(gradient_image):
-    litho = make_lithograph(gradient_image, width_mm=64, resolution_px=64, blur_px=0, mesher="grid")
+    litho = make_lithograph(gradient_image, relief_style="reference", width_mm=64, resolution_px=64, blur_px=0, mesher="grid")
     w, d = litho.layout.width_mm, litho.layout.depth_mm
     # The bright block sits at the image's top left -> far left of the print (small x, large y).
     assert top_height_at(litho.mesh, 0.15 * w, 0.8 * d) == pytest.approx(4.0, abs=0.05)
     assert top_height_at(litho.mesh, 0.15 * w, 0.2 * d) < 1.5  # near left: dark end of the ramp
     # The ramp rises to the right.
     assert top_height_at(litho.mesh, 0.95 * w, 0.2 * d) > top_height_at(litho.mesh, 0.5 * w, 0.2 * d) + 0.5
-    mirrored = make_lithograph(gradient_image, width_mm=64, resolution_px=64, blur_px=0, flip_x=True, mesher="grid")
+    mirrored = make_lithograph(gradient_image, relief_style="reference", width_mm=64, resolution_px=64, blur_px=0, flip_x=True, mesher="grid")
     assert top_height_at(mirrored.mesh, 0.85 * w, 0.8 * d) == pytest.approx(4.0, abs=0.05)
 
 
 def test_invert_raises_dark_parts(gradient_image):
-    plain = make_lithograph(gradient_image, resolution_px=32, blur_px=0)
-    inverted = make_lithograph(gradient_image, resolution_px=32, blur_px=0, invert=True)
+    plain = make_lithograph(gradient_image, relief_style="reference", resolution_px=32, blur_px=0)
+    inverted = make_lithograph(gradient_image, relief_style="reference", resolution_px=32, blur_px=0, invert=True)
     total = plain.params.base_mm * 2 + plain.params.relief_mm
     np.testing.assert_allclose(plain.heightmap + inverted.heightmap, total, atol=1e-5)
 
@@ -42,7 +42,7 @@ def test_16bit_and_float_tiffs_give_the_8bit_relief(tmp_path, fixture):
     tifffile.imwrite(tmp_path / "p8.tif", base)
     tifffile.imwrite(tmp_path / "p16.tif", base.astype(np.uint16) * 257)
     tifffile.imwrite(tmp_path / "pf.tif", base.astype(np.float32) / 255.0)
-    reliefs = [make_lithograph(tmp_path / n, preset="low").heightmap for n in ("p8.tif", "p16.tif", "pf.tif")]
+    reliefs = [make_lithograph(tmp_path / n, relief_style="reference", preset="low").heightmap for n in ("p8.tif", "p16.tif", "pf.tif")]
     assert reliefs[0].max() - reliefs[0].min() > 2.9  # a real relief, not the reference's flat plate
     np.testing.assert_allclose(reliefs[1], reliefs[0], atol=1e-4)
     np.testing.assert_allclose(reliefs[2], reliefs[0], atol=1e-4)
@@ -66,16 +66,16 @@ def test_fixtures_convert_to_valid_solids(fixtures_dir):
 
 
 def test_sizes_aspect_and_fit(gradient_image):
-    litho = make_lithograph(gradient_image, height_mm=60)
+    litho = make_lithograph(gradient_image, relief_style="reference", height_mm=60)
     assert litho.layout.width_mm == pytest.approx(80)
     lo, hi = litho.mesh.bounds_mm
     np.testing.assert_allclose(hi[:2], [80, 60])
-    padded = make_lithograph(gradient_image, width_mm=80, height_mm=80)
+    padded = make_lithograph(gradient_image, relief_style="reference", width_mm=80, height_mm=80)
     assert any("height_mm to 60.0" in w for w in padded.report["warnings"])
     np.testing.assert_allclose(padded.mesh.bounds_mm[1][:2], [80, 80])
     # Padding prints at base level along the top and bottom edges.
     assert np.all(padded.heightmap[0] == 1.0) and np.all(padded.heightmap[-1] == 1.0)
-    cropped = make_lithograph(gradient_image, width_mm=80, height_mm=80, fit="crop")
+    cropped = make_lithograph(gradient_image, relief_style="reference", width_mm=80, height_mm=80, fit="crop")
     assert not cropped.report["warnings"]
     assert cropped.heightmap[-1].max() > 1.5  # image content reaches the edge
 
@@ -97,14 +97,14 @@ def test_blur_in_mm_equals_blur_in_output_pixels(gradient_image):
 
 
 def test_quantize_to_layers(gradient_image):
-    litho = make_lithograph(gradient_image, quantize=True, layer_mm=0.2, resolution_px=40)
+    litho = make_lithograph(gradient_image, relief_style="reference", quantize=True, layer_mm=0.2, resolution_px=40)
     relief = litho.heightmap - 1.0
     np.testing.assert_allclose(relief / 0.2, np.round(relief / 0.2), atol=1e-9)
 
 
 def test_percentiles_come_from_the_source_not_the_output_grid(fixture):
-    low = make_lithograph(fixture("fept_spheres_sem.png"), resolution_px=64, blur_px=0)
-    high = make_lithograph(fixture("fept_spheres_sem.png"), resolution_px=512, blur_px=0)
+    low = make_lithograph(fixture("fept_spheres_sem.png"), relief_style="reference", resolution_px=64, blur_px=0)
+    high = make_lithograph(fixture("fept_spheres_sem.png"), relief_style="reference", resolution_px=512, blur_px=0)
     # Same picture, same meaning: the mean height barely depends on the grid.
     assert abs(low.heightmap.mean() - high.heightmap.mean()) < 0.05
 

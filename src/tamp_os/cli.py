@@ -75,8 +75,6 @@ def _params_from_args(args, base=None):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from .tactile.braille import DEFAULT_TABLE
-
     parser = argparse.ArgumentParser(
         prog="tamp-os",
         description="Turn images, above all microscopy images, into 3D-printable tactile lithographs.",
@@ -151,6 +149,8 @@ def _add_gui(sub) -> None:
 
 
 def _add_presets_and_plate(sub) -> None:
+    from .tactile.braille import DEFAULT_TABLE
+
     presets = sub.add_parser("presets", help="show Low/Medium/High for a printer (and suggest one for an image)")
     presets.add_argument("image", nargs="?", metavar="IMAGE")
     _param_options(presets)

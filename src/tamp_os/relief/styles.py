@@ -136,13 +136,20 @@ def make_relief(
     else:
         reason = ""
     made = _STYLE_FUNCS[style](work, grid.pitch_mm, relief_mm, options)
-    relief01 = np.clip(grid.up(made.relief01, nearest=style == "levels"), 0.0, 1.0)
+    relief01 = _full_span(np.clip(grid.up(made.relief01, nearest=style == "levels"), 0.0, 1.0))
     labels = None
     if made.objects is not None and made.objects.count:
         labels = grid.up(made.objects.labels.astype(np.float32), nearest=True).astype(np.int32)
     heights = heights_mm(relief01, base_mm=base_mm, relief_mm=relief_mm, layer_mm=layer_mm)
     levels = tuple(float(h) for h in np.unique(heights) - base_mm) if style == "levels" else ()
     return ReliefResult(heights, style, reason or made.summary, labels, levels, made.notes)
+
+
+def _full_span(relief01: np.ndarray) -> np.ndarray:
+    """Stretch to exactly 0..1, so every style reaches the requested relief height (the print's
+    bounds are what the user asked for) and the lowest point sits on the base."""
+    lo, hi = float(relief01.min()), float(relief01.max())
+    return (relief01 - lo) / (hi - lo) if hi > lo else np.zeros_like(relief01)
 
 
 @dataclass(frozen=True)

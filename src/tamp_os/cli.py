@@ -468,7 +468,8 @@ def cmd_presets(args) -> int:
     if args.image:
         from .read import read_image
 
-        picture = read_image(args.image, page=params.page, channel=params.channel, max_megapixels=params.max_megapixels)
+        picture = read_image(args.image, page=params.page, channel=params.channel, max_megapixels=params.max_megapixels,
+                             max_decoded_gb=params.max_decoded_gb)
         suggestion = suggest_preset(image_stats(picture.values, picture.alpha))
     print(f"printer {printer.name}: nozzle {printer.nozzle_mm:g} mm, layer {layer:g} mm, mesher {params.mesher}")
     print(f"height levels: {height_levels(params.relief_mm, layer)} (relief {params.relief_mm:g} mm ÷ layer {layer:g} mm)")

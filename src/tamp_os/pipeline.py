@@ -138,7 +138,8 @@ def _read(source, params: LithoParams) -> Picture:
     if isinstance(source, Picture):
         return source
     if isinstance(source, (str, Path)):
-        return read_image(source, page=params.page, channel=params.channel, max_megapixels=params.max_megapixels, z_slice=params.z_slice)
+        return read_image(source, page=params.page, channel=params.channel, max_megapixels=params.max_megapixels,
+                          z_slice=params.z_slice, max_decoded_gb=params.max_decoded_gb)
     return read_array(source, channel=params.channel)
 
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import hashlib
 import logging
+import math
 import struct
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -78,7 +79,13 @@ class _Decoded:
     channel_chosen: bool = False  # a channel was already picked among the file's planes
 
 
-def read_image(path, *, page: int = 0, channel: str = "luminance", max_megapixels: float = 400.0, z_slice: int | None = None) -> Picture:
+MAX_DECODED_GB = 2.0  # default decoded-bytes guard: pixels × samples × bytes per sample, before decoding
+
+
+def read_image(
+    path, *, page: int | None = 0, channel: str = "luminance", max_megapixels: float = 400.0, z_slice: int | None = None,
+    max_decoded_gb: float = MAX_DECODED_GB,
+) -> Picture:
     """Read an image file by its content into a Picture.
 
     Parameters
@@ -88,7 +95,11 @@ def read_image(path, *, page: int = 0, channel: str = "luminance", max_megapixel
     channel : "luminance", a channel number, a colour name or an OME channel name.
     max_megapixels : refuse images above this many pixels (checked from the header).
     z_slice : one z slice instead of the maximum-intensity projection.
+    max_decoded_gb : refuse files whose decoded pixels (every plane read, all samples, at their
+        own bit depth) would exceed this many GB (1e9 bytes), checked from the header before decoding.
+        Peak memory while reading is about 2–3× this (the float32 working copies).
     """
+    limits = _Limits(max_megapixels, max_decoded_gb)
     path = Path(path)
     _refuse_special(path)
     try:
@@ -102,11 +113,11 @@ def read_image(path, *, page: int = 0, channel: str = "luminance", max_megapixel
     sha = hashlib.sha256(data).hexdigest()
     head = data[:8]
     if head[:4] in TIFF_MAGIC:
-        decoded = _read_tiff(path, page, max_megapixels, z_slice, channel)
+        decoded = _read_tiff(path, page, limits, z_slice, channel)
     elif head[:4] in DM_MAGIC:
-        decoded = _read_dm(path, max_megapixels)
+        decoded = _read_dm(path, limits, len(data))
     else:
-        decoded = _read_pillow(path, data, page, max_megapixels)
+        decoded = _read_pillow(path, data, page, limits)
     if decoded.channel_chosen:
         channel = "luminance"  # the channel was chosen among the TIFF's planes
     return _to_picture(decoded, channel, name=path.name, sha=sha, path=str(path))
@@ -144,8 +155,33 @@ def _bits(dtype: np.dtype) -> int:
     return 1 if dtype == bool else dtype.itemsize * 8
 
 
-def _check_size(path, shape, max_megapixels) -> None:
+@dataclass(frozen=True)
+class _Limits:
+    """The decompression-bomb guards: pixels in one plane, and decoded bytes of all planes read."""
+
+    max_megapixels: float
+    max_decoded_gb: float
+
+
+def _check_bytes(path, shape, dtype, limits: _Limits, what: str = "image") -> None:
+    """Refuse, before decoding, an array of `shape` and `dtype` above the decoded-bytes limit.
+
+    shape : every axis that will be decoded (planes, rows, columns, samples).
+    """
+    itemsize = np.dtype(dtype).itemsize
+    total = int(np.prod([int(n) for n in shape], dtype=np.float64)) * itemsize
+    if total > limits.max_decoded_gb * 1e9:
+        dims = "×".join(str(int(n)) for n in shape)
+        raise InputError(
+            f"{path}: decoding this {what} ({dims} values × {itemsize} bytes = {total / 1e9:.1f} GB) would exceed "
+            f"the limit of {limits.max_decoded_gb:g} GB that guards against decompression bombs. If you trust the "
+            f"file and the computer has the memory (about 3× that), raise the limit: max_decoded_gb = {math.ceil(total / 1e9)}."
+        )
+
+
+def _check_size(path, shape, limits: _Limits) -> None:
     h, w = shape[0], shape[1]
+    max_megapixels = limits.max_megapixels
     if h * w > max_megapixels * 1e6:
         raise InputError(
             f"{path}: the image claims {w}×{h} pixels ({h * w / 1e6:.0f} Mpx), above the limit of "
@@ -167,7 +203,7 @@ def _vendor_blocks(tif) -> dict:
     return meta
 
 
-def _read_tiff(path, page, max_megapixels, z_slice=None, channel="luminance") -> _Decoded:
+def _read_tiff(path, page, limits: _Limits, z_slice=None, channel="luminance") -> _Decoded:
     """One 2-D plane (or Y X S colour plane) from a TIFF series.
 
     Axes other than Y, X and S (colour samples) are reduced: Z by a maximum-intensity projection
@@ -190,7 +226,8 @@ def _read_tiff(path, page, max_megapixels, z_slice=None, channel="luminance") ->
             axes, shape = chosen.axes, chosen.shape
             if "Y" not in axes or "X" not in axes:
                 raise InputError(f"{path}: TIFF series with axes {axes!r} has no 2-D image plane.")
-            _check_size(path, (shape[axes.index("Y")], shape[axes.index("X")]), max_megapixels)
+            _check_size(path, (shape[axes.index("Y")], shape[axes.index("X")]), limits)
+            _check_bytes(path, shape, chosen.dtype, limits, f"TIFF series ({axes})")
             meta = {"tiff_series_axes": axes, "tiff_series": len(series), **_vendor_blocks(tif)}
             tags = {tag.code: tag.value for tag in tif.pages[0].tags}
             plane = _reduce_axes(path, chosen.asarray(), axes, page, z_slice, channel, meta)
@@ -297,7 +334,8 @@ def _pick_page(path, array, axes, page):
     return array, "".join(keep), planes
 
 
-def _read_dm(path, max_megapixels) -> _Decoded:
+def _read_dm(path, limits: _Limits, file_bytes: int) -> _Decoded:
+    """The first 2-D plane of a DM3/DM4 file, its size checked before any pixel is decoded."""
     try:
         from rsciio.digitalmicrograph import file_reader
     except ImportError:
@@ -306,13 +344,18 @@ def _read_dm(path, max_megapixels) -> _Decoded:
             f"extra: pip install 'tamp-os[dm]' (rosettasciio)."
         ) from None
     try:
-        item = file_reader(str(path))[0]
+        item = file_reader(str(path), lazy=True)[0]  # lazy: the header's shape and dtype, no pixels yet
+        data = item["data"]
+        plane = data[(0,) * (data.ndim - 2)] if data.ndim > 2 else data
+        _check_size(path, plane.shape, limits)
+        _check_bytes(path, plane.shape, data.dtype, limits, "DigitalMicrograph plane")
+        array = np.asarray(plane)
+    except (InputError, ParameterError):
+        raise
     except Exception as exc:
         raise InputError(f"{path}: a damaged DM3/DM4 file ({exc}).") from None
-    array = np.asarray(item["data"])
-    while array.ndim > 2:
-        array = array[0]
-    _check_size(path, array.shape, max_megapixels)
+    if array.ndim != 2:
+        raise InputError(f"{path}: the DM3/DM4 image has shape {array.shape}; expected a 2-D image.")
     return _Decoded("DM", array, {"dm_axes": item.get("axes", []), "dm_metadata": item.get("metadata", {})}, 1)
 
 
@@ -341,7 +384,7 @@ def _open_pillow(stream):
     raise UnidentifiedImageError("cannot identify image file")
 
 
-def _read_pillow(path, data, page, max_megapixels) -> _Decoded:
+def _read_pillow(path, data, page, limits: _Limits) -> _Decoded:
     import io
 
     from PIL import UnidentifiedImageError
@@ -350,7 +393,8 @@ def _read_pillow(path, data, page, max_megapixels) -> _Decoded:
     try:
         im = _open_pillow(io.BytesIO(data))
         fmt = im.format or "image"
-        _check_size(path, (im.size[1], im.size[0]), max_megapixels)
+        _check_size(path, (im.size[1], im.size[0]), limits)
+        _check_bytes(path, (im.size[1], im.size[0], *_pillow_samples(im.mode)), np.uint8, limits, f"{fmt} image")
         frames = getattr(im, "n_frames", 1)
         if page:
             if page >= frames:
@@ -375,6 +419,16 @@ def _read_pillow(path, data, page, max_megapixels) -> _Decoded:
     if im.mode == "I" and array.size and array.min() >= 0 and array.max() <= 65535:
         meta["note_int32"] = "32-bit integer pixels"
     return _Decoded(fmt, array, meta, frames, notes=notes)
+
+
+def _pillow_samples(mode: str) -> tuple[int]:
+    """Bytes per pixel Pillow will hold for `mode`, after the conversions `_pillow_array` makes."""
+    from PIL import ImageMode
+
+    if mode in ("P", "PA", "CMYK", "YCbCr", "LAB", "HSV"):
+        return (4,)  # palette -> RGBA, colour models -> RGB (4 bytes is an upper bound)
+    info = ImageMode.getmode(mode)
+    return (len(info.bands) * np.dtype(info.typestr).itemsize,)
 
 
 EXIF_ORIENTATION = 0x0112

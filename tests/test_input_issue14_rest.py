@@ -88,3 +88,92 @@ def test_dm_plane_is_guarded_before_decoding(fixture):
     assert read_image(path).values.shape == (68, 68)
     with pytest.raises(InputError, match="max_decoded_gb"):
         read_image(path, max_decoded_gb=68 * 68 * 4 / 1e9 / 2)
+
+
+# --- Olympus SIS: a JPEG preview on page 0, the 16-bit data on page 1 (issue 14.1) ---------------
+
+def _sis_block(pixel_m: float, magnification: float) -> bytes:
+    """An OlympusSIS (tag 33560) structure as tifffile parses it; the record offset is patched later."""
+    head = struct.pack("<4s6xhhhhh6x32sH", b"SIS0", 30, 12, 5, 3, 120, b"synthetic".ljust(32, b"\0"), 1)
+    entry = struct.pack("<hhI", 1, 1, 0)
+    record = struct.pack("<10xhdd8xd2x34s32s", -9, pixel_m / 1e-9, pixel_m / 1e-9, magnification,
+                         b"camera".ljust(34, b"\0"), b"TEM".ljust(32, b"\0"))
+    return head + entry + record
+
+
+def write_sis_like(path, data, *, pixel_m=2.5e-9, magnification=50000.0, shaped=False):
+    """Page 0: a 4× smaller JPEG RGB preview with a white bar; page 1: `data` (uint16)."""
+    need(__import__("importlib").util.find_spec("imagecodecs") is not None, "imagecodecs (JPEG in TIFF)")
+    h, w = data.shape
+    preview = np.zeros((h // 4, w // 4, 3), np.uint8)
+    preview[-12:-6, -40:-8] = 255  # the burned-in scale bar of the preview
+    block = _sis_block(pixel_m, magnification)
+    with tifffile.TiffWriter(path) as writer:
+        meta = {} if shaped else None  # real SIS files have no tifffile 'shaped' description
+        writer.write(preview, photometric="rgb", compression="jpeg", metadata=meta,
+                     extratags=[(33560, 7, len(block), block, True)])
+        writer.write(data, metadata=meta)
+    raw = bytearray(path.read_bytes())
+    at = raw.find(b"SIS0")
+    struct.pack_into("<I", raw, at + 64, at + 68)  # the type-1 record follows the one tag entry
+    path.write_bytes(bytes(raw))
+
+
+def _ramp(h=256, w=320):
+    return (np.add.outer(np.arange(h) * 97, np.arange(w) * 13) % 60000).astype(np.uint16)
+
+
+@pytest.mark.timeout(60)
+@pytest.mark.parametrize("shaped", [False, True])
+def test_sis_data_page_is_read_by_default_with_a_note(tmp_path, shaped):
+    path = tmp_path / "sis.tif"
+    data = _ramp()
+    write_sis_like(path, data, shaped=shaped)
+    picture = read_image(path)
+    assert picture.values.shape == data.shape
+    np.testing.assert_array_equal(picture.values, data.astype(np.float32))
+    assert picture.file.bit_depth == 16
+    assert any("page 1" in n and "preview" in n and "page 0" in n for n in picture.file.notes)
+
+
+@pytest.mark.timeout(60)
+def test_sis_explicit_page_is_obeyed(tmp_path):
+    path = tmp_path / "sis.tif"
+    write_sis_like(path, _ramp())
+    preview = read_image(path, page=0)
+    assert preview.values.shape == (64, 80) and preview.file.bit_depth == 8
+    assert not any("preview" in n for n in preview.file.notes)
+    assert read_image(path, page=1).values.shape == (256, 320)
+
+
+@pytest.mark.timeout(60)
+def test_sis_pixel_size_is_read(tmp_path):
+    from tamp_os.clean.stage import clean_picture
+
+    path = tmp_path / "sis.tif"
+    write_sis_like(path, _ramp(), pixel_m=0.37e-9)
+    for page in (None, 1):
+        size = clean_picture(read_image(path, page=page), pixel_size=None, remove_annotations=False).pixel_size
+        assert size.provenance == "Olympus SIS pixelsizex"
+        assert size.metres == pytest.approx(0.37e-9, rel=1e-9)
+
+
+@pytest.mark.timeout(60)
+def test_reduced_thumbnail_on_page_0_is_skipped(tmp_path):
+    path = tmp_path / "thumb.tif"
+    data = _ramp(128, 128).astype(np.uint8)
+    with tifffile.TiffWriter(path) as writer:
+        writer.write(data[::4, ::4], subfiletype=1, metadata=None)  # NewSubfileType bit 0: reduced
+        writer.write(data, metadata=None)
+    picture = read_image(path)
+    assert picture.values.shape == (128, 128)
+    assert any("flagged as reduced" in n for n in picture.file.notes)
+
+
+@pytest.mark.timeout(60)
+def test_a_plain_stack_still_starts_at_page_0(tmp_path):
+    path = tmp_path / "stack.tif"
+    stack = np.stack([np.full((32, 40), v, np.uint16) for v in (10, 20, 30)])
+    tifffile.imwrite(path, stack, photometric="minisblack")
+    picture = read_image(path)
+    assert picture.values.mean() == 10 and not any("preview" in n for n in picture.file.notes)

@@ -172,7 +172,7 @@ def _add_info(sub) -> None:
     info = sub.add_parser("info", help="describe an image file: size, bit depth, channels, metadata")
     info.add_argument("image", metavar="IMAGE")
     info.add_argument("--json", action="store_true", help="print JSON for scripts")
-    info.add_argument("--page", type=int, default=0, help="TIFF page or series (default 0)")
+    info.add_argument("--page", type=int, default=None, help="TIFF page or series (default: the first, or the data page beside a preview)")
     info.add_argument("--slice", type=int, default=None, help="z-stack slice (default: maximum-intensity projection)")
     info.add_argument("--channel", default="luminance", help="channel number or name (default: luminance / first)")
     info.add_argument("--pixel-size", default=None, help="physical pixel size to use, e.g. 4.2nm")

@@ -50,7 +50,7 @@ class LithoParams:
     stretch_high_pct: float = _f(98.0, "upper percentile of the contrast stretch", "%", 0.0, 100.0)
     quantize: bool = _f(False, "round heights to whole layers")
     channel: str = _f("luminance", "luminance, or a channel: a number from 0 or red/green/blue/alpha")
-    page: int = _f(0, "TIFF page or series to read", "", 0, 100000)
+    page: int | None = _f(None, "TIFF page or series to read (default: the first, or the data page beside a preview)", "", 0, 100000)
     z_slice: int | None = _f(None, "z-stack slice to use (default: maximum-intensity projection)", "", 0, 100000)
     pixel_size: str | None = _f(None, "physical pixel size, overriding the file's, e.g. 4.2nm, 0.5um, 3 micron, 0.01mm")
     keep_annotations: bool = _f(False, "keep burned-in scale bars, labels and data bands (default: remove them)")

@@ -83,7 +83,7 @@ MAX_DECODED_GB = 2.0  # default decoded-bytes guard: pixels × samples × bytes 
 
 
 def read_image(
-    path, *, page: int | None = 0, channel: str = "luminance", max_megapixels: float = 400.0, z_slice: int | None = None,
+    path, *, page: int | None = None, channel: str = "luminance", max_megapixels: float = 400.0, z_slice: int | None = None,
     max_decoded_gb: float = MAX_DECODED_GB,
 ) -> Picture:
     """Read an image file by its content into a Picture.
@@ -91,7 +91,8 @@ def read_image(
     Parameters
     ----------
     path : the file (TIFF, DM3/DM4, or anything Pillow reads).
-    page : the TIFF series, plane or frame to read (0-based).
+    page : the TIFF series, plane or frame to read (0-based); None: the first, or the data page
+        when page 0 is a preview of it (Olympus SIS, thumbnails), with a note.
     channel : "luminance", a channel number, a colour name or an OME channel name.
     max_megapixels : refuse images above this many pixels (checked from the header).
     z_slice : one z slice instead of the maximum-intensity projection.
@@ -193,7 +194,7 @@ def _check_size(path, shape, limits: _Limits) -> None:
 def _vendor_blocks(tif) -> dict:
     """The metadata blocks tifffile decodes for microscope vendors and ImageJ/OME."""
     meta = {}
-    for attr in ("fei_metadata", "sem_metadata", "imagej_metadata", "ome_metadata"):
+    for attr in ("fei_metadata", "sem_metadata", "sis_metadata", "imagej_metadata", "ome_metadata"):
         try:
             value = getattr(tif, attr, None)
         except Exception:  # a broken vendor block must not stop the image from loading
@@ -204,43 +205,68 @@ def _vendor_blocks(tif) -> dict:
 
 
 def _read_tiff(path, page, limits: _Limits, z_slice=None, channel="luminance") -> _Decoded:
-    """One 2-D plane (or Y X S colour plane) from a TIFF series.
+    """One 2-D plane (or Y X S colour plane) from a TIFF series, or from the data page beside a preview.
 
     Axes other than Y, X and S (colour samples) are reduced: Z by a maximum-intensity projection
     (or `z_slice`), C by `channel` (a number or an OME channel name; default the first),
-    anything else (T, pages…) by `page`.
+    anything else (T, pages…) by `page`. `page` None means the data page (previews skipped).
     """
     import tifffile
 
     try:
         with tifffile.TiffFile(path) as tif:
-            series = tif.series
-            if not series:
-                raise InputError(f"{path}: a TIFF without any image in it.")
-            if len(series) > 1:
-                if page >= len(series):
-                    raise ParameterError(f"{path}: page must be 0–{len(series) - 1} (series in this file); got {page}.")
-                chosen, page = series[page], 0
-            else:
-                chosen = series[0]
-            axes, shape = chosen.axes, chosen.shape
+            source = _tiff_source(path, tif, page)
+            chosen, axes, shape = source.chosen, source.chosen.axes, source.chosen.shape
             if "Y" not in axes or "X" not in axes:
                 raise InputError(f"{path}: TIFF series with axes {axes!r} has no 2-D image plane.")
             _check_size(path, (shape[axes.index("Y")], shape[axes.index("X")]), limits)
             _check_bytes(path, shape, chosen.dtype, limits, f"TIFF series ({axes})")
-            meta = {"tiff_series_axes": axes, "tiff_series": len(series), **_vendor_blocks(tif)}
+            meta = {"tiff_series_axes": axes, "tiff_series": source.series, **_vendor_blocks(tif)}
             tags = {tag.code: tag.value for tag in tif.pages[0].tags}
-            plane = _reduce_axes(path, chosen.asarray(), axes, page, z_slice, channel, meta)
+            tags.update({tag.code: tag.value for tag in tif.pages[source.tag_page].tags} if source.tag_page else {})
+            plane = _reduce_axes(path, chosen.asarray(), axes, source.page, z_slice, channel, meta)
             if chosen.keyframe.photometric == tifffile.PHOTOMETRIC.SEPARATED and plane.array.ndim == 3:
                 plane.array = _cmyk_to_rgb(plane.array)
                 plane.notes.append("CMYK (separated) TIFF: converted to RGB, then to luminance.")
-            return _Decoded("TIFF", plane.array, meta, max(len(series), plane.planes), tags, plane.notes, plane.channel_chosen)
+            notes = source.notes + plane.notes
+            return _Decoded("TIFF", plane.array, meta, max(source.count, plane.planes), tags, notes, plane.channel_chosen)
     except (InputError, ParameterError):
         raise
     except MemoryError:
         raise InputError(f"{path}: not enough memory to read this TIFF; try a smaller image.") from None
     except Exception as exc:
         raise InputError(f"{path}: a damaged or unsupported TIFF ({exc}); re-export it from the microscope software.") from None
+
+
+@dataclass
+class _TiffSource:
+    chosen: object  # a tifffile series or page: axes, shape, dtype, asarray(), keyframe
+    page: int  # the page index left for _reduce_axes within `chosen`
+    count: int  # series or pages the page parameter chooses among
+    tag_page: int = 0  # the page whose tags describe the data
+    series: int = 1  # series tifffile found (not asked when previews make its series wrong)
+    notes: list[str] = field(default_factory=list)
+
+
+def _tiff_source(path, tif, page: int | None) -> _TiffSource:
+    """The series (or, beside a preview, the page) to read; `page` None picks the data page."""
+    from .read_pages import find_data_page
+
+    data_page = find_data_page(tif)
+    if data_page is not None:  # pages of different kinds: tifffile's series would mix them
+        index = data_page.index if page is None else page
+        if not 0 <= index < len(tif.pages):
+            raise ParameterError(f"{path}: page must be 0–{len(tif.pages) - 1} (pages in this file); got {index}.")
+        notes = [data_page.note()] if page is None else []
+        return _TiffSource(tif.pages[index], 0, len(tif.pages), index, notes=notes)
+    page, series = page or 0, tif.series
+    if not series:
+        raise InputError(f"{path}: a TIFF without any image in it.")
+    if len(series) > 1:
+        if page >= len(series):
+            raise ParameterError(f"{path}: page must be 0–{len(series) - 1} (series in this file); got {page}.")
+        return _TiffSource(series[page], 0, len(series), series=len(series))
+    return _TiffSource(series[0], page, 1)
 
 
 def _cmyk_to_rgb(cmyk: np.ndarray) -> np.ndarray:

@@ -64,6 +64,14 @@ def _zeiss(inp: _Inputs, warnings: list[str]) -> Found:
     return size, "Zeiss SmartSEM ap_width ÷ image width"
 
 
+def _sis(inp: _Inputs, warnings: list[str]) -> Found:
+    """Olympus SIS (tag 33560): tifffile gives `pixelsizex` already in metres."""
+    sis = inp.metadata.get("sis_metadata")
+    if not sis or "pixelsizex" not in sis:
+        return None
+    return number(sis["pixelsizex"]), "Olympus SIS pixelsizex"
+
+
 def _tescan(inp: _Inputs, warnings: list[str]) -> Found:
     found = tescan_main(inp.tiff_tags, inp.path)
     if found is None:
@@ -137,7 +145,7 @@ def _dm(inp: _Inputs, warnings: list[str]) -> Found:
     return (value * unit if value is not None else None), "DigitalMicrograph calibration"
 
 
-READERS = (_fei, _zeiss, _tescan, _sidecar_txt, _imagej, _ome, _dm)  # most specific first
+READERS = (_fei, _zeiss, _sis, _tescan, _sidecar_txt, _imagej, _ome, _dm)  # most specific first
 
 
 def _plausible(value_m: float | None, provenance: str, warnings: list[str]) -> bool:

@@ -177,3 +177,47 @@ def test_a_plain_stack_still_starts_at_page_0(tmp_path):
     tifffile.imwrite(path, stack, photometric="minisblack")
     picture = read_image(path)
     assert picture.values.mean() == 10 and not any("preview" in n for n in picture.file.notes)
+
+
+# --- DigitalMicrograph TIFF tags (issue 14.2) ---------------------------------------------------
+
+@pytest.mark.timeout(60)
+@pytest.mark.parametrize(
+    ("unit_tag", "unit", "scale", "metres"),
+    [
+        (65003, (2, "micrometer"), 0.0125, 12.5e-9),
+        (65003, (7, b"\xb5m"), 0.5, 0.5e-6),  # µ as DM's single Latin-1 byte
+        (65012, (7, "µm".encode()), 2.0, 2e-6),
+        (65003, (2, "nm"), 0.2485, 0.2485e-9),
+    ],
+)
+def test_dm_tiff_tags_give_the_scale(tmp_path, unit_tag, unit, scale, metres):
+    from tamp_os.clean.stage import clean_picture
+
+    path = tmp_path / "dm.tif"
+    code, value = unit
+    tags = [(65009, 12, 1, scale, True), (65010, 12, 1, scale, True), (unit_tag, code, len(value), value, True)]
+    tifffile.imwrite(path, _ramp(64, 64), extratags=tags, metadata=None)
+    size = clean_picture(read_image(path), pixel_size=None, remove_annotations=False).pixel_size
+    assert size.provenance == "DigitalMicrograph TIFF tags"
+    assert size.metres == pytest.approx(metres, rel=1e-9)
+
+
+@pytest.mark.timeout(60)
+def test_dm_tiff_tags_without_a_length_unit_give_no_scale_and_say_so(tmp_path):
+    from tamp_os.clean.stage import clean_picture
+
+    path = tmp_path / "dm.tif"
+    tags = [(65009, 12, 1, 0.5, True), (65003, 2, len("1/nm"), "1/nm", True)]  # a diffraction pattern
+    tifffile.imwrite(path, _ramp(64, 64), extratags=tags, metadata=None)
+    size = clean_picture(read_image(path), pixel_size=None, remove_annotations=False).pixel_size
+    assert size.metres is None
+    assert any("DigitalMicrograph TIFF tags" in w and "1/nm" in w for w in size.warnings)
+
+
+@pytest.mark.timeout(30)
+@pytest.mark.parametrize(("text", "metres"), [("3 micrometer", 3e-6), ("2nanometres", 2e-9), ("1 millimeter", 1e-3)])
+def test_spelled_out_units(text, metres):
+    from tamp_os.units import parse_length_m
+
+    assert parse_length_m(text) == pytest.approx(metres)

@@ -221,3 +221,62 @@ def test_spelled_out_units(text, metres):
     from tamp_os.units import parse_length_m
 
     assert parse_length_m(text) == pytest.approx(metres)
+
+
+# --- Instrument facts (issue 14.8) --------------------------------------------------------------
+
+@pytest.mark.timeout(60)
+def test_zeiss_and_fei_instrument_facts(fixture):
+    from tamp_os.clean.stage import clean_picture
+
+    zeiss = clean_picture(read_image(fixture("test_tiff_Zeiss_SEM_1k.tif")), pixel_size=None, remove_annotations=False).instrument
+    assert (zeiss.magnification, zeiss.kv, zeiss.detector, zeiss.signal) == (105, 25.0, "HE-SE2", "SE")
+    fei = clean_picture(read_image(fixture("FEI-Helios-Ebeam-8bits.tif")), pixel_size=None, remove_annotations=False).instrument
+    assert (fei.kv, fei.detector, fei.signal) == (5.0, "ETD", "SE")
+    assert fei.magnification == pytest.approx(0.2072 / 0.00172667, rel=1e-6)  # canvas width ÷ field width
+
+
+@pytest.mark.timeout(60)
+def test_tescan_backscatter_and_no_facts(tmp_path):
+    from tamp_os.clean.stage import clean_picture
+
+    path = tmp_path / "tescan.tif"
+    text = "[MAIN]\nPixelSizeX=2e-08\nHV=20000\nMagnification=5000\nDetector=BSE\n"
+    tifffile.imwrite(path, _ramp(64, 64), extratags=[(50431, 2, len(text), text, True)], metadata=None)
+    found = clean_picture(read_image(path), pixel_size=None, remove_annotations=False).instrument
+    assert (found.magnification, found.kv, found.signal) == (5000, 20.0, "BSE")
+    plain = tmp_path / "plain.tif"
+    tifffile.imwrite(plain, _ramp(64, 64))
+    assert clean_picture(read_image(plain), pixel_size=None, remove_annotations=False).instrument is None
+
+
+@pytest.mark.timeout(30)
+@pytest.mark.parametrize(("name", "signal"), [("HE-SE2", "SE"), ("InLens", "SE"), ("CBS", "BSE"), ("vCD BSE", "BSE"),
+                                              ("HAADF", "STEM"), ("NSE-BSD", "BSE"), ("CCD", None), (None, None)])
+def test_signal_from_detector_names(name, signal):
+    from tamp_os.clean.instrument import signal_of
+
+    assert signal_of(name) == signal
+
+
+@pytest.mark.timeout(120)
+def test_description_and_info_mention_the_detector(fixture, tmp_path, capsys):
+    import json
+
+    from tamp_os.cli import main
+    from tamp_os.pipeline import make_lithograph
+    from tamp_os.report import describe
+
+    path = fixture("test_tiff_Zeiss_SEM_1k.tif")
+    litho = make_lithograph(path, preset="low", width_mm=40, scale_bar="off")
+    assert litho.report.instrument["signal"] == "SE"
+    text = describe(litho.report, litho.params, "zeiss.tif")
+    assert "Recorded with a secondary-electron (SE) detector at 25 kV" in text and "not height" in text
+    plain = tmp_path / "plain.tif"
+    tifffile.imwrite(plain, _ramp(64, 64))
+    other = make_lithograph(plain, preset="low", width_mm=40)
+    assert other.report.instrument is None and "Recorded" not in describe(other.report, other.params, "plain.tif")
+    capsys.readouterr()
+    assert main(["info", "--json", str(path)]) == 0
+    facts = json.loads(capsys.readouterr().out)
+    assert facts["instrument"]["kv"] == 25.0 and facts["instrument"]["detector"] == "HE-SE2"

@@ -565,6 +565,7 @@ def cmd_info(args) -> int:
         "nonfinite_pixels": s.nonfinite_pixels,
         "transparent_pixels": s.transparent_pixels,
         "notes": s.notes + list(scale.warnings),
+        "instrument": cleaned.instrument.as_dict() if cleaned.instrument else None,
     }
     if args.json:
         print(json.dumps(facts, indent=2, ensure_ascii=False))
@@ -580,6 +581,8 @@ def cmd_info(args) -> int:
     removed += [f"{crop['bottom_rows']} rows at the bottom"] if crop["bottom_rows"] else []
     print(f"data band: {' and '.join(removed)} ({crop['source']})" if removed else "data band: none found")
     print(f"annotations to remove: {'; '.join(a.describe() for a in found) if found else 'none found'}")
+    if cleaned.instrument:
+        print(f"instrument: {', '.join(f'{k} {v:g}' if isinstance(v, float) else f'{k} {v}' for k, v in facts['instrument'].items() if v)}")
     for note in facts["notes"]:
         print(f"note: {note}")
     return EXIT_OK

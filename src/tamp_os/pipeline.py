@@ -221,6 +221,7 @@ def _report(picture, cleaned, prepared, layout, params, machine, mesh, placed, m
         annotations=[a.describe() for a in cleaned.annotations],
         warnings=_warnings(picture, cleaned, prepared, layout, params),
         timings_s={k: round(v, 4) for k, v in timings.items()},
+        instrument=cleaned.instrument.as_dict() if cleaned.instrument else None,
     )
 
 

@@ -40,6 +40,7 @@ class Report:
     timings_s: dict[str, float]
     files: list[str] = field(default_factory=list)
     print: dict | None = None  # slicing results, once sliced
+    instrument: dict | None = None  # magnification, kv, detector, signal, source when the file records them
 
     def as_dict(self) -> dict:
         """The report as a plain dict (JSON-ready), with the keys of the earlier untyped report."""
@@ -91,6 +92,24 @@ def web_summary(report: Report) -> list[str]:
     ]
 
 
+_SIGNAL_WORDS = {
+    "SE": ("a secondary-electron (SE) detector", "in SE images brightness shows edges and slopes, not height"),
+    "BSE": ("a backscattered-electron (BSE) detector", "in BSE images brightness shows composition (heavier elements are brighter), not height"),
+    "STEM": ("a scanning transmission (STEM) detector", "in STEM images brightness shows mass and thickness, not height"),
+}
+
+
+def _instrument_sentence(instrument: dict) -> str:
+    """'Recorded with a secondary-electron (SE) detector at 5 kV: ... not height.' from Report.instrument."""
+    kv = f" at {instrument['kv']:g} kV" if instrument.get("kv") else ""
+    mag = f", magnification {instrument['magnification']:,.0f}×" if instrument.get("magnification") else ""
+    signal = _SIGNAL_WORDS.get(instrument.get("signal") or "")
+    if signal:
+        return f"Recorded with {signal[0]}{kv}{mag}: {signal[1]}."
+    detector = f" with the {instrument['detector']} detector" if instrument.get("detector") else ""
+    return f"Recorded{detector}{kv}{mag}."
+
+
 def describe(report: Report, params: LithoParams, source_name: str) -> str:
     """A plain-language description of the object for people who cannot see it."""
     w, d, h = report.print_mm
@@ -103,6 +122,8 @@ def describe(report: Report, params: LithoParams, source_name: str) -> str:
         f"The {raised} parts of the image are raised, up to {params.relief_mm:g} mm above the base.",
         f"Scale: {report.scale}.",
     ]
+    if report.instrument:
+        parts.append(_instrument_sentence(report.instrument))
     t = report.tactile
     if t:
         parts.append("The top right corner of the plate is cut off at 45 degrees: hold the print with that corner at the top right.")

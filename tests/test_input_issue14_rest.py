@@ -280,3 +280,36 @@ def test_description_and_info_mention_the_detector(fixture, tmp_path, capsys):
     assert main(["info", "--json", str(path)]) == 0
     facts = json.loads(capsys.readouterr().out)
     assert facts["instrument"]["kv"] == 25.0 and facts["instrument"]["detector"] == "HE-SE2"
+
+
+# --- save_masks shows the cropped band too (issue 14.7) ------------------------------------------
+
+def _saved_mask(tmp_path, source) -> np.ndarray:
+    from PIL import Image
+
+    from tamp_os.pipeline import make_lithograph
+
+    litho = make_lithograph(source, preset="low", width_mm=60, scale_bar="off", save_masks=True)
+    written = litho.save(tmp_path, ["stl"])
+    png = next(p for p in written if str(p).endswith(".annotations.png"))
+    with Image.open(png) as im:  # read back by Pillow, independently of how it was written
+        return np.asarray(im.convert("L"))
+
+
+@pytest.mark.timeout(120)
+def test_mask_covers_the_source_with_the_band_in_grey(fixture, tmp_path):
+    mask = _saved_mask(tmp_path, fixture("FEI-Helios-Ebeam-8bits.tif"))
+    assert mask.shape == (471, 512)  # the whole source, not the cropped picture
+    band = mask[442:]  # [Image] ResolutionY = 442: rows 442-470 are FEI's databar
+    assert np.all((band > 100) & (band < 160))
+    assert not np.any((mask[:442] > 100) & (mask[:442] < 160))
+
+
+@pytest.mark.timeout(120)
+def test_mask_shows_inpainted_boxes_in_white_where_they_were(fixture, tmp_path):
+    mask = _saved_mask(tmp_path, fixture("fept_spheres_sem.png"))
+    assert mask.shape == (768, 1024)
+    white = mask == 255
+    assert white.any()
+    rows, cols = np.nonzero(white)
+    assert rows.min() > 768 // 2 and cols.max() < 1024 // 2  # the "4 µm" box sits at the lower left

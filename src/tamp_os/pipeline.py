@@ -43,7 +43,7 @@ class Lithograph:
     layout: Layout
     picture: Picture
     report: Report
-    mask: np.ndarray | None = None  # (rows, cols) bool: annotations removed from the (cropped) source image
+    mask: np.ndarray | None = None  # (rows, cols) float over the whole source: 0 kept, 0.5 cropped band, 1 inpainted
 
     @property
     def name(self) -> str:
@@ -114,7 +114,7 @@ def make_lithograph(source, params: LithoParams | None = None, *, printer_profil
             mesh, placed = add_furniture(mesh, layout.width_mm, layout.depth_mm, params.base_mm, furniture)
     report = _report(picture, cleaned, prepared, layout, params, machine, mesh, placed, max_error, timings)
     return Lithograph(mesh=mesh, heightmap=heights, params=params, printer=machine, layout=layout, picture=picture,
-                      report=report, mask=cleaned.mask)
+                      report=report, mask=cleaned.source_mask())
 
 
 class _Clock:

@@ -18,6 +18,9 @@ from .scale import PixelSize, read_pixel_size
 from .scalebar import scale_from_bars
 
 
+BAND_SHADE = 0.5  # the cropped band's grey in the mask image; inpainted boxes are white (1)
+
+
 @dataclass(frozen=True)
 class Cleaned:
     """A picture ready for preprocessing, and what cleaning found and removed.
@@ -38,6 +41,20 @@ class Cleaned:
     annotations: list[Annotation]
     mask: np.ndarray | None
     instrument: Instrument | None = None
+
+    def source_mask(self) -> np.ndarray | None:
+        """What cleaning took away, over the whole source image, for NAME.annotations.png.
+
+        Returns (H, W) float32: 0 = kept, 0.5 (grey) = a cropped data band row, 1 (white) = inpainted;
+        None when nothing was cropped and annotation removal was off.
+        """
+        top, bottom = self.band.top_rows, self.band.bottom_rows
+        if self.mask is None and not (top or bottom):
+            return None
+        h, w = self.values.shape
+        full = np.full((top + h + bottom, w), BAND_SHADE, dtype=np.float32)
+        full[top : top + h] = 0.0 if self.mask is None else self.mask.astype(np.float32)
+        return full
 
 
 def _band(picture: Picture, remove_annotations: bool) -> Band:

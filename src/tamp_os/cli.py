@@ -183,7 +183,7 @@ def _add_info(sub) -> None:
     info = sub.add_parser("info", help="describe an image file: size, bit depth, channels, metadata")
     info.add_argument("image", metavar="IMAGE")
     info.add_argument("--json", action="store_true", help="print JSON for scripts")
-    info.add_argument("--page", type=int, default=0, help="TIFF page or series (default 0)")
+    info.add_argument("--page", type=int, default=None, help="TIFF page or series (default: the first, or the data page beside a preview)")
     info.add_argument("--slice", type=int, default=None, help="z-stack slice (default: maximum-intensity projection)")
     info.add_argument("--channel", default="luminance", help="channel number or name (default: luminance / first)")
     info.add_argument("--pixel-size", default=None, help="physical pixel size to use, e.g. 4.2nm")
@@ -480,7 +480,8 @@ def cmd_presets(args) -> int:
     if args.image:
         from .read import read_image
 
-        picture = read_image(args.image, page=params.page, channel=params.channel, max_megapixels=params.max_megapixels)
+        picture = read_image(args.image, page=params.page, channel=params.channel, max_megapixels=params.max_megapixels,
+                             max_decoded_gb=params.max_decoded_gb)
         width = layout_for(params, printer, picture.file.width, picture.file.height).width_mm
         suggestion = suggest_by_touch(picture.values, picture.alpha, width_mm=width, nozzle_mm=printer.nozzle_mm)
     print(f"printer {printer.name}: nozzle {printer.nozzle_mm:g} mm, layer {layer:g} mm, mesher {params.mesher}")
@@ -598,6 +599,7 @@ def cmd_info(args) -> int:
         "nonfinite_pixels": s.nonfinite_pixels,
         "transparent_pixels": s.transparent_pixels,
         "notes": s.notes + list(scale.warnings),
+        "instrument": cleaned.instrument.as_dict() if cleaned.instrument else None,
     }
     if args.json:
         print(json.dumps(facts, indent=2, ensure_ascii=False))
@@ -613,6 +615,8 @@ def cmd_info(args) -> int:
     removed += [f"{crop['bottom_rows']} rows at the bottom"] if crop["bottom_rows"] else []
     print(f"data band: {' and '.join(removed)} ({crop['source']})" if removed else "data band: none found")
     print(f"annotations to remove: {'; '.join(a.describe() for a in found) if found else 'none found'}")
+    if cleaned.instrument:
+        print(f"instrument: {', '.join(f'{k} {v:g}' if isinstance(v, float) else f'{k} {v}' for k, v in facts['instrument'].items() if v)}")
     for note in facts["notes"]:
         print(f"note: {note}")
     return EXIT_OK

@@ -45,7 +45,7 @@ class Lithograph:
     layout: Layout
     picture: Picture
     report: Report
-    mask: np.ndarray | None = None  # (rows, cols) bool: annotations removed from the (cropped) source image
+    mask: np.ndarray | None = None  # (rows, cols) float over the whole source: 0 kept, 0.5 cropped band, 1 inpainted
 
     @property
     def name(self) -> str:
@@ -123,7 +123,7 @@ def make_lithograph(source, params: LithoParams | None = None, *, printer_profil
     report.legibility = _legibility_report(legibility, relief)
     report.warnings += list(relief.notes)
     return Lithograph(mesh=mesh, heightmap=heights, params=params, printer=machine, layout=layout, picture=picture,
-                      report=report, mask=cleaned.mask)
+                      report=report, mask=cleaned.source_mask())
 
 
 class _Clock:
@@ -147,7 +147,8 @@ def _read(source, params: LithoParams) -> Picture:
     if isinstance(source, Picture):
         return source
     if isinstance(source, (str, Path)):
-        return read_image(source, page=params.page, channel=params.channel, max_megapixels=params.max_megapixels, z_slice=params.z_slice)
+        return read_image(source, page=params.page, channel=params.channel, max_megapixels=params.max_megapixels,
+                          z_slice=params.z_slice, max_decoded_gb=params.max_decoded_gb)
     return read_array(source, channel=params.channel)
 
 
@@ -248,6 +249,7 @@ def _report(picture, cleaned, prepared, layout, params, machine, mesh, placed, m
         annotations=[a.describe() for a in cleaned.annotations],
         warnings=_warnings(picture, cleaned, prepared, layout, params),
         timings_s={k: round(v, 4) for k, v in timings.items()},
+        instrument=cleaned.instrument.as_dict() if cleaned.instrument else None,
     )
 
 

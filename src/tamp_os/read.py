@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import hashlib
 import logging
+import math
 import struct
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -78,17 +79,28 @@ class _Decoded:
     channel_chosen: bool = False  # a channel was already picked among the file's planes
 
 
-def read_image(path, *, page: int = 0, channel: str = "luminance", max_megapixels: float = 400.0, z_slice: int | None = None) -> Picture:
+MAX_DECODED_GB = 2.0  # default decoded-bytes guard: pixels × samples × bytes per sample, before decoding
+
+
+def read_image(
+    path, *, page: int | None = None, channel: str = "luminance", max_megapixels: float = 400.0, z_slice: int | None = None,
+    max_decoded_gb: float = MAX_DECODED_GB,
+) -> Picture:
     """Read an image file by its content into a Picture.
 
     Parameters
     ----------
     path : the file (TIFF, DM3/DM4, or anything Pillow reads).
-    page : the TIFF series, plane or frame to read (0-based).
+    page : the TIFF series, plane or frame to read (0-based); None: the first, or the data page
+        when page 0 is a preview of it (Olympus SIS, thumbnails), with a note.
     channel : "luminance", a channel number, a colour name or an OME channel name.
     max_megapixels : refuse images above this many pixels (checked from the header).
     z_slice : one z slice instead of the maximum-intensity projection.
+    max_decoded_gb : refuse files whose decoded pixels (every plane read, all samples, at their
+        own bit depth) would exceed this many GB (1e9 bytes), checked from the header before decoding.
+        Peak memory while reading is about 2–3× this (the float32 working copies).
     """
+    limits = _Limits(max_megapixels, max_decoded_gb)
     path = Path(path)
     _refuse_special(path)
     try:
@@ -102,11 +114,11 @@ def read_image(path, *, page: int = 0, channel: str = "luminance", max_megapixel
     sha = hashlib.sha256(data).hexdigest()
     head = data[:8]
     if head[:4] in TIFF_MAGIC:
-        decoded = _read_tiff(path, page, max_megapixels, z_slice, channel)
+        decoded = _read_tiff(path, page, limits, z_slice, channel)
     elif head[:4] in DM_MAGIC:
-        decoded = _read_dm(path, max_megapixels)
+        decoded = _read_dm(path, limits, len(data))
     else:
-        decoded = _read_pillow(path, data, page, max_megapixels)
+        decoded = _read_pillow(path, data, page, limits)
     if decoded.channel_chosen:
         channel = "luminance"  # the channel was chosen among the TIFF's planes
     return _to_picture(decoded, channel, name=path.name, sha=sha, path=str(path))
@@ -144,8 +156,33 @@ def _bits(dtype: np.dtype) -> int:
     return 1 if dtype == bool else dtype.itemsize * 8
 
 
-def _check_size(path, shape, max_megapixels) -> None:
+@dataclass(frozen=True)
+class _Limits:
+    """The decompression-bomb guards: pixels in one plane, and decoded bytes of all planes read."""
+
+    max_megapixels: float
+    max_decoded_gb: float
+
+
+def _check_bytes(path, shape, dtype, limits: _Limits, what: str = "image") -> None:
+    """Refuse, before decoding, an array of `shape` and `dtype` above the decoded-bytes limit.
+
+    shape : every axis that will be decoded (planes, rows, columns, samples).
+    """
+    itemsize = np.dtype(dtype).itemsize
+    total = int(np.prod([int(n) for n in shape], dtype=np.float64)) * itemsize
+    if total > limits.max_decoded_gb * 1e9:
+        dims = "×".join(str(int(n)) for n in shape)
+        raise InputError(
+            f"{path}: decoding this {what} ({dims} values × {itemsize} bytes = {total / 1e9:.1f} GB) would exceed "
+            f"the limit of {limits.max_decoded_gb:g} GB that guards against decompression bombs. If you trust the "
+            f"file and the computer has the memory (about 3× that), raise the limit: max_decoded_gb = {math.ceil(total / 1e9)}."
+        )
+
+
+def _check_size(path, shape, limits: _Limits) -> None:
     h, w = shape[0], shape[1]
+    max_megapixels = limits.max_megapixels
     if h * w > max_megapixels * 1e6:
         raise InputError(
             f"{path}: the image claims {w}×{h} pixels ({h * w / 1e6:.0f} Mpx), above the limit of "
@@ -157,7 +194,7 @@ def _check_size(path, shape, max_megapixels) -> None:
 def _vendor_blocks(tif) -> dict:
     """The metadata blocks tifffile decodes for microscope vendors and ImageJ/OME."""
     meta = {}
-    for attr in ("fei_metadata", "sem_metadata", "imagej_metadata", "ome_metadata"):
+    for attr in ("fei_metadata", "sem_metadata", "sis_metadata", "imagej_metadata", "ome_metadata"):
         try:
             value = getattr(tif, attr, None)
         except Exception:  # a broken vendor block must not stop the image from loading
@@ -167,43 +204,69 @@ def _vendor_blocks(tif) -> dict:
     return meta
 
 
-def _read_tiff(path, page, max_megapixels, z_slice=None, channel="luminance") -> _Decoded:
-    """One 2-D plane (or Y X S colour plane) from a TIFF series.
+def _read_tiff(path, page, limits: _Limits, z_slice=None, channel="luminance") -> _Decoded:
+    """One 2-D plane (or Y X S colour plane) from a TIFF series, or from the data page beside a preview.
 
     Axes other than Y, X and S (colour samples) are reduced: Z by a maximum-intensity projection
     (or `z_slice`), C by `channel` (a number or an OME channel name; default the first),
-    anything else (T, pages…) by `page`.
+    anything else (T, pages…) by `page`. `page` None means the data page (previews skipped).
     """
     import tifffile
 
     try:
         with tifffile.TiffFile(path) as tif:
-            series = tif.series
-            if not series:
-                raise InputError(f"{path}: a TIFF without any image in it.")
-            if len(series) > 1:
-                if page >= len(series):
-                    raise ParameterError(f"{path}: page must be 0–{len(series) - 1} (series in this file); got {page}.")
-                chosen, page = series[page], 0
-            else:
-                chosen = series[0]
-            axes, shape = chosen.axes, chosen.shape
+            source = _tiff_source(path, tif, page)
+            chosen, axes, shape = source.chosen, source.chosen.axes, source.chosen.shape
             if "Y" not in axes or "X" not in axes:
                 raise InputError(f"{path}: TIFF series with axes {axes!r} has no 2-D image plane.")
-            _check_size(path, (shape[axes.index("Y")], shape[axes.index("X")]), max_megapixels)
-            meta = {"tiff_series_axes": axes, "tiff_series": len(series), **_vendor_blocks(tif)}
+            _check_size(path, (shape[axes.index("Y")], shape[axes.index("X")]), limits)
+            _check_bytes(path, shape, chosen.dtype, limits, f"TIFF series ({axes})")
+            meta = {"tiff_series_axes": axes, "tiff_series": source.series, **_vendor_blocks(tif)}
             tags = {tag.code: tag.value for tag in tif.pages[0].tags}
-            plane = _reduce_axes(path, chosen.asarray(), axes, page, z_slice, channel, meta)
+            tags.update({tag.code: tag.value for tag in tif.pages[source.tag_page].tags} if source.tag_page else {})
+            plane = _reduce_axes(path, chosen.asarray(), axes, source.page, z_slice, channel, meta)
             if chosen.keyframe.photometric == tifffile.PHOTOMETRIC.SEPARATED and plane.array.ndim == 3:
                 plane.array = _cmyk_to_rgb(plane.array)
                 plane.notes.append("CMYK (separated) TIFF: converted to RGB, then to luminance.")
-            return _Decoded("TIFF", plane.array, meta, max(len(series), plane.planes), tags, plane.notes, plane.channel_chosen)
+            notes = source.notes + plane.notes
+            return _Decoded("TIFF", plane.array, meta, max(source.count, plane.planes), tags, notes, plane.channel_chosen)
     except (InputError, ParameterError):
         raise
     except MemoryError:
         raise InputError(f"{path}: not enough memory to read this TIFF; try a smaller image.") from None
     except Exception as exc:
         raise InputError(f"{path}: a damaged or unsupported TIFF ({exc}); re-export it from the microscope software.") from None
+
+
+@dataclass
+class _TiffSource:
+    chosen: object  # a tifffile series or page: axes, shape, dtype, asarray(), keyframe
+    page: int  # the page index left for _reduce_axes within `chosen`
+    count: int  # series or pages the page parameter chooses among
+    tag_page: int = 0  # the page whose tags describe the data
+    series: int = 1  # series tifffile found (not asked when previews make its series wrong)
+    notes: list[str] = field(default_factory=list)
+
+
+def _tiff_source(path, tif, page: int | None) -> _TiffSource:
+    """The series (or, beside a preview, the page) to read; `page` None picks the data page."""
+    from .read_pages import find_data_page
+
+    data_page = find_data_page(tif)
+    if data_page is not None:  # pages of different kinds: tifffile's series would mix them
+        index = data_page.index if page is None else page
+        if not 0 <= index < len(tif.pages):
+            raise ParameterError(f"{path}: page must be 0–{len(tif.pages) - 1} (pages in this file); got {index}.")
+        notes = [data_page.note()] if page is None else []
+        return _TiffSource(tif.pages[index], 0, len(tif.pages), index, notes=notes)
+    page, series = page or 0, tif.series
+    if not series:
+        raise InputError(f"{path}: a TIFF without any image in it.")
+    if len(series) > 1:
+        if page >= len(series):
+            raise ParameterError(f"{path}: page must be 0–{len(series) - 1} (series in this file); got {page}.")
+        return _TiffSource(series[page], 0, len(series), series=len(series))
+    return _TiffSource(series[0], page, 1)
 
 
 def _cmyk_to_rgb(cmyk: np.ndarray) -> np.ndarray:
@@ -297,7 +360,8 @@ def _pick_page(path, array, axes, page):
     return array, "".join(keep), planes
 
 
-def _read_dm(path, max_megapixels) -> _Decoded:
+def _read_dm(path, limits: _Limits, file_bytes: int) -> _Decoded:
+    """The first 2-D plane of a DM3/DM4 file, its size checked before any pixel is decoded."""
     try:
         from rsciio.digitalmicrograph import file_reader
     except ImportError:
@@ -306,13 +370,18 @@ def _read_dm(path, max_megapixels) -> _Decoded:
             f"extra: pip install 'tamp-os[dm]' (rosettasciio)."
         ) from None
     try:
-        item = file_reader(str(path))[0]
+        item = file_reader(str(path), lazy=True)[0]  # lazy: the header's shape and dtype, no pixels yet
+        data = item["data"]
+        plane = data[(0,) * (data.ndim - 2)] if data.ndim > 2 else data
+        _check_size(path, plane.shape, limits)
+        _check_bytes(path, plane.shape, data.dtype, limits, "DigitalMicrograph plane")
+        array = np.asarray(plane)
+    except (InputError, ParameterError):
+        raise
     except Exception as exc:
         raise InputError(f"{path}: a damaged DM3/DM4 file ({exc}).") from None
-    array = np.asarray(item["data"])
-    while array.ndim > 2:
-        array = array[0]
-    _check_size(path, array.shape, max_megapixels)
+    if array.ndim != 2:
+        raise InputError(f"{path}: the DM3/DM4 image has shape {array.shape}; expected a 2-D image.")
     return _Decoded("DM", array, {"dm_axes": item.get("axes", []), "dm_metadata": item.get("metadata", {})}, 1)
 
 
@@ -341,7 +410,7 @@ def _open_pillow(stream):
     raise UnidentifiedImageError("cannot identify image file")
 
 
-def _read_pillow(path, data, page, max_megapixels) -> _Decoded:
+def _read_pillow(path, data, page, limits: _Limits) -> _Decoded:
     import io
 
     from PIL import UnidentifiedImageError
@@ -350,7 +419,8 @@ def _read_pillow(path, data, page, max_megapixels) -> _Decoded:
     try:
         im = _open_pillow(io.BytesIO(data))
         fmt = im.format or "image"
-        _check_size(path, (im.size[1], im.size[0]), max_megapixels)
+        _check_size(path, (im.size[1], im.size[0]), limits)
+        _check_bytes(path, (im.size[1], im.size[0], *_pillow_samples(im.mode)), np.uint8, limits, f"{fmt} image")
         frames = getattr(im, "n_frames", 1)
         if page:
             if page >= frames:
@@ -375,6 +445,16 @@ def _read_pillow(path, data, page, max_megapixels) -> _Decoded:
     if im.mode == "I" and array.size and array.min() >= 0 and array.max() <= 65535:
         meta["note_int32"] = "32-bit integer pixels"
     return _Decoded(fmt, array, meta, frames, notes=notes)
+
+
+def _pillow_samples(mode: str) -> tuple[int]:
+    """Bytes per pixel Pillow will hold for `mode`, after the conversions `_pillow_array` makes."""
+    from PIL import ImageMode
+
+    if mode in ("P", "PA", "CMYK", "YCbCr", "LAB", "HSV"):
+        return (4,)  # palette -> RGBA, colour models -> RGB (4 bytes is an upper bound)
+    info = ImageMode.getmode(mode)
+    return (len(info.bands) * np.dtype(info.typestr).itemsize,)
 
 
 EXIF_ORIENTATION = 0x0112

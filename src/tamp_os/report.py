@@ -43,6 +43,7 @@ class Report:
     relief_style: str = "reference"  # the style that made the heights (auto resolved)
     relief_reason: str = ""  # why that style, or what it did, in one sentence
     legibility: dict | None = None  # relief.legibility.Legibility.as_dict(): figures and verdicts
+    instrument: dict | None = None  # magnification, kv, detector, signal, source when the file records them
 
     def as_dict(self) -> dict:
         """The report as a plain dict (JSON-ready), with the keys of the earlier untyped report."""
@@ -102,6 +103,24 @@ def web_summary(report: Report) -> list[str]:
     ]
 
 
+_SIGNAL_WORDS = {
+    "SE": ("a secondary-electron (SE) detector", "in SE images brightness shows edges and slopes, not height"),
+    "BSE": ("a backscattered-electron (BSE) detector", "in BSE images brightness shows composition (heavier elements are brighter), not height"),
+    "STEM": ("a scanning transmission (STEM) detector", "in STEM images brightness shows mass and thickness, not height"),
+}
+
+
+def _instrument_sentence(instrument: dict) -> str:
+    """'Recorded with a secondary-electron (SE) detector at 5 kV: ... not height.' from Report.instrument."""
+    kv = f" at {instrument['kv']:g} kV" if instrument.get("kv") else ""
+    mag = f", magnification {instrument['magnification']:,.0f}×" if instrument.get("magnification") else ""
+    signal = _SIGNAL_WORDS.get(instrument.get("signal") or "")
+    if signal:
+        return f"Recorded with {signal[0]}{kv}{mag}: {signal[1]}."
+    detector = f" with the {instrument['detector']} detector" if instrument.get("detector") else ""
+    return f"Recorded{detector}{kv}{mag}."
+
+
 def describe(report: Report, params: LithoParams, source_name: str) -> str:
     """A plain-language description of the object for people who cannot see it."""
     w, d, h = report.print_mm
@@ -115,6 +134,8 @@ def describe(report: Report, params: LithoParams, source_name: str) -> str:
     ]
     if not report.uniform and touch_notes(report):
         parts.append("What a finger will find: " + " ".join(touch_notes(report)))
+    if report.instrument:
+        parts.append(_instrument_sentence(report.instrument))
     t = report.tactile
     if t:
         if t["orientation"]:

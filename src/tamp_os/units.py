@@ -20,6 +20,10 @@ _FACTORS_M = {
     "cm": 1e-2,
     "m": 1.0,
 }
+# Spelled-out names, as microscope software writes them (DigitalMicrograph: "micrometer").
+for _prefix, _factor in (("pico", 1e-12), ("nano", 1e-9), ("micro", 1e-6), ("milli", 1e-3), ("centi", 1e-2), ("", 1.0)):
+    for _ending in ("meter", "metre", "meters", "metres"):
+        _FACTORS_M[_prefix + _ending] = _factor
 
 
 def unit_factor_m(unit: str) -> float | None:

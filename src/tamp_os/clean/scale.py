@@ -64,6 +64,44 @@ def _zeiss(inp: _Inputs, warnings: list[str]) -> Found:
     return size, "Zeiss SmartSEM ap_width ÷ image width"
 
 
+def _sis(inp: _Inputs, warnings: list[str]) -> Found:
+    """Olympus SIS (tag 33560): tifffile gives `pixelsizex` already in metres."""
+    sis = inp.metadata.get("sis_metadata")
+    if not sis or "pixelsizex" not in sis:
+        return None
+    return number(sis["pixelsizex"]), "Olympus SIS pixelsizex"
+
+
+DM_SCALE_TAGS = (65009, 65010)  # DigitalMicrograph's TIFF: scale per pixel along x, then y
+DM_UNIT_TAGS = (65003, 65012)  # ... and the length unit, where versions put it
+
+
+def _tag_text(value) -> str:
+    """A tag's text, whatever tifffile made of it (str, bytes in UTF-8 or Latin-1, a 1-tuple)."""
+    if isinstance(value, (tuple, list)) and len(value) == 1:
+        value = value[0]
+    if isinstance(value, bytes):
+        try:
+            value = value.decode("utf-8")
+        except UnicodeDecodeError:
+            value = value.decode("latin-1")  # DM writes µ as the single byte 0xB5
+    return str(value).strip("\x00 \t")
+
+
+def _dm_tiff_tags(inp: _Inputs, warnings: list[str]) -> Found:
+    """DigitalMicrograph's private TIFF tags: scale in 65009 (x), unit in 65003 or 65012."""
+    scale = next((inp.tiff_tags[t] for t in DM_SCALE_TAGS if t in inp.tiff_tags), None)
+    if scale is None:
+        return None
+    units = [_tag_text(inp.tiff_tags[t]) for t in DM_UNIT_TAGS if t in inp.tiff_tags]
+    factor = next((f for f in map(unit_factor_m, units) if f), None)
+    if factor is None:
+        warnings.append(f"DigitalMicrograph TIFF tags: unit {units[0] if units else 'missing'!r} is not a length; no scale.")
+        return None
+    value = number(_tag_text(scale) if isinstance(scale, (bytes, str)) else scale[0] if isinstance(scale, (tuple, list)) else scale)
+    return (value * factor if value is not None else None), "DigitalMicrograph TIFF tags"
+
+
 def _tescan(inp: _Inputs, warnings: list[str]) -> Found:
     found = tescan_main(inp.tiff_tags, inp.path)
     if found is None:
@@ -137,7 +175,7 @@ def _dm(inp: _Inputs, warnings: list[str]) -> Found:
     return (value * unit if value is not None else None), "DigitalMicrograph calibration"
 
 
-READERS = (_fei, _zeiss, _tescan, _sidecar_txt, _imagej, _ome, _dm)  # most specific first
+READERS = (_fei, _zeiss, _sis, _dm_tiff_tags, _tescan, _sidecar_txt, _imagej, _ome, _dm)  # most specific first
 
 
 def _plausible(value_m: float | None, provenance: str, warnings: list[str]) -> bool:

@@ -13,8 +13,12 @@ from ..units import parse_length_m
 from . import annotations as marks
 from .annotations import Annotation
 from .band import Band, band_from_metadata, detect_info_band
+from .instrument import Instrument, read_instrument
 from .scale import PixelSize, read_pixel_size
 from .scalebar import scale_from_bars
+
+
+BAND_SHADE = 0.5  # the cropped band's grey in the mask image; inpainted boxes are white (1)
 
 
 @dataclass(frozen=True)
@@ -27,6 +31,7 @@ class Cleaned:
     band : the rows cropped from the source image.
     annotations : burned-in annotations removed (empty when removal is off).
     mask : (H', W) bool where annotations were removed, or None when removal is off.
+    instrument : magnification, kV and detector when the file records them, else None.
     """
 
     values: np.ndarray
@@ -35,6 +40,21 @@ class Cleaned:
     band: Band
     annotations: list[Annotation]
     mask: np.ndarray | None
+    instrument: Instrument | None = None
+
+    def source_mask(self) -> np.ndarray | None:
+        """What cleaning took away, over the whole source image, for NAME.annotations.png.
+
+        Returns (H, W) float32: 0 = kept, 0.5 (grey) = a cropped data band row, 1 (white) = inpainted;
+        None when nothing was cropped and annotation removal was off.
+        """
+        top, bottom = self.band.top_rows, self.band.bottom_rows
+        if self.mask is None and not (top or bottom):
+            return None
+        h, w = self.values.shape
+        full = np.full((top + h + bottom, w), BAND_SHADE, dtype=np.float32)
+        full[top : top + h] = 0.0 if self.mask is None else self.mask.astype(np.float32)
+        return full
 
 
 def _band(picture: Picture, remove_annotations: bool) -> Band:
@@ -61,16 +81,17 @@ def clean_picture(picture: Picture, *, pixel_size: str | None, remove_annotation
     file = picture.file
     override_m = parse_length_m(pixel_size, "pixel_size") if pixel_size else None
     size = read_pixel_size(file.metadata, file.tiff_tags, file.path, file.width, override_m)
+    instrument = read_instrument(file.metadata, file.tiff_tags, file.path)
     band = _band(picture, remove_annotations)
     rows = band.rows(picture.values.shape[0])
     values = picture.values[rows]
     alpha = None if picture.alpha is None else picture.alpha[rows]
     if not remove_annotations:
-        return Cleaned(values, alpha, size, band, [], None)
+        return Cleaned(values, alpha, size, band, [], None, instrument)
     removal = marks.remove_annotations(values)
     if size.metres is None:
         size = _scale_from_bars(picture.values, band, values, removal.annotations, size)
-    return Cleaned(removal.values, alpha, size, band, removal.annotations, removal.mask)
+    return Cleaned(removal.values, alpha, size, band, removal.annotations, removal.mask, instrument)
 
 
 def _scale_from_bars(source: np.ndarray, band: Band, picture: np.ndarray, found: list[Annotation], size: PixelSize) -> PixelSize:

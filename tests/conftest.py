@@ -20,6 +20,16 @@ def need(condition: bool, what: str) -> None:
         pytest.skip(f"{what} is missing")
 
 
+def need_module(name: str):
+    """Import a module a test needs; skip when it is missing, or under TAMP_STRICT=1 fail."""
+    import importlib
+
+    try:
+        return importlib.import_module(name)
+    except ImportError:
+        need(False, f"the Python module {name}")
+
+
 @pytest.fixture
 def fixtures_dir() -> Path:
     need(FIXTURES.is_dir(), f"the fixtures folder {FIXTURES}")

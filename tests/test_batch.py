@@ -12,6 +12,7 @@ import pytest
 from PIL import Image
 
 from tamp_os.cli import main
+from conftest import need_module
 
 
 def make_inputs(folder, good=25, hostile=5, size=(48, 64)):
@@ -78,7 +79,7 @@ def test_killed_batch_resumes_without_rewriting_finished_work(tmp_path):
 
 
 def test_dask_cluster_gives_the_same_outputs_as_the_local_pool(tmp_path, capsys):
-    distributed = pytest.importorskip("distributed")
+    distributed = need_module("distributed")
     src = make_inputs(tmp_path / "in", good=6, hostile=1)
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None, host="127.0.0.1") as cluster:
         code, out, _ = run(capsys, "batch", src, "-o", tmp_path / "dask", "--dask-scheduler", cluster.scheduler_address, "--formats", "stl,3mf")

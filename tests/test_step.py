@@ -10,10 +10,11 @@ from tamp_os.errors import ExportError
 from tamp_os.export import save_mesh
 from tamp_os.export.step import _real, planar_faces
 from tamp_os.mesh.solid import grid_solid
+from conftest import need_module
 
 
 def occ_solids(path):
-    gmsh = pytest.importorskip("gmsh")
+    gmsh = need_module("gmsh")
     saved = locale.setlocale(locale.LC_ALL)  # gmsh switches the process to the "C" locale
     gmsh.initialize(["-noenv"])
     try:

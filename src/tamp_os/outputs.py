@@ -4,6 +4,7 @@ against an input (batch resume). Files are opened only through files.write_atomi
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import hashlib
 import json
@@ -12,11 +13,15 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
+import numpy as np
+
 
 from .errors import ExportError, InputError
 from .export import check_export, save_mesh
 from .files import to_uint8, write_png, write_text
-from .params import LithoParams
+from .export.graphic2d import Graphic2D, layout_graphic, page_placement, regions_from_image
+from .export.tactile2d import save_graphic
+from .params import GRAPHIC_FORMATS, LithoParams
 from .printers import PrinterProfile
 from .report import describe
 from .version import __version__
@@ -43,9 +48,15 @@ def save(litho, target, formats=None, stem: str | None = None) -> list[Path]:
     """
     folder, stem, formats = _target(litho, Path(target), formats, stem)
     meta = metadata(litho)
-    # The mesh as written, and every format's own limits, are checked before any file is written.
-    check_export(litho.mesh, [folder / f"{stem}.{fmt}" for fmt in formats])
-    written = [path for path, _ in write_meshes(litho.mesh, folder, stem, formats, meta).values()]
+    graphics = [f for f in formats if f in GRAPHIC_FORMATS]
+    meshes = [f for f in formats if f not in GRAPHIC_FORMATS]
+    # The mesh as written, every format's own limits and the graphics' page are checked before any file is written.
+    check_export(litho.mesh, [folder / f"{stem}.{fmt}" for fmt in meshes])
+    graphic = tactile_graphic(litho) if graphics else None
+    if graphic is not None:
+        page_placement(graphic.plate_mm, litho.params.page_size)
+    written = [path for path, _ in write_meshes(litho.mesh, folder, stem, meshes, meta).values()]
+    written += [save_graphic(graphic, folder / f"{stem}.{fmt}", litho.params.page_size, meta) for fmt in graphics]
     if litho.params.save_masks and litho.mask is not None:
         written.append(write_png(folder / f"{stem}.annotations.png", to_uint8(litho.mask, 0.0, 1.0)))
     written.append(write_text(folder / f"{stem}.description.txt", meta["description"] + "\n"))
@@ -80,6 +91,26 @@ def distinct_stems(paths: list[Path]) -> list[str]:
         seen[s] = seen.get(s, 0) + 1
         out.append(s if seen[s] == 1 else f"{s}_{seen[s]}")
     return out
+
+
+def tactile_graphic(litho) -> Graphic2D:
+    """The lithograph as a 2-D tactile graphic: its relief as at most three regions that differ by
+    touch (the levels style's plateaus, the objects found, or thresholds of the heights), with the
+    same caption, scale bar and cut corner as the 3-D plate."""
+    relief = (litho.heightmap - litho.params.base_mm) / litho.params.relief_mm
+    objects = litho.report.relief_style == "objects" and (litho.report.legibility or {}).get("object_count")
+    if litho.report.uniform:
+        regions = np.zeros(relief.shape, np.int32)
+    elif objects:
+        regions = (relief > 0.5).astype(np.int32)  # the domes: one texture over a plain background
+    else:
+        levels = len((litho.report.legibility or {}).get("levels_mm") or []) - 1
+        regions = regions_from_image(np.clip(relief, 0, 1), levels=min(3, levels) if levels >= 1 else 3)
+    furniture = litho.furniture
+    bar = (litho.report.tactile or {}).get("scale_bar_box_mm")
+    if furniture is not None and bar and furniture.scale_bar_m is None and furniture.sample_m_per_print_mm:
+        furniture = dataclasses.replace(furniture, scale_bar_m=(bar[2] - bar[0]) * furniture.sample_m_per_print_mm)
+    return layout_graphic(regions, litho.layout.width_mm / regions.shape[1], furniture)
 
 
 def write_meshes(mesh, folder: Path, stem: str, formats: list[str], meta: dict) -> dict[str, tuple[Path, float]]:

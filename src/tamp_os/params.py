@@ -18,7 +18,8 @@ from .tactile.braille import DEFAULT_TABLE, BrailleSpec
 from .printers import PRESETS
 from .units import parse_length_m
 
-FORMATS = ("stl", "3mf", "glb", "obj", "ply", "step")
+FORMATS = ("stl", "3mf", "glb", "obj", "ply", "step", "pdf", "svg")
+GRAPHIC_FORMATS = ("pdf", "svg")  # 2-D tactile graphics for swell paper and embossers
 FITS = ("pad", "crop", "stretch")
 MESHERS = ("adaptive", "grid")
 # The relief styles (relief/styles.py implements them; a test keeps the two lists equal).
@@ -87,7 +88,8 @@ class LithoParams:
     material: str = _f("PLA", "filament for slicing and estimates", choices=("PLA", "PETG", "ABS"))
     filament_price_per_kg: float = _f(25.0, "filament price per kg, in your currency", "", 0.0, 1000.0, lo_open=True)
     slice_timeout_s: float = _f(600.0, "stop PrusaSlicer after this long", "s", 0.0, 86400.0, lo_open=True)
-    formats: tuple[str, ...] = _f(("stl",), "output formats", choices=FORMATS)
+    formats: tuple[str, ...] = _f(("stl",), "output formats (pdf and svg: a 2-D tactile graphic for swell paper or an embosser)", choices=FORMATS)
+    page_size: str = _f("plate", "page of the pdf and svg graphics: plate (its own size), a4 or letter (centred)", choices=("plate", "a4", "letter"))
 
     def __post_init__(self):
         for f in dataclasses.fields(self):

@@ -45,6 +45,7 @@ class Lithograph:
     layout: Layout
     picture: Picture
     report: Report
+    furniture: Furniture | None = None  # what was asked of the tactile furniture (for the 2-D graphics)
     mask: np.ndarray | None = None  # (rows, cols) float over the whole source: 0 kept, 0.5 cropped band, 1 inpainted
 
     @property
@@ -123,7 +124,7 @@ def make_lithograph(source, params: LithoParams | None = None, *, printer_profil
     report.legibility = _legibility_report(legibility, relief)
     report.warnings += list(relief.notes)
     return Lithograph(mesh=mesh, heightmap=heights, params=params, printer=machine, layout=layout, picture=picture,
-                      report=report, mask=cleaned.source_mask())
+                      report=report, furniture=furniture, mask=cleaned.source_mask())
 
 
 class _Clock:

@@ -25,7 +25,7 @@ class Band:
     provenance: str = ""
 
     def as_dict(self) -> dict:
-        """The band as reported in `info --json` and the lithograph's report."""
+        """The band as reported in the info command's JSON and the lithograph's report."""
         return {"top_rows": self.top_rows, "bottom_rows": self.bottom_rows, "left_columns": 0, "right_columns": 0,
                 "source": self.provenance or None}
 

@@ -20,6 +20,7 @@ sys.path.insert(0, str(Path(__file__).parent))
 import reference_loop  # noqa: E402
 
 from tamp_os.export import save_mesh  # noqa: E402
+from tamp_os.outputs import metadata, write_meshes  # noqa: E402
 from tamp_os.pipeline import make_lithograph  # noqa: E402
 
 FEPT = Path(__file__).resolve().parents[1] / ".." / "shared" / "fixtures" / "fept_spheres_sem.png"
@@ -31,24 +32,26 @@ def timed(fn):
     return value, time.perf_counter() - start
 
 
-def ours(cols, out: Path, mesher="grid", clean=False):
-    """Our pipeline as a user runs it: make_lithograph + save() of STL, 3MF and GLB together.
+def ours(cols, out: Path, mesher="grid", clean=False, style="reference"):
+    """Our pipeline as a user runs it: make_lithograph, then the three formats written together.
 
     clean=False does the loop's work only; clean=True adds annotation removal (the default).
+    style="reference" is the loop's algorithm (brightness = height); other styles add their work.
     """
     start = time.perf_counter()
     litho = make_lithograph(
-        FEPT, resolution_px=cols, blur_px=1.2, mesher=mesher, formats=("stl", "3mf", "glb"), keep_annotations=not clean
+        FEPT, resolution_px=cols, blur_px=1.2, mesher=mesher, keep_annotations=not clean, relief_style=style,
+        scale_bar="off", orientation_corner="none",  # the loop makes neither
     )
     made = time.perf_counter()
-    paths = litho.save(out / f"ours_{cols}_{mesher}")
+    written = write_meshes(litho.mesh, out, f"ours_{cols}_{mesher}_{style}", ["stl", "3mf", "glb"], metadata(litho))
     saved = time.perf_counter()
-    t = litho.report["timings_s"]
+    t = litho.report.timings_s
     return {
         "prep": made - start - t["mesh"], "mesh": t["mesh"],
-        **{fmt: t[f"write_{fmt}"] for fmt in ("stl", "3mf", "glb")},
+        **{fmt: seconds for fmt, (_, seconds) in written.items()},
         "wall": saved - start, "tris": litho.mesh.n_triangles,
-        "sizes": {p.suffix[1:]: p.stat().st_size for p in paths if p.suffix in (".stl", ".3mf", ".glb")},
+        "sizes": {fmt: path.stat().st_size for fmt, (path, _) in written.items()},
     }
 
 
@@ -106,6 +109,8 @@ def main() -> None:
             print(row_m)
             speed_mesh_stl = (base["mesh"] + base["stl"]) / (mine["mesh"] + mine["stl"])
             print(f"| {label}: speed-up mesh+STL {speed_mesh_stl:.0f}×, all three formats {total_b / total_m:.0f}× | | | | | | | | |")
+            styled = ours(cols, out, style="structure")
+            print(fmt_row(f"{label} {cols} px, tamp-os grid, structure style", styled)[0])
     child = subprocess.run([sys.executable, __file__, "--big-child"], capture_output=True, text=True, check=True)
     seconds, peak_mb, tris, size = child.stdout.split()
     print()

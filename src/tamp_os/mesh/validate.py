@@ -39,35 +39,64 @@ class SolidCheck:
         return self.closed and self.manifold and self.outward and self.degenerate_faces == 0
 
 
+def _edge_problems(faces: np.ndarray, n_vertices: int) -> tuple[int, int]:
+    """(directed edges used more than once, edges with only one face) of (M, 3) int64 faces.
+
+    One sort: each edge a->b becomes 2·(min·n + max) + (a < b). A closed, consistently wound
+    surface has every undirected edge exactly twice, once each way: sorted, the keys pair up as
+    (2u, 2u + 1) with every u distinct. (One sort of 3M keys instead of np.unique plus np.isin:
+    several times faster and half the memory on large grids.)
+    """
+    n = np.int64(max(n_vertices, 1))
+    a = np.concatenate([faces[:, 0], faces[:, 1], faces[:, 2]])
+    b = np.concatenate([faces[:, 1], faces[:, 2], faces[:, 0]])
+    keys = (np.minimum(a, b) * n + np.maximum(a, b)) * 2 + (a < b)
+    del a, b
+    keys.sort(kind="stable")  # timsort: meshes list their edges in long sorted runs, so this is ~7× faster
+    twice = np.flatnonzero(keys[1:] == keys[:-1])  # the same directed edge more than once
+    undirected = keys >> 1
+    starts = np.flatnonzero(np.r_[True, undirected[1:] != undirected[:-1]])
+    sizes = np.diff(np.r_[starts, len(keys)])
+    return len(twice), int((sizes == 1).sum())
+
+
+def _small_faces_and_volume(vertices: np.ndarray, faces: np.ndarray, min_area_mm2: float, chunk: int = 1 << 20) -> tuple[int, float]:
+    """(faces of area <= min_area_mm2, signed volume in mm³), in chunks so memory stays bounded."""
+    small, six_volume = 0, 0.0
+    for start in range(0, len(faces), chunk):
+        f = faces[start:start + chunk]
+        p0 = vertices[f[:, 0]]
+        e1 = vertices[f[:, 1]] - p0
+        e2 = vertices[f[:, 2]] - p0
+        # Cross product by components: np.cross is several times slower on long arrays.
+        c = np.empty_like(e1)
+        c[:, 0] = e1[:, 1] * e2[:, 2] - e1[:, 2] * e2[:, 1]
+        c[:, 1] = e1[:, 2] * e2[:, 0] - e1[:, 0] * e2[:, 2]
+        c[:, 2] = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+        small += int((np.einsum("ij,ij->i", c, c) <= (2 * min_area_mm2) ** 2).sum())
+        six_volume += float(np.einsum("ij,ij->", p0, c))  # p0 · (p1 × p2) = p0 · (e1 × e2)
+    return small, six_volume / 6.0
+
+
 def _check(vertices: np.ndarray, faces: np.ndarray, min_area_mm2: float, collapsed: int = 0) -> SolidCheck:
     """Edge, area and volume checks of (N, 3) float64 mm vertices and (M, 3) int64 faces."""
-    n = max(len(vertices), 1)
-    directed = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
-    keys = directed[:, 0] * n + directed[:, 1]
-    unique_keys, counts = np.unique(keys, return_counts=True)
+    repeated, open_edges = _edge_problems(faces, len(vertices))
     problems = []
-    # Each directed edge once (consistent winding, no edge shared by >2 faces) ...
-    once = bool((counts == 1).all())
-    if not once:
-        problems.append(f"{int((counts > 1).sum())} directed edges are used by more than one face (pinched or inconsistently wound)")
-    # ... and its reverse present (closed, every edge has exactly two faces).
-    reverse = directed[:, 1] * n + directed[:, 0]
-    open_edges = int((~np.isin(reverse, unique_keys)).sum())
+    if repeated:
+        problems.append(f"{repeated} directed edges are used by more than one face (pinched or inconsistently wound)")
     if open_edges:
         problems.append(f"{open_edges} edges have only one face (the surface is open)")
-    tri = vertices[faces]
-    areas = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
-    degenerate = int((areas <= min_area_mm2).sum()) + collapsed
+    small, volume = _small_faces_and_volume(vertices, faces, min_area_mm2)
+    degenerate = small + collapsed
     if degenerate:
         problems.append(f"{degenerate} faces have an area of at most {min_area_mm2:g} mm² (slivers)")
-    volume = float(np.einsum("ij,ij->i", tri[:, 0], np.cross(tri[:, 1], tri[:, 2])).sum() / 6.0) if len(faces) else 0.0
     outward = volume > 0
     if not outward:
         problems.append(f"the volume is {volume:.3g} mm³: faces wind inward or enclose nothing")
     bounds = [vertices.min(axis=0).tolist(), vertices.max(axis=0).tolist()] if len(vertices) else [[], []]
     return SolidCheck(
         closed=open_edges == 0,
-        manifold=once and open_edges == 0,
+        manifold=repeated == 0 and open_edges == 0,
         outward=outward,
         degenerate_faces=degenerate,
         volume_mm3=volume,
@@ -86,11 +115,23 @@ def merge_float32(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, 
     """Vertices rounded to float32 and merged by exact position, and the faces re-indexed.
 
     Returns ((K, 3) float64 positions, (M, 3) int64 faces); -0.0 and 0.0 count as one position.
+    Positions are grouped by a 64-bit hash of their bits (a fast integer sort), and every group
+    is then checked to hold one position; on a hash collision the exact byte-wise grouping is used.
     """
     as_written = np.ascontiguousarray(np.asarray(vertices, dtype=np.float32) + np.float32(0.0))
-    keys = as_written.view(np.dtype((np.void, as_written.dtype.itemsize * 3))).ravel()
-    _, first, inverse = np.unique(keys, return_index=True, return_inverse=True)
-    return as_written[first].astype(np.float64), inverse.ravel()[np.asarray(faces, dtype=np.int64)]
+    bits = as_written.view(np.uint32).astype(np.uint64)
+    key = (bits[:, 0] << np.uint64(32)) | bits[:, 1]
+    key ^= bits[:, 2] * np.uint64(0x9E3779B97F4A7C15)
+    ordered = np.sort(key, kind="stable")
+    if not np.any(ordered[1:] == ordered[:-1]):  # every position distinct (and so no collision): nothing merges
+        return as_written.astype(np.float64), np.asarray(faces, dtype=np.int64)
+    _, first, inverse = np.unique(key, return_index=True, return_inverse=True)
+    inverse = inverse.ravel()
+    if np.any(as_written[first][inverse] != as_written):  # a collision: group by the exact bytes
+        rows = as_written.view(np.dtype((np.void, as_written.dtype.itemsize * 3))).ravel()
+        _, first, inverse = np.unique(rows, return_index=True, return_inverse=True)
+        inverse = inverse.ravel()
+    return as_written[first].astype(np.float64), inverse[np.asarray(faces, dtype=np.int64)]
 
 
 def check_as_written(mesh: Mesh, min_area_mm2: float = MIN_FACE_AREA_MM2) -> SolidCheck:

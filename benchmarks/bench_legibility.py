@@ -42,16 +42,16 @@ def pictures():
         except Exception as exc:  # an unreadable fixture is reported, not fatal
             print(f"<!-- {path.name}: {exc} -->")
             continue
-        yield path.name, (litho.heightmap - BASE) / RELIEF, litho.layout.mm_per_px, None, litho.report["uniform"]
+        yield path.name, (litho.heightmap - BASE) / RELIEF, litho.layout.mm_per_px, None, litho.report.uniform
     import skimage.data
 
     for name in SKIMAGE:
         litho = make_lithograph(np.asarray(getattr(skimage.data, name)()), mesher="grid")
-        yield name, (litho.heightmap - BASE) / RELIEF, litho.layout.mm_per_px, None, litho.report["uniform"]
+        yield name, (litho.heightmap - BASE) / RELIEF, litho.layout.mm_per_px, None, litho.report.uniform
     for syn in all_synthetic(192, 256):
         rows, cols = syn.image.shape
-        image, _ = prepare(syn.image, None, rows=rows, cols=cols, target_aspect=(rows - 1) / (cols - 1), fit="stretch",
-                           low_pct=2, high_pct=98, sigma_px=1.2, invert=False, flip_x=False)
+        image = prepare(syn.image, None, rows=rows, cols=cols, target_aspect=(rows - 1) / (cols - 1), fit="stretch",
+                           low_pct=2, high_pct=98, sigma_px=1.2, invert=False, flip_x=False).image
         yield f"synthetic {syn.name}", image, 100.0 / (cols - 1), syn.objects, False
 
 

@@ -19,11 +19,10 @@ RELIEF, BASE = 3.0, 1.0
 def prep(image, invert=False, sigma_px=1.2):
     """The pipeline's preparation, with the picture already at grid size."""
     rows, cols = image.shape
-    out, _ = prepare(
+    return prepare(
         image, None, rows=rows, cols=cols, target_aspect=(rows - 1) / (cols - 1), fit="stretch",
         low_pct=2.0, high_pct=98.0, sigma_px=sigma_px, invert=invert, flip_x=False,
-    )
-    return out
+    ).image
 
 
 def pitch(image, width_mm=100.0):
@@ -45,13 +44,13 @@ def test_reference_reproduces_the_pipeline_bit_for_bit(gradient_image):
     for quantize in (False, True):
         litho = make_lithograph(gradient_image, width_mm=60, quantize=quantize, mesher="grid")
         lay = litho.layout
-        image, _ = prepare(
+        image = prepare(
             gradient_image.astype(np.float32), None, rows=lay.rows, cols=lay.cols, target_aspect=lay.target_aspect,
             fit=lay.fit, low_pct=2.0, high_pct=98.0, sigma_px=lay.sigma_px, invert=False, flip_x=False,
-        )
+        ).image
         made = make_relief(
             image, style="reference", mm_per_px=lay.mm_per_px, base_mm=litho.params.base_mm,
-            relief_mm=litho.params.relief_mm, layer_mm=litho.report["layer_mm"] if quantize else None,
+            relief_mm=litho.params.relief_mm, layer_mm=litho.report.layer_mm if quantize else None,
         )
         assert made.heights_mm.dtype == litho.heightmap.dtype
         assert np.array_equal(made.heights_mm, litho.heightmap)

@@ -27,7 +27,7 @@ from skimage import filters
 from ..errors import ParameterError
 from .heightmap import heights_mm
 from .objects import ObjectMap, dome_profile, find_objects
-from .scales import WorkGrid, gaussian_mm, guided_smooth, robust_unit
+from .scales import WorkGrid, coarse_gaussian_mm, gaussian_mm, guided_smooth, robust_unit
 
 STYLES = ("reference", "structure", "levels", "objects", "auto")
 LEVEL_RANGE = (2, 5)
@@ -129,13 +129,16 @@ def make_relief(
         reason = "brightness mapped to height, as the reference workflow does" if style == "reference" else "the picture is uniform: a flat plate"
         used = "reference" if style == "auto" else style
         return ReliefResult(heights_mm(image01, base_mm=base_mm, relief_mm=relief_mm, layer_mm=layer_mm), used, reason)
-    grid = WorkGrid.plan(image01.shape, mm_per_px, options.nozzle_mm / 2)
+    # Shape and objects are read at fingertip scale: a grid at the nozzle's pitch carries all of it.
+    grid = WorkGrid.plan(image01.shape, mm_per_px, options.nozzle_mm)
     work = grid.down(image01)
+    # Every style (and auto's choice) reads the same objects: find them once.
+    found = find_objects(work, pitch_mm=grid.pitch_mm, min_area_mm2=options.min_area_mm2, nozzle_mm=options.nozzle_mm)
     if style == "auto":
-        style, reason = choose_style(work, pitch_mm=grid.pitch_mm, options=options)
+        style, reason = choose_style(work, pitch_mm=grid.pitch_mm, options=options, found=found)
     else:
         reason = ""
-    made = _STYLE_FUNCS[style](work, grid.pitch_mm, relief_mm, options)
+    made = _STYLE_FUNCS[style](work, grid.pitch_mm, relief_mm, options, found)
     relief01 = np.clip(grid.up(made.relief01, nearest=style == "levels"), 0.0, 1.0)
     labels = None
     if made.objects is not None and made.objects.count:
@@ -163,7 +166,7 @@ def large_shape(work: np.ndarray, pitch_mm: float, options: StyleOptions) -> np.
     """
     damped = gaussian_mm(work, options.detail_mm / 4, pitch_mm)
     shape = guided_smooth(damped, options.detail_mm / pitch_mm, eps=0.01)
-    trend = gaussian_mm(shape, 8 * options.detail_mm, pitch_mm)
+    trend = coarse_gaussian_mm(shape, 8 * options.detail_mm, pitch_mm)
     return robust_unit(shape - 0.5 * trend)
 
 
@@ -184,32 +187,34 @@ def _with_texture(shape01: np.ndarray, work, pitch_mm, relief_mm, options) -> np
     return (1.0 - share) * shape01 + share * (0.5 + fine_texture(work, pitch_mm, options))
 
 
-def structure_shape(work: np.ndarray, pitch_mm: float, options: StyleOptions) -> tuple[np.ndarray, ObjectMap]:
+def structure_shape(
+    work: np.ndarray, pitch_mm: float, options: StyleOptions, found: ObjectMap | None = None
+) -> tuple[np.ndarray, ObjectMap]:
     """The `structure` style's shape before texture, 0..1, and the objects it lifted.
 
     Regions enclosed by strong edges read as objects (SEM spheres inside their rims): they are
     lifted by half the relief as domes, keeping their own fingertip-scale shading on top.
     """
     shape = large_shape(work, pitch_mm, options)
-    found = find_objects(work, pitch_mm=pitch_mm, min_area_mm2=options.min_area_mm2, nozzle_mm=options.nozzle_mm)
+    if found is None:
+        found = find_objects(work, pitch_mm=pitch_mm, min_area_mm2=options.min_area_mm2, nozzle_mm=options.nozzle_mm)
     if found.count:
         domes = dome_profile(found.labels, pitch_mm=pitch_mm, round_mm=DOME_ROUND_DETAILS * options.detail_mm)
         shape = robust_unit(0.5 * shape + 0.5 * domes, 0.5, 99.5)
     return shape, found
 
 
-def _structure(work, pitch_mm, relief_mm, options) -> _Made:
-    shape, found = structure_shape(work, pitch_mm, options)
+def _structure(work, pitch_mm, relief_mm, options, found) -> _Made:
+    shape, found = structure_shape(work, pitch_mm, options, found)
     summary = f"fingertip-scale shape (detail {options.detail_mm:g} mm) with a texture of at most {options.texture_mm:g} mm"
     if found.count:
         summary += f"; {found.count} enclosed object{'s' * (found.count != 1)} lifted"
     return _Made(_with_texture(shape, work, pitch_mm, relief_mm, options), summary, found)
 
 
-def _objects(work, pitch_mm, relief_mm, options) -> _Made:
-    found = find_objects(work, pitch_mm=pitch_mm, min_area_mm2=options.min_area_mm2, nozzle_mm=options.nozzle_mm)
+def _objects(work, pitch_mm, relief_mm, options, found) -> _Made:
     if not found.count:
-        made = _structure(work, pitch_mm, relief_mm, options)
+        made = _structure(work, pitch_mm, relief_mm, options, found)
         note = "objects: no objects were found (nothing enclosed by edges, no compact bright blobs); the structure style was used instead."
         return _Made(made.relief01, made.summary, None, (note,))
     domes = dome_profile(found.labels, pitch_mm=pitch_mm, round_mm=DOME_ROUND_DETAILS * options.detail_mm)
@@ -217,7 +222,7 @@ def _objects(work, pitch_mm, relief_mm, options) -> _Made:
     return _Made(_with_texture(domes, work, pitch_mm, relief_mm, options), summary, found)
 
 
-def _levels(work, pitch_mm, relief_mm, options) -> _Made:
+def _levels(work, pitch_mm, relief_mm, options, found) -> _Made:
     from .levels import plateau_classes
 
     count, notes = options.level_count, []
@@ -228,7 +233,7 @@ def _levels(work, pitch_mm, relief_mm, options) -> _Made:
             f"level_count: {options.level_count} levels in a {relief_mm:g} mm relief would make steps under "
             f"{MIN_STEP_MM} mm, which fingers do not tell apart; {count} levels were used."
         )
-    shape, found = structure_shape(work, pitch_mm, options)
+    shape, found = structure_shape(work, pitch_mm, options, found)
     classes = plateau_classes(shape, count, pitch_mm=pitch_mm, options=options)
     used = int(np.unique(classes).size)
     if used < count:
@@ -240,9 +245,12 @@ def _levels(work, pitch_mm, relief_mm, options) -> _Made:
 _STYLE_FUNCS = {"structure": _structure, "objects": _objects, "levels": _levels}
 
 
-def choose_style(work: np.ndarray, *, pitch_mm: float, options: StyleOptions) -> tuple[str, str]:
+def choose_style(
+    work: np.ndarray, *, pitch_mm: float, options: StyleOptions, found: ObjectMap | None = None
+) -> tuple[str, str]:
     """(style, one sentence why) from the picture on the working grid."""
-    found = find_objects(work, pitch_mm=pitch_mm, min_area_mm2=options.min_area_mm2, nozzle_mm=options.nozzle_mm)
+    if found is None:
+        found = find_objects(work, pitch_mm=pitch_mm, min_area_mm2=options.min_area_mm2, nozzle_mm=options.nozzle_mm)
     if found.count and found.method == "edges" and 0.03 <= found.cover <= MAX_OBJECT_COVER:
         inside = float(np.median(work[found.mask]))
         outside = float(np.median(work[~found.mask]))

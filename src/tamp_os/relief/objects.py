@@ -171,8 +171,11 @@ def _keep(labels: np.ndarray, min_px: int, total_px: int) -> np.ndarray:
     outline = np.bincount(labels[segmentation.find_boundaries(labels, mode="inner")], minlength=n + 1)
     keep = (area >= min_px) & (area <= 0.5 * total_px) & (on_border <= MAX_BORDER_SHARE * outline)
     keep[0] = False
-    candidates = np.where(keep[labels], labels, 0)
-    for region in measure.regionprops(candidates):
+    # Solidity is at least area / bounding-box area: only objects below that bound need a hull.
+    boxes = ndimage.find_objects(np.where(keep[labels], labels, 0), max_label=n)
+    box_area = np.array([0] + [(b[0].stop - b[0].start) * (b[1].stop - b[1].start) if b else 1 for b in boxes])
+    doubtful = keep & (area < MIN_SOLIDITY * box_area)
+    for region in measure.regionprops(np.where(doubtful[labels], labels, 0)):
         keep[region.label] = region.solidity >= MIN_SOLIDITY
     return np.where(keep[labels], labels, 0)
 

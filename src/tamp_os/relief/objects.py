@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy import ndimage
-from skimage import filters, measure, segmentation
+from skimage import filters, measure, morphology, segmentation
 
 from .scales import disk, gaussian_mm
 
@@ -22,6 +22,7 @@ GAP_MM = 1.5  # rim gaps up to 3 mm wide are bridged
 MAX_BORDER_SHARE = 0.2  # objects with more of their outline on the picture's border are ground
 MIN_SOLIDITY = 0.7  # pockets of ground enclosed between touching objects are concave: drop them
 CONVEX_SOLIDITY = 0.85  # objects at least this solid are filled out to their convex hull
+AJAR_RIM_SHARE = 0.85  # a convex part of the ground outlined by edges along this share of its length is an object
 MIN_EDGE_RATIO = 2.7  # the steepest gradient near an outline, over the picture's median gradient
 
 
@@ -92,7 +93,7 @@ def _enclosed_by_edges(smooth, grad, pitch_mm, nozzle_mm, min_px) -> np.ndarray:
     if n == 0:
         return regions
     ground = 1 + int(np.argmax(np.bincount(regions.ravel())[1:]))
-    filled = (regions > 0) & (regions != ground)
+    filled = _enclosed_parts(regions, ground, closed, pitch_mm)
     # Give back what the opening shaved off the insides (never the ground), then the rim band.
     filled |= ndimage.binary_dilation(filled, structure=disk(GAP_MM / pitch_mm)) & ~closed & (regions != ground)
     filled |= closed & ndimage.binary_dilation(filled, structure=disk(4 * nozzle_mm / pitch_mm))
@@ -106,6 +107,45 @@ def _enclosed_by_edges(smooth, grad, pitch_mm, nozzle_mm, min_px) -> np.ndarray:
     # Give each object back its rim: the edge band around it, never another region's inside.
     grown = segmentation.expand_labels(labels, distance=8 * nozzle_mm / pitch_mm + 1)
     return _convex_fill(np.where((labels > 0) | (closed & filled), grown, 0))
+
+
+def _enclosed_parts(regions: np.ndarray, ground: int, closed: np.ndarray, pitch_mm: float) -> np.ndarray:
+    """What the rims enclose: open regions other than the ground, and parts left ajar.
+
+    Where a sphere's shaded side meets a neighbour's shadow its rim can stay open over several
+    mm (the FePt top sphere), and its inside joins the ground, or a region that runs along the
+    picture's border, there. So those are split at their necks (a watershed of the distance to
+    the edges, one basin per maximum standing GAP_MM above its neck), and a part that edges
+    outline along AJAR_RIM_SHARE of its length and that is convex is an object left ajar.
+    Ground pockets between objects are outlined by edges too, but they are concave.
+    """
+    free = regions > 0
+    rim = ndimage.binary_dilation(closed, structure=disk(1.5))
+    rim_share, border_share = _outline_shares(regions, rim)
+    whole = border_share <= MAX_BORDER_SHARE
+    whole[[0, ground]] = False
+    dist = ndimage.distance_transform_edt(np.pad(free, 1, constant_values=True))[1:-1, 1:-1]
+    peaks, _ = ndimage.label(morphology.h_maxima(dist, GAP_MM / pitch_mm) & free)
+    parts = np.where(whole[regions], 0, segmentation.watershed(-dist, peaks, mask=free))
+    rim_share, border_share = _outline_shares(parts, rim)
+    ajar = (rim_share >= AJAR_RIM_SHARE) & (border_share <= MAX_BORDER_SHARE)
+    ajar[0] = False
+    for region in measure.regionprops(np.where(ajar[parts], parts, 0)):
+        ajar[region.label] = region.solidity >= CONVEX_SOLIDITY
+    return whole[regions] | ajar[parts]
+
+
+def _outline_shares(labels: np.ndarray, rim: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per label (index 0 = none): the shares of its outline along `rim` and along the
+    picture's border."""
+    count = int(labels.max())
+    on_border = np.zeros(labels.shape, bool)
+    on_border[[0, -1], :] = on_border[:, [0, -1]] = True
+    outline = (segmentation.find_boundaries(labels, mode="inner") | on_border) & (labels > 0)
+    length = np.maximum(np.bincount(labels[outline], minlength=count + 1), 1)
+    along_rim = np.bincount(labels[outline & rim], minlength=count + 1) / length
+    along_border = np.bincount(labels[outline & on_border], minlength=count + 1) / length
+    return along_rim, along_border
 
 
 def _convex_fill(labels: np.ndarray) -> np.ndarray:

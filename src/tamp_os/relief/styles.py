@@ -144,7 +144,10 @@ def make_relief(
     if made.objects is not None and made.objects.count:
         labels = grid.up(made.objects.labels.astype(np.float32), nearest=True).astype(np.int32)
     heights = heights_mm(relief01, base_mm=base_mm, relief_mm=relief_mm, layer_mm=layer_mm)
-    levels = tuple(float(h) for h in np.unique(heights) - base_mm) if style == "levels" else ()
+    levels = ()
+    if style == "levels":  # the plateaus' heights, from the few classes on the working grid (no 16M-point sort)
+        plateaus = np.unique(np.clip(made.relief01, 0.0, 1.0).astype(np.float32))
+        levels = tuple(float(h) for h in heights_mm(plateaus, base_mm=base_mm, relief_mm=relief_mm, layer_mm=layer_mm) - base_mm)
     return ReliefResult(heights, style, reason or made.summary, labels, levels, made.notes)
 
 

@@ -184,3 +184,59 @@ def test_bad_values_name_parameter_range_and_value(kwargs, name, shown):
         make_relief(np.zeros((20, 20), np.float32), **args)
     text = str(err.value)
     assert text.startswith(f"{name}:") and shown in text and ("between" in text or "from" in text or "one of" in text)
+
+
+def prepared(path):
+    """The pipeline's prepared picture of a file at Medium (100 mm wide): the reference heights
+    are base + relief × image01, so image01 comes back from them."""
+    import dataclasses
+
+    from tamp_os.params import LithoParams
+    from tamp_os.pipeline import make_lithograph
+
+    fields = {f.name for f in dataclasses.fields(LithoParams)}
+    style = {"relief_style": "reference"} if "relief_style" in fields else {}
+    litho = make_lithograph(path, mesher="grid", scale_bar="off", **style)
+    image01 = (litho.heightmap - litho.params.base_mm) / litho.params.relief_mm
+    return image01.astype(np.float32), litho.layout.mm_per_px, litho.report.uniform
+
+
+# The four FePt spheres, measured by eye on the picture: centre (x, y) and radius as
+# fractions of the picture's width.
+FEPT_SPHERES = [(0.20, 0.38, 0.187), (0.567, 0.24, 0.173), (0.46, 0.63, 0.171), (0.807, 0.56, 0.187)]
+
+
+@pytest.mark.timeout(120)
+@pytest.mark.parametrize("style", ["objects", "structure", "auto"])
+def test_all_four_fept_spheres_rise(fixture, style):
+    """Every sphere's inner half is one object of its own and stands >= 1 mm above the ground
+    (the picture away from all four spheres), the top-middle one too."""
+    image, mm, uniform = prepared(fixture("fept_spheres_sem.png"))
+    made = make_relief(image, style=style, mm_per_px=mm, base_mm=BASE, relief_mm=RELIEF, uniform=uniform)
+    rows, cols = image.shape
+    yy, xx = np.mgrid[0:rows, 0:cols] / (cols - 1)
+    disks = [(xx - x) ** 2 + (yy - y * (rows - 1) / (cols - 1)) ** 2 for x, y, _ in FEPT_SPHERES]
+    ground = np.all([d > (1.2 * r) ** 2 for d, (_, _, r) in zip(disks, FEPT_SPHERES)], axis=0)
+    ground_mm = float(np.median(made.heights_mm[ground]))
+    seen = set()
+    for d, (_, _, r) in zip(disks, FEPT_SPHERES):
+        inner = d <= (0.5 * r) ** 2
+        assert np.median(made.heights_mm[inner]) - ground_mm >= 1.0
+        labels = made.objects[inner]
+        main = int(np.bincount(labels).argmax())
+        assert main > 0 and (labels == main).mean() > 0.9 and main not in seen
+        seen.add(main)
+    assert made.object_count == 4
+
+
+@pytest.mark.timeout(120)
+@pytest.mark.parametrize("name", ["test_STEM_image.dm3", "test_loading_image_saved_with_imageJ.tif", "FEI-Helios-Ebeam-8bits.tif"])
+def test_no_objects_in_fixtures_without_any(fixture, name):
+    """Noisy STEM texture, a tiny ImageJ picture and a blank SEM frame hold no objects."""
+    image, mm, uniform = prepared(fixture(name))
+    assert make_relief(image, style="objects", mm_per_px=mm, base_mm=BASE, relief_mm=RELIEF, uniform=uniform).object_count == 0
+
+
+@pytest.mark.timeout(60)
+def test_no_objects_in_noisy_texture():
+    assert relief(tem_texture().image, "objects").object_count == 0

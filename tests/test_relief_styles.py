@@ -137,6 +137,31 @@ def test_auto_picks_and_says_why():
     assert tem.style == "structure" and tem.reason.startswith("auto chose structure")
 
 
+@pytest.mark.timeout(120)
+@pytest.mark.parametrize("name, chosen", [("camera", "levels"), ("cell", "structure"), ("immunohistochemistry", "structure"), ("retina", "structure"), ("coins", "structure")])
+def test_auto_on_pictures_says_the_facts_it_chose_by(name, chosen):
+    """A portrait is not a population of particles; stained tissue, a fundus and a cell are
+    continuous tones; bright coins rise by brightness. The reason names measured figures."""
+    import skimage.data
+
+    image, mm, uniform = prepared(np.asarray(getattr(skimage.data, name)()))
+    made = make_relief(image, style="auto", mm_per_px=mm, base_mm=BASE, relief_mm=RELIEF, uniform=uniform)
+    assert made.style == chosen and made.reason.startswith(f"auto chose {chosen}")
+    assert "%" in made.reason and any(ch.isdigit() for ch in made.reason)
+
+
+@pytest.mark.timeout(60)
+def test_auto_picks_levels_for_a_terrace():
+    """Three flat, noisy terraces of distinct brightness: the levels hold the picture."""
+    rng = np.random.default_rng(3)
+    image = np.full((188, 250), 0.2, np.float32)
+    image[:, 90:170] = 0.5
+    image[40:150, 170:] = 0.85
+    image += 0.03 * rng.standard_normal(image.shape).astype(np.float32)
+    made = relief(np.clip(image, 0, 1), "auto")
+    assert made.style == "levels" and "3 distinct brightness levels" in made.reason
+
+
 @pytest.mark.timeout(60)
 @pytest.mark.parametrize("style", STYLES)
 def test_every_style_follows_invert_and_stays_in_bounds(style):

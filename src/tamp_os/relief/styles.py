@@ -251,27 +251,103 @@ _STYLE_FUNCS = {"structure": _structure, "objects": _objects, "levels": _levels}
 def choose_style(
     work: np.ndarray, *, pitch_mm: float, options: StyleOptions, found: ObjectMap | None = None
 ) -> tuple[str, str]:
-    """(style, one sentence why) from the picture on the working grid."""
+    """(style, one sentence why, with the measured facts) from the picture on the working grid.
+
+    - objects: a population of similar objects (equivalent diameters within MAX_SIZE_SPREAD
+      of each other) enclosed by edges, covering 3–60 % of the picture, and hardly brighter
+      than the ground (as in secondary-electron SEM): brightness alone would not raise them.
+    - levels: at fingertip scale (a Gaussian of detail_mm / 2) the brightness falls into 2–3
+      distinct levels: the histogram between them drops below MAX_VALLEY of its peaks and the
+      levels hold at least MIN_LEVEL_SHARE of the variance.
+    - structure: anything else (continuous tones).
+    """
     if found is None:
         found = find_objects(work, pitch_mm=pitch_mm, min_area_mm2=options.min_area_mm2, nozzle_mm=options.nozzle_mm)
-    if found.count and found.method == "edges" and 0.03 <= found.cover <= MAX_OBJECT_COVER:
-        inside = float(np.median(work[found.mask]))
-        outside = float(np.median(work[~found.mask]))
-        if inside - outside < 0.15:
-            return "objects", (
-                f"auto chose objects: {found.count} object{'s' * (found.count != 1)} outlined by edges but hardly brighter "
-                f"than the ground (as in secondary-electron SEM), so brightness alone would not raise them"
-            )
-    classes = min(options.level_count, 3)
-    if np.ptp(work) > 1e-6:
-        thresholds = filters.threshold_multiotsu(work, classes=classes)
-        separation = _separation(work, thresholds)
-        if separation >= 0.9:
-            return "levels", f"auto chose levels: the picture is made of {classes} distinct brightness levels (separation {separation:.2f})"
-    return "structure", "auto chose structure: continuous tones, so the fingertip-scale shape is raised and finer detail kept as low texture"
+    facts = _object_facts(work, found)
+    if facts is not None and facts.spread <= MAX_SIZE_SPREAD and 0.03 <= found.cover <= MAX_OBJECT_COVER and facts.lift < 0.15:
+        return "objects", (
+            f"auto chose objects: {found.count} objects of similar size (diameters within a factor {facts.spread:.1f}) "
+            f"outlined by edges cover {found.cover:.0%} of the picture and are hardly brighter than the ground "
+            f"({facts.lift:+.2f} of the brightness range), as in secondary-electron SEM, so brightness alone would not raise them"
+        )
+    shape = gaussian_mm(work, options.detail_mm / 2, pitch_mm)
+    levels = _distinct_levels(shape, max(2, min(options.level_count, 3)))
+    if levels is not None and levels.valley <= MAX_VALLEY and levels.share >= MIN_LEVEL_SHARE:
+        return "levels", (
+            f"auto chose levels: at fingertip scale the picture falls into {levels.count} distinct brightness levels "
+            f"(the histogram between them drops to {levels.valley:.0%} of its peaks) that hold {levels.share:.0%} of its variation"
+        )
+    why = _why_not_objects(found, facts)
+    held = f"{levels.count} levels would hold only {levels.share:.0%} of the variation" if levels is not None else "a flat picture"
+    return "structure", (
+        f"auto chose structure: continuous tones ({held}; {why}), so the fingertip-scale shape is raised "
+        f"and finer detail kept as low texture"
+    )
+
+
+def _why_not_objects(found: ObjectMap, facts: "_ObjectFacts | None") -> str:
+    """Half a sentence: the measured reason the objects style was not chosen."""
+    many = f"{found.count} object{'s' * (found.count != 1)}"
+    if found.count and found.method != "edges":
+        return f"{many} found only by brightness, which raises them anyway"
+    if facts is None:
+        return "only one object outlined by edges" if found.count == 1 else "no objects outlined by edges"
+    if facts.spread > MAX_SIZE_SPREAD:
+        return f"{many} outlined by edges but of very different sizes (diameters within a factor {facts.spread:.1f})"
+    if facts.lift >= 0.15:
+        return f"{many} outlined by edges but brighter than the ground ({facts.lift:+.2f}), so brightness raises them"
+    return f"{many} outlined by edges but covering {found.cover:.0%} of the picture"
 
 
 MAX_OBJECT_COVER = 0.6
+MAX_SIZE_SPREAD = 2.0  # largest / smallest equivalent diameter of a population of particles
+MAX_VALLEY = 0.25  # histogram between two levels, as a share of the lower neighbouring peak
+MIN_LEVEL_SHARE = 0.95  # share of the fingertip-scale variance between the levels
+
+
+@dataclass(frozen=True)
+class _ObjectFacts:
+    spread: float  # largest / smallest equivalent diameter
+    lift: float  # median brightness inside the objects minus outside, 0..1 units
+
+
+@dataclass(frozen=True)
+class _Levels:
+    count: int
+    valley: float  # histogram at the shallowest valley between levels, over the lower neighbouring peak
+    share: float  # share of the variance between the levels (Otsu's separation)
+
+
+def _object_facts(work: np.ndarray, found: ObjectMap) -> _ObjectFacts | None:
+    """Facts about objects found by edges (at least two), else None."""
+    if found.count < 2 or found.method != "edges":
+        return None
+    diameters = np.sqrt(np.bincount(found.labels.ravel())[1:])
+    diameters = diameters[diameters > 0]
+    lift = float(np.median(work[found.mask]) - np.median(work[~found.mask]))
+    return _ObjectFacts(float(diameters.max() / diameters.min()), lift)
+
+
+def _distinct_levels(shape: np.ndarray, most: int) -> _Levels | None:
+    """The 2..most Otsu levels of the image that are most distinct, or None if it is flat."""
+    if np.ptp(shape) <= 1e-6:
+        return None
+    counts, edges = np.histogram(shape, bins=64, range=(float(shape.min()), float(shape.max())))
+    counts = np.convolve(counts, np.ones(3) / 3, mode="same")  # a bin of noise is not a valley
+    centres = (edges[:-1] + edges[1:]) / 2
+    best = None
+    for count in range(2, most + 1):
+        thresholds = filters.threshold_multiotsu(shape, classes=count)
+        side = np.digitize(centres, thresholds)
+        if any(not (side == k).any() for k in range(count)):
+            continue
+        peaks = [counts[side == k].max() for k in range(count)]
+        at = np.clip(np.searchsorted(centres, thresholds), 0, len(centres) - 1)
+        valley = max(counts[b] / max(min(peaks[k], peaks[k + 1]), 1e-9) for k, b in enumerate(at))
+        found = _Levels(count, float(valley), _separation(shape, thresholds))
+        if best is None or (found.valley <= MAX_VALLEY, found.share) > (best.valley <= MAX_VALLEY, best.share):
+            best = found
+    return best
 
 
 def _separation(image: np.ndarray, thresholds: np.ndarray) -> float:

@@ -265,3 +265,29 @@ def test_no_objects_in_fixtures_without_any(fixture, name):
 @pytest.mark.timeout(60)
 def test_no_objects_in_noisy_texture():
     assert relief(tem_texture().image, "objects").object_count == 0
+
+
+def boundary_steps(heights, objects, mm_per_px, reach_mm=0.5):
+    """Per known object: median height in the band up to reach_mm inside its outline minus the
+    median in the band up to reach_mm outside it (so measured across at most ~1 mm)."""
+    labels, count = ndimage.label(objects)
+    inside = ndimage.distance_transform_edt(objects) * mm_per_px
+    outside, (iy, ix) = ndimage.distance_transform_edt(~objects, return_indices=True)
+    owner = labels[iy, ix]  # the object each ground pixel is nearest to
+    steps = []
+    for k in range(1, count + 1):
+        inner = (labels == k) & (inside <= reach_mm + 0.5 * mm_per_px)
+        outer = (labels == 0) & (owner == k) & (outside * mm_per_px <= reach_mm + 0.5 * mm_per_px)
+        steps.append(float(np.median(heights[inner]) - np.median(heights[outer])))
+    return np.array(steps)
+
+
+@pytest.mark.timeout(60)
+@pytest.mark.parametrize("seed", [1])
+def test_structure_keeps_particle_boundaries_as_steps(seed):
+    """Across every particle's outline, within ~1 mm, the structure relief steps up >= 0.5 mm
+    (a ramp spread over the fingertip scale would not), with a 3 mm relief."""
+    syn = particles_on_texture(seed=seed)
+    mm = pitch(syn.image)
+    steps = boundary_steps(relief(syn.image, "structure").heights_mm, syn.objects, mm)
+    assert len(steps) >= 10 and steps.min() >= 0.5, np.round(steps, 2)

@@ -64,7 +64,8 @@ def find_objects(image01: np.ndarray, *, pitch_mm: float, min_area_mm2: float, n
     labels = _distinct(_enclosed_by_edges(smooth, grad, pitch_mm, nozzle_mm, min_px), smooth, grad, nozzle_mm / pitch_mm)
     method = "edges"
     if labels.max() == 0 or (labels > 0).mean() > MAX_COVER:
-        labels = _distinct(_bright_blobs(smooth, pitch_mm, nozzle_mm, min_px), smooth, grad, nozzle_mm / pitch_mm)
+        # Edge strength first (one vectorised pass) so that hulls are drawn only for the few left.
+        labels = _keep_solid(_distinct(_bright_blobs(smooth, pitch_mm, nozzle_mm, min_px), smooth, grad, nozzle_mm / pitch_mm))
         method = "bright"
     if labels.max() == 0 or (labels > 0).mean() > MAX_COVER:
         return ObjectMap(np.zeros(image01.shape, np.int32), 0, "none")
@@ -124,9 +125,8 @@ def _enclosed_parts(regions: np.ndarray, ground: int, closed: np.ndarray, pitch_
     rim_share, border_share = _outline_shares(regions, rim)
     whole = border_share <= MAX_BORDER_SHARE
     whole[[0, ground]] = False
+    parts = np.where(whole[regions], 0, split_at_necks(free, GAP_MM / pitch_mm))
     dist = ndimage.distance_transform_edt(np.pad(free, 1, constant_values=True))[1:-1, 1:-1]
-    peaks, _ = ndimage.label(morphology.h_maxima(dist, GAP_MM / pitch_mm) & free)
-    parts = np.where(whole[regions], 0, segmentation.watershed(-dist, peaks, mask=free))
     rim_share, border_share = _outline_shares(parts, rim)
     # An object left ajar is wider than its gap (over 2 × GAP_MM, or the opening would have
     # closed it): parts less than 2 × GAP_MM across at their widest are strips between edges.
@@ -137,6 +137,20 @@ def _enclosed_parts(regions: np.ndarray, ground: int, closed: np.ndarray, pitch_
     for region in measure.regionprops(np.where(ajar[parts], parts, 0)):
         ajar[region.label] = region.solidity >= CONVEX_SOLIDITY
     return whole[regions] | ajar[parts]
+
+
+def split_at_necks(mask: np.ndarray, depth_px: float) -> np.ndarray:
+    """Label the mask split at its necks (int32, 0 outside the mask).
+
+    A watershed of the distance to the outside (the picture's border is not an outside), one
+    basin per maximum standing `depth_px` above the neck that joins it to a higher one.
+    (On a grid twice as coarse it is 4x faster but loses the coins' rims left ajar.)
+    """
+    dist = ndimage.distance_transform_edt(np.pad(mask, 1, constant_values=True))[1:-1, 1:-1]
+    peaks, count = ndimage.label(morphology.h_maxima(dist, depth_px) & mask)
+    if count == 0:
+        return np.zeros(mask.shape, np.int32)
+    return segmentation.watershed(-dist, peaks, mask=mask).astype(np.int32)
 
 
 def _outline_shares(labels: np.ndarray, rim: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -175,7 +189,7 @@ def _bright_blobs(smooth, pitch_mm, nozzle_mm, min_px) -> np.ndarray:
     bright = ndimage.binary_opening(bright, structure=disk(2 * nozzle_mm / pitch_mm))
     bright = ndimage.binary_fill_holes(bright)
     labels, n = ndimage.label(bright)
-    return _keep(labels, min_px, bright.size) if n else labels
+    return _keep_sized(labels, min_px, bright.size) if n else labels
 
 
 def _distinct(labels: np.ndarray, smooth: np.ndarray, grad: np.ndarray, reach_px: float) -> np.ndarray:
@@ -203,23 +217,35 @@ def _distinct(labels: np.ndarray, smooth: np.ndarray, grad: np.ndarray, reach_px
 
 
 def _keep(labels: np.ndarray, min_px: int, total_px: int) -> np.ndarray:
-    """Drop objects smaller than min_px, larger than half the picture, or concave pockets.
+    """Drop objects smaller than min_px, larger than half the picture, or concave pockets."""
+    return _keep_solid(_keep_sized(labels, min_px, total_px))
 
-    Size and border share are counted for all labels at once (noise makes hundreds of tiny
-    ones); the costly solidity is measured only on the few that pass.
+
+def _keep_sized(labels: np.ndarray, min_px: int, total_px: int) -> np.ndarray:
+    """Drop objects smaller than min_px, larger than half the picture, or cut off by its border.
+
+    Counted for all labels at once: noise makes hundreds of tiny ones.
     """
     n = int(labels.max())
     area = np.bincount(labels.ravel(), minlength=n + 1)
     # Pixels on the picture's border, per object: ground cut off by the border is not an object.
     rim = np.concatenate([labels[0], labels[-1], labels[1:-1, 0], labels[1:-1, -1]])
     on_border = np.bincount(rim, minlength=n + 1)
-    outline = _perimeters(labels, n)
-    keep = (area >= min_px) & (area <= 0.5 * total_px) & (on_border <= MAX_BORDER_SHARE * outline)
+    keep = (area >= min_px) & (area <= 0.5 * total_px) & (on_border <= MAX_BORDER_SHARE * _perimeters(labels, n))
     keep[0] = False
-    # Solidity is at least area / bounding-box area: only objects below that bound need a hull.
-    boxes = ndimage.find_objects(np.where(keep[labels], labels, 0), max_label=n)
+    return np.where(keep[labels], labels, 0)
+
+
+def _keep_solid(labels: np.ndarray) -> np.ndarray:
+    """Drop concave objects (pockets of ground between objects); the hull, the costly part,
+    only where area / bounding-box area (a lower bound of solidity) leaves it in doubt."""
+    n = int(labels.max())
+    keep = np.ones(n + 1, bool)
+    keep[0] = False
+    area = np.bincount(labels.ravel(), minlength=n + 1)
+    boxes = ndimage.find_objects(labels, max_label=n)
     box_area = np.array([0] + [(b[0].stop - b[0].start) * (b[1].stop - b[1].start) if b else 1 for b in boxes])
-    doubtful = keep & (area < MIN_SOLIDITY * box_area)
+    doubtful = keep & (area > 0) & (area < MIN_SOLIDITY * box_area)
     for region in measure.regionprops(np.where(doubtful[labels], labels, 0)):
         keep[region.label] = region.solidity >= MIN_SOLIDITY
     return np.where(keep[labels], labels, 0)

@@ -19,11 +19,10 @@ RELIEF, BASE = 3.0, 1.0
 def prep(image, invert=False, sigma_px=1.2):
     """The pipeline's preparation, with the picture already at grid size."""
     rows, cols = image.shape
-    out, _ = prepare(
+    return prepare(
         image, None, rows=rows, cols=cols, target_aspect=(rows - 1) / (cols - 1), fit="stretch",
         low_pct=2.0, high_pct=98.0, sigma_px=sigma_px, invert=invert, flip_x=False,
-    )
-    return out
+    ).image
 
 
 def pitch(image, width_mm=100.0):
@@ -45,13 +44,13 @@ def test_reference_reproduces_the_pipeline_bit_for_bit(gradient_image):
     for quantize in (False, True):
         litho = make_lithograph(gradient_image, width_mm=60, quantize=quantize, mesher="grid")
         lay = litho.layout
-        image, _ = prepare(
+        image = prepare(
             gradient_image.astype(np.float32), None, rows=lay.rows, cols=lay.cols, target_aspect=lay.target_aspect,
             fit=lay.fit, low_pct=2.0, high_pct=98.0, sigma_px=lay.sigma_px, invert=False, flip_x=False,
-        )
+        ).image
         made = make_relief(
             image, style="reference", mm_per_px=lay.mm_per_px, base_mm=litho.params.base_mm,
-            relief_mm=litho.params.relief_mm, layer_mm=litho.report["layer_mm"] if quantize else None,
+            relief_mm=litho.params.relief_mm, layer_mm=litho.report.layer_mm if quantize else None,
         )
         assert made.heights_mm.dtype == litho.heightmap.dtype
         assert np.array_equal(made.heights_mm, litho.heightmap)
@@ -138,6 +137,31 @@ def test_auto_picks_and_says_why():
     assert tem.style == "structure" and tem.reason.startswith("auto chose structure")
 
 
+@pytest.mark.timeout(120)
+@pytest.mark.parametrize("name, chosen", [("camera", "levels"), ("cell", "structure"), ("immunohistochemistry", "structure"), ("retina", "structure"), ("coins", "structure")])
+def test_auto_on_pictures_says_the_facts_it_chose_by(name, chosen):
+    """A portrait is not a population of particles; stained tissue, a fundus and a cell are
+    continuous tones; bright coins rise by brightness. The reason names measured figures."""
+    import skimage.data
+
+    image, mm, uniform = prepared(np.asarray(getattr(skimage.data, name)()))
+    made = make_relief(image, style="auto", mm_per_px=mm, base_mm=BASE, relief_mm=RELIEF, uniform=uniform)
+    assert made.style == chosen and made.reason.startswith(f"auto chose {chosen}")
+    assert "%" in made.reason and any(ch.isdigit() for ch in made.reason)
+
+
+@pytest.mark.timeout(60)
+def test_auto_picks_levels_for_a_terrace():
+    """Three flat, noisy terraces of distinct brightness: the levels hold the picture."""
+    rng = np.random.default_rng(3)
+    image = np.full((188, 250), 0.2, np.float32)
+    image[:, 90:170] = 0.5
+    image[40:150, 170:] = 0.85
+    image += 0.03 * rng.standard_normal(image.shape).astype(np.float32)
+    made = relief(np.clip(image, 0, 1), "auto")
+    assert made.style == "levels" and "3 distinct brightness levels" in made.reason
+
+
 @pytest.mark.timeout(60)
 @pytest.mark.parametrize("style", STYLES)
 def test_every_style_follows_invert_and_stays_in_bounds(style):
@@ -185,3 +209,85 @@ def test_bad_values_name_parameter_range_and_value(kwargs, name, shown):
         make_relief(np.zeros((20, 20), np.float32), **args)
     text = str(err.value)
     assert text.startswith(f"{name}:") and shown in text and ("between" in text or "from" in text or "one of" in text)
+
+
+def prepared(path):
+    """The pipeline's prepared picture of a file at Medium (100 mm wide): the reference heights
+    are base + relief × image01, so image01 comes back from them."""
+    import dataclasses
+
+    from tamp_os.params import LithoParams
+    from tamp_os.pipeline import make_lithograph
+
+    fields = {f.name for f in dataclasses.fields(LithoParams)}
+    style = {"relief_style": "reference"} if "relief_style" in fields else {}
+    litho = make_lithograph(path, mesher="grid", scale_bar="off", **style)
+    image01 = (litho.heightmap - litho.params.base_mm) / litho.params.relief_mm
+    return image01.astype(np.float32), litho.layout.mm_per_px, litho.report.uniform
+
+
+# The four FePt spheres, measured by eye on the picture: centre (x, y) and radius as
+# fractions of the picture's width.
+FEPT_SPHERES = [(0.20, 0.38, 0.187), (0.567, 0.24, 0.173), (0.46, 0.63, 0.171), (0.807, 0.56, 0.187)]
+
+
+@pytest.mark.timeout(120)
+@pytest.mark.parametrize("style", ["objects", "structure", "auto"])
+def test_all_four_fept_spheres_rise(fixture, style):
+    """Every sphere's inner half is one object of its own and stands >= 1 mm above the ground
+    (the picture away from all four spheres), the top-middle one too."""
+    image, mm, uniform = prepared(fixture("fept_spheres_sem.png"))
+    made = make_relief(image, style=style, mm_per_px=mm, base_mm=BASE, relief_mm=RELIEF, uniform=uniform)
+    rows, cols = image.shape
+    yy, xx = np.mgrid[0:rows, 0:cols] / (cols - 1)
+    disks = [(xx - x) ** 2 + (yy - y * (rows - 1) / (cols - 1)) ** 2 for x, y, _ in FEPT_SPHERES]
+    ground = np.all([d > (1.2 * r) ** 2 for d, (_, _, r) in zip(disks, FEPT_SPHERES)], axis=0)
+    ground_mm = float(np.median(made.heights_mm[ground]))
+    seen = set()
+    for d, (_, _, r) in zip(disks, FEPT_SPHERES):
+        inner = d <= (0.5 * r) ** 2
+        assert np.median(made.heights_mm[inner]) - ground_mm >= 1.0
+        labels = made.objects[inner]
+        main = int(np.bincount(labels).argmax())
+        assert main > 0 and (labels == main).mean() > 0.9 and main not in seen
+        seen.add(main)
+    assert made.object_count == 4
+
+
+@pytest.mark.timeout(120)
+@pytest.mark.parametrize("name", ["test_STEM_image.dm3", "test_loading_image_saved_with_imageJ.tif", "FEI-Helios-Ebeam-8bits.tif"])
+def test_no_objects_in_fixtures_without_any(fixture, name):
+    """Noisy STEM texture, a tiny ImageJ picture and a blank SEM frame hold no objects."""
+    image, mm, uniform = prepared(fixture(name))
+    assert make_relief(image, style="objects", mm_per_px=mm, base_mm=BASE, relief_mm=RELIEF, uniform=uniform).object_count == 0
+
+
+@pytest.mark.timeout(60)
+def test_no_objects_in_noisy_texture():
+    assert relief(tem_texture().image, "objects").object_count == 0
+
+
+def boundary_steps(heights, objects, mm_per_px, reach_mm=0.5):
+    """Per known object: median height in the band up to reach_mm inside its outline minus the
+    median in the band up to reach_mm outside it (so measured across at most ~1 mm)."""
+    labels, count = ndimage.label(objects)
+    inside = ndimage.distance_transform_edt(objects) * mm_per_px
+    outside, (iy, ix) = ndimage.distance_transform_edt(~objects, return_indices=True)
+    owner = labels[iy, ix]  # the object each ground pixel is nearest to
+    steps = []
+    for k in range(1, count + 1):
+        inner = (labels == k) & (inside <= reach_mm + 0.5 * mm_per_px)
+        outer = (labels == 0) & (owner == k) & (outside * mm_per_px <= reach_mm + 0.5 * mm_per_px)
+        steps.append(float(np.median(heights[inner]) - np.median(heights[outer])))
+    return np.array(steps)
+
+
+@pytest.mark.timeout(60)
+@pytest.mark.parametrize("seed", [1])
+def test_structure_keeps_particle_boundaries_as_steps(seed):
+    """Across every particle's outline, within ~1 mm, the structure relief steps up >= 0.5 mm
+    (a ramp spread over the fingertip scale would not), with a 3 mm relief."""
+    syn = particles_on_texture(seed=seed)
+    mm = pitch(syn.image)
+    steps = boundary_steps(relief(syn.image, "structure").heights_mm, syn.objects, mm)
+    assert len(steps) >= 10 and steps.min() >= 0.5, np.round(steps, 2)

@@ -28,6 +28,22 @@ def gaussian_mm(image: np.ndarray, sigma_mm: float, pitch_mm: float) -> np.ndarr
     return ndimage.gaussian_filter(image.astype(np.float32, copy=False), sigma=sigma_mm / pitch_mm, mode="nearest")
 
 
+def coarse_gaussian_mm(image: np.ndarray, sigma_mm: float, pitch_mm: float) -> np.ndarray:
+    """A wide Gaussian low-pass computed on a grid shrunk to about sigma/4 and resized back.
+
+    Same arguments as `gaussian_mm`. A trend many millimetres wide has nothing at the grid's
+    pitch, and a wide kernel on the full grid costs O(sigma) per pixel.
+    """
+    factor = int(sigma_mm / pitch_mm / 4)
+    rows, cols = image.shape
+    if factor < 2 or min(rows, cols) // factor < 4:
+        return gaussian_mm(image, sigma_mm, pitch_mm)
+    small = _resize(image, (-(-rows // factor), -(-cols // factor)), nearest=False)
+    sigma_small_px = sigma_mm / pitch_mm * small.shape[1] / cols
+    blurred = ndimage.gaussian_filter(small, sigma=sigma_small_px, mode="nearest")
+    return _resize(blurred, (rows, cols), nearest=False)
+
+
 def disk(radius_px: float) -> np.ndarray:
     """Boolean disk footprint of the given radius in pixels (at least the 3×3 cross)."""
     r = max(1, int(round(radius_px)))

@@ -27,7 +27,7 @@ from skimage import filters
 from ..errors import ParameterError
 from .heightmap import heights_mm
 from .objects import ObjectMap, dome_profile, find_objects
-from .scales import WorkGrid, gaussian_mm, guided_smooth, robust_unit
+from .scales import WorkGrid, coarse_gaussian_mm, gaussian_mm, guided_smooth, robust_unit
 
 STYLES = ("reference", "structure", "levels", "objects", "auto")
 LEVEL_RANGE = (2, 5)
@@ -129,19 +129,25 @@ def make_relief(
         reason = "brightness mapped to height, as the reference workflow does" if style == "reference" else "the picture is uniform: a flat plate"
         used = "reference" if style == "auto" else style
         return ReliefResult(heights_mm(image01, base_mm=base_mm, relief_mm=relief_mm, layer_mm=layer_mm), used, reason)
-    grid = WorkGrid.plan(image01.shape, mm_per_px, options.nozzle_mm / 2)
+    # Shape and objects are read at fingertip scale: a grid at the nozzle's pitch carries all of it.
+    grid = WorkGrid.plan(image01.shape, mm_per_px, options.nozzle_mm)
     work = grid.down(image01)
+    # Every style (and auto's choice) reads the same objects: find them once.
+    found = find_objects(work, pitch_mm=grid.pitch_mm, min_area_mm2=options.min_area_mm2, nozzle_mm=options.nozzle_mm)
     if style == "auto":
-        style, reason = choose_style(work, pitch_mm=grid.pitch_mm, options=options)
+        style, reason = choose_style(work, pitch_mm=grid.pitch_mm, options=options, found=found)
     else:
         reason = ""
-    made = _STYLE_FUNCS[style](work, grid.pitch_mm, relief_mm, options)
+    made = _STYLE_FUNCS[style](work, grid.pitch_mm, relief_mm, options, found)
     relief01 = _full_span(np.clip(grid.up(made.relief01, nearest=style == "levels"), 0.0, 1.0))
     labels = None
     if made.objects is not None and made.objects.count:
         labels = grid.up(made.objects.labels.astype(np.float32), nearest=True).astype(np.int32)
     heights = heights_mm(relief01, base_mm=base_mm, relief_mm=relief_mm, layer_mm=layer_mm)
-    levels = tuple(float(h) for h in np.unique(heights) - base_mm) if style == "levels" else ()
+    levels = ()
+    if style == "levels":  # the plateaus' heights, from the few classes on the working grid (no 16M-point sort)
+        plateaus = np.unique(np.clip(made.relief01, 0.0, 1.0).astype(np.float32))
+        levels = tuple(float(h) for h in heights_mm(plateaus, base_mm=base_mm, relief_mm=relief_mm, layer_mm=layer_mm) - base_mm)
     return ReliefResult(heights, style, reason or made.summary, labels, levels, made.notes)
 
 
@@ -170,7 +176,7 @@ def large_shape(work: np.ndarray, pitch_mm: float, options: StyleOptions) -> np.
     """
     damped = gaussian_mm(work, options.detail_mm / 4, pitch_mm)
     shape = guided_smooth(damped, options.detail_mm / pitch_mm, eps=0.01)
-    trend = gaussian_mm(shape, 8 * options.detail_mm, pitch_mm)
+    trend = coarse_gaussian_mm(shape, 8 * options.detail_mm, pitch_mm)
     return robust_unit(shape - 0.5 * trend)
 
 
@@ -191,32 +197,34 @@ def _with_texture(shape01: np.ndarray, work, pitch_mm, relief_mm, options) -> np
     return (1.0 - share) * shape01 + share * (0.5 + fine_texture(work, pitch_mm, options))
 
 
-def structure_shape(work: np.ndarray, pitch_mm: float, options: StyleOptions) -> tuple[np.ndarray, ObjectMap]:
+def structure_shape(
+    work: np.ndarray, pitch_mm: float, options: StyleOptions, found: ObjectMap | None = None
+) -> tuple[np.ndarray, ObjectMap]:
     """The `structure` style's shape before texture, 0..1, and the objects it lifted.
 
     Regions enclosed by strong edges read as objects (SEM spheres inside their rims): they are
     lifted by half the relief as domes, keeping their own fingertip-scale shading on top.
     """
     shape = large_shape(work, pitch_mm, options)
-    found = find_objects(work, pitch_mm=pitch_mm, min_area_mm2=options.min_area_mm2, nozzle_mm=options.nozzle_mm)
+    if found is None:
+        found = find_objects(work, pitch_mm=pitch_mm, min_area_mm2=options.min_area_mm2, nozzle_mm=options.nozzle_mm)
     if found.count:
         domes = dome_profile(found.labels, pitch_mm=pitch_mm, round_mm=DOME_ROUND_DETAILS * options.detail_mm)
         shape = robust_unit(0.5 * shape + 0.5 * domes, 0.5, 99.5)
     return shape, found
 
 
-def _structure(work, pitch_mm, relief_mm, options) -> _Made:
-    shape, found = structure_shape(work, pitch_mm, options)
+def _structure(work, pitch_mm, relief_mm, options, found) -> _Made:
+    shape, found = structure_shape(work, pitch_mm, options, found)
     summary = f"fingertip-scale shape (detail {options.detail_mm:g} mm) with a texture of at most {options.texture_mm:g} mm"
     if found.count:
         summary += f"; {found.count} enclosed object{'s' * (found.count != 1)} lifted"
     return _Made(_with_texture(shape, work, pitch_mm, relief_mm, options), summary, found)
 
 
-def _objects(work, pitch_mm, relief_mm, options) -> _Made:
-    found = find_objects(work, pitch_mm=pitch_mm, min_area_mm2=options.min_area_mm2, nozzle_mm=options.nozzle_mm)
+def _objects(work, pitch_mm, relief_mm, options, found) -> _Made:
     if not found.count:
-        made = _structure(work, pitch_mm, relief_mm, options)
+        made = _structure(work, pitch_mm, relief_mm, options, found)
         note = "objects: no objects were found (nothing enclosed by edges, no compact bright blobs); the structure style was used instead."
         return _Made(made.relief01, made.summary, None, (note,))
     domes = dome_profile(found.labels, pitch_mm=pitch_mm, round_mm=DOME_ROUND_DETAILS * options.detail_mm)
@@ -224,7 +232,7 @@ def _objects(work, pitch_mm, relief_mm, options) -> _Made:
     return _Made(_with_texture(domes, work, pitch_mm, relief_mm, options), summary, found)
 
 
-def _levels(work, pitch_mm, relief_mm, options) -> _Made:
+def _levels(work, pitch_mm, relief_mm, options, found) -> _Made:
     from .levels import plateau_classes
 
     count, notes = options.level_count, []
@@ -235,7 +243,7 @@ def _levels(work, pitch_mm, relief_mm, options) -> _Made:
             f"level_count: {options.level_count} levels in a {relief_mm:g} mm relief would make steps under "
             f"{MIN_STEP_MM} mm, which fingers do not tell apart; {count} levels were used."
         )
-    shape, found = structure_shape(work, pitch_mm, options)
+    shape, found = structure_shape(work, pitch_mm, options, found)
     classes = plateau_classes(shape, count, pitch_mm=pitch_mm, options=options)
     used = int(np.unique(classes).size)
     if used < count:
@@ -247,27 +255,106 @@ def _levels(work, pitch_mm, relief_mm, options) -> _Made:
 _STYLE_FUNCS = {"structure": _structure, "objects": _objects, "levels": _levels}
 
 
-def choose_style(work: np.ndarray, *, pitch_mm: float, options: StyleOptions) -> tuple[str, str]:
-    """(style, one sentence why) from the picture on the working grid."""
-    found = find_objects(work, pitch_mm=pitch_mm, min_area_mm2=options.min_area_mm2, nozzle_mm=options.nozzle_mm)
-    if found.count and found.method == "edges" and 0.03 <= found.cover <= MAX_OBJECT_COVER:
-        inside = float(np.median(work[found.mask]))
-        outside = float(np.median(work[~found.mask]))
-        if inside - outside < 0.15:
-            return "objects", (
-                f"auto chose objects: {found.count} object{'s' * (found.count != 1)} outlined by edges but hardly brighter "
-                f"than the ground (as in secondary-electron SEM), so brightness alone would not raise them"
-            )
-    classes = min(options.level_count, 3)
-    if np.ptp(work) > 1e-6:
-        thresholds = filters.threshold_multiotsu(work, classes=classes)
-        separation = _separation(work, thresholds)
-        if separation >= 0.9:
-            return "levels", f"auto chose levels: the picture is made of {classes} distinct brightness levels (separation {separation:.2f})"
-    return "structure", "auto chose structure: continuous tones, so the fingertip-scale shape is raised and finer detail kept as low texture"
+def choose_style(
+    work: np.ndarray, *, pitch_mm: float, options: StyleOptions, found: ObjectMap | None = None
+) -> tuple[str, str]:
+    """(style, one sentence why, with the measured facts) from the picture on the working grid.
+
+    - objects: a population of similar objects (equivalent diameters within MAX_SIZE_SPREAD
+      of each other) enclosed by edges, covering 3–60 % of the picture, and hardly brighter
+      than the ground (as in secondary-electron SEM): brightness alone would not raise them.
+    - levels: at fingertip scale (a Gaussian of detail_mm / 2) the brightness falls into 2–3
+      distinct levels: the histogram between them drops below MAX_VALLEY of its peaks and the
+      levels hold at least MIN_LEVEL_SHARE of the variance.
+    - structure: anything else (continuous tones).
+    """
+    if found is None:
+        found = find_objects(work, pitch_mm=pitch_mm, min_area_mm2=options.min_area_mm2, nozzle_mm=options.nozzle_mm)
+    facts = _object_facts(work, found)
+    if facts is not None and facts.spread <= MAX_SIZE_SPREAD and 0.03 <= found.cover <= MAX_OBJECT_COVER and facts.lift < 0.15:
+        return "objects", (
+            f"auto chose objects: {found.count} objects of similar size (diameters within a factor {facts.spread:.1f}) "
+            f"outlined by edges cover {found.cover:.0%} of the picture and are hardly brighter than the ground "
+            f"({facts.lift:+.2f} of the brightness range), as in secondary-electron SEM, so brightness alone would not raise them"
+        )
+    shape = gaussian_mm(work, options.detail_mm / 2, pitch_mm)
+    levels = _distinct_levels(shape, max(2, min(options.level_count, 3)))
+    if levels is not None and levels.valley <= MAX_VALLEY and levels.share >= MIN_LEVEL_SHARE:
+        return "levels", (
+            f"auto chose levels: at fingertip scale the picture falls into {levels.count} distinct brightness levels "
+            f"(the histogram between them drops to {levels.valley:.0%} of its peaks) that hold {levels.share:.0%} of its variation"
+        )
+    why = _why_not_objects(found, facts)
+    held = f"{levels.count} levels would hold only {levels.share:.0%} of the variation" if levels is not None else "a flat picture"
+    return "structure", (
+        f"auto chose structure: continuous tones ({held}; {why}), so the fingertip-scale shape is raised "
+        f"and finer detail kept as low texture"
+    )
+
+
+def _why_not_objects(found: ObjectMap, facts: "_ObjectFacts | None") -> str:
+    """Half a sentence: the measured reason the objects style was not chosen."""
+    many = f"{found.count} object{'s' * (found.count != 1)}"
+    if found.count and found.method != "edges":
+        return f"{many} found only by brightness, which raises them anyway"
+    if facts is None:
+        return "only one object outlined by edges" if found.count == 1 else "no objects outlined by edges"
+    if facts.spread > MAX_SIZE_SPREAD:
+        return f"{many} outlined by edges but of very different sizes (diameters within a factor {facts.spread:.1f})"
+    if facts.lift >= 0.15:
+        return f"{many} outlined by edges but brighter than the ground ({facts.lift:+.2f}), so brightness raises them"
+    return f"{many} outlined by edges but covering {found.cover:.0%} of the picture"
 
 
 MAX_OBJECT_COVER = 0.6
+MAX_SIZE_SPREAD = 2.0  # largest / smallest equivalent diameter of a population of particles
+MAX_VALLEY = 0.25  # histogram between two levels, as a share of the lower neighbouring peak
+MIN_LEVEL_SHARE = 0.95  # share of the fingertip-scale variance between the levels
+
+
+@dataclass(frozen=True)
+class _ObjectFacts:
+    spread: float  # largest / smallest equivalent diameter
+    lift: float  # median brightness inside the objects minus outside, 0..1 units
+
+
+@dataclass(frozen=True)
+class _Levels:
+    count: int
+    valley: float  # histogram at the shallowest valley between levels, over the lower neighbouring peak
+    share: float  # share of the variance between the levels (Otsu's separation)
+
+
+def _object_facts(work: np.ndarray, found: ObjectMap) -> _ObjectFacts | None:
+    """Facts about objects found by edges (at least two), else None."""
+    if found.count < 2 or found.method != "edges":
+        return None
+    diameters = np.sqrt(np.bincount(found.labels.ravel())[1:])
+    diameters = diameters[diameters > 0]
+    lift = float(np.median(work[found.mask]) - np.median(work[~found.mask]))
+    return _ObjectFacts(float(diameters.max() / diameters.min()), lift)
+
+
+def _distinct_levels(shape: np.ndarray, most: int) -> _Levels | None:
+    """The 2..most Otsu levels of the image that are most distinct, or None if it is flat."""
+    if np.ptp(shape) <= 1e-6:
+        return None
+    counts, edges = np.histogram(shape, bins=64, range=(float(shape.min()), float(shape.max())))
+    counts = np.convolve(counts, np.ones(3) / 3, mode="same")  # a bin of noise is not a valley
+    centres = (edges[:-1] + edges[1:]) / 2
+    best = None
+    for count in range(2, most + 1):
+        thresholds = filters.threshold_multiotsu(shape, classes=count)
+        side = np.digitize(centres, thresholds)
+        if any(not (side == k).any() for k in range(count)):
+            continue
+        peaks = [counts[side == k].max() for k in range(count)]
+        at = np.clip(np.searchsorted(centres, thresholds), 0, len(centres) - 1)
+        valley = max(counts[b] / max(min(peaks[k], peaks[k + 1]), 1e-9) for k, b in enumerate(at))
+        found = _Levels(count, float(valley), _separation(shape, thresholds))
+        if best is None or (found.valley <= MAX_VALLEY, found.share) > (best.valley <= MAX_VALLEY, best.share):
+            best = found
+    return best
 
 
 def _separation(image: np.ndarray, thresholds: np.ndarray) -> float:

@@ -83,13 +83,13 @@ class Guard:
     def security_headers(self) -> list[tuple[bytes, bytes]]:
         ancestors = " ".join(self.frame_ancestors) or "'none'"
         csp = (
-            "default-src 'self'; img-src 'self' data: blob:; style-src 'self'; script-src 'self'; "
+            "default-src 'self'; img-src 'self' data: blob:; style-src 'self' 'unsafe-inline'; script-src 'self'; "
             f"connect-src 'self' blob: data:; object-src 'none'; base-uri 'none'; form-action 'self'; frame-ancestors {ancestors}"
         )
         headers = [
             (b"content-security-policy", csp.encode()),
             (b"x-content-type-options", b"nosniff"),
-            (b"referrer-policy", b"no-referrer"),
+            (b"referrer-policy", b"same-origin"),  # "no-referrer" makes Chromium send Origin: null on our own forms
             (b"cross-origin-resource-policy", b"same-origin"),
         ]
         if not self.frame_ancestors:

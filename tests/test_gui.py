@@ -90,6 +90,14 @@ def check_state(page, state, auditor=None):
     no_sideways_scroll(auditor, state)
 
 
+def wait_until(page, expression: str, timeout_s: float = 30) -> None:
+    """Poll an expression (the app's CSP forbids the eval behind page.wait_for_function)."""
+    deadline = time.monotonic() + timeout_s
+    while not page.evaluate(f"() => {expression}"):
+        assert time.monotonic() < deadline, f"never true: {expression}"
+        page.wait_for_timeout(200)
+
+
 def finish(page, js: bool):
     """Reach the results: with JavaScript the page changes by itself; without, by Check progress."""
     if js:
@@ -139,7 +147,7 @@ def test_every_state_passes_axe_and_reflows(server, browser, tmp_path, js, view)
     check_state(page, f"{name}-5-progress", auditor)
     finish(page, js)
     if js:
-        page.wait_for_function("customElements.get('model-viewer') !== undefined", timeout=30000)
+        wait_until(page, "customElements.get('model-viewer') !== undefined")
         page.wait_for_timeout(1500)  # let the 3D view draw before the screenshot
     check_state(page, f"{name}-6-results", auditor)
     if auditor is not None:
@@ -222,17 +230,17 @@ def test_the_same_flow_by_keyboard_alone_keeps_focus_on_the_progress_page(server
     focused = page.evaluate("document.activeElement.tagName")
     announced = []
     for _ in range(240):  # bounded: at most about a minute
-        announced.append(page.locator("#status").inner_text())
+        announced.append(page.locator("#job-status").inner_text())
         if page.locator("h1:has-text('Your lithographs')").count():
             break
         assert page.evaluate("document.activeElement.tagName") == focused, "focus was reset while waiting"
         page.wait_for_timeout(250)
-    page.wait_for_function("document.getElementById('status').textContent.startsWith('Done')", timeout=10000)
+    wait_until(page, "document.getElementById('job-status').textContent.startsWith('Done')")
     assert page.evaluate("window.stillTheSamePage === true"), "the progress page reloaded"
     assert page.evaluate("document.activeElement.id") == "page-title"  # focus moved to the results heading
     assert any(t.startswith("Converting") for t in announced), announced
-    assert page.locator("#status").get_attribute("role") == "status"
-    assert page.locator("#status").inner_text().startswith("Done: 2 of 2 converted")
+    assert page.locator("#job-status").get_attribute("role") == "status"
+    assert page.locator("#job-status").inner_text().startswith("Done: 2 of 2 converted")
     tab_to(lambda i: i["text"] == "Download everything (zip)")
     with page.expect_download(timeout=60000) as download:
         page.keyboard.press("Enter")

@@ -9,7 +9,7 @@
   loadViewer();
   const job = document.getElementById("job");
   if (!job || job.dataset.state !== "running") return;
-  const status = document.getElementById("status");
+  const status = document.getElementById("job-status");
   const check = document.getElementById("check-progress");
   const note = document.getElementById("progress-note");
   if (check) check.hidden = true;  // the page updates itself now

@@ -42,7 +42,7 @@ def test_reference_reproduces_the_pipeline_bit_for_bit(gradient_image):
     from tamp_os.pipeline import make_lithograph
 
     for quantize in (False, True):
-        litho = make_lithograph(gradient_image, width_mm=60, quantize=quantize, mesher="grid")
+        litho = make_lithograph(gradient_image, width_mm=60, quantize=quantize, mesher="grid", relief_style="reference")
         lay = litho.layout
         image = prepare(
             gradient_image.astype(np.float32), None, rows=lay.rows, cols=lay.cols, target_aspect=lay.target_aspect,

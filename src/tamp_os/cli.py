@@ -420,14 +420,23 @@ def cmd_gui(args) -> int:
             probe.bind((args.host, args.port))
         except OSError as exc:
             raise ParameterError(f"--port: cannot listen on {args.host}:{args.port} ({exc.strerror}); choose another port with --port.") from None
-    url = f"http://{args.host}:{args.port}/"
+    from .gui.security import is_loopback
+
+    url, token = f"http://{args.host}:{args.port}/", None
+    if not is_loopback(args.host):
+        import secrets
+
+        token = secrets.token_urlsafe(24)
+        url += f"?token={token}"
+        print(f"WARNING: --host {args.host} makes the web app reachable from other computers. Anyone who has the "
+              "address below, with its token, can use it and see the images uploaded to it.", file=sys.stderr, flush=True)
     print(f"TAMP-OS web app at {url} (press Control-C to stop)", flush=True)
     if not args.no_browser:
         import threading
         import webbrowser
 
         threading.Timer(1.0, lambda: webbrowser.open(url)).start()
-    serve(args.host, args.port, max_file_mb=args.max_file_mb, max_files=args.max_files)
+    serve(args.host, args.port, max_file_mb=args.max_file_mb, max_files=args.max_files, access_token=token)
     return EXIT_OK
 
 

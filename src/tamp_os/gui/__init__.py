@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import signal
 import socket
 import threading
+
+from .notebook import Launched, launch, stop_all  # noqa: F401  (the notebook API)
 
 
 def free_port(host: str = "127.0.0.1") -> int:
@@ -12,32 +15,21 @@ def free_port(host: str = "127.0.0.1") -> int:
         return s.getsockname()[1]
 
 
-def serve(host: str = "127.0.0.1", port: int = 8765, **app_options):
-    """Run the server in this thread until stopped."""
+def make_server(host: str = "127.0.0.1", port: int = 8765, **app_options):
+    """A uvicorn Server for the app (not started); app_options are `Limits` fields."""
     import uvicorn
 
     from .app import Limits, create_app
 
-    uvicorn.run(create_app(Limits(**app_options)), host=host, port=port, log_level="warning")
+    app = create_app(Limits(host=host, **app_options))
+    return uvicorn.Server(uvicorn.Config(app, host=host, port=port, log_level="warning", lifespan="on"))
 
 
-def launch(port: int | None = None, height: int = 900):
-    """Start the server in the background and show it in the notebook (or return its address)."""
-    import time
-    import urllib.request
-
-    port = port or free_port()
-    threading.Thread(target=serve, kwargs={"port": port}, daemon=True).start()
-    url = f"http://127.0.0.1:{port}/"
-    for _ in range(100):
-        try:
-            urllib.request.urlopen(url, timeout=0.5)
-            break
-        except OSError:
-            time.sleep(0.1)
-    try:
-        from IPython.display import IFrame
-
-        return IFrame(url, width="100%", height=height)
-    except ImportError:
-        return url
+def serve(host: str = "127.0.0.1", port: int = 8765, **app_options) -> None:
+    """Run the server in this thread until stopped (Control-C, SIGTERM, or the terminal closing)."""
+    server = make_server(host, port, **app_options)
+    if threading.current_thread() is threading.main_thread() and hasattr(signal, "SIGHUP"):
+        # Closing the terminal sends SIGHUP, which would end the process without the shutdown
+        # that deletes the uploaded images: treat it like Control-C.
+        signal.signal(signal.SIGHUP, lambda *_: setattr(server, "should_exit", True))
+    server.run()

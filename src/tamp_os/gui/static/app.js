@@ -1,25 +1,63 @@
-// Progressive enhancement: everything works without this file. With it, the progress page
-// updates in place (announced through its live region) and error summaries take focus.
+// Progressive enhancement: everything works without this file. With it, the progress page is
+// never reloaded: progress is announced in its live region, and when the job is done the results
+// are swapped in, announced, and focus moves to the results heading. The 3D view loads on demand.
 (function () {
   "use strict";
+  const base = document.body.dataset.base || "";
   const summary = document.getElementById("error-summary");
   if (summary) summary.focus();
+  loadViewer();
   const job = document.getElementById("job");
   if (!job || job.dataset.state !== "running") return;
-  const refresh = document.querySelector('meta[http-equiv="refresh"]');
-  if (refresh) refresh.remove();
-  const progress = document.getElementById("progress");
-  const status = document.getElementById("status");
-  async function poll() {
-    try {
-      const response = await fetch("/jobs/" + job.dataset.job + "/status", { cache: "no-store" });
-      const data = await response.json();
-      if (progress) { progress.max = data.total; progress.value = data.done; progress.textContent = data.done + " of " + data.total; }
-      if (status && status.textContent !== data.message) status.textContent = data.message;
-      if (data.state === "running") { setTimeout(poll, 700); } else { window.location.reload(); }
-    } catch (error) {
-      if (status) status.textContent = "Lost contact with the TAMP-OS server; reload the page to try again.";
+  const status = document.getElementById("job-status");
+  const check = document.getElementById("check-progress");
+  const note = document.getElementById("progress-note");
+  if (check) check.hidden = true;  // the page updates itself now
+  if (note) note.textContent = "This page updates by itself; you can stay here.";
+
+  function loadViewer() {
+    if (document.querySelector("model-viewer") && !customElements.get("model-viewer")) {
+      import(base + "/static/vendor/model-viewer.min.js").catch(function () { /* the pictures remain */ });
     }
   }
-  setTimeout(poll, 700);
+
+  async function showResults(message) {
+    const response = await fetch(base + "/jobs/" + job.dataset.job, { cache: "no-store" });
+    const page = new DOMParser().parseFromString(await response.text(), "text/html");
+    const body = page.getElementById("job-body");
+    if (!body) { window.location.reload(); return; }
+    document.getElementById("job-body").replaceWith(document.adoptNode(body));
+    job.dataset.state = "done";
+    document.title = page.title;
+    document.querySelectorAll("nav.steps").forEach(function (nav, i) {
+      const fresh = page.querySelectorAll("nav.steps")[i];
+      if (fresh) nav.replaceWith(document.adoptNode(fresh));
+    });
+    const heading = document.getElementById("page-title");
+    if (heading) heading.focus();
+    // After the focus move, so the heading is read first and the news is not cut off.
+    setTimeout(function () { status.textContent = message; }, 250);
+    loadViewer();
+  }
+
+  async function poll() {
+    try {
+      const response = await fetch(base + "/jobs/" + job.dataset.job + "/status", { cache: "no-store" });
+      const data = await response.json();
+      const progress = document.getElementById("progress");
+      if (progress) { progress.max = data.total; progress.value = data.done; progress.textContent = data.done + " of " + data.total; }
+      if (data.state === "running") {
+        if (status.textContent !== data.message) status.textContent = data.message;
+        setTimeout(poll, 1000);
+      } else if (data.state === "done") {
+        await showResults(data.message);
+      } else {
+        status.textContent = "This job has ended; start again from the first page.";
+      }
+    } catch (error) {
+      status.textContent = "Lost contact with the TAMP-OS server; use Check progress to try again.";
+      if (check) check.hidden = false;
+    }
+  }
+  setTimeout(poll, 1000);
 })();

@@ -1,0 +1,176 @@
+"""The web app's routes: add images, settings, progress, results, files."""
+
+from __future__ import annotations
+
+import shutil
+
+import anyio
+from fastapi import FastAPI, Request
+from fastapi.responses import FileResponse, JSONResponse, RedirectResponse, Response
+from starlette.exceptions import HTTPException as StarletteHTTPException
+
+from ..errors import TampError
+from ..params import FORMATS, LithoParams
+from ..printers import PRESETS, all_printers
+from .forms import FIELDS, FLAGS, NUMBER_FIELDS, STYLE_CHOICES, TEXT_FIELDS, params_from_form
+from .jobs import WebJob, safe_name
+from .uploads import inspect_upload
+
+NO_TOKEN = ("Request refused", "This form is out of date or did not come from TAMP-OS. Reload the page and try again.")
+
+
+def add_upload_routes(app: FastAPI, web) -> None:
+    limits = web.limits
+
+    @app.get("/")
+    async def index(request: Request):
+        return web.page(request, "index.html", message=request.query_params.get("message", "")[:200])
+
+    @app.post("/jobs")
+    async def upload(request: Request):
+        try:
+            form = await request.form(max_files=limits.max_files + 1, max_part_size=1_000_000)
+        except StarletteHTTPException:  # more parts than allowed
+            return upload_error(request, [f"More than {limits.max_files} files were chosen; at most {limits.max_files} "
+                                          "are converted at once. Choose fewer and add the rest in another round."], 400)
+        if not web.guard.token_ok(form.get("token")):
+            return web.message(403, *NO_TOKEN)
+        files = [f for f in form.getlist("images") if getattr(f, "filename", "")]
+        if not files:
+            return upload_error(request, ["Choose at least one image file to add."], 400)
+        if len(files) > limits.max_files:
+            return upload_error(request, [f"{len(files)} files were chosen; at most {limits.max_files} are converted at once. "
+                                          "Choose fewer and add the rest in another round."], 400)
+        job = web.store.create()
+        problems = await store_uploads(web, job, files)
+        if problems:
+            web.store.remove(job.id)
+            return upload_error(request, problems + ["Nothing was added; choose image files and try again."], 400)
+        return RedirectResponse(f"{web.base}/jobs/{job.id}", status_code=303)
+
+    def upload_error(request, messages: list[str], status: int):
+        return web.page(request, "index.html", status=status, errors={"images": " ".join(messages)},
+                        summary=[("images", m) for m in messages])
+
+
+async def store_uploads(web, job: WebJob, files) -> list[str]:
+    """Save and inspect each upload in a worker thread, a bounded number at a time; the problems."""
+    cap, taken, problems = web.limits.max_file_mb * 1e6, set(), []
+    for index, f in enumerate(files):
+        name = safe_name(f.filename, taken)
+        if (f.size or 0) > cap:
+            problems.append(f"{name} is larger than the limit of {web.limits.max_file_mb:g} MB per file.")
+            continue
+        path = job.folder / "in" / name
+
+        def save_and_inspect(f=f, path=path, name=name, index=index):
+            with path.open("wb") as out:
+                shutil.copyfileobj(f.file, out)
+            return inspect_upload(path, name, job.thumbs, index, web.limits.max_decoded_mb)
+
+        try:
+            job.uploads.append(await anyio.to_thread.run_sync(save_and_inspect, limiter=web.decode_limiter))
+        except TampError as exc:
+            problems.append(str(exc))
+    return problems
+
+
+def add_job_routes(app: FastAPI, web) -> None:
+    @app.get("/jobs/{job_id}")
+    async def show(request: Request, job_id: str):
+        job = web.store.get(job_id)
+        if job is None:
+            return RedirectResponse(f"{web.base}/?message=That+job+has+ended+or+does+not+exist.", status_code=303)
+        if job.state == "added":
+            return settings_page(web, request, job)
+        return web.page(request, "progress.html" if job.state == "running" else "results.html", job=job, step=3)
+
+    @app.post("/jobs/{job_id}/generate")
+    async def generate(request: Request, job_id: str):
+        job = web.store.get(job_id)
+        if job is None:
+            return RedirectResponse(f"{web.base}/?message=That+job+has+ended+or+does+not+exist.", status_code=303)
+        form = await request.form()
+        if not web.guard.token_ok(form.get("token")):
+            return web.message(403, *NO_TOKEN)
+        if job.state == "running":
+            return RedirectResponse(f"{web.base}/jobs/{job.id}", status_code=303)
+        for i, upload in enumerate(job.uploads):
+            choice = form.get(f"override_{i}", "")
+            upload.override = choice if choice in PRESETS else ""
+        params, errors = params_from_form(form)
+        if params is None:
+            return settings_page(web, request, job, 400, form_values(job.params, form), errors.by_field)
+        if form.get("action") == "update":
+            job.params = params
+            return settings_page(web, request, job, values=form_values(params, form))
+        web.store.start(job, params)
+        return RedirectResponse(f"{web.base}/jobs/{job.id}", status_code=303)
+
+    @app.get("/jobs/{job_id}/status")
+    async def status(job_id: str):
+        job = web.store.get(job_id)
+        if job is None:
+            return JSONResponse({"state": "gone"}, status_code=404)
+        return {"state": job.state, "done": job.done, "total": len(job.uploads), "message": job.message}
+
+    @app.post("/jobs/{job_id}/delete")
+    async def delete(request: Request, job_id: str):
+        form = await request.form()
+        if not web.guard.token_ok(form.get("token")):
+            return web.message(403, *NO_TOKEN)
+        web.store.remove(job_id)
+        return RedirectResponse(f"{web.base}/?message=Your+files+were+deleted.", status_code=303)
+
+
+def form_values(params: LithoParams, form=None) -> dict:
+    """The settings form's values: from the parameters, or as the user typed them."""
+    values = {name: "" if getattr(params, name) is None else getattr(params, name) for name in (*TEXT_FIELDS, *NUMBER_FIELDS)}
+    values.update({name: getattr(params, name) for name in FLAGS})
+    values["printer"], values["preset"], values["formats"] = params.printer, params.preset, list(params.formats)
+    values["relief_style"] = params.relief_style
+    if form is not None:
+        for key in (*TEXT_FIELDS, *NUMBER_FIELDS, "printer", "preset", "relief_style"):
+            values[key] = form.get(key, "")
+        values.update({key: form.get(key) == "on" for key in FLAGS})
+        values["formats"] = form.getlist("formats")
+    return values
+
+
+def settings_page(web, request, job: WebJob, status: int = 200, values=None, errors=None):
+    from .cards import detail_cards
+
+    errors = errors or {}
+    return web.page(
+        request, "settings.html", status=status, job=job, step=2, values=values or form_values(job.params), errors=errors,
+        summary=list(errors.items()), cards=detail_cards(job, job.params), printers=all_printers(), presets=list(PRESETS),
+        formats=FORMATS, fields=FIELDS, styles=STYLE_CHOICES, customize_open=bool(set(errors) & set(FIELDS)) or request.query_params.get("customize") == "open",
+    )
+
+
+def add_file_routes(app: FastAPI, web) -> None:
+    def missing():
+        return Response("No such file in this job.", status_code=404, media_type="text/plain")
+
+    @app.get("/jobs/{job_id}/files/{name}")
+    async def download(job_id: str, name: str):
+        job = web.store.get(job_id)
+        if job is None or name not in job.output_names():
+            return missing()
+        return FileResponse(job.out / name, filename=name)
+
+    @app.get("/jobs/{job_id}/thumbs/{name}")
+    async def thumb(job_id: str, name: str):
+        job = web.store.get(job_id)
+        if job is None or name not in {u.thumb for u in job.uploads}:
+            return missing()
+        return FileResponse(job.thumbs / name, media_type="image/png")
+
+    @app.get("/jobs/{job_id}/download.zip")
+    async def download_zip(job_id: str):
+        job = web.store.get(job_id)
+        if job is None or job.state != "done":
+            return Response("No finished job with that id.", status_code=404, media_type="text/plain")
+        headers = {"Content-Disposition": 'attachment; filename="tamp-os-lithographs.zip"'}
+        data = await anyio.to_thread.run_sync(web.store.zip_bytes, job)
+        return Response(data, media_type="application/zip", headers=headers)

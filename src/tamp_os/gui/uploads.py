@@ -1,0 +1,126 @@
+"""Uploaded images: checked by their header before anything is decoded, decoded in a worker thread
+(never on the event loop) with a bound on how many decode at once, and refused in plain words.
+
+A PNG of a few hundred kilobytes can claim 19500 × 19500 pixels; decoding it takes gigabytes.
+So the header's claim is priced in decoded bytes first, with a lower cap than the command line's.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError, TampError
+from ..files import write_png
+
+THUMB_PX = 160
+TIFF_MAGIC = (b"II*\x00", b"MM\x00*", b"II+\x00", b"MM\x00+")
+
+
+@dataclass
+class Upload:
+    """One uploaded image as the web app shows it."""
+
+    name: str
+    path: Path
+    width: int
+    height: int
+    suggested: str
+    reason: str
+    thumb: str = ""  # file name in the job's thumbs folder
+    override: str = ""
+
+
+def decoded_bytes(path: Path) -> tuple[int, int, int] | None:
+    """(width, height, decoded bytes) that the file's header claims, or None when the header is
+    not one we can price (DM files: the reader's own megapixel check applies). Width is 0 when
+    only the pixel count is known (then height holds the pixel count).
+
+    Raises InputError in plain words when the file is not an image at all.
+    """
+    with path.open("rb") as fh:
+        head = fh.read(8)
+    if head[:4] in TIFF_MAGIC:
+        import tifffile
+
+        try:
+            with tifffile.TiffFile(path) as tif:
+                series = tif.series[0]
+                x, y = series.shape[series.axes.index("X")], series.shape[series.axes.index("Y")]
+                return int(x), int(y), int(np.prod(series.shape)) * series.dtype.itemsize
+        except Exception:
+            raise InputError(f"{path.name} looks like a TIFF file but is damaged, so it cannot be read. Export it again.") from None
+    if head[:4] == b"\x00\x00\x00\x04" or head[:4] == b"\x00\x00\x00\x03":
+        return None  # Digital Micrograph
+    from PIL import Image, UnidentifiedImageError
+
+    try:
+        with Image.open(path) as im:  # reads the header only
+            samples = len(im.getbands()) * (2 if im.mode.startswith("I;16") else 4 if im.mode in ("I", "F") else 1)
+            return im.width, im.height, im.width * im.height * samples
+    except Image.DecompressionBombError as exc:  # Pillow refuses to open it at all: price it from its message
+        pixels = int(re.search(r"\((\d+) pixels\)", str(exc)).group(1))
+        return 0, pixels, pixels
+    except UnidentifiedImageError:
+        raise InputError(not_an_image(path.name)) from None
+    except Exception:
+        raise InputError(f"{path.name} is damaged or truncated, so it cannot be read. Export it again.") from None
+
+
+def not_an_image(name: str) -> str:
+    return (f"{name} is not an image TAMP-OS can read. Choose a PNG, JPEG, TIFF (also microscope TIFFs), "
+            "BMP, GIF, WebP or DM3/DM4 file.")
+
+
+def check_size(path: Path, max_decoded_mb: float) -> None:
+    """Refuse, before decoding, an image whose pixels would take more than `max_decoded_mb` MB."""
+    claim = decoded_bytes(path)
+    if claim and claim[2] > max_decoded_mb * 1e6:
+        w, h, n = claim
+        size = f"{w:,} × {h:,} pixels" if w else f"{h / 1e6:,.0f} million pixels"
+        raise InputError(
+            f"{path.name} is {size}, which takes {n / 1e6:,.0f} MB once opened; this web app opens "
+            f"images up to {max_decoded_mb:g} MB. Make the image smaller (for example half as wide), or use the "
+            "tamp-os command, which accepts larger images."
+        )
+
+
+def plain_error(exc: TampError, path: Path, name: str) -> str:
+    """A library error about an upload, without folders, byte dumps or command-line advice."""
+    text = str(exc).replace(str(path), name)
+    text = re.sub(r" \(the file starts with b?['\"].*?['\"]\)", "", text)
+    text = re.sub(r"If you trust the file, raise the limit with --[\w-]+ \d+\.?", "Make the image smaller and try again.", text)
+    return text
+
+
+def inspect_upload(path: Path, name: str, thumbs: Path, index: int, max_decoded_mb: float) -> Upload:
+    """Read an upload once (in a worker thread): refuse non-images and oversized ones, suggest a
+    level of detail from its contrast and detail, and write a small thumbnail."""
+    from ..printers import BUILTIN_PRINTERS
+    from ..read import read_image
+    from ..relief.touch import suggest_by_touch
+
+    check_size(path, max_decoded_mb)
+    try:
+        picture = read_image(path, max_megapixels=max_decoded_mb)  # one byte per pixel at least
+    except TampError as exc:
+        raise InputError(plain_error(exc, path, name)) from None
+    standard = BUILTIN_PRINTERS["standard"]  # the printer is chosen later; judge at its width and nozzle
+    suggestion = suggest_by_touch(picture.values, picture.alpha, width_mm=standard.width_mm, nozzle_mm=standard.nozzle_mm)
+    preset, reason = suggestion.preset, suggestion.reason
+    thumb = f"{index}.png"
+    write_png(thumbs / thumb, thumbnail(picture.values))
+    return Upload(name, path, picture.file.width, picture.file.height, preset, reason, thumb)
+
+
+def thumbnail(values: np.ndarray, size_px: int = THUMB_PX) -> np.ndarray:
+    """An 8-bit grey thumbnail, at most `size_px` on its longer side, from an H×W float image."""
+    step = max(1, int(np.ceil(max(values.shape) / size_px)))
+    small = values[::step, ::step]
+    finite = small[np.isfinite(small)]
+    lo, hi = (np.percentile(finite, [1, 99]) if finite.size else (0.0, 1.0))
+    scaled = np.nan_to_num((small - lo) / ((hi - lo) or 1.0), nan=0.0)
+    return (np.clip(scaled, 0, 1) * 255).astype(np.uint8)

@@ -1,0 +1,108 @@
+"""Shared helpers of the web-app tests: a real server in a subprocess, headless Chromium, axe."""
+
+from __future__ import annotations
+
+import io
+import os
+import re
+import struct
+import subprocess
+import sys
+import time
+import zlib
+from pathlib import Path
+
+import httpx
+import numpy as np
+import pytest
+from PIL import Image
+
+CHROMIUM = "/usr/bin/chromium"
+LAUNCH_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update",
+               "--disable-sync", "--no-first-run", "--disable-dev-shm-usage"]
+WCAG_TAGS = ["wcag2a", "wcag2aa", "wcag21a", "wcag21aa", "wcag22aa"]
+SCREENS = Path("/work/screens/web")
+
+
+def start_server(root: Path, *extra: str, slow_s: float = 0.8, grace_s: float = 1.0):
+    """Start `tamp-os gui` for real; returns (process, url). Waits at most 20 s."""
+    from tamp_os.gui import free_port
+
+    port = free_port()
+    env = dict(os.environ, TAMP_GUI_ROOT=str(root), TAMP_GUI_SLOW_S=str(slow_s), TAMP_GUI_GRACE_S=str(grace_s))
+    proc = subprocess.Popen([sys.executable, "-m", "tamp_os.cli", "gui", "--no-browser", "--port", str(port), *extra],
+                            env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    url = f"http://127.0.0.1:{port}"
+    deadline = time.monotonic() + 20
+    while time.monotonic() < deadline:
+        try:
+            httpx.get(url, timeout=0.5)
+            return proc, url
+        except httpx.HTTPError:
+            time.sleep(0.1)
+    proc.kill()
+    pytest.fail(f"the server did not start: {proc.stdout.read()}")
+
+
+def stop_server(proc) -> None:
+    proc.terminate()
+    proc.wait(timeout=10)
+
+
+def form_token(client: httpx.Client, path: str = "/") -> str:
+    """The form token a page carries (what a same-origin page can read and a foreign one cannot)."""
+    return re.search(r'name="token" value="([^"]+)"', client.get(path).text).group(1)
+
+
+def png_bytes(shape=(30, 40), seed=0) -> bytes:
+    buf = io.BytesIO()
+    Image.fromarray((np.random.default_rng(seed).random(shape) * 255).astype(np.uint8)).save(buf, "PNG")
+    return buf.getvalue()
+
+
+def bomb_png(side_px: int = 19500) -> bytes:
+    """A valid 8-bit grey PNG of side_px × side_px black pixels in a few hundred kilobytes."""
+    def chunk(kind, data):
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF)
+
+    row, packer, parts = b"\0" * (side_px + 1), zlib.compressobj(9), []
+    for start in range(0, side_px, 500):
+        parts.append(packer.compress(row * min(500, side_px - start)))
+    parts.append(packer.flush())
+    header = struct.pack(">IIBBBBB", side_px, side_px, 8, 0, 0, 0, 0)
+    return b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", b"".join(parts)) + chunk(b"IEND", b"")
+
+
+def new_job(client: httpx.Client, files: list[tuple[str, bytes]]) -> str:
+    token = form_token(client)
+    r = client.post("/jobs", data={"token": token}, files=[("images", (n, b, "image/png")) for n, b in files])
+    assert r.status_code == 303, r.text
+    return r.headers["location"].rsplit("/", 1)[1]
+
+
+def generate_and_wait(client: httpx.Client, job: str, timeout_s: float = 120, **fields) -> None:
+    token = form_token(client, f"/jobs/{job}")
+    r = client.post(f"/jobs/{job}/generate", data={"token": token, "preset": "low", "formats": "stl", **fields})
+    assert r.status_code == 303, r.text
+    deadline = time.monotonic() + timeout_s
+    while client.get(f"/jobs/{job}/status").json()["state"] != "done":
+        assert time.monotonic() < deadline, "the job did not finish"
+        time.sleep(0.2)
+
+
+def audit(page, state: str) -> None:
+    """axe with the WCAG 2.2 AA tags: no violation allowed."""
+    from axe_playwright_python.sync_playwright import Axe
+
+    results = Axe().run(page, options={"runOnly": {"type": "tag", "values": WCAG_TAGS}})
+    assert results.violations_count == 0, f"{state}: {results.generate_report()}"
+
+
+def no_sideways_scroll(page, state: str) -> None:
+    width = page.evaluate("[document.documentElement.scrollWidth, window.innerWidth]")
+    assert width[0] <= width[1] + 1, f"{state}: the page is {width[0]} px wide in a {width[1]} px window"
+
+
+def screenshot(page, name: str) -> None:
+    SCREENS.mkdir(parents=True, exist_ok=True)
+    page.screenshot(path=str(SCREENS / f"{name}.png"), full_page=True)

@@ -29,10 +29,19 @@ def metadata(litho) -> dict:
     """Title, description, designer and application, for formats that carry them (3MF, GLB)."""
     return {
         "title": f"Tactile lithograph of {litho.picture.file.name}",
-        "description": describe(litho.report, litho.params, litho.picture.file.name),
+        "description": " ".join([describe(litho.report, litho.params, litho.picture.file.name), *multipart_sentences(litho)]),
         "designer": "TAMP-OS",
         "application": f"TAMP-OS {__version__}",
     }
+
+
+def multipart_sentences(litho) -> list[str]:
+    """How the parts or tiles go together, for the description (tactile/parts.py, tiles.py)."""
+    from .tactile.parts import describe_parts
+    from .tiles import describe_tiles
+
+    out = [describe_parts(litho.parts)] if getattr(litho, "parts", None) else []
+    return out + ([describe_tiles(litho.tiles)] if getattr(litho, "tiles", None) else [])
 
 
 def save(litho, target, formats=None, stem: str | None = None) -> list[Path]:
@@ -44,14 +53,25 @@ def save(litho, target, formats=None, stem: str | None = None) -> list[Path]:
     folder, stem, formats = _target(litho, Path(target), formats, stem)
     meta = metadata(litho)
     # The mesh as written, and every format's own limits, are checked before any file is written.
-    check_export(litho.mesh, [folder / f"{stem}.{fmt}" for fmt in formats])
-    written = [path for path, _ in write_meshes(litho.mesh, folder, stem, formats, meta).values()]
+    if getattr(litho, "tiles", None) or getattr(litho, "parts", None):  # several solids (export/multipart.py)
+        written = _write_multipart(litho, folder, stem, formats, meta)
+    else:
+        check_export(litho.mesh, [folder / f"{stem}.{fmt}" for fmt in formats])
+        written = [path for path, _ in write_meshes(litho.mesh, folder, stem, formats, meta).values()]
     if litho.params.save_masks and litho.mask is not None:
         written.append(write_png(folder / f"{stem}.annotations.png", to_uint8(litho.mask, 0.0, 1.0)))
     written.append(write_text(folder / f"{stem}.description.txt", meta["description"] + "\n"))
     recipe = write_recipe(litho, folder / f"{stem}{RECIPE_SUFFIX}", [p.name for p in written])
     litho.report.files = [p.name for p in written] + [recipe.name]
     return written + [recipe]
+
+
+def _write_multipart(litho, folder: Path, stem: str, formats: list[str], meta: dict) -> list[Path]:
+    from .export.multipart import write_parts, write_tiles
+
+    if litho.tiles:
+        return write_tiles(litho.tiles, folder, stem, formats, meta)
+    return write_parts(litho.parts, litho.mesh, folder, stem, formats, meta)
 
 
 def _target(litho, target: Path, formats, stem) -> tuple[Path, str, list[str]]:

@@ -34,10 +34,19 @@ def metadata(litho) -> dict:
     """Title, description, designer and application, for formats that carry them (3MF, GLB)."""
     return {
         "title": f"Tactile lithograph of {litho.picture.file.name}",
-        "description": describe(litho.report, litho.params, litho.picture.file.name),
+        "description": " ".join([describe(litho.report, litho.params, litho.picture.file.name), *multipart_sentences(litho)]),
         "designer": "TAMP-OS",
         "application": f"TAMP-OS {__version__}",
     }
+
+
+def multipart_sentences(litho) -> list[str]:
+    """How the parts or tiles go together, for the description (tactile/parts.py, tiles.py)."""
+    from .tactile.parts import describe_parts
+    from .tiles import describe_tiles
+
+    out = [describe_parts(litho.parts)] if getattr(litho, "parts", None) else []
+    return out + ([describe_tiles(litho.tiles)] if getattr(litho, "tiles", None) else [])
 
 
 def save(litho, target, formats=None, stem: str | None = None) -> list[Path]:
@@ -51,11 +60,14 @@ def save(litho, target, formats=None, stem: str | None = None) -> list[Path]:
     graphics = [f for f in formats if f in GRAPHIC_FORMATS]
     meshes = [f for f in formats if f not in GRAPHIC_FORMATS]
     # The mesh as written, every format's own limits and the graphics' page are checked before any file is written.
-    check_export(litho.mesh, [folder / f"{stem}.{fmt}" for fmt in meshes])
     graphic = tactile_graphic(litho) if graphics else None
     if graphic is not None:
         page_placement(graphic.plate_mm, litho.params.page_size)
-    written = [path for path, _ in write_meshes(litho.mesh, folder, stem, meshes, meta).values()]
+    if litho.tiles or litho.parts:  # several solids (export/multipart.py)
+        written = _write_multipart(litho, folder, stem, meshes, meta)
+    else:
+        check_export(litho.mesh, [folder / f"{stem}.{fmt}" for fmt in meshes])
+        written = [path for path, _ in write_meshes(litho.mesh, folder, stem, meshes, meta).values()]
     written += [save_graphic(graphic, folder / f"{stem}.{fmt}", litho.params.page_size, meta) for fmt in graphics]
     if litho.params.save_masks and litho.mask is not None:
         written.append(write_png(folder / f"{stem}.annotations.png", to_uint8(litho.mask, 0.0, 1.0)))
@@ -63,6 +75,14 @@ def save(litho, target, formats=None, stem: str | None = None) -> list[Path]:
     recipe = write_recipe(litho, folder / f"{stem}{RECIPE_SUFFIX}", [p.name for p in written])
     litho.report.files = [p.name for p in written] + [recipe.name]
     return written + [recipe]
+
+
+def _write_multipart(litho, folder: Path, stem: str, formats: list[str], meta: dict) -> list[Path]:
+    from .export.multipart import write_parts, write_tiles
+
+    if litho.tiles:
+        return write_tiles(litho.tiles, folder, stem, formats, meta)
+    return write_parts(litho.parts, litho.mesh, folder, stem, formats, meta)
 
 
 def _target(litho, target: Path, formats, stem) -> tuple[Path, str, list[str]]:

@@ -82,6 +82,8 @@ class LithoParams:
     dot_spacing_mm: float = _f(2.5, "braille dot spacing within a cell", "mm", *BrailleSpec.RANGES["dot_spacing_mm"])
     cell_spacing_mm: float = _f(6.0, "braille cell to cell spacing", "mm", *BrailleSpec.RANGES["cell_spacing_mm"])
     line_spacing_mm: float = _f(10.0, "braille line to line spacing", "mm", *BrailleSpec.RANGES["line_spacing_mm"])
+    multicolour: bool = _f(False, "two-colour print: the braille, scale bar and frame as a second part (a 3MF with two coloured parts; with STL, NAME.base.stl and NAME.raised.stl)")
+    bed_mm: str | None = _f(None, "printer bed size, e.g. 120 or 120x200: a larger plate is split into tiles that fit, with pegs and sockets, written as NAME.tile-R-C.*")
     mesher: str = _f("adaptive", "adaptive: fewest triangles within max_error_mm; grid: every pixel a vertex", choices=MESHERS)
     max_error_mm: float | None = _f(None, "largest height error of the adaptive mesh (default: half the layer height; 0 = exact grid)", "mm", 0.0, 5.0)
     gcode: bool = _f(False, "also slice with PrusaSlicer to NAME.gcode and report print time, grams and cost")
@@ -107,6 +109,12 @@ class LithoParams:
         if self.scale_bar not in ("auto", "off"):
             parse_length_m(self.scale_bar, "scale_bar")
         self.braille_spec()  # checks the dot sizes against each other
+        if self.bed_mm is not None:
+            from .tiles import parse_bed_mm
+
+            parse_bed_mm(self.bed_mm)
+            if self.multicolour:
+                raise ParameterError("multicolour and bed_mm: tiled two-colour prints are not made yet; choose one of them.")
         if not self.formats:
             raise ParameterError(f"formats: choose at least one of {', '.join(FORMATS)}.")
 

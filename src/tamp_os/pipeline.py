@@ -26,6 +26,8 @@ from .relief.preprocess import Prepared, prepare
 from .relief.styles import ReliefResult, StyleOptions, make_relief
 from .report import Report
 from .tactile.furniture import Furniture, Placed, add_furniture
+from .tactile.parts import two_colour_parts
+from .tiles import Tiling, parse_bed_mm, tiles_for
 from .units import parse_length_m
 
 log = logging.getLogger(__name__)
@@ -47,6 +49,8 @@ class Lithograph:
     report: Report
     furniture: Furniture | None = None  # what was asked of the tactile furniture (for the 2-D graphics)
     mask: np.ndarray | None = None  # (rows, cols) float over the whole source: 0 kept, 0.5 cropped band, 1 inpainted
+    parts: list | None = None  # multicolour: [base, raised] tactile.parts.Part, each closed; mesh is their union
+    tiles: Tiling | None = None  # bed_mm smaller than the plate: the tiles to write instead of mesh
 
     @property
     def name(self) -> str:
@@ -113,18 +117,37 @@ def make_lithograph(source, params: LithoParams | None = None, *, printer_profil
         else:
             mesh = grid_solid(heights, layout.width_mm, layout.depth_mm)
     sample_per_mm = cleaned.pixel_size.metres * prepared.fitted_width_px / layout.width_mm if cleaned.pixel_size.metres else None
+    furniture = _furniture(params, sample_per_mm)
     with clock("tactile"):
-        furniture = _furniture(params, sample_per_mm)
-        placed = None
-        if furniture.wanted or furniture.corner_cut:
-            mesh, placed = add_furniture(mesh, layout.width_mm, layout.depth_mm, params.base_mm, furniture)
-    report = _report(picture, cleaned, prepared, layout, params, machine, mesh, placed, max_error, timings)
-    report.warnings += list(placed.notes) if placed else []
+        tactile = _tactile(mesh, layout, params, furniture)
+    report = _report(picture, cleaned, prepared, layout, params, machine, tactile.mesh, tactile.placed, max_error, timings)
     report.relief_style, report.relief_reason = relief.style, relief.reason
     report.legibility = _legibility_report(legibility, relief)
-    report.warnings += list(relief.notes)
-    return Lithograph(mesh=mesh, heightmap=heights, params=params, printer=machine, layout=layout, picture=picture,
-                      report=report, furniture=furniture, mask=cleaned.source_mask())
+    report.warnings += list(tactile.placed.notes if tactile.placed else []) + list(relief.notes) + list(tactile.tiles.notes if tactile.tiles else [])
+    return Lithograph(mesh=tactile.mesh, heightmap=heights, params=params, printer=machine, layout=layout, picture=picture,
+                      report=report, furniture=furniture, mask=cleaned.source_mask(), parts=tactile.parts, tiles=tactile.tiles)
+
+
+@dataclass
+class _Tactile:
+    mesh: Mesh  # the whole print: relief, plate and furniture fused
+    placed: Placed | None  # where the furniture went
+    parts: list | None  # two-colour parts (multicolour)
+    tiles: object | None  # tiles for a bed smaller than the plate (bed_mm)
+
+
+def _tactile(relief_mesh: Mesh, layout: Layout, params: LithoParams, furniture: Furniture) -> _Tactile:
+    """Furniture (plate, braille, scale bar, frame, cut corner), then two-colour parts or tiles."""
+    mesh, placed = relief_mesh, None
+    if furniture.wanted or furniture.corner_cut:
+        mesh, placed = add_furniture(relief_mesh, layout.width_mm, layout.depth_mm, params.base_mm, furniture)
+    parts = two_colour_parts(relief_mesh, layout.width_mm, layout.depth_mm, params.base_mm, furniture)[0] if params.multicolour else None
+    tiles = None
+    if params.bed_mm:
+        (ox, oy), legs = (placed.relief_origin_mm, placed.corner_cut_mm) if placed else ((0.0, 0.0), 0.0)
+        picture_box = (ox, oy, ox + layout.width_mm, oy + layout.depth_mm)
+        tiles = tiles_for(mesh, parse_bed_mm(params.bed_mm), params.base_mm, furniture.spec, picture_box, legs)
+    return _Tactile(mesh, placed, parts, tiles)
 
 
 class _Clock:

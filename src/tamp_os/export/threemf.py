@@ -61,6 +61,19 @@ def _write_3mf(mesh, fh, metadata: dict) -> None:
     model.SetUnit(lib3mf.ModelUnit.MilliMeter)
     obj = model.AddMeshObject()
     obj.SetName(xml_text(metadata.get("title", "TAMP-OS lithograph")))
+    seed = _set_geometry(obj, mesh)
+    obj.SetUUID(str(uuid.uuid5(seed, "object")))
+    item = model.AddBuildItem(obj, wrapper.GetIdentityTransform())
+    item.SetUUID(str(uuid.uuid5(seed, "item")))
+    model.SetBuildUUID(str(uuid.uuid5(seed, "build")))
+    _finish(model, fh, metadata)
+
+
+def _set_geometry(obj, mesh) -> uuid.UUID:
+    """Give a lib3mf mesh object the mesh's geometry from numpy buffers; return a UUID seed from the content."""
+    import lib3mf
+
+    wrapper = _wrapper()
     vertices = np.ascontiguousarray(mesh.vertices, dtype=np.float32)
     faces = np.ascontiguousarray(mesh.faces, dtype=np.uint32)
     wrapper.checkError(
@@ -74,11 +87,50 @@ def _write_3mf(mesh, fh, metadata: dict) -> None:
         ),
     )
     digest = hashlib.sha256(vertices.tobytes() + faces.tobytes()).hexdigest()
-    seed = uuid.UUID(digest[:32])
-    obj.SetUUID(str(uuid.uuid5(seed, "object")))
-    item = model.AddBuildItem(obj, wrapper.GetIdentityTransform())
+    return uuid.UUID(digest[:32])
+
+
+def write_3mf_parts(parts, fh, metadata: dict) -> None:
+    """Several single-colour parts (tactile.parts.Part) as one object made of components.
+
+    Each part is a mesh object with its own base material (name and display colour); one
+    components object holds them all with identity transforms and is the only build item, so
+    slicers (PrusaSlicer, Bambu Studio, OrcaSlicer) load one object with one volume per part,
+    each of which can be given its own filament.
+    """
+    with _keep_locale():
+        _write_parts(parts, fh, metadata)
+
+
+def _write_parts(parts, fh, metadata: dict) -> None:
+    import lib3mf
+
+    wrapper = _wrapper()
+    model = wrapper.CreateModel()
+    model.SetUnit(lib3mf.ModelUnit.MilliMeter)
+    materials = model.AddBaseMaterialGroup()
+    whole = model.AddComponentsObject()
+    seeds = []
+    for part in parts:
+        material = materials.AddMaterial(xml_text(part.label), wrapper.RGBAToColor(*part.colour_rgb, 255))
+        obj = model.AddMeshObject()
+        obj.SetName(xml_text(part.label))
+        seeds.append(_set_geometry(obj, part.mesh))
+        obj.SetUUID(str(uuid.uuid5(seeds[-1], "object-" + part.name)))
+        obj.SetObjectLevelProperty(materials.GetResourceID(), material)
+        component = whole.AddComponent(obj, wrapper.GetIdentityTransform())
+        component.SetUUID(str(uuid.uuid5(seeds[-1], "component-" + part.name)))
+    seed = uuid.uuid5(seeds[0], "".join(str(s) for s in seeds))
+    whole.SetName(xml_text(metadata.get("title", "TAMP-OS lithograph")))
+    whole.SetUUID(str(uuid.uuid5(seed, "object")))
+    item = model.AddBuildItem(whole, wrapper.GetIdentityTransform())
     item.SetUUID(str(uuid.uuid5(seed, "item")))
     model.SetBuildUUID(str(uuid.uuid5(seed, "build")))
+    _finish(model, fh, metadata)
+
+
+def _finish(model, fh, metadata: dict) -> None:
+    """Add the metadata and write the model into `fh`."""
     group = model.GetMetaDataGroup()
     for key in ("Title", "Description", "Designer", "Application"):
         value = metadata.get(key.lower())

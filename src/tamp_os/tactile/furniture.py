@@ -226,12 +226,22 @@ def build_parts(relief: Mesh, plan: Plan, base_mm: float, spec: BrailleSpec) -> 
     Raised elements stand on z = base_mm and reach `sink` into the plate, whose top is SEAM_MM
     lower, so every pair of parts overlaps instead of touching.
     """
+    return build_base(relief, plan, base_mm) + build_raised(plan, base_mm, spec)
+
+
+def build_base(relief: Mesh, plan: Plan, base_mm: float) -> list:
+    """manifold3d solids of the plate (its top SEAM_MM below base_mm) and the relief at its origin."""
     plate_w, plate_d = plan.placed.plate_mm
-    seam = min(SEAM_MM, base_mm / 10)
+    plate_top = base_mm - min(SEAM_MM, base_mm / 10)
+    return [_extrude([_rect((0, 0, plate_w, plate_d))], 0.0, plate_top),
+            _relief_part(relief, plan.placed.relief_origin_mm, plate_top / 2)]
+
+
+def build_raised(plan: Plan, base_mm: float, spec: BrailleSpec) -> list:
+    """manifold3d solids of the raised furniture (frame, scale bar, braille dots), each standing
+    on z = base_mm and reaching `sink` down into the plate."""
     sink = min(0.4, base_mm / 2)
-    plate_top = base_mm - seam
-    parts = [_extrude([_rect((0, 0, plate_w, plate_d))], 0.0, plate_top)]
-    parts.append(_relief_part(relief, plan.placed.relief_origin_mm, plate_top / 2))
+    parts = []
     if plan.frame_ring:
         outer, inner = plan.frame_ring
         parts.append(_extrude([_rect(outer), _rect(inner)[::-1]], base_mm - sink, base_mm + FRAME_HEIGHT_MM))
@@ -288,11 +298,23 @@ def _corner_cut(plate_w: float, plate_d: float, legs_mm: float, top_mm: float):
 
 def _fuse(parts, placed: Placed, top_mm: float) -> Mesh:
     """Union of all parts, minus the orientation corner (if any), as one Mesh; top_mm bounds the parts."""
+    return to_mesh(fuse_solid(parts, placed, top_mm))
+
+
+def fuse_solid(parts, placed: Placed, top_mm: float):
+    """Union of all parts, minus the orientation corner (if any), as a manifold3d solid."""
     import manifold3d as m3
 
     solid = m3.Manifold.batch_boolean(parts, m3.OpType.Add) if len(parts) > 1 else parts[0]
     if placed.corner_cut_mm > 0:
         solid = solid - _corner_cut(*placed.plate_mm, placed.corner_cut_mm, top_mm)
+    return solid
+
+
+def to_mesh(solid) -> Mesh:
+    """A manifold3d solid as a Mesh; ExportError if the boolean operations failed or left nothing."""
+    import manifold3d as m3
+
     if solid.status() != m3.Error.NoError or solid.is_empty():
         raise ExportError(f"tactile furniture: fusing the parts failed ({solid.status()}); please report this input and its settings.")
     out = solid.to_mesh()

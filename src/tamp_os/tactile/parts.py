@@ -1,0 +1,77 @@
+"""Two-colour prints: the plate with its relief as one part, the raised furniture as another.
+
+The furniture (braille dots, scale bar, frame) is built as for a one-colour print, then the base
+is subtracted from it: the raised part sits on the plate's top and in its own cut-outs, sharing
+faces with the base but no volume, so a slicer fills every point of the print from exactly one
+extruder. Each part is a closed solid on its own (checked as written before any file is).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from .furniture import (BAR_HEIGHT_MM, FRAME_HEIGHT_MM, Furniture, Placed, build_base, build_raised, fuse_solid,
+                        plan_furniture, to_mesh)
+from ..mesh.solid import Mesh
+
+# Colours a reader with low vision tells apart best on a light plate: white base, black raised.
+BASE_COLOUR_RGB = (245, 245, 245)
+RAISED_COLOUR_RGB = (20, 20, 20)
+
+
+@dataclass(frozen=True)
+class Part:
+    """One single-colour solid of a multi-part print (mm); `name` goes into file names (NAME.base.stl)."""
+
+    name: str
+    label: str  # what a reader or a slicer's object list calls it
+    mesh: Mesh
+    colour_rgb: tuple[int, int, int]
+
+
+def two_colour_parts(relief: Mesh, width_mm: float, depth_mm: float, base_mm: float, furniture: Furniture) -> tuple[list[Part], Placed]:
+    """The print split into a base part (plate and relief) and a raised part (the furniture).
+
+    Parameters
+    ----------
+    relief : Mesh
+        The relief solid over [0, width_mm] × [0, depth_mm], bottom at z = 0 (mm).
+    width_mm, depth_mm, base_mm : float
+        The relief's outline and the plate thickness (mm).
+    furniture : Furniture
+        What to raise. With nothing raised (no caption, scale bar or frame) there is one part.
+
+    Returns
+    -------
+    parts : list of Part
+        [base, raised] (or [base] alone); the parts share faces but no volume.
+    placed : Placed
+        Where each element went, as `add_furniture` returns it.
+    """
+    plan = plan_furniture(width_mm, depth_mm, furniture) if furniture.wanted else None
+    if plan is None:
+        from .furniture import add_furniture
+
+        mesh, placed = add_furniture(relief, width_mm, depth_mm, base_mm, furniture)
+        return [Part("base", "plate and relief", mesh, BASE_COLOUR_RGB)], placed
+    placed = plan.placed
+    raised_parts = build_raised(plan, base_mm, furniture.spec)
+    top = max(float(relief.vertices[:, 2].max()), base_mm + max(BAR_HEIGHT_MM, FRAME_HEIGHT_MM, furniture.spec.dot_height_mm))
+    base = fuse_solid(build_base(relief, plan, base_mm), placed, top)
+    raised = fuse_solid(raised_parts, placed, top) - base
+    return [
+        Part("base", "plate and relief", to_mesh(base), BASE_COLOUR_RGB),
+        Part("raised", "braille, scale bar and frame", to_mesh(raised), RAISED_COLOUR_RGB),
+    ], placed
+
+
+def describe_parts(parts: list[Part]) -> str:
+    """A sentence for the description: which part is which colour, and how to print them."""
+    if len(parts) < 2:
+        return "Two-colour print asked for, but nothing is raised besides the picture (no braille, scale bar or frame): one part."
+    return (
+        f"Two-colour print: the {parts[0].label} are one part (white) and the {parts[1].label} a second part "
+        "(black) resting on it; the 3MF file holds both as one object with two parts, so give each part its own "
+        "filament in the slicer (PrusaSlicer asks whether to load them as one object with several parts: answer yes). "
+        "The STL files NAME.base.stl and NAME.raised.stl are the same two parts."
+    )

@@ -1,5 +1,7 @@
-"""`make demo` (not part of the installed package): convert built-in example images (shipped inside scikit-image) and, when present,
-the real microscope files in ../shared/fixtures, printing one plain line per file."""
+"""`make demo` (not part of the installed package): convert built-in example images (shipped inside
+scikit-image) and, when present, the real microscope files in ../shared/fixtures, to STL, 3MF, GLB
+and the PDF/SVG tactile graphics, plus one two-colour print and one tiled print, printing one
+plain line per file."""
 
 from __future__ import annotations
 
@@ -35,18 +37,28 @@ def main(argv=None) -> int:
     out.mkdir(parents=True, exist_ok=True)
     failed = 0
     for name, source in examples():
-        try:
-            litho = make_lithograph(source, formats=("stl", "3mf", "glb"))
-            written = litho.save(out)
-        except TampError as exc:
-            print(f"{name}: not converted: {exc}")
-            failed += 1
-            continue
-        print(summary_line(litho.report, [p.name for p in written]))  # the same line as `tamp-os convert`
-        for warning in litho.report.warnings:
-            print(f"  note: {warning}")
+        failed += not convert(name, source, out, formats=("stl", "3mf", "glb", "pdf", "svg"))
+    # The other outputs, once each: a two-colour print and a plate tiled for a small bed.
+    if FIXTURES.is_dir():
+        fept = FIXTURES / "fept_spheres_sem.png"
+        failed += not convert("two colours", fept, out / "two-colours", formats=("3mf", "stl"), multicolour=True, caption="FePt")
+        failed += not convert("tiles", fept, out / "tiles", formats=("stl",), bed_mm="80")
     print(f"demo: outputs in {out}/")
     return 1 if failed else 0
+
+
+def convert(name: str, source, out: Path, **params) -> bool:
+    """Convert one example and print the same line as `tamp-os convert`; False if it failed."""
+    try:
+        litho = make_lithograph(source, **params)
+        written = litho.save(out)
+    except TampError as exc:
+        print(f"{name}: not converted: {exc}")
+        return False
+    print(summary_line(litho.report, [p.name for p in written]))
+    for warning in litho.report.warnings:
+        print(f"  note: {warning}")
+    return True
 
 
 if __name__ == "__main__":

@@ -136,7 +136,7 @@ def test_scale_bar_on_an_image_padded_to_the_print(shape):
     need(liblouis_available(), "liblouis")
     # 1 µm pixels, padded to 40 × 40 source pixels over 80 mm: 0.5 µm per print millimetre
     image = np.random.default_rng(3).random(shape)
-    litho = make_lithograph(image, width_mm=80, height_mm=80, fit="pad", pixel_size="1um", resolution_px=40)
+    litho = make_lithograph(image, width_mm=80, depth_mm=80, fit="pad", pixel_size="1um", resolution_px=40)
     tactile = litho.report["tactile"]
     x0, _, x1, _ = tactile["scale_bar_box_mm"]
     assert x1 - x0 == pytest.approx(parse_length_m(tactile["scale_bar_label"]) / (1e-6 * 40 / 80), rel=1e-9)

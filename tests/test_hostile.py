@@ -105,7 +105,8 @@ def test_all_nan_float_tiff(tmp_path, capsys):
     "option, value, needle",
     [
         ("--width-mm", "0", "--width-mm"),
-        ("--height-mm", "-5", "--height-mm"),
+        ("--depth-mm", "-5", "--depth-mm"),
+        ("--height-mm", "-5", "--depth-mm"),  # the old name of the option
         ("--relief-mm", "0", "--relief-mm: must be > 0"),
         ("--base-mm", "-1", "--base-mm"),
         ("--formats", "stl,docx", "formats"),

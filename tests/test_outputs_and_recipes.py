@@ -189,7 +189,7 @@ def test_workers_end_when_the_batch_is_killed(tmp_path):
 def test_messages_speak_parameters_in_the_library_and_flags_in_the_cli():
     assert in_cli_words("pixel_size: must be between 1 pm and 1 m") == "--pixel-size: must be between 1 pm and 1 m"
     assert in_cli_words("x.tif: page must be 0–3; got 5.") == "x.tif: --page must be 0–3; got 5."
-    assert in_cli_words("set height_mm to 60.0") == "set --height-mm to 60.0"
+    assert in_cli_words("set depth_mm to 60.0") == "set --depth-mm to 60.0"
     assert in_cli_words("z_slice must be 0–4") == "--slice must be 0–4"
     assert in_cli_words("printers.toml: [a] needs 'nozzle_mm'") == "printers.toml: [a] needs 'nozzle_mm'"
 

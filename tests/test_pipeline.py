@@ -66,16 +66,16 @@ def test_fixtures_convert_to_valid_solids(fixtures_dir):
 
 
 def test_sizes_aspect_and_fit(gradient_image):
-    litho = make_lithograph(gradient_image, relief_style="reference", height_mm=60)
+    litho = make_lithograph(gradient_image, relief_style="reference", depth_mm=60)
     assert litho.layout.width_mm == pytest.approx(80)
     lo, hi = litho.mesh.bounds_mm
     np.testing.assert_allclose(hi[:2], [80, 60])
-    padded = make_lithograph(gradient_image, relief_style="reference", width_mm=80, height_mm=80)
-    assert any("height_mm to 60.0" in w for w in padded.report["warnings"])
+    padded = make_lithograph(gradient_image, relief_style="reference", width_mm=80, height_mm=80)  # the old name still works
+    assert any("depth_mm to 60.0" in w for w in padded.report["warnings"]) and padded.params.depth_mm == 80
     np.testing.assert_allclose(padded.mesh.bounds_mm[1][:2], [80, 80])
     # Padding prints at base level along the top and bottom edges.
     assert np.all(padded.heightmap[0] == 1.0) and np.all(padded.heightmap[-1] == 1.0)
-    cropped = make_lithograph(gradient_image, relief_style="reference", width_mm=80, height_mm=80, fit="crop")
+    cropped = make_lithograph(gradient_image, relief_style="reference", width_mm=80, depth_mm=80, fit="crop")
     assert not cropped.report["warnings"]
     assert cropped.heightmap[-1].max() > 1.5  # image content reaches the edge
 

@@ -46,7 +46,7 @@ def test_reference_reproduces_the_pipeline_bit_for_bit(gradient_image):
         lay = litho.layout
         image = prepare(
             gradient_image.astype(np.float32), None, rows=lay.rows, cols=lay.cols, target_aspect=lay.target_aspect,
-            fit=lay.fit, low_pct=2.0, high_pct=98.0, sigma_px=lay.sigma_px, invert=False, flip_x=False,
+            fit=lay.fit, low_pct=2.0, high_pct=98.0, sigma_px=lay.blur_px, invert=False, flip_x=False,
         ).image
         made = make_relief(
             image, style="reference", mm_per_px=lay.mm_per_px, base_mm=litho.params.base_mm,

@@ -16,6 +16,8 @@ from pathlib import Path
 EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
 # Options named otherwise than their parameter (z_slice -> --slice); the rest are --name-with-dashes.
 OPTION_NAMES = {"z_slice": "--slice", "slice_timeout_s": "--timeout"}
+# Earlier option names, still accepted: parameter -> its old option.
+OLD_OPTION_NAMES = {"depth_mm": "--height-mm"}
 
 
 def _param_options(parser: argparse.ArgumentParser) -> None:
@@ -33,7 +35,8 @@ def _param_options(parser: argparse.ArgumentParser) -> None:
         elif isinstance(f.default, bool):
             group.add_argument(flag, dest=f.name, action="store_true", default=None, help=m["help"])
         else:  # typed later by params.parse_field, so every interface reports bad values alike
-            group.add_argument(flag, dest=f.name, default=None, metavar=m["unit"].upper() or "VALUE", help=help_text)
+            flags = [flag] + ([OLD_OPTION_NAMES[f.name]] if f.name in OLD_OPTION_NAMES else [])
+            group.add_argument(*flags, dest=f.name, default=None, metavar=m["unit"].upper() or "VALUE", help=help_text)
 
 
 def _flags() -> dict[str, str]:

@@ -40,7 +40,7 @@ class LithoParams:
     nozzle_mm: float | None = _f(None, "nozzle diameter (default: from the printer)", "mm", 0.05, 2.0)
     layer_mm: float | None = _f(None, "layer height (default: from the printer)", "mm", 0.005, 1.0)
     width_mm: float | None = _f(None, "print width (default: from the printer, or from the height)", "mm", 5.0, 1000.0)
-    height_mm: float | None = _f(None, "print depth, top to bottom of the image (default: from the aspect ratio)", "mm", 5.0, 1000.0)
+    depth_mm: float | None = _f(None, "print depth, top to bottom of the image (default: from the aspect ratio)", "mm", 5.0, 1000.0)
     fit: str | None = _f(None, "when width and height both disagree with the image: pad, crop or stretch", choices=FITS)
     resolution_px: int | None = _f(None, "grid points across the width (default: from the preset)", "px", 2, 16384)
     base_mm: float = _f(1.0, "solid base under the relief", "mm", 0.0, 50.0, lo_open=True)
@@ -133,8 +133,8 @@ class LithoParams:
     def from_dict(cls, data: dict[str, Any]) -> "LithoParams":
         if not isinstance(data, dict):
             raise ParameterError(f"parameters: expected a mapping of parameter names to values; got {type(data).__name__}.")
+        data = _renamed(dict(data))
         _check_known(data)
-        data = dict(data)
         if "formats" in data:
             data["formats"] = tuple(data["formats"])
         return cls(**data)
@@ -144,8 +144,22 @@ class LithoParams:
         return cls.from_dict(json.loads(text))
 
     def replace(self, **changes) -> "LithoParams":
+        changes = _renamed(changes)
         _check_known(changes)
         return dataclasses.replace(self, **changes)
+
+
+# Earlier names of parameters, still accepted (older recipes, scripts): old -> new.
+RENAMED = {"height_mm": "depth_mm"}
+
+
+def _renamed(changes: dict) -> dict:
+    for old, new in RENAMED.items():
+        if old in changes:
+            if new in changes:
+                raise ParameterError(f"{old} and {new}: {old} is the old name of {new}; give one of them.")
+            changes[new] = changes.pop(old)
+    return changes
 
 
 def _check_known(names) -> None:

@@ -77,7 +77,7 @@ def resolve_printer(params: LithoParams, printer: PrinterProfile | None = None) 
 def layout_for(params: LithoParams, printer: PrinterProfile, image_w_px: int, image_h_px: int, preset: str | None = None) -> Layout:
     """Print size and grid for an image of this size under these parameters (and preset)."""
     return plan_layout(
-        image_w_px, image_h_px, width_mm=params.width_mm, height_mm=params.height_mm, default_width_mm=printer.width_mm,
+        image_w_px, image_h_px, width_mm=params.width_mm, depth_mm=params.depth_mm, default_width_mm=printer.width_mm,
         fit=params.fit, preset=preset or params.preset, nozzle_mm=printer.nozzle_mm, resolution_px=params.resolution_px,
         blur_px=params.blur_px, blur_mm=params.blur_mm,
     )
@@ -186,7 +186,7 @@ def _check_grid(layout: Layout) -> None:
 def _prepare(cleaned: Cleaned, layout: Layout, params: LithoParams) -> Prepared:
     return prepare(
         cleaned.values, cleaned.alpha, rows=layout.rows, cols=layout.cols, target_aspect=layout.target_aspect, fit=layout.fit,
-        low_pct=params.stretch_low_pct, high_pct=params.stretch_high_pct, sigma_px=layout.sigma_px,
+        low_pct=params.stretch_low_pct, high_pct=params.stretch_high_pct, sigma_px=layout.blur_px,
         invert=params.invert, flip_x=params.flip_x,
     )
 
@@ -255,7 +255,7 @@ def _report(picture, cleaned, prepared, layout, params, machine, mesh, placed, m
         relief_mm=[round(layout.width_mm, 3), round(layout.depth_mm, 3)],
         grid=[layout.cols, layout.rows],
         mm_per_px=round(layout.mm_per_px, 4),
-        blur_px=round(layout.sigma_px, 3),
+        blur_px=round(layout.blur_px, 3),
         printer=machine.name,
         nozzle_mm=machine.nozzle_mm,
         layer_mm=machine.layer_mm,

@@ -30,7 +30,7 @@ def preset_rows(params: LithoParams, width_px: int = 4, height_px: int = 3, pict
             "cols": layout.cols,
             "rows": layout.rows,
             "mm_per_px": layout.mm_per_px,
-            "blur_px": layout.sigma_px,
+            "blur_px": layout.blur_px,
             "width_mm": layout.width_mm,
             "depth_mm": layout.depth_mm,
             "height_levels": height_levels(params.relief_mm, printer.layer_mm),

@@ -88,28 +88,6 @@ def removed_notes(report: Report) -> list[str]:
     return notes
 
 
-def web_summary(report: Report) -> list[str]:
-    """The web app's result lines for one image."""
-    w, d, top = report.print_mm
-    return [
-        f"Print {w:g} × {d:g} mm, up to {top:g} mm high; grid {report.grid[0]} × {report.grid[1]}; "
-        f"{report.triangles:,} triangles; {report.height_levels} height levels.",
-        f"Scale: {report.scale}.",
-        f"Relief style: {report.relief_style} ({report.relief_reason}).",
-        *[f"Touch: {x}" for x in touch_notes(report)],
-        *[f"Note: {x}" for x in report.warnings],
-        *(["Removed: " + "; ".join(report.annotations)] if report.annotations else []),
-        *([f"Printing: {report.print['summary']}."] if report.print else []),
-    ]
-
-
-_SIGNAL_WORDS = {
-    "SE": ("a secondary-electron (SE) detector", "in SE images brightness shows edges and slopes, not height"),
-    "BSE": ("a backscattered-electron (BSE) detector", "in BSE images brightness shows composition (heavier elements are brighter), not height"),
-    "STEM": ("a scanning transmission (STEM) detector", "in STEM images brightness shows mass and thickness, not height"),
-}
-
-
 def _instrument_sentence(instrument: dict) -> str:
     """'Recorded with a secondary-electron (SE) detector at 5 kV: ... not height.' from Report.instrument."""
     kv = f" at {instrument['kv']:g} kV" if instrument.get("kv") else ""

@@ -22,7 +22,7 @@ class Field:
 
 FIELDS = {f.name: f for f in (
     Field("width_mm", "Print width (mm)", "Leave empty for the printer's width.", "decimal"),
-    Field("height_mm", "Print depth (mm)", "Leave empty to follow the image's shape.", "decimal"),
+    Field("depth_mm", "Print depth (mm)", "Leave empty to follow the image's shape.", "decimal"),
     Field("relief_mm", "Relief height (mm)", "Height of the raised parts above the base.", "decimal"),
     Field("base_mm", "Base thickness (mm)", "At least 0.8 mm; 1.0 to 1.5 mm is typical.", "decimal"),
     Field("nozzle_mm", "Nozzle diameter (mm)", "Leave empty for the profile's nozzle.", "decimal"),

@@ -88,6 +88,13 @@ def removed_notes(report: Report) -> list[str]:
     return notes
 
 
+_SIGNAL_WORDS = {
+    "SE": ("a secondary-electron (SE) detector", "in SE images brightness shows edges and slopes, not height"),
+    "BSE": ("a backscattered-electron (BSE) detector", "in BSE images brightness shows composition (heavier elements are brighter), not height"),
+    "STEM": ("a scanning transmission (STEM) detector", "in STEM images brightness shows mass and thickness, not height"),
+}
+
+
 def _instrument_sentence(instrument: dict) -> str:
     """'Recorded with a secondary-electron (SE) detector at 5 kV: ... not height.' from Report.instrument."""
     kv = f" at {instrument['kv']:g} kV" if instrument.get("kv") else ""

@@ -147,7 +147,7 @@ def _run(args: list[str], timeout_s: float, what: str) -> subprocess.CompletedPr
         return subprocess.run(args, capture_output=True, text=True, encoding="utf-8", errors="replace", timeout=timeout_s)
     except subprocess.TimeoutExpired:
         raise SlicerError(f"{what}: PrusaSlicer ran longer than the timeout of {timeout_s:g} s and was stopped; the mesh is kept. "
-                          f"Raise --timeout, or use a coarser mesh (larger --max-error-mm or a lower preset).") from None
+                          f"Raise slice_timeout_s, or use a coarser mesh (a larger max_error_mm or a lower preset).") from None
 
 
 def slice_mesh(mesh_path, printer: PrinterProfile, mat: Material, *, timeout_s: float = 600.0,

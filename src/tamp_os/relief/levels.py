@@ -8,7 +8,6 @@ import numpy as np
 from scipy import ndimage
 from skimage import filters, measure
 
-from .scales import gaussian_mm
 
 if TYPE_CHECKING:
     from .styles import StyleOptions

@@ -192,8 +192,27 @@ def _add_info(sub) -> None:
     info.add_argument("--pixel-size", default=None, help="physical pixel size to use, e.g. 4.2nm")
 
 
+def _values_may_start_with_a_dash(argv: list[str], parser: argparse.ArgumentParser) -> list[str]:
+    """'--pixel-size -5um' -> '--pixel-size=-5um'. argparse takes a value starting with '-' for an
+    option and says only 'expected one argument'; joined, the value reaches the parameter check,
+    which names the allowed range."""
+    parsers = [parser, *next(a for a in parser._actions if a.dest == "command").choices.values()]
+    takes_value = {s for p in parsers for a in p._actions if a.nargs != 0 for s in a.option_strings}
+    known = {s for p in parsers for a in p._actions for s in a.option_strings}
+    out, i = [], 0
+    while i < len(argv):
+        if argv[i] in takes_value and i + 1 < len(argv) and argv[i + 1].startswith("-") and argv[i + 1] not in known:
+            out.append(f"{argv[i]}={argv[i + 1]}")
+            i += 2
+        else:
+            out.append(argv[i])
+            i += 1
+    return out
+
+
 def main(argv=None) -> int:
     parser = build_parser()
+    argv = _values_may_start_with_a_dash(list(sys.argv[1:] if argv is None else argv), parser)
     try:
         args = parser.parse_args(argv)
     except SystemExit as exc:
@@ -389,6 +408,7 @@ def cmd_sweep(args) -> int:
 
 def cmd_render(args) -> int:
     from .errors import InputError, ParameterError
+    from .meshfile import read_mesh_file
     from .render import View, find_meshes, render_file
 
     try:
@@ -402,6 +422,7 @@ def cmd_render(args) -> int:
         return EXIT_USAGE
 
     def render(path):
+        read_mesh_file(path)
         try:
             written = render_file(path, Path(args.output), view)
         except (OSError, ValueError) as exc:
@@ -444,12 +465,14 @@ def cmd_gui(args) -> int:
 
 
 def cmd_slice(args) -> int:
+    from .meshfile import read_mesh_file
     from .printers import get_printer
     from .slicer import material, slice_mesh
 
     printer, mat = get_printer(args.printer), material(args.material, args.filament_price)
 
     def slice_one(mesh):
+        read_mesh_file(mesh)  # one clear error for a file that is not a mesh, before PrusaSlicer runs
         result = slice_mesh(mesh, printer, mat, timeout_s=args.timeout)
         return [f"{Path(mesh).name}: {result.sentence()}; {result.layers} layers of {result.layer_mm:g} mm; wrote {Path(result.gcode).name}"]
 
@@ -457,19 +480,14 @@ def cmd_slice(args) -> int:
 
 
 def cmd_estimate(args) -> int:
-    import trimesh
-
-    from .errors import InputError
+    from .meshfile import read_mesh_file
     from .printers import get_printer
     from .slicer import estimate, material
 
     printer, mat = get_printer(args.printer), material(args.material, args.filament_price)
 
     def estimate_one(mesh_path):
-        try:
-            mesh = trimesh.load(mesh_path, force="mesh")
-        except (OSError, ValueError) as exc:
-            raise InputError(f"{mesh_path}: cannot be read as a mesh ({exc}).") from None
+        mesh = read_mesh_file(mesh_path)
         if not mesh.is_watertight:
             print(f"warning: {mesh_path}: not a closed solid; the volume and estimate may be wrong.", file=sys.stderr)
         e = estimate(float(mesh.volume), mesh.vertices, mesh.faces, printer, mat)

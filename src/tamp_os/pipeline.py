@@ -33,6 +33,12 @@ from .units import parse_length_m
 log = logging.getLogger(__name__)
 
 MAX_GRID_ROWS, MAX_GRID_POINTS = 20000, 300e6
+# Peak memory per grid point while preprocessing, styling, meshing and checking the mesh as
+# written (measured on 2048² and 4096² grids, with a margin), and the most a print may take.
+MESH_BYTES_PER_POINT = {"grid": 250, "adaptive": 80}
+MAX_MESH_GB = 4.0
+# Prints thinner than this are not something a finger can read (and a 65535×2 image is not a picture).
+MIN_PRINT_SIDE_MM = 5.0
 DEFAULT_DETAIL_MM = 2.0  # about what a fingertip resolves as shape
 
 
@@ -102,7 +108,7 @@ def make_lithograph(source, params: LithoParams | None = None, *, printer_profil
     with clock("annotations"):
         cleaned = clean_picture(picture, pixel_size=params.pixel_size, remove_annotations=not params.keep_annotations)
     layout = layout_for(params, machine, cleaned.values.shape[1], cleaned.values.shape[0])
-    _check_grid(layout)
+    _check_grid(layout, params.mesher)
     with clock("preprocess"):
         prepared = _prepare(cleaned, layout, params)
     with clock("relief"):
@@ -111,6 +117,7 @@ def make_lithograph(source, params: LithoParams | None = None, *, printer_profil
     with clock("legibility"):
         legibility = assess(heights, layout.mm_per_px, nozzle_mm=machine.nozzle_mm, layer_mm=machine.layer_mm, objects=relief.objects)
     max_error = params.max_error_mm if params.max_error_mm is not None else machine.layer_mm / 2
+    flattening = _flattening_warning(max_error, params) if params.mesher == "adaptive" else []
     with clock("mesh"):
         if params.mesher == "adaptive":
             mesh = adaptive_solid(heights, layout.width_mm, layout.depth_mm, max_error)
@@ -123,7 +130,7 @@ def make_lithograph(source, params: LithoParams | None = None, *, printer_profil
     report = _report(picture, cleaned, prepared, layout, params, machine, tactile.mesh, tactile.placed, max_error, timings)
     report.relief_style, report.relief_reason = relief.style, relief.reason
     report.legibility = _legibility_report(legibility, relief)
-    report.warnings += list(tactile.placed.notes if tactile.placed else []) + list(relief.notes) + list(tactile.tiles.notes if tactile.tiles else [])
+    report.warnings += flattening + list(tactile.placed.notes if tactile.placed else []) + list(relief.notes) + list(tactile.tiles.notes if tactile.tiles else [])
     return Lithograph(mesh=tactile.mesh, heightmap=heights, params=params, printer=machine, layout=layout, picture=picture,
                       report=report, furniture=furniture, mask=cleaned.source_mask(), parts=tactile.parts, tiles=tactile.tiles)
 
@@ -176,11 +183,31 @@ def _read(source, params: LithoParams) -> Picture:
     return read_array(source, channel=params.channel)
 
 
-def _check_grid(layout: Layout) -> None:
-    if layout.rows > MAX_GRID_ROWS or layout.cols * layout.rows > MAX_GRID_POINTS:
+def _check_grid(layout: Layout, mesher: str) -> None:
+    """Refuse, before any work, a grid too large to mesh in bounded memory or a print too thin to read."""
+    if min(layout.width_mm, layout.depth_mm) < MIN_PRINT_SIDE_MM:
         raise ParameterError(
-            f"resolution_px: {layout.cols}×{layout.rows} grid points is too many to mesh; lower resolution_px or the preset."
+            f"depth_mm: the print would be {layout.width_mm:.3g} × {layout.depth_mm:.3g} mm, thinner than "
+            f"{MIN_PRINT_SIDE_MM:g} mm, which nothing can read by touch (the image is very long and thin). "
+            f"Give both width_mm and depth_mm (at least {MIN_PRINT_SIDE_MM:g} mm) with fit pad, or crop the image."
         )
+    points = layout.cols * layout.rows
+    need_gb = points * MESH_BYTES_PER_POINT[mesher] / 1e9
+    if layout.rows > MAX_GRID_ROWS or points > MAX_GRID_POINTS or need_gb > MAX_MESH_GB:
+        raise ParameterError(
+            f"resolution_px: a {layout.cols}×{layout.rows} grid would need about {need_gb:.1f} GB of memory with the "
+            f"{mesher} mesher (at most {MAX_MESH_GB:g} GB); lower resolution_px or the preset"
+            + (", or use the adaptive mesher." if mesher == "grid" else ".")
+        )
+
+
+def _flattening_warning(max_error_mm: float, params: LithoParams) -> list[str]:
+    """A sentence when the adaptive mesh may leave out height steps a finger would feel (~0.5 mm)."""
+    if max_error_mm <= min(0.25, params.relief_mm / 4):
+        return []
+    return [f"max_error_mm {max_error_mm:g} mm lets the mesh leave out height steps of up to that size (a finger feels "
+            f"about 0.5 mm, and the relief is {params.relief_mm:g} mm): shapes may come out flattened. "
+            f"Half a layer height (the default) keeps every step."]
 
 
 def _prepare(cleaned: Cleaned, layout: Layout, params: LithoParams) -> Prepared:

@@ -428,9 +428,9 @@ def _read_pillow(path, data, page, limits: _Limits) -> _Decoded:
             im.seek(page)
         im.load()
     except UnidentifiedImageError:
-        start = data[:16]
-        raise InputError(
-            f"{path}: not an image that can be read (the file starts with {start!r}); "
+        what = "it holds text, not pixels" if data[:512].isascii() and b"\0" not in data[:512] else "its contents match no image format"
+        raise InputError(  # the file's bytes are never echoed: they may be private and mean nothing to a reader
+            f"{path}: not an image that can be read ({what}); "
             f"supported: PNG, JPEG, TIFF, BMP, GIF, WebP, DM3/DM4."
         ) from None
     except (InputError, ParameterError):

@@ -8,9 +8,9 @@ from pathlib import Path
 import numpy as np
 
 from .errors import InputError
+from .meshfile import MESH_SUFFIXES, read_mesh_file  # noqa: F401  (MESH_SUFFIXES: the check command's test)
 from .relief.legibility import Legibility, assess
 
-MESH_SUFFIXES = (".stl", ".3mf", ".glb", ".obj", ".ply")
 
 
 def heights_from_mesh(vertices: np.ndarray, faces: np.ndarray, pitch_mm: float = 0.25) -> np.ndarray:
@@ -49,14 +49,7 @@ def heights_from_mesh(vertices: np.ndarray, faces: np.ndarray, pitch_mm: float =
 
 def check_mesh(path: Path, *, nozzle_mm: float, layer_mm: float) -> Legibility:
     """Legibility of an existing mesh file (any format trimesh reads)."""
-    import trimesh
-
-    try:
-        mesh = trimesh.load(path, force="mesh")
-    except (OSError, ValueError, KeyError) as exc:
-        raise InputError(f"{path}: cannot be read as a mesh ({exc.__class__.__name__}).") from None
-    if len(mesh.faces) == 0 or not np.isfinite(mesh.vertices).all():
-        raise InputError(f"{path}: holds no usable mesh (no faces, or coordinates that are not numbers).")
+    mesh = read_mesh_file(path)
     pitch = 0.25
     heights = heights_from_mesh(mesh.vertices, mesh.faces, pitch)
     return assess(heights, pitch, nozzle_mm=nozzle_mm, layer_mm=layer_mm)

@@ -50,7 +50,8 @@ def parse_length_m(text: str, name: str = "pixel_size", range_m: tuple[float, fl
         )
     value = float(match.group(1)) * factor
     if value <= 0:
-        raise ParameterError(f"{name}: must be greater than 0, got {text!r}.")
+        bounds = f" (between {format_length(range_m[0])} and {format_length(range_m[1])})" if range_m else ""
+        raise ParameterError(f"{name}: must be a length greater than 0{bounds}; got {text!r}.")
     if range_m and not range_m[0] <= value <= range_m[1]:
         raise ParameterError(
             f"{name}: must be between {format_length(range_m[0])} and {format_length(range_m[1])}; got {text!r} "

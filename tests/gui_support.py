@@ -21,7 +21,8 @@ CHROMIUM = "/usr/bin/chromium"
 LAUNCH_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update",
                "--disable-sync", "--no-first-run", "--disable-dev-shm-usage"]
 WCAG_TAGS = ["wcag2a", "wcag2aa", "wcag21a", "wcag21aa", "wcag22aa"]
-SCREENS = Path("/work/screens/web")
+# Screenshots of every state, to look at: $TAMP_SCREENSHOTS, or a folder in the temporary directory.
+SCREENS = Path(os.environ.get("TAMP_SCREENSHOTS") or Path(os.environ.get("TMPDIR", "/tmp")) / "tamp-screens")
 
 
 def start_server(root: Path, *extra: str, slow_s: float = 0.8, grace_s: float = 1.0):

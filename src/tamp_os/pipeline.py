@@ -115,7 +115,8 @@ def make_lithograph(source, params: LithoParams | None = None, *, printer_profil
         relief = _relief(prepared, layout, params, machine)
         heights = relief.heights_mm
     with clock("legibility"):
-        legibility = assess(heights, layout.mm_per_px, nozzle_mm=machine.nozzle_mm, layer_mm=machine.layer_mm, objects=relief.objects)
+        legibility = assess(heights, layout.mm_per_px, nozzle_mm=machine.nozzle_mm, layer_mm=machine.layer_mm,
+                            objects=relief.objects, style=relief.style)
     max_error = params.max_error_mm if params.max_error_mm is not None else machine.layer_mm / 2
     flattening = _flattening_warning(max_error, params) if params.mesher == "adaptive" else []
     with clock("mesh"):

@@ -116,5 +116,5 @@ def plain(message: str) -> str:
     message = re.sub(r"^\w+(?: and \w+)?: ", "", message)
     message = re.sub(r"--([a-z][a-z-]*)(?: \S+)?", lambda m: "“" + LABELS.get(m.group(1).replace("-", "_"), m.group(1)) + "”", message)
     for name, label in LABELS.items():
-        message = re.sub(rf"\b{name}\b", label, message)
+        message = re.sub(rf"\b{name}\b", f"“{label}”", message)
     return message[:1].upper() + message[1:]

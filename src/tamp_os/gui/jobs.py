@@ -203,6 +203,7 @@ def run_library(path: Path, params: LithoParams, out: Path, stem: str) -> Librar
     from ..pipeline import make_lithograph
 
     from ..report import touch_notes
+    from .forms import plain
 
     litho = make_lithograph(path, params)
     written = litho.save(out, stem=stem)
@@ -218,7 +219,7 @@ def run_library(path: Path, params: LithoParams, out: Path, stem: str) -> Librar
         description=meta["description"], print_mm=tuple(r.print_mm), grid=tuple(r.grid), triangles=r.triangles,
         height_levels=0 if r.uniform else r.height_levels, scale=r.scale, warnings=list(r.warnings),
         annotations=list(r.annotations), printing=r.print["summary"] if r.print else "",
-        relief_style=r.relief_style, relief_reason=r.relief_reason, touch=touch_notes(r),
+        relief_style=r.relief_style, relief_reason=r.relief_reason, touch=[plain(line) for line in touch_notes(r)],
     )
 
 

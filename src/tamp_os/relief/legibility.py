@@ -67,6 +67,7 @@ def assess(
     layer_mm: float | None = None,
     objects: np.ndarray | None = None,
     min_area_mm2: float = 6.0,
+    style: str | None = None,
 ) -> Legibility:
     """Measure a relief's legibility.
 
@@ -78,6 +79,7 @@ def assess(
     layer_mm : layer height; heights are compared to this quantum (default 0.1 mm).
     objects : (rows, cols) labels or bool mask of objects (0/False = ground), or None.
     min_area_mm2 : a fingertip-sized area: smaller regions are not counted as levels.
+    style : the relief style that made the heights, so the advice never suggests that same style.
     """
     h = np.asarray(heights_mm, dtype=np.float64)
     grid = WorkGrid.plan(h.shape, mm_per_px, nozzle_mm / 4)  # narrow features need nozzle/4
@@ -97,7 +99,7 @@ def assess(
         narrow_share=narrow_mm2 / area if area else 0.0, steepest_slope_deg=slope, object_count=count,
         object_lift_mm=lift, lowest_lift_mm=lowest, relief_span_mm=span,
     )
-    return Legibility(**figures, verdicts=verdicts(figures, nozzle_mm))
+    return Legibility(**figures, verdicts=verdicts(figures, nozzle_mm, style))
 
 
 def _fine_share(h: np.ndarray, mm_per_px: float) -> float:
@@ -159,8 +161,8 @@ def _lifts(h: np.ndarray, objects, mm_per_px: float) -> tuple[int, float | None,
     return n, float(np.median(lifts)), float(lifts.min())
 
 
-def verdicts(f: dict, nozzle_mm: float) -> tuple[str, ...]:
-    """Plain sentences, each with advice where something reads badly."""
+def verdicts(f: dict, nozzle_mm: float, style: str | None = None) -> tuple[str, ...]:
+    """Plain sentences, each with advice where something reads badly (never to use the style in use)."""
     if f["relief_span_mm"] < 0.05 and f["levels_used"] <= 1:
         return ("This print is a flat plate: there is nothing raised to feel.",)
     out = []
@@ -168,7 +170,8 @@ def verdicts(f: dict, nozzle_mm: float) -> tuple[str, ...]:
     if share > FINE_SHARE_WARN:
         out.append(
             f"{share:.0%} of this relief's height variation is finer than a fingertip resolves (about 1 mm), so it is "
-            f"felt as roughness, not as shape; try relief_style structure, or a larger detail_mm."
+            f"felt as roughness, not as shape; "
+            + ("try a larger detail_mm or a lower texture_mm." if style == "structure" else "try relief_style structure, or a larger detail_mm.")
         )
     else:
         out.append(f"Most of the relief is shape a fingertip can follow: only {share:.0%} of its variation is finer than about 1 mm.")
@@ -193,7 +196,8 @@ def verdicts(f: dict, nozzle_mm: float) -> tuple[str, ...]:
         if lift < LIFT_MM:
             out.append(
                 f"The {n} object{'s' * (n != 1)} stand only {lift:.2g} mm (median) above the ground around them; "
-                f"a finger may not find them; try relief_style objects."
+                f"a finger may not find them; "
+                + ("try a taller relief_mm." if style == "objects" else "try relief_style objects.")
             )
         else:
             out.append(f"{n} object{'s' * (n != 1)} stand {lift:.2g} mm (median; lowest {low:.2g} mm) above the ground around them.")

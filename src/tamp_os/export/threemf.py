@@ -129,7 +129,7 @@ def write_3mf_parts(parts, fh, metadata: dict) -> None:
     convention) cuts the object into volumes by triangle ranges and gives part k extruder k + 1.
     PrusaSlicer then loads one object with one part per colour; a components object instead
     falls apart into separate objects there. Bambu Studio and OrcaSlicer were not checked here:
-    they are reported to ignore this attachment and see one part (see the tests' notes).
+    a third party's published probe reports that they ignore this attachment and load one part.
     """
     with _keep_locale():
         _write_parts(parts, fh, metadata)

@@ -4,11 +4,14 @@ from __future__ import annotations
 
 import shutil
 import subprocess
+import zipfile
+from xml.etree import ElementTree as ET
 
 import lib3mf
 import numpy as np
 import pytest
 import trimesh
+from hypothesis import given, settings, strategies as st
 
 from tamp_os.pipeline import make_lithograph
 from tamp_os.params import LithoParams
@@ -25,25 +28,47 @@ def two_colour(tmp_path_factory):
     return litho, folder
 
 
+SLIC3R_REL = "http://schemas.slic3r.org/3mf/2017/06"
+
+
 def _read_3mf(path):
     wrapper = lib3mf.get_wrapper()
     model = wrapper.CreateModel()
-    model.QueryReader("3mf").ReadFromFile(str(path))
+    reader = model.QueryReader("3mf")
+    reader.AddRelationToRead(SLIC3R_REL)  # lib3mf reads attachments only of relationships it is told about
+    reader.ReadFromFile(str(path))
+    assert reader.GetWarningCount() == 0, [reader.GetWarning(i) for i in range(reader.GetWarningCount())]
     return wrapper, model
 
 
-def _meshes(model) -> list[tuple[str, trimesh.Trimesh, tuple]]:
-    """(name, mesh, (material group id, material id)) of every mesh object, read through lib3mf."""
-    out = []
-    objects = model.GetMeshObjects()
-    while objects.MoveNext():
-        obj = objects.GetCurrentMeshObject()
-        vertices = np.array([v.Coordinates[:] for v in obj.GetVertices()], dtype=float)
-        faces = np.array([t.Indices[:] for t in obj.GetTriangleIndices()], dtype=np.int64)
-        group, prop, has = obj.GetObjectLevelProperty()
-        assert has, "each part names its material"
-        out.append((obj.GetName(), trimesh.Trimesh(vertices, faces, process=True), (group, prop)))
+def _one_mesh_object(model):
+    """The only build item, which must be a mesh object (not components)."""
+    items = model.GetBuildItems()
+    assert items.MoveNext()
+    resource = items.GetCurrent().GetObjectResource()
+    assert resource.IsMeshObject() and not items.MoveNext()
+    return model.GetMeshObjectByID(resource.GetResourceID())
+
+
+def _parts_by_material(obj) -> dict[int, tuple[trimesh.Trimesh, np.ndarray]]:
+    """material id -> (the triangles of that material as a trimesh, their triangle indices), read through lib3mf."""
+    vertices = np.array([v.Coordinates[:] for v in obj.GetVertices()], dtype=float)
+    faces = np.array([t.Indices[:] for t in obj.GetTriangleIndices()], dtype=np.int64)
+    group, default, has = obj.GetObjectLevelProperty()
+    assert has, "the object names a default material"
+    props = obj.GetAllTriangleProperties()
+    material = np.array([p.PropertyIDs[0] if p.ResourceID else default for p in props], dtype=np.int64)
+    assert all(p.ResourceID in (0, group) for p in props) and len(material) == len(faces)
+    out = {}
+    for mat in np.unique(material):
+        idx = np.flatnonzero(material == mat)
+        out[int(mat)] = (trimesh.Trimesh(vertices, faces[idx], process=True), idx)
     return out
+
+
+def _volumes_config(model) -> ET.Element:
+    attachment = model.FindAttachment("/Metadata/Slic3r_PE_model.config")
+    return ET.fromstring(bytes(attachment.WriteToBuffer()))
 
 
 def _manifold(mesh: trimesh.Trimesh):
@@ -53,37 +78,55 @@ def _manifold(mesh: trimesh.Trimesh):
 
 
 @pytest.mark.timeout(120)
-def test_3mf_has_one_object_of_two_coloured_closed_parts(two_colour):
+def test_3mf_is_one_object_of_two_coloured_closed_parts(two_colour):
     litho, folder = two_colour
     wrapper, model = _read_3mf(folder / "p.3mf")
     assert model.GetUnit() == lib3mf.ModelUnit.MilliMeter
-    parts = _meshes(model)
-    assert len(parts) == 2
-    # One build item: a components object holding both parts.
-    items = model.GetBuildItems()
-    assert items.MoveNext()
-    whole = items.GetCurrent().GetObjectResource()
-    assert whole.IsComponentsObject() and not items.MoveNext()
-    components = model.GetComponentsObjectByID(whole.GetResourceID())
-    assert components.GetComponentCount() == 2
-    # Two materials of different colours, one per part.
+    obj = _one_mesh_object(model)
+    assert model.GetMeshObjects().Count() == 1
+    # Two materials of different colours; every triangle is one of them.
     groups = model.GetBaseMaterialGroups()
     assert groups.MoveNext()
     group = groups.GetCurrentBaseMaterialGroup()
     ids = group.GetAllPropertyIDs()
     assert len(ids) == 2
-    colours = {wrapper.ColorToRGBA(group.GetDisplayColor(i)) for i in ids}
-    assert len(colours) == 2
-    assert {p[2][1] for p in parts} == set(ids)
-    for name, mesh, _ in parts:
-        assert mesh.is_watertight and mesh.is_winding_consistent and mesh.volume > 0, name
+    assert len({wrapper.ColorToRGBA(group.GetDisplayColor(i)) for i in ids}) == 2
+    parts = _parts_by_material(obj)
+    assert set(parts) == set(ids)
+    for mat, (mesh, _) in parts.items():
+        assert mesh.is_watertight and mesh.is_winding_consistent and mesh.volume > 0, group.GetName(mat)
+    assert [group.GetName(i) for i in ids] == [p.label for p in litho.parts]
+
+
+@pytest.mark.timeout(120)
+def test_prusaslicer_volumes_match_the_materials(two_colour):
+    litho, folder = two_colour
+    _, model = _read_3mf(folder / "p.3mf")
+    obj = _one_mesh_object(model)
+    parts = _parts_by_material(obj)
+    config = _volumes_config(model)
+    (entry,) = config.findall("object")
+    assert int(entry.get("id")) == obj.GetModelResourceID()
+    volumes = entry.findall("volume")
+    assert len(volumes) == 2
+    metas = [{m.get("key"): (m.get("type"), m.get("value")) for m in v.findall("metadata")} for v in volumes]
+    covered = 0
+    for volume, meta, (_, idx) in zip(volumes, metas, [parts[k] for k in sorted(parts)]):
+        first, last = int(volume.get("firstid")), int(volume.get("lastid"))
+        assert np.array_equal(idx, np.arange(first, last + 1))  # the range is exactly that material's triangles
+        covered += last - first + 1
+        assert all(kind == "volume" for kind, _ in meta.values())  # PrusaSlicer refuses any other type
+        assert meta["volume_type"][1] == "ModelPart"
+    assert covered == obj.GetTriangleCount()
+    assert [int(m["extruder"][1]) for m in metas] == [1, 2]
+    assert [m["name"][1] for m in metas] == [p.label for p in litho.parts]
 
 
 @pytest.mark.timeout(120)
 def test_parts_do_not_overlap_and_make_the_one_colour_print(two_colour):
     litho, folder = two_colour
     _, model = _read_3mf(folder / "p.3mf")
-    (_, base, _), (_, raised, _) = _meshes(model)
+    (_, (base, _)), (_, (raised, _)) = sorted(_parts_by_material(_one_mesh_object(model)).items())
     a, b = _manifold(base), _manifold(raised)
     both = a + b
     assert (a ^ b).volume() < 1e-3
@@ -114,12 +157,117 @@ def test_description_says_which_part_is_which(two_colour):
     assert "Two-colour print" in text and "braille" in text
 
 
-@pytest.mark.timeout(120)
-def test_prusaslicer_reads_both_parts_as_closed(two_colour):
+def _prusa(*args: str) -> str:
     need(shutil.which("prusa-slicer") is not None, "prusa-slicer")
-    _, folder = two_colour
-    out = subprocess.run(["prusa-slicer", "--info", str(folder / "p.3mf")], capture_output=True, text=True, timeout=120)
-    assert out.stdout.count("manifold = yes") == 2 and "manifold = no" not in out.stdout
+    out = subprocess.run(["prusa-slicer", *args], capture_output=True, text=True, timeout=150)
+    assert out.returncode == 0, out.stderr[-2000:]
+    return out.stdout
+
+
+def _info_blocks(stdout: str) -> list[dict[str, str]]:
+    """`prusa-slicer --info` output: one dict of key = value per [file] block (one per object)."""
+    blocks = []
+    for line in stdout.splitlines():
+        if line.startswith("[") and line.endswith("]"):
+            blocks.append({})
+        elif "=" in line and blocks:
+            key, value = line.split("=", 1)
+            blocks[-1][key.strip()] = value.strip()
+    return blocks
+
+
+@pytest.mark.timeout(160)
+def test_prusaslicer_loads_one_object_of_two_closed_parts(two_colour):
+    litho, folder = two_colour
+    # --info prints one [file] block per object; its number_of_parts counts connected shells (every
+    # braille dot is one), not volumes, so the volumes are read from PrusaSlicer's own re-export below.
+    (info,) = _info_blocks(_prusa("--info", str(folder / "p.3mf")))
+    assert info["manifold"] == "yes"
+    _, model = _read_3mf(folder / "p.3mf")
+    parts = _parts_by_material(_one_mesh_object(model))
+    assert float(info["volume"]) == pytest.approx(sum(m.volume for m, _ in parts.values()), rel=1e-4)
+
+
+@pytest.mark.timeout(160)
+def test_prusaslicer_keeps_two_named_volumes_on_extruders_1_and_2(two_colour, tmp_path):
+    litho, folder = two_colour
+    again = tmp_path / "again.3mf"
+    _prusa("--export-3mf", "--dont-arrange", "-o", str(again), str(folder / "p.3mf"))
+    with zipfile.ZipFile(again) as archive:
+        config = ET.fromstring(archive.read("Metadata/Slic3r_PE_model.config"))
+    (entry,) = config.findall("object")
+    volumes = entry.findall("volume")
+    metas = [{m.get("key"): m.get("value") for m in v.findall("metadata")} for v in volumes]
+    assert [m["name"] for m in metas] == [p.label for p in litho.parts]
+    assert [m["extruder"] for m in metas] == ["1", "2"]
+    assert [m["volume_type"] for m in metas] == ["ModelPart", "ModelPart"]
+    for volume in volumes:  # PrusaSlicer had nothing to repair in either part
+        stats = volume.find("mesh").attrib
+        assert all(int(stats[k]) == 0 for k in ("edges_fixed", "degenerate_facets", "facets_removed", "facets_reversed", "backwards_edges"))
+
+
+@pytest.mark.timeout(160)
+def test_prusaslicer_prints_each_part_with_its_own_extruder(tmp_path):
+    """Two boxes of known volumes, sliced on a two-extruder printer: each extruder prints one part."""
+    from tamp_os.export.threemf import write_3mf_parts
+    from tamp_os.tactile.parts import Part
+
+    plate = trimesh.creation.box(extents=(30, 20, 2), transform=trimesh.transformations.translation_matrix((15, 10, 1)))
+    bump = trimesh.creation.box(extents=(8, 8, 2), transform=trimesh.transformations.translation_matrix((15, 10, 3)))
+    parts = [Part("base", "plate", plate, (245, 245, 245)), Part("raised", "bump", bump, (20, 20, 20))]
+    path = tmp_path / "two.3mf"
+    with open(path, "wb") as fh:
+        write_3mf_parts(parts, fh, {"title": "two boxes"})
+    gcode = tmp_path / "two.gcode"
+    _prusa("--export-gcode", "--nozzle-diameter", "0.4,0.4", "--center", "100,100", "-o", str(gcode), str(path))
+    text = gcode.read_text()
+    lines = text.splitlines()
+    assert "T0" in lines and "T1" in lines
+    used = [float(v) for v in text.split("; filament used [cm3] =")[1].splitlines()[0].split(",")]
+    # The plate (1200 mm³) and the bump (128 mm³) each come from one extruder (infill below 100 % prints less).
+    assert len(used) == 2 and used[0] > 3 * used[1] > 0
+
+
+@pytest.mark.timeout(60)
+@settings(max_examples=60, deadline=None)
+@given(
+    counts=st.lists(st.integers(1, 10**7), min_size=1, max_size=6),
+    names=st.lists(st.text(max_size=20), min_size=6, max_size=6),
+    object_id=st.integers(1, 10**6),
+)
+def test_slic3r_config_ranges_cover_every_triangle_once(counts, names, object_id):
+    from tamp_os.export.threemf import slic3r_model_config, xml_text
+
+    config = ET.fromstring(slic3r_model_config(object_id, xml_text(names[0]), names[: len(counts)], counts))
+    (entry,) = config.findall("object")
+    assert entry.get("id") == str(object_id)
+    assert all(m.get("type") in ("object", "volume") for m in config.iter("metadata"))
+    volumes = entry.findall("volume")
+    assert len(volumes) == len(counts)
+    expected_first = 0
+    for k, (volume, count) in enumerate(zip(volumes, counts)):
+        first, last = int(volume.get("firstid")), int(volume.get("lastid"))
+        assert first == expected_first and last - first + 1 == count
+        expected_first = last + 1
+        meta = {m.get("key"): m.get("value") for m in volume.findall("metadata")}
+        assert meta["extruder"] == str(k + 1) and meta["name"] == xml_text(names[k])
+
+
+@pytest.mark.timeout(60)
+def test_one_part_is_one_volume_on_extruder_1(tmp_path):
+    from tamp_os.export.threemf import write_3mf_parts
+    from tamp_os.tactile.parts import Part
+
+    plate = trimesh.creation.box(extents=(30, 20, 2), transform=trimesh.transformations.translation_matrix((15, 10, 1)))
+    path = tmp_path / "one.3mf"
+    with open(path, "wb") as fh:
+        write_3mf_parts([Part("base", "plate", plate, (245, 245, 245))], fh, {"title": "one"})
+    _, model = _read_3mf(path)
+    parts = _parts_by_material(_one_mesh_object(model))
+    ((mesh, idx),) = parts.values()
+    assert mesh.is_watertight and mesh.volume == pytest.approx(1200, rel=1e-6)
+    (volume,) = _volumes_config(model).find("object").findall("volume")
+    assert (int(volume.get("firstid")), int(volume.get("lastid"))) == (0, len(idx) - 1)
 
 
 @pytest.mark.timeout(30)

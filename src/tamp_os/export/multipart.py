@@ -1,8 +1,9 @@
 """Writing prints made of several solids: two-colour parts and bed-sized tiles.
 
-- Two-colour (tactile.parts): 3MF gets one object whose components are the parts, each with its
-  own base material; STL gets one file per part (NAME.base.stl, NAME.raised.stl); the other
-  formats get the fused one-colour solid, as without the option.
+- Two-colour (tactile.parts): 3MF gets one object with one volume per part (per-triangle base
+  materials, and PrusaSlicer's volume ranges with extruders 1 and 2: threemf.write_3mf_parts);
+  STL gets one file per part (NAME.base.stl, NAME.raised.stl); the other formats get the fused
+  one-colour solid, as without the option.
 - Tiles (tiles.Tiling): every format gets one file per tile, NAME.tile-R-C.FMT.
 
 Every solid is checked as written (check_export) before the first file is.

@@ -61,7 +61,7 @@ def _write_3mf(mesh, fh, metadata: dict) -> None:
     model.SetUnit(lib3mf.ModelUnit.MilliMeter)
     obj = model.AddMeshObject()
     obj.SetName(xml_text(metadata.get("title", "TAMP-OS lithograph")))
-    seed = _set_geometry(obj, mesh)
+    seed = _set_geometry(obj, mesh.vertices, mesh.faces)
     obj.SetUUID(str(uuid.uuid5(seed, "object")))
     item = model.AddBuildItem(obj, wrapper.GetIdentityTransform())
     item.SetUUID(str(uuid.uuid5(seed, "item")))
@@ -69,13 +69,16 @@ def _write_3mf(mesh, fh, metadata: dict) -> None:
     _finish(model, fh, metadata)
 
 
-def _set_geometry(obj, mesh) -> uuid.UUID:
-    """Give a lib3mf mesh object the mesh's geometry from numpy buffers; return a UUID seed from the content."""
+def _set_geometry(obj, vertices, faces) -> uuid.UUID:
+    """Give a lib3mf mesh object its geometry from numpy buffers; return a UUID seed from the content.
+
+    `vertices` is (n, 3) in mm, `faces` (m, 3) vertex indices.
+    """
     import lib3mf
 
     wrapper = _wrapper()
-    vertices = np.ascontiguousarray(mesh.vertices, dtype=np.float32)
-    faces = np.ascontiguousarray(mesh.faces, dtype=np.uint32)
+    vertices = np.ascontiguousarray(vertices, dtype=np.float32)
+    faces = np.ascontiguousarray(faces, dtype=np.uint32)
     wrapper.checkError(
         obj,
         wrapper.lib.lib3mf_meshobject_setgeometry(
@@ -90,13 +93,43 @@ def _set_geometry(obj, mesh) -> uuid.UUID:
     return uuid.UUID(digest[:32])
 
 
-def write_3mf_parts(parts, fh, metadata: dict) -> None:
-    """Several single-colour parts (tactile.parts.Part) as one object made of components.
+def _set_triangle_materials(obj, group_id: int, material_per_face: np.ndarray) -> None:
+    """Give every triangle one base material (3MF core `pid`/`p1`), from a numpy buffer.
 
-    Each part is a mesh object with its own base material (name and display colour); one
-    components object holds them all with identity transforms and is the only build item, so
-    slicers (PrusaSlicer, Bambu Studio, OrcaSlicer) load one object with one volume per part,
-    each of which can be given its own filament.
+    lib3mf's Python SetAllTriangleProperties builds one ctypes struct per triangle; its C
+    function takes packed (resource id, 3 property ids) uint32 records, so we hand it those.
+    """
+    import lib3mf
+
+    wrapper = _wrapper()
+    records = np.empty((len(material_per_face), 4), dtype=np.uint32)
+    records[:, 0] = group_id
+    records[:, 1:] = np.asarray(material_per_face, dtype=np.uint32)[:, None]
+    wrapper.checkError(
+        obj,
+        wrapper.lib.lib3mf_meshobject_setalltriangleproperties(
+            obj._handle,
+            ctypes.c_uint64(len(records)),
+            records.ctypes.data_as(ctypes.POINTER(lib3mf.TriangleProperties)),
+        ),
+    )
+
+
+SLIC3R_MODEL_CONFIG = "/Metadata/Slic3r_PE_model.config"
+SLIC3R_RELATIONSHIP = "http://schemas.slic3r.org/3mf/2017/06"
+
+
+def write_3mf_parts(parts, fh, metadata: dict) -> None:
+    """Several single-colour parts (tactile.parts.Part) as ONE object with one volume per part.
+
+    The parts' triangles go into one mesh object, part after part (each part keeps its own
+    vertices, so each stays a closed solid on its own). Two descriptions of the split ride along:
+    every triangle names its part's base material (3MF core, read by any 3MF reader: name and
+    display colour), and the attachment Metadata/Slic3r_PE_model.config (PrusaSlicer's own
+    convention) cuts the object into volumes by triangle ranges and gives part k extruder k + 1.
+    PrusaSlicer then loads one object with one part per colour; a components object instead
+    falls apart into separate objects there. Bambu Studio and OrcaSlicer were not checked here:
+    a third party's published probe reports that they ignore this attachment and load one part.
     """
     with _keep_locale():
         _write_parts(parts, fh, metadata)
@@ -109,24 +142,48 @@ def _write_parts(parts, fh, metadata: dict) -> None:
     model = wrapper.CreateModel()
     model.SetUnit(lib3mf.ModelUnit.MilliMeter)
     materials = model.AddBaseMaterialGroup()
-    whole = model.AddComponentsObject()
-    seeds = []
-    for part in parts:
-        material = materials.AddMaterial(xml_text(part.label), wrapper.RGBAToColor(*part.colour_rgb, 255))
-        obj = model.AddMeshObject()
-        obj.SetName(xml_text(part.label))
-        seeds.append(_set_geometry(obj, part.mesh))
-        obj.SetUUID(str(uuid.uuid5(seeds[-1], "object-" + part.name)))
-        obj.SetObjectLevelProperty(materials.GetResourceID(), material)
-        component = whole.AddComponent(obj, wrapper.GetIdentityTransform())
-        component.SetUUID(str(uuid.uuid5(seeds[-1], "component-" + part.name)))
-    seed = uuid.uuid5(seeds[0], "".join(str(s) for s in seeds))
-    whole.SetName(xml_text(metadata.get("title", "TAMP-OS lithograph")))
-    whole.SetUUID(str(uuid.uuid5(seed, "object")))
-    item = model.AddBuildItem(whole, wrapper.GetIdentityTransform())
+    material_ids = [materials.AddMaterial(xml_text(p.label), wrapper.RGBAToColor(*p.colour_rgb, 255)) for p in parts]
+    offsets = np.cumsum([0] + [len(p.mesh.vertices) for p in parts])
+    vertices = np.concatenate([p.mesh.vertices for p in parts])
+    faces = np.concatenate([np.asarray(p.mesh.faces, dtype=np.int64) + off for p, off in zip(parts, offsets)])
+    face_counts = [len(p.mesh.faces) for p in parts]
+    obj = model.AddMeshObject()
+    title = xml_text(metadata.get("title", "TAMP-OS lithograph"))
+    obj.SetName(title)
+    seed = _set_geometry(obj, vertices, faces)
+    obj.SetUUID(str(uuid.uuid5(seed, "object")))
+    # The object-level material is the default the core spec asks for once triangles carry one.
+    obj.SetObjectLevelProperty(materials.GetResourceID(), material_ids[0])
+    _set_triangle_materials(obj, materials.GetResourceID(), np.repeat(material_ids, face_counts))
+    item = model.AddBuildItem(obj, wrapper.GetIdentityTransform())
     item.SetUUID(str(uuid.uuid5(seed, "item")))
     model.SetBuildUUID(str(uuid.uuid5(seed, "build")))
+    config = slic3r_model_config(obj.GetModelResourceID(), title, [p.label for p in parts], face_counts)
+    model.AddCustomContentType("config", "application/xml")  # every package part needs a content type (OPC)
+    model.AddAttachment(SLIC3R_MODEL_CONFIG, SLIC3R_RELATIONSHIP).ReadFromBuffer(list(config))
     _finish(model, fh, metadata)
+
+
+def slic3r_model_config(object_id: int, name: str, part_names: list[str], face_counts: list[int]) -> bytes:
+    """PrusaSlicer's Metadata/Slic3r_PE_model.config for one object split into volumes.
+
+    Volume k covers triangles sum(face_counts[:k]) .. sum(face_counts[:k + 1]) - 1 (inclusive)
+    of object `object_id` (its id in the 3MF model), is a model part named part_names[k], and
+    prints with extruder k + 1. PrusaSlicer refuses the whole file when a metadata element's
+    type is neither "object" nor "volume", so every one carries it.
+    """
+    from xml.etree import ElementTree as ET
+
+    root = ET.Element("config")
+    obj = ET.SubElement(root, "object", id=str(object_id), instances_count="1")
+    ET.SubElement(obj, "metadata", type="object", key="name", value=name)
+    first = 0
+    for k, (part_name, count) in enumerate(zip(part_names, face_counts)):
+        volume = ET.SubElement(obj, "volume", firstid=str(first), lastid=str(first + count - 1))
+        for key, value in (("name", xml_text(part_name)), ("volume_type", "ModelPart"), ("extruder", str(k + 1))):
+            ET.SubElement(volume, "metadata", type="volume", key=key, value=value)
+        first += count
+    return b'<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, encoding="utf-8", xml_declaration=False) + b"\n"
 
 
 def _finish(model, fh, metadata: dict) -> None:

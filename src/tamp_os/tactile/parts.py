@@ -71,7 +71,7 @@ def describe_parts(parts: list[Part]) -> str:
         return "Two-colour print asked for, but nothing is raised besides the picture (no braille, scale bar or frame): one part."
     return (
         f"Two-colour print: the {parts[0].label} are one part (white) and the {parts[1].label} a second part "
-        "(black) resting on it; the 3MF file holds both as one object with two parts, so give each part its own "
-        "filament in the slicer (PrusaSlicer asks whether to load them as one object with several parts: answer yes). "
+        "(black) resting on it; the 3MF file holds both as one object with two parts, the first set to extruder 1 "
+        "and the second to extruder 2 for PrusaSlicer (other slicers: give each part its own filament). "
         "The STL files NAME.base.stl and NAME.raised.stl are the same two parts."
     )

@@ -35,7 +35,7 @@ def test_a_grid_too_large_to_mesh_is_refused_before_any_work():
 
 
 def test_a_print_too_thin_to_read_is_refused_with_advice(tmp_path, capsys):
-    with pytest.raises(ParameterError, match="thinner than 5 mm"):
+    with pytest.raises(ParameterError, match="thinner than 2 mm"):
         make_lithograph(np.zeros((2, 6000)))
     Image.fromarray(np.zeros((2, 6000), np.uint8)).save(tmp_path / "line.png")
     code, _, err = run(capsys, "convert", tmp_path / "line.png", "-o", tmp_path / "out")

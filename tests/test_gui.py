@@ -4,7 +4,6 @@
 import concurrent.futures
 import io
 import json
-import os
 import shutil
 import time
 import zipfile
@@ -16,7 +15,7 @@ import trimesh
 from PIL import Image
 
 from conftest import need
-from gui_support import (CHROMIUM, LAUNCH_ARGS, audit, form_token, generate_and_wait, new_job, no_sideways_scroll, png_bytes,
+from gui_support import (audit, browser, form_token, generate_and_wait, new_job, no_sideways_scroll, png_bytes,
                          screenshot, start_server, stop_server)
 
 VIEWPORTS = {  # name: (browser context options)
@@ -32,17 +31,6 @@ def server(tmp_path_factory):
     proc, url = start_server(root, "--max-file-mb", "2")
     yield url, root
     stop_server(proc)
-
-
-@pytest.fixture(scope="module")
-def browser():
-    need(os.path.exists(CHROMIUM), "Chromium (apt-get install chromium)")
-    from playwright.sync_api import sync_playwright
-
-    with sync_playwright() as p:
-        b = p.chromium.launch(executable_path=CHROMIUM, args=LAUNCH_ARGS)
-        yield b
-        b.close()
 
 
 @pytest.fixture

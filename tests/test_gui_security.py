@@ -3,7 +3,6 @@ caps (chunked too), decompression bombs off the event loop, distinct outputs, cl
 
 import concurrent.futures
 import io
-import os
 import select
 import signal
 import socket
@@ -13,8 +12,7 @@ import zipfile
 import httpx
 import pytest
 
-from conftest import need
-from gui_support import CHROMIUM, LAUNCH_ARGS, bomb_png, form_token, generate_and_wait, new_job, png_bytes, start_server, stop_server
+from gui_support import bomb_png, browser, form_token, generate_and_wait, new_job, png_bytes, start_server, stop_server
 
 
 @pytest.fixture(scope="module")
@@ -23,17 +21,6 @@ def server(tmp_path_factory):
     proc, url = start_server(root, "--max-file-mb", "2", slow_s=0.0)
     yield url, root
     stop_server(proc)
-
-
-@pytest.fixture(scope="module")
-def browser():
-    need(os.path.exists(CHROMIUM), "Chromium (apt-get install chromium)")
-    from playwright.sync_api import sync_playwright
-
-    with sync_playwright() as p:
-        b = p.chromium.launch(executable_path=CHROMIUM, args=LAUNCH_ARGS)
-        yield b
-        b.close()
 
 
 @pytest.mark.timeout(30)

@@ -38,7 +38,7 @@ MAX_GRID_ROWS, MAX_GRID_POINTS = 20000, 300e6
 MESH_BYTES_PER_POINT = {"grid": 250, "adaptive": 80}
 MAX_MESH_GB = 4.0
 # Prints thinner than this are not something a finger can read (and a 65535×2 image is not a picture).
-MIN_PRINT_SIDE_MM = 5.0
+MIN_PRINT_SIDE_MM = 2.0
 DEFAULT_DETAIL_MM = 2.0  # about what a fingertip resolves as shape
 
 

@@ -104,7 +104,7 @@ def _start(port: int, height: int, base_path: str, timeout_s: float) -> Launched
         server = make_server("127.0.0.1", port, frame_ancestors=NOTEBOOK_ORIGINS, base_path=base_path)
     except Exception as exc:  # say it in the notebook instead of showing an empty frame
         return Launched("", port, height, error=f"{exc.__class__.__name__}: {exc}")
-    thread = threading.Thread(target=server.run, daemon=True, name=f"tamp-gui-{port}")
+    thread = threading.Thread(target=_run_quietly, args=(server,), daemon=True, name=f"tamp-gui-{port}")
     thread.start()
     local = f"http://127.0.0.1:{port}/"
     deadline = time.monotonic() + timeout_s
@@ -123,3 +123,13 @@ def stop_all() -> None:
     """Stop every server this kernel started."""
     for handle in list(_RUNNING.values()):
         handle.stop()
+
+
+def _run_quietly(server) -> None:
+    """Run the server in its thread; a failure to start (port taken) ends the thread without a
+    traceback in the notebook: launch() notices that the thread stopped and says so in words."""
+    try:
+        server.run()
+    except (OSError, SystemExit):
+        pass
+

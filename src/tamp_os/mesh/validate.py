@@ -40,24 +40,32 @@ class SolidCheck:
 
 
 def _edge_problems(faces: np.ndarray, n_vertices: int) -> tuple[int, int]:
-    """(directed edges used more than once, edges with only one face) of (M, 3) int64 faces.
+    """(directed edges used more than once, edges with only one face) of (M, 3) int faces.
 
     One sort: each edge a->b becomes 2·(min·n + max) + (a < b). A closed, consistently wound
     surface has every undirected edge exactly twice, once each way: sorted, the keys pair up as
-    (2u, 2u + 1) with every u distinct. (One sort of 3M keys instead of np.unique plus np.isin:
-    several times faster and half the memory on large grids.)
+    (2u, 2u + 1) with every u distinct. The keys are built column by column in one int64 array,
+    so a 33-million-triangle grid needs 0.8 GB here rather than several times that.
     """
-    n = np.int64(max(n_vertices, 1))
-    a = np.concatenate([faces[:, 0], faces[:, 1], faces[:, 2]])
-    b = np.concatenate([faces[:, 1], faces[:, 2], faces[:, 0]])
-    keys = (np.minimum(a, b) * n + np.maximum(a, b)) * 2 + (a < b)
-    del a, b
+    n, m = np.int64(max(n_vertices, 1)), len(faces)
+    keys = np.empty(3 * m, dtype=np.int64)
+    for j, (s, d) in enumerate(((0, 1), (1, 2), (2, 0))):
+        a, b, part = faces[:, s], faces[:, d], keys[j * m:(j + 1) * m]
+        np.minimum(a, b, out=part)
+        part *= n
+        part += np.maximum(a, b)
+        part *= 2
+        part += a < b
     keys.sort(kind="stable")  # timsort: meshes list their edges in long sorted runs, so this is ~7× faster
-    twice = np.flatnonzero(keys[1:] == keys[:-1])  # the same directed edge more than once
+    if len(keys) % 2 == 0:
+        pairs = keys.reshape(-1, 2)
+        if (pairs[:, 0] % 2 == 0).all() and (pairs[:, 1] == pairs[:, 0] + 1).all() and (pairs[1:, 0] > pairs[:-1, 1]).all():
+            return 0, 0  # the common case, decided without further large arrays
+    twice = int(np.count_nonzero(keys[1:] == keys[:-1]))  # the same directed edge more than once
     undirected = keys >> 1
     starts = np.flatnonzero(np.r_[True, undirected[1:] != undirected[:-1]])
     sizes = np.diff(np.r_[starts, len(keys)])
-    return len(twice), int((sizes == 1).sum())
+    return twice, int((sizes == 1).sum())
 
 
 def _small_faces_and_volume(vertices: np.ndarray, faces: np.ndarray, min_area_mm2: float, chunk: int = 1 << 20) -> tuple[int, float]:
@@ -119,12 +127,13 @@ def merge_float32(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, 
     is then checked to hold one position; on a hash collision the exact byte-wise grouping is used.
     """
     as_written = np.ascontiguousarray(np.asarray(vertices, dtype=np.float32) + np.float32(0.0))
-    bits = as_written.view(np.uint32).astype(np.uint64)
-    key = (bits[:, 0] << np.uint64(32)) | bits[:, 1]
-    key ^= bits[:, 2] * np.uint64(0x9E3779B97F4A7C15)
+    bits = as_written.view(np.uint32)
+    key = bits[:, 0].astype(np.uint64) << np.uint64(32)
+    key |= bits[:, 1]
+    key ^= bits[:, 2].astype(np.uint64) * np.uint64(0x9E3779B97F4A7C15)
     ordered = np.sort(key, kind="stable")
     if not np.any(ordered[1:] == ordered[:-1]):  # every position distinct (and so no collision): nothing merges
-        return as_written.astype(np.float64), np.asarray(faces, dtype=np.int64)
+        return as_written.astype(np.float64), np.asarray(faces)
     _, first, inverse = np.unique(key, return_index=True, return_inverse=True)
     inverse = inverse.ravel()
     if np.any(as_written[first][inverse] != as_written):  # a collision: group by the exact bytes
@@ -143,4 +152,5 @@ def check_as_written(mesh: Mesh, min_area_mm2: float = MIN_FACE_AREA_MM2) -> Sol
     vertices, faces = merge_float32(mesh.vertices, mesh.faces)
     collapsed = (faces[:, 0] == faces[:, 1]) | (faces[:, 1] == faces[:, 2]) | (faces[:, 2] == faces[:, 0])
     # Faces with two corners at one position are counted as slivers, and left out of the edge count.
-    return _check(vertices, faces[~collapsed], min_area_mm2, collapsed=int(collapsed.sum()))
+    n_collapsed = int(np.count_nonzero(collapsed))
+    return _check(vertices, faces[~collapsed] if n_collapsed else faces, min_area_mm2, collapsed=n_collapsed)

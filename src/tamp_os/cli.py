@@ -601,6 +601,20 @@ def cmd_braille_plate(args) -> int:
     return EXIT_OK
 
 
+def _instrument_words(facts: dict) -> str:
+    """'magnification 105×, 25 kV, detector HE-SE2 (secondary electrons), from Zeiss SmartSEM'."""
+    signals = {"SE": "secondary electrons", "BSE": "backscattered electrons", "STEM": "scanning transmission"}
+    words = []
+    if facts.get("magnification"):
+        words.append(f"magnification {facts['magnification']:,.0f}×")
+    if facts.get("kv"):
+        words.append(f"{facts['kv']:g} kV")
+    if facts.get("detector"):
+        signal = signals.get(facts.get("signal") or "")
+        words.append(f"detector {facts['detector']}" + (f" ({signal})" if signal else ""))
+    return ", ".join(words) + (f", from {facts['source']}" if facts.get("source") else "")
+
+
 def cmd_info(args) -> int:
     from .clean.stage import clean_picture
     from .read import read_image
@@ -646,7 +660,7 @@ def cmd_info(args) -> int:
     print(f"data band: {' and '.join(removed)} ({crop['source']})" if removed else "data band: none found")
     print(f"annotations to remove: {'; '.join(a.describe() for a in found) if found else 'none found'}")
     if cleaned.instrument:
-        print(f"instrument: {', '.join(f'{k} {v:g}' if isinstance(v, float) else f'{k} {v}' for k, v in facts['instrument'].items() if v)}")
+        print(f"instrument: {_instrument_words(facts['instrument'])}")
     for note in facts["notes"]:
         print(f"note: {note}")
     return EXIT_OK

@@ -73,7 +73,6 @@ def save(litho, target, formats=None, stem: str | None = None) -> list[Path]:
         written.append(write_png(folder / f"{stem}.annotations.png", to_uint8(litho.mask, 0.0, 1.0)))
     written.append(write_text(folder / f"{stem}.description.txt", meta["description"] + "\n"))
     recipe = write_recipe(litho, folder / f"{stem}{RECIPE_SUFFIX}", [p.name for p in written])
-    litho.report.files = [p.name for p in written] + [recipe.name]
     return written + [recipe]
 
 

@@ -1,6 +1,7 @@
 """make_lithograph(): read -> clean -> relief -> mesh -> tactile furniture, returning data only.
 
-Writing files is outputs.py's job, slicing is slicer.py's; this module imports neither.
+Writing files is outputs.py's job (Lithograph.save only hands over to it); slicing is
+slicer.py's, which this module never imports.
 """
 
 from __future__ import annotations
@@ -142,7 +143,7 @@ class _Tactile:
     mesh: Mesh  # the whole print: relief, plate and furniture fused
     placed: Placed | None  # where the furniture went
     parts: list | None  # two-colour parts (multicolour)
-    tiles: object | None  # tiles for a bed smaller than the plate (bed_mm)
+    tiles: Tiling | None  # tiles for a bed smaller than the plate (bed_mm)
 
 
 def _tactile(relief_mesh: Mesh, layout: Layout, params: LithoParams, furniture: Furniture) -> _Tactile:

@@ -5,7 +5,7 @@ print, and the web app's summary lines."""
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 from .params import LithoParams
 
@@ -38,15 +38,15 @@ class Report:
     annotations: list[str]
     warnings: list[str]
     timings_s: dict[str, float]
-    files: list[str] = field(default_factory=list)
-    print: dict | None = None  # slicing results, once sliced
+    print: dict | None = None  # slicing results, set by slicer.slice_outputs when sliced
     relief_style: str = "reference"  # the style that made the heights (auto resolved)
     relief_reason: str = ""  # why that style, or what it did, in one sentence
     legibility: dict | None = None  # relief.legibility.Legibility.as_dict(): figures and verdicts
     instrument: dict | None = None  # magnification, kv, detector, signal, source when the file records them
 
     def as_dict(self) -> dict:
-        """The report as a plain dict (JSON-ready), with the keys of the earlier untyped report."""
+        """The report as a plain dict (JSON-ready), with the keys of the earlier untyped report
+        (except `files`: `save()` returns the paths it wrote)."""
         d = dataclasses.asdict(self)
         if d["print"] is None:
             del d["print"]

@@ -280,6 +280,5 @@ def slice_outputs(litho, written: list[Path]) -> list[Path]:
     others.append(Path(result.gcode))
     litho.report.print = {**result.as_dict(), "gcode": Path(result.gcode).name, "summary": result.sentence()}
     write_recipe(litho, recipe, [p.name for p in others])
-    litho.report.files = [p.name for p in others] + [recipe.name]
     return others + [recipe]
 

@@ -25,9 +25,10 @@ def _param_options(parser: argparse.ArgumentParser) -> None:
     from .params import LithoParams, describe_range
 
     group = parser.add_argument_group("lithograph parameters")
+    flags_by_name = _flags()
     for f in dataclasses.fields(LithoParams):
         m = f.metadata
-        flag = _flags()[f.name]
+        flag = flags_by_name[f.name]
         help_text = f"{m['help']} ({describe_range(f)}; default {f.default if f.default is not None else 'derived'})"
         help_text = help_text.replace("%", "%%")  # argparse formats help strings with %
         if f.name == "formats":

@@ -84,23 +84,23 @@ def _edges(grad: np.ndarray) -> np.ndarray:
 def _enclosed_by_edges(smooth, grad, pitch_mm, nozzle_mm, min_px) -> np.ndarray:
     edges = _edges(grad)
     # Close gaps of about a nozzle width along rims, then fill what the rims enclose.
-    closed = ndimage.binary_closing(edges, structure=disk(1.5 * nozzle_mm / pitch_mm), border_value=0)
+    closed = _erode(_dilate(edges, 1.5 * nozzle_mm / pitch_mm), 1.5 * nozzle_mm / pitch_mm)
     # Enclosed = every region the edges cut off from the ground (the largest open region).
     # Unlike a plain hole fill, an object cut by the picture's border still counts: the FePt
     # spheres touch the top edge. Concave pockets of ground are dropped later by solidity.
     # Opening the open space by a disk of GAP_MM cuts it at rim gaps narrower than 2 × GAP_MM
     # (where a shaded side fades into its shadow), so a sphere's inside is its own region.
-    regions, n = ndimage.label(ndimage.binary_opening(~closed, structure=disk(GAP_MM / pitch_mm)))
+    regions, n = ndimage.label(_dilate(_erode(~closed, GAP_MM / pitch_mm), GAP_MM / pitch_mm))
     if n == 0:
         return regions
     ground = 1 + int(np.argmax(np.bincount(regions.ravel())[1:]))
     filled = _enclosed_parts(regions, ground, closed, pitch_mm)
     # Give back what the opening shaved off the insides (never the ground), then the rim band.
-    filled |= ndimage.binary_dilation(filled, structure=disk(GAP_MM / pitch_mm)) & ~closed & (regions != ground)
-    filled |= closed & ndimage.binary_dilation(filled, structure=disk(4 * nozzle_mm / pitch_mm))
+    filled |= _dilate(filled, GAP_MM / pitch_mm) & ~closed & (regions != ground)
+    filled |= closed & _dilate(filled, 4 * nozzle_mm / pitch_mm)
     # Interiors without the edge band, opened so thin unclosed rims vanish; touching objects
     # stay apart because the edge between them is removed here.
-    interior = ndimage.binary_opening(filled & ~closed, structure=disk(2 * nozzle_mm / pitch_mm))
+    interior = _dilate(_erode(filled & ~closed, 2 * nozzle_mm / pitch_mm), 2 * nozzle_mm / pitch_mm)
     labels, n = ndimage.label(interior)
     if n == 0:
         return labels
@@ -121,12 +121,12 @@ def _enclosed_parts(regions: np.ndarray, ground: int, closed: np.ndarray, pitch_
     Ground pockets between objects are outlined by edges too, but they are concave.
     """
     free = regions > 0
-    rim = ndimage.binary_dilation(closed, structure=disk(1.5))
+    rim = _dilate(closed, 1.5)
     rim_share, border_share = _outline_shares(regions, rim)
     whole = border_share <= MAX_BORDER_SHARE
     whole[[0, ground]] = False
-    parts = np.where(whole[regions], 0, split_at_necks(free, GAP_MM / pitch_mm))
     dist = ndimage.distance_transform_edt(np.pad(free, 1, constant_values=True))[1:-1, 1:-1]
+    parts = np.where(whole[regions], 0, split_at_necks(free, GAP_MM / pitch_mm, dist=dist))
     rim_share, border_share = _outline_shares(parts, rim)
     # An object left ajar is wider than its gap (over 2 × GAP_MM, or the opening would have
     # closed it): parts less than 2 × GAP_MM across at their widest are strips between edges.
@@ -139,18 +139,66 @@ def _enclosed_parts(regions: np.ndarray, ground: int, closed: np.ndarray, pitch_
     return whole[regions] | ajar[parts]
 
 
-def split_at_necks(mask: np.ndarray, depth_px: float) -> np.ndarray:
+def split_at_necks(mask: np.ndarray, depth_px: float, dist: np.ndarray | None = None) -> np.ndarray:
     """Label the mask split at its necks (int32, 0 outside the mask).
 
     A watershed of the distance to the outside (the picture's border is not an outside), one
     basin per maximum standing `depth_px` above the neck that joins it to a higher one.
-    (On a grid twice as coarse it is 4x faster but loses the coins' rims left ajar.)
+    (Splitting wholly on a grid twice as coarse loses the coins' rims left ajar; only the
+    maxima are searched there.)
+    `dist`, if given, is that distance already computed (the caller needs it too).
     """
-    dist = ndimage.distance_transform_edt(np.pad(mask, 1, constant_values=True))[1:-1, 1:-1]
-    peaks, count = ndimage.label(morphology.h_maxima(dist, depth_px) & mask)
+    if dist is None:
+        dist = ndimage.distance_transform_edt(np.pad(mask, 1, constant_values=True))[1:-1, 1:-1]
+    peaks, count = ndimage.label(_h_maxima(dist, depth_px) & mask)
     if count == 0:
         return np.zeros(mask.shape, np.int32)
     return segmentation.watershed(-dist, peaks, mask=mask).astype(np.int32)
+
+
+def _h_maxima(dist: np.ndarray, depth_px: float) -> np.ndarray:
+    """Maxima of `dist` (rows, cols) standing `depth_px` above their necks: bool markers.
+
+    Searched on every second pixel of every second row (h_maxima's reconstruction is the
+    costly part of the split, and 4x fewer pixels make it 4x cheaper), so each maximum is
+    marked by the grid points of its plateau; the watershed that grows basins from these
+    markers still runs at full resolution, so the split lines (and the coins' rims) keep
+    their full detail. A marker sits within a pixel of its true maximum, and its height there
+    may be up to about a pixel lower, so a maximum right at the depth could be missed: on the
+    benchmark's 15 pictures the objects found are pixel-for-pixel the same as at full grid.
+    """
+    small = np.ascontiguousarray(dist[::2, ::2])
+    peaks = morphology.h_maxima(small, depth_px).astype(bool)
+    out = np.zeros(dist.shape, bool)
+    out[::2, ::2] = peaks
+    return out
+
+
+def _dilate(mask: np.ndarray, radius_px: float, outside: bool = False) -> np.ndarray:
+    """Binary dilation of a (rows, cols) bool mask by `disk(radius_px)`; pixels outside the
+    picture count as `outside`.
+
+    The disk is taken row by row: a 1-D running maximum along each row for each of its
+    half-widths, shifted up or down and combined. scipy's 2-D binary morphology visits every
+    disk pixel for every image pixel; this gives the same pixels 2-3x faster at r = 2-4.
+    """
+    footprint = disk(radius_px)
+    r = footprint.shape[0] // 2
+    rows, cols = mask.shape
+    padded = np.pad(mask, r, constant_values=outside).view(np.uint8)
+    out = np.zeros(mask.shape, bool)
+    runs: dict[int, np.ndarray] = {}
+    for dy, width in enumerate(footprint.sum(axis=1)):
+        if width not in runs:
+            runs[width] = ndimage.maximum_filter1d(padded, int(width), axis=1, mode="constant", cval=int(outside))
+        out |= runs[width][dy : dy + rows, r : r + cols].view(bool)
+    return out
+
+
+def _erode(mask: np.ndarray, radius_px: float) -> np.ndarray:
+    """Binary erosion by `disk(radius_px)`, outside the picture counted as empty (as
+    scipy's border_value=0): the complement of the background's dilation."""
+    return ~_dilate(~mask, radius_px, outside=True)
 
 
 def _outline_shares(labels: np.ndarray, rim: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -186,7 +234,7 @@ def _bright_blobs(smooth, pitch_mm, nozzle_mm, min_px) -> np.ndarray:
         return np.zeros(smooth.shape, np.int32)
     bright = smooth > filters.threshold_otsu(smooth)
     # Two nozzle widths: a particle touching a bright speck of texture comes apart from it.
-    bright = ndimage.binary_opening(bright, structure=disk(2 * nozzle_mm / pitch_mm))
+    bright = _dilate(_erode(bright, 2 * nozzle_mm / pitch_mm), 2 * nozzle_mm / pitch_mm)
     bright = ndimage.binary_fill_holes(bright)
     labels, n = ndimage.label(bright)
     return _keep_sized(labels, min_px, bright.size) if n else labels

@@ -126,7 +126,7 @@ def _enclosed_parts(regions: np.ndarray, ground: int, closed: np.ndarray, pitch_
     whole = border_share <= MAX_BORDER_SHARE
     whole[[0, ground]] = False
     dist = ndimage.distance_transform_edt(np.pad(free, 1, constant_values=True))[1:-1, 1:-1]
-    parts = np.where(whole[regions], 0, split_at_necks(free, GAP_MM / pitch_mm, dist=dist))
+    parts = split_at_necks(free, GAP_MM / pitch_mm, dist=dist, within=~whole[regions])
     rim_share, border_share = _outline_shares(parts, rim)
     # An object left ajar is wider than its gap (over 2 × GAP_MM, or the opening would have
     # closed it): parts less than 2 × GAP_MM across at their widest are strips between edges.
@@ -144,21 +144,26 @@ def _enclosed_parts(regions: np.ndarray, ground: int, closed: np.ndarray, pitch_
     return whole[regions] | ajar[parts]
 
 
-def split_at_necks(mask: np.ndarray, depth_px: float, dist: np.ndarray | None = None) -> np.ndarray:
+def split_at_necks(
+    mask: np.ndarray, depth_px: float, dist: np.ndarray | None = None, within: np.ndarray | None = None
+) -> np.ndarray:
     """Label the mask split at its necks (int32, 0 outside the mask).
 
     A watershed of the distance to the outside (the picture's border is not an outside), one
     basin per maximum standing `depth_px` above the neck that joins it to a higher one.
     (Splitting wholly on a grid twice as coarse loses the coins' rims left ajar; only the
     maxima are searched there.)
-    `dist`, if given, is that distance already computed (the caller needs it too).
+    `dist`, if given, is that distance already computed (the caller needs it too). `within`,
+    if given (bool, whole 4-connected parts of the mask), limits the labels to those parts:
+    the basins elsewhere are never flooded (the maxima are still searched on all of `dist`).
     """
     if dist is None:
         dist = ndimage.distance_transform_edt(np.pad(mask, 1, constant_values=True))[1:-1, 1:-1]
     peaks, count = ndimage.label(_h_maxima(dist, depth_px) & mask)
     if count == 0:
         return np.zeros(mask.shape, np.int32)
-    return segmentation.watershed(-dist, peaks, mask=mask).astype(np.int32)
+    basins = mask if within is None else mask & within
+    return segmentation.watershed(-dist, np.where(basins, peaks, 0), mask=basins).astype(np.int32)
 
 
 def _h_maxima(dist: np.ndarray, depth_px: float) -> np.ndarray:

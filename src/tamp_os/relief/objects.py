@@ -84,23 +84,23 @@ def _edges(grad: np.ndarray) -> np.ndarray:
 def _enclosed_by_edges(smooth, grad, pitch_mm, nozzle_mm, min_px) -> np.ndarray:
     edges = _edges(grad)
     # Close gaps of about a nozzle width along rims, then fill what the rims enclose.
-    closed = ndimage.binary_closing(edges, structure=disk(1.5 * nozzle_mm / pitch_mm), border_value=0)
+    closed = _erode(_dilate(edges, 1.5 * nozzle_mm / pitch_mm), 1.5 * nozzle_mm / pitch_mm)
     # Enclosed = every region the edges cut off from the ground (the largest open region).
     # Unlike a plain hole fill, an object cut by the picture's border still counts: the FePt
     # spheres touch the top edge. Concave pockets of ground are dropped later by solidity.
     # Opening the open space by a disk of GAP_MM cuts it at rim gaps narrower than 2 × GAP_MM
     # (where a shaded side fades into its shadow), so a sphere's inside is its own region.
-    regions, n = ndimage.label(ndimage.binary_opening(~closed, structure=disk(GAP_MM / pitch_mm)))
+    regions, n = ndimage.label(_dilate(_erode(~closed, GAP_MM / pitch_mm), GAP_MM / pitch_mm))
     if n == 0:
         return regions
     ground = 1 + int(np.argmax(np.bincount(regions.ravel())[1:]))
     filled = _enclosed_parts(regions, ground, closed, pitch_mm)
     # Give back what the opening shaved off the insides (never the ground), then the rim band.
-    filled |= ndimage.binary_dilation(filled, structure=disk(GAP_MM / pitch_mm)) & ~closed & (regions != ground)
-    filled |= closed & ndimage.binary_dilation(filled, structure=disk(4 * nozzle_mm / pitch_mm))
+    filled |= _dilate(filled, GAP_MM / pitch_mm) & ~closed & (regions != ground)
+    filled |= closed & _dilate(filled, 4 * nozzle_mm / pitch_mm)
     # Interiors without the edge band, opened so thin unclosed rims vanish; touching objects
     # stay apart because the edge between them is removed here.
-    interior = ndimage.binary_opening(filled & ~closed, structure=disk(2 * nozzle_mm / pitch_mm))
+    interior = _dilate(_erode(filled & ~closed, 2 * nozzle_mm / pitch_mm), 2 * nozzle_mm / pitch_mm)
     labels, n = ndimage.label(interior)
     if n == 0:
         return labels
@@ -121,12 +121,12 @@ def _enclosed_parts(regions: np.ndarray, ground: int, closed: np.ndarray, pitch_
     Ground pockets between objects are outlined by edges too, but they are concave.
     """
     free = regions > 0
-    rim = ndimage.binary_dilation(closed, structure=disk(1.5))
+    rim = _dilate(closed, 1.5)
     rim_share, border_share = _outline_shares(regions, rim)
     whole = border_share <= MAX_BORDER_SHARE
     whole[[0, ground]] = False
-    parts = np.where(whole[regions], 0, split_at_necks(free, GAP_MM / pitch_mm))
     dist = ndimage.distance_transform_edt(np.pad(free, 1, constant_values=True))[1:-1, 1:-1]
+    parts = split_at_necks(free, GAP_MM / pitch_mm, dist=dist, within=~whole[regions])
     rim_share, border_share = _outline_shares(parts, rim)
     # An object left ajar is wider than its gap (over 2 × GAP_MM, or the opening would have
     # closed it): parts less than 2 × GAP_MM across at their widest are strips between edges.
@@ -134,23 +134,81 @@ def _enclosed_parts(regions: np.ndarray, ground: int, closed: np.ndarray, pitch_
     np.maximum.at(reach, parts.ravel(), dist.ravel())
     ajar = (rim_share >= AJAR_RIM_SHARE) & (border_share <= MAX_BORDER_SHARE) & (reach * pitch_mm >= GAP_MM)
     ajar[0] = False
-    for region in measure.regionprops(np.where(ajar[parts], parts, 0)):
+    # Solidity is at least area / bounding-box area: the hull only where that leaves doubt.
+    area = np.bincount(parts.ravel(), minlength=ajar.size)
+    boxes = ndimage.find_objects(parts, max_label=ajar.size - 1)
+    box_area = np.array([1] + [(b[0].stop - b[0].start) * (b[1].stop - b[1].start) if b else 1 for b in boxes])
+    doubtful = ajar & (area < CONVEX_SOLIDITY * box_area)
+    for region in measure.regionprops(np.where(doubtful[parts], parts, 0)):
         ajar[region.label] = region.solidity >= CONVEX_SOLIDITY
     return whole[regions] | ajar[parts]
 
 
-def split_at_necks(mask: np.ndarray, depth_px: float) -> np.ndarray:
+def split_at_necks(
+    mask: np.ndarray, depth_px: float, dist: np.ndarray | None = None, within: np.ndarray | None = None
+) -> np.ndarray:
     """Label the mask split at its necks (int32, 0 outside the mask).
 
     A watershed of the distance to the outside (the picture's border is not an outside), one
     basin per maximum standing `depth_px` above the neck that joins it to a higher one.
-    (On a grid twice as coarse it is 4x faster but loses the coins' rims left ajar.)
+    (Splitting wholly on a grid twice as coarse loses the coins' rims left ajar; only the
+    maxima are searched there.)
+    `dist`, if given, is that distance already computed (the caller needs it too). `within`,
+    if given (bool, whole 4-connected parts of the mask), limits the labels to those parts:
+    the basins elsewhere are never flooded (the maxima are still searched on all of `dist`).
     """
-    dist = ndimage.distance_transform_edt(np.pad(mask, 1, constant_values=True))[1:-1, 1:-1]
-    peaks, count = ndimage.label(morphology.h_maxima(dist, depth_px) & mask)
+    if dist is None:
+        dist = ndimage.distance_transform_edt(np.pad(mask, 1, constant_values=True))[1:-1, 1:-1]
+    peaks, count = ndimage.label(_h_maxima(dist, depth_px) & mask)
     if count == 0:
         return np.zeros(mask.shape, np.int32)
-    return segmentation.watershed(-dist, peaks, mask=mask).astype(np.int32)
+    basins = mask if within is None else mask & within
+    return segmentation.watershed(-dist, np.where(basins, peaks, 0), mask=basins).astype(np.int32)
+
+
+def _h_maxima(dist: np.ndarray, depth_px: float) -> np.ndarray:
+    """Maxima of `dist` (rows, cols) standing `depth_px` above their necks: bool markers.
+
+    Searched on every second pixel of every second row (h_maxima's reconstruction is the
+    costly part of the split, and 4x fewer pixels make it 4x cheaper), so each maximum is
+    marked by the grid points of its plateau; the watershed that grows basins from these
+    markers still runs at full resolution, so the split lines (and the coins' rims) keep
+    their full detail. A marker sits within a pixel of its true maximum, and its height there
+    may be up to about a pixel lower, so a maximum right at the depth could be missed: on the
+    benchmark's 15 pictures the objects found are pixel-for-pixel the same as at full grid.
+    """
+    small = np.ascontiguousarray(dist[::2, ::2])
+    peaks = morphology.h_maxima(small, depth_px).astype(bool)
+    out = np.zeros(dist.shape, bool)
+    out[::2, ::2] = peaks
+    return out
+
+
+def _dilate(mask: np.ndarray, radius_px: float, outside: bool = False) -> np.ndarray:
+    """Binary dilation of a (rows, cols) bool mask by `disk(radius_px)`; pixels outside the
+    picture count as `outside`.
+
+    The disk is taken row by row: a 1-D running maximum along each row for each of its
+    half-widths, shifted up or down and combined. scipy's 2-D binary morphology visits every
+    disk pixel for every image pixel; this gives the same pixels 2-3x faster at r = 2-4.
+    """
+    footprint = disk(radius_px)
+    r = footprint.shape[0] // 2
+    rows, cols = mask.shape
+    padded = np.pad(mask, r, constant_values=outside).view(np.uint8)
+    out = np.zeros(mask.shape, bool)
+    runs: dict[int, np.ndarray] = {}
+    for dy, width in enumerate(footprint.sum(axis=1)):
+        if width not in runs:
+            runs[width] = ndimage.maximum_filter1d(padded, int(width), axis=1, mode="constant", cval=int(outside))
+        out |= runs[width][dy : dy + rows, r : r + cols].view(bool)
+    return out
+
+
+def _erode(mask: np.ndarray, radius_px: float) -> np.ndarray:
+    """Binary erosion by `disk(radius_px)`, outside the picture counted as empty (as
+    scipy's border_value=0): the complement of the background's dilation."""
+    return ~_dilate(~mask, radius_px, outside=True)
 
 
 def _outline_shares(labels: np.ndarray, rim: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -159,11 +217,27 @@ def _outline_shares(labels: np.ndarray, rim: np.ndarray) -> tuple[np.ndarray, np
     count = int(labels.max())
     on_border = np.zeros(labels.shape, bool)
     on_border[[0, -1], :] = on_border[:, [0, -1]] = True
-    outline = (segmentation.find_boundaries(labels, mode="inner") | on_border) & (labels > 0)
+    outline = (inner_outline(labels) | on_border) & (labels > 0)
     length = np.maximum(np.bincount(labels[outline], minlength=count + 1), 1)
     along_rim = np.bincount(labels[outline & rim], minlength=count + 1) / length
     along_border = np.bincount(labels[outline & on_border], minlength=count + 1) / length
     return along_rim, along_border
+
+
+def inner_outline(labels: np.ndarray) -> np.ndarray:
+    """Labelled pixels (labels != 0) with a 4-neighbour of another value, (rows, cols) bool.
+
+    The same pixels as skimage's find_boundaries(labels, mode="inner") (the picture's edge
+    is not an outline), by comparing shifted arrays: 3-4x faster than its grey morphology.
+    """
+    differs = np.zeros(labels.shape, bool)
+    vertical = labels[1:, :] != labels[:-1, :]
+    differs[1:, :] |= vertical
+    differs[:-1, :] |= vertical
+    horizontal = labels[:, 1:] != labels[:, :-1]
+    differs[:, 1:] |= horizontal
+    differs[:, :-1] |= horizontal
+    return differs & (labels != 0)
 
 
 def _convex_fill(labels: np.ndarray) -> np.ndarray:
@@ -186,7 +260,7 @@ def _bright_blobs(smooth, pitch_mm, nozzle_mm, min_px) -> np.ndarray:
         return np.zeros(smooth.shape, np.int32)
     bright = smooth > filters.threshold_otsu(smooth)
     # Two nozzle widths: a particle touching a bright speck of texture comes apart from it.
-    bright = ndimage.binary_opening(bright, structure=disk(2 * nozzle_mm / pitch_mm))
+    bright = _dilate(_erode(bright, 2 * nozzle_mm / pitch_mm), 2 * nozzle_mm / pitch_mm)
     bright = ndimage.binary_fill_holes(bright)
     labels, n = ndimage.label(bright)
     return _keep_sized(labels, min_px, bright.size) if n else labels
@@ -203,7 +277,7 @@ def _distinct(labels: np.ndarray, smooth: np.ndarray, grad: np.ndarray, reach_px
     if n == 0:
         return labels
     typical = max(float(np.median(grad)), 1e-6)
-    outline = segmentation.find_boundaries(labels, mode="inner")
+    outline = inner_outline(labels)
     # The steepest gradient within reach of each outline point (the outline may sit at the
     # outer foot of the rim), then the median along the outline.
     near = ndimage.grey_dilation(grad, footprint=disk(reach_px))
@@ -305,7 +379,7 @@ def dome_profile(labels: np.ndarray, *, pitch_mm: float, round_mm: float) -> np.
         return np.zeros(labels.shape, np.float32)
     # Distance to the nearest pixel of another label or the background, so touching objects
     # get a groove between them instead of merging into one hill.
-    inside = (labels > 0) & ~segmentation.find_boundaries(labels, mode="inner")
+    inside = (labels > 0) & ~inner_outline(labels)
     dist = ndimage.distance_transform_edt(inside) + inside  # +1 px: the outline pixel itself
     reach = np.zeros(n + 1)
     np.maximum.at(reach, labels.ravel(), dist.ravel())  # one pass; ndimage.maximum sorts per label

@@ -130,10 +130,10 @@ def make_lithograph(source, params: LithoParams | None = None, *, printer_profil
     furniture = _furniture(params, sample_per_mm)
     with clock("tactile"):
         tactile = _tactile(mesh, layout, params, furniture)
-    report = _report(picture, cleaned, prepared, layout, params, machine, tactile.mesh, tactile.placed, max_error, timings)
+    later = flattening + list(tactile.placed.notes if tactile.placed else []) + list(relief.notes) + list(tactile.tiles.notes if tactile.tiles else [])
+    report = _report(picture, cleaned, prepared, layout, params, machine, tactile.mesh, tactile.placed, max_error, timings, later)
     report.relief_style, report.relief_reason = relief.style, relief.reason
     report.legibility = _legibility_report(legibility, relief)
-    report.warnings += flattening + list(tactile.placed.notes if tactile.placed else []) + list(relief.notes) + list(tactile.tiles.notes if tactile.tiles else [])
     return Lithograph(mesh=tactile.mesh, heightmap=heights, params=params, printer=machine, layout=layout, picture=picture,
                       report=report, furniture=furniture, mask=cleaned.source_mask(), parts=tactile.parts, tiles=tactile.tiles)
 
@@ -265,18 +265,21 @@ def _scale_bar_m(setting: str, sample_per_mm: float | None) -> float | None:
     return parse_length_m(setting, "scale_bar")
 
 
-def _warnings(picture: Picture, cleaned: Cleaned, prepared: Prepared, layout: Layout, params: LithoParams) -> list[str]:
+def _warnings(picture: Picture, cleaned: Cleaned, prepared: Prepared, layout: Layout, params: LithoParams,
+              later: list[str]) -> list[str]:
+    """Every warning of a print, in one list, each logged once (`later`: those of the mesh and furniture stages)."""
     warnings = list(layout.warnings) + list(picture.file.notes) + list(cleaned.pixel_size.warnings)
     if prepared.uniform:
         warnings.append(f"{picture.file.name}: the image is uniform (every usable pixel has the same value); the print is a flat plate.")
     if params.base_mm < 0.8:
         warnings.append(f"base_mm {params.base_mm} is below 0.8 mm; thin bases warp and break. 1.0–1.5 mm is typical.")
+    warnings += later
     for w in warnings:
         log.warning(w)
     return warnings
 
 
-def _report(picture, cleaned, prepared, layout, params, machine, mesh, placed, max_error, timings) -> Report:
+def _report(picture, cleaned, prepared, layout, params, machine, mesh, placed, max_error, timings, later) -> Report:
     scale = cleaned.pixel_size
     source_px_per_print_mm = prepared.fitted_width_px / layout.width_mm
     return Report(
@@ -301,7 +304,7 @@ def _report(picture, cleaned, prepared, layout, params, machine, mesh, placed, m
         tactile=_tactile_report(placed),
         crop=cleaned.band.as_dict(),
         annotations=[a.describe() for a in cleaned.annotations],
-        warnings=_warnings(picture, cleaned, prepared, layout, params),
+        warnings=_warnings(picture, cleaned, prepared, layout, params, later),
         timings_s={k: round(v, 4) for k, v in timings.items()},
         instrument=cleaned.instrument.as_dict() if cleaned.instrument else None,
     )

@@ -66,9 +66,10 @@ def _parts_by_material(obj) -> dict[int, tuple[trimesh.Trimesh, np.ndarray]]:
     return out
 
 
-def _volumes_config(model) -> ET.Element:
-    attachment = model.FindAttachment("/Metadata/Slic3r_PE_model.config")
-    return ET.fromstring(bytes(attachment.WriteToBuffer()))
+def _volumes_config(path) -> ET.Element:
+    """PrusaSlicer's volume ranges, read from the package by name (as PrusaSlicer reads them)."""
+    with zipfile.ZipFile(path) as archive:
+        return ET.fromstring(archive.read("Metadata/Slic3r_PE_model.config"))
 
 
 def _manifold(mesh: trimesh.Trimesh):
@@ -104,7 +105,7 @@ def test_prusaslicer_volumes_match_the_materials(two_colour):
     _, model = _read_3mf(folder / "p.3mf")
     obj = _one_mesh_object(model)
     parts = _parts_by_material(obj)
-    config = _volumes_config(model)
+    config = _volumes_config(folder / "p.3mf")
     (entry,) = config.findall("object")
     assert int(entry.get("id")) == obj.GetModelResourceID()
     volumes = entry.findall("volume")
@@ -120,6 +121,31 @@ def test_prusaslicer_volumes_match_the_materials(two_colour):
     assert covered == obj.GetTriangleCount()
     assert [int(m["extruder"][1]) for m in metas] == [1, 2]
     assert [m["name"][1] for m in metas] == [p.label for p in litho.parts]
+
+
+@pytest.mark.timeout(60)
+def test_bambu_studio_and_orcaslicer_take_it_as_a_prusaslicer_3mf(two_colour):
+    """Bambu Studio and OrcaSlicer cannot be installed here. Their source (Model::read_from_archive,
+    PrusaFileParser::check_3mf_from_prusa) sends a 3MF to their copy of PrusaSlicer's importer,
+    the one that reads the volume ranges, only when the package has no 3D/_rels/3dmodel.model.rels
+    and an Application metadata whose text contains "PrusaSlicer"; otherwise their own importer
+    makes one part of a mesh object. This checks those conditions on the bytes written."""
+    _, folder = two_colour
+    with zipfile.ZipFile(folder / "p.3mf") as archive:
+        names = archive.namelist()
+        assert "3D/_rels/3dmodel.model.rels" not in names and "Metadata/Slic3r_PE_model.config" in names
+        types = ET.fromstring(archive.read("[Content_Types].xml"))
+        rels = ET.fromstring(archive.read("_rels/.rels"))
+        model = ET.fromstring(archive.read("3D/3dmodel.model"))
+    # Every package part still has a content type, and the package points at the model only.
+    assert "config" in {d.get("Extension") for d in types if d.tag.endswith("Default")}
+    assert [r.get("Target") for r in rels] == ["/3D/3dmodel.model"]
+    core = "{http://schemas.microsoft.com/3dmanufacturing/core/2015/02}"
+    application = {m.get("name"): m.text for m in model.findall(f"{core}metadata")}["Application"]
+    assert "PrusaSlicer" in application and application.startswith("TAMP-OS ")
+    # Not "PrusaSlicer-x" (PrusaSlicer would take it for its own version) nor "BambuStudio-x".
+    assert not application.startswith(("PrusaSlicer-", "BambuStudio-"))
+    assert not any(ch in application for ch in "&<>")  # one run of text: the check reads it unsplit
 
 
 @pytest.mark.timeout(120)
@@ -266,7 +292,7 @@ def test_one_part_is_one_volume_on_extruder_1(tmp_path):
     parts = _parts_by_material(_one_mesh_object(model))
     ((mesh, idx),) = parts.values()
     assert mesh.is_watertight and mesh.volume == pytest.approx(1200, rel=1e-6)
-    (volume,) = _volumes_config(model).find("object").findall("volume")
+    (volume,) = _volumes_config(path).find("object").findall("volume")
     assert (int(volume.get("firstid")), int(volume.get("lastid"))) == (0, len(idx) - 1)
 
 

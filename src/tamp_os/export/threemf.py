@@ -17,6 +17,7 @@ import os
 import shutil
 import tempfile
 import uuid
+import zipfile
 
 import numpy as np
 
@@ -117,6 +118,10 @@ def _set_triangle_materials(obj, group_id: int, material_per_face: np.ndarray) -
 
 SLIC3R_MODEL_CONFIG = "/Metadata/Slic3r_PE_model.config"
 SLIC3R_RELATIONSHIP = "http://schemas.slic3r.org/3mf/2017/06"
+MODEL_RELATIONSHIPS = "3D/_rels/3dmodel.model.rels"
+# Contains "PrusaSlicer" (what Bambu Studio and OrcaSlicer look for) without starting with
+# "PrusaSlicer-", which PrusaSlicer would read as the version of the PrusaSlicer that wrote it.
+PRUSA_LAYOUT = "volumes in PrusaSlicer 3MF layout"
 
 
 def write_3mf_parts(parts, fh, metadata: dict) -> None:
@@ -128,8 +133,15 @@ def write_3mf_parts(parts, fh, metadata: dict) -> None:
     display colour), and the attachment Metadata/Slic3r_PE_model.config (PrusaSlicer's own
     convention) cuts the object into volumes by triangle ranges and gives part k extruder k + 1.
     PrusaSlicer then loads one object with one part per colour; a components object instead
-    falls apart into separate objects there. Bambu Studio and OrcaSlicer were not checked here:
-    a third party's published probe reports that they ignore this attachment and load one part.
+    falls apart into separate objects there.
+
+    Bambu Studio and OrcaSlicer (not installable here, so read from their source, not run) load
+    a 3MF with their own importer, which ignores this attachment and makes one part of a mesh
+    object, unless the package looks like PrusaSlicer's: then they hand it to their copy of
+    PrusaSlicer's importer, which reads the volumes. Their test (Model::read_from_archive,
+    check_3mf_from_prusa) is: no 3D/_rels/3dmodel.model.rels in the package, and an Application
+    metadata whose text contains "PrusaSlicer". So the attachment is stored without a
+    relationship (as PrusaSlicer stores it) and the Application says whose layout this is.
     """
     with _keep_locale():
         _write_parts(parts, fh, metadata)
@@ -161,7 +173,8 @@ def _write_parts(parts, fh, metadata: dict) -> None:
     config = slic3r_model_config(obj.GetModelResourceID(), title, [p.label for p in parts], face_counts)
     model.AddCustomContentType("config", "application/xml")  # every package part needs a content type (OPC)
     model.AddAttachment(SLIC3R_MODEL_CONFIG, SLIC3R_RELATIONSHIP).ReadFromBuffer(list(config))
-    _finish(model, fh, metadata)
+    application = f"{metadata.get('application', 'TAMP-OS')} ({PRUSA_LAYOUT})"
+    _finish(model, fh, {**metadata, "application": application}, unlinked_attachments=True)
 
 
 def slic3r_model_config(object_id: int, name: str, part_names: list[str], face_counts: list[int]) -> bytes:
@@ -186,8 +199,9 @@ def slic3r_model_config(object_id: int, name: str, part_names: list[str], face_c
     return b'<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, encoding="utf-8", xml_declaration=False) + b"\n"
 
 
-def _finish(model, fh, metadata: dict) -> None:
-    """Add the metadata and write the model into `fh`."""
+def _finish(model, fh, metadata: dict, unlinked_attachments: bool = False) -> None:
+    """Add the metadata and write the model into `fh`; with `unlinked_attachments`, the
+    attachments stay in the package without the relationships lib3mf gives them."""
     group = model.GetMetaDataGroup()
     for key in ("Title", "Description", "Designer", "Application"):
         value = metadata.get(key.lower())
@@ -198,5 +212,19 @@ def _finish(model, fh, metadata: dict) -> None:
     with tempfile.TemporaryDirectory(prefix="tamp-3mf-") as tmp:
         path = os.path.join(tmp, "model.3mf")
         model.QueryWriter("3mf").WriteToFile(path)
+        if unlinked_attachments:
+            path = _without_model_relationships(path)
         with open(path, "rb") as src:
             shutil.copyfileobj(src, fh, 1 << 20)
+
+
+def _without_model_relationships(path: str) -> str:
+    """A copy of the package at `path` without 3D/_rels/3dmodel.model.rels (lib3mf writes it
+    for every attachment; no 3MF reader needs it to find PrusaSlicer's config, which is read by
+    name). Entries keep their order and timestamps, so the bytes stay reproducible."""
+    out = path + ".unlinked"
+    with zipfile.ZipFile(path) as src, zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as dst:
+        for info in src.infolist():
+            if info.filename != MODEL_RELATIONSHIPS:
+                dst.writestr(info, src.read(info), compress_type=zipfile.ZIP_DEFLATED)
+    return out

@@ -13,8 +13,9 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy import ndimage
-from skimage import filters, measure, morphology, segmentation
+from skimage import filters, morphology, segmentation
 
+from .hull import labelled_hulls
 from .scales import disk, gaussian_mm
 
 MAX_COVER = 0.7  # objects covering more than this share of the picture are the background
@@ -138,9 +139,8 @@ def _enclosed_parts(regions: np.ndarray, ground: int, closed: np.ndarray, pitch_
     area = np.bincount(parts.ravel(), minlength=ajar.size)
     boxes = ndimage.find_objects(parts, max_label=ajar.size - 1)
     box_area = np.array([1] + [(b[0].stop - b[0].start) * (b[1].stop - b[1].start) if b else 1 for b in boxes])
-    doubtful = ajar & (area < CONVEX_SOLIDITY * box_area)
-    for region in measure.regionprops(np.where(doubtful[parts], parts, 0)):
-        ajar[region.label] = region.solidity >= CONVEX_SOLIDITY
+    for k, _, _, solidity in labelled_hulls(parts, ajar & (area < CONVEX_SOLIDITY * box_area)):
+        ajar[k] = solidity >= CONVEX_SOLIDITY
     return whole[regions] | ajar[parts]
 
 
@@ -247,11 +247,10 @@ def _convex_fill(labels: np.ndarray) -> np.ndarray:
     leaves a notch; particles, spheres and cells are convex, so the hull is the better guess.
     """
     out = labels.copy()
-    for region in measure.regionprops(labels):
-        if region.solidity >= CONVEX_SOLIDITY:
-            r0, c0, r1, c1 = region.bbox
-            window = out[r0:r1, c0:c1]
-            window[region.image_convex & (window == 0)] = region.label
+    for k, box, hull, solidity in labelled_hulls(labels, np.ones(int(labels.max()) + 1, bool)):
+        if solidity >= CONVEX_SOLIDITY:
+            window = out[box]
+            window[hull & (window == 0)] = k
     return out
 
 
@@ -319,9 +318,8 @@ def _keep_solid(labels: np.ndarray) -> np.ndarray:
     area = np.bincount(labels.ravel(), minlength=n + 1)
     boxes = ndimage.find_objects(labels, max_label=n)
     box_area = np.array([0] + [(b[0].stop - b[0].start) * (b[1].stop - b[1].start) if b else 1 for b in boxes])
-    doubtful = keep & (area > 0) & (area < MIN_SOLIDITY * box_area)
-    for region in measure.regionprops(np.where(doubtful[labels], labels, 0)):
-        keep[region.label] = region.solidity >= MIN_SOLIDITY
+    for k, _, _, solidity in labelled_hulls(labels, keep & (area > 0) & (area < MIN_SOLIDITY * box_area)):
+        keep[k] = solidity >= MIN_SOLIDITY
     return np.where(keep[labels], labels, 0)
 
 

@@ -1,0 +1,44 @@
+"""Object hulls (relief/hull.py) against scikit-image's convex_hull_image, pixel for pixel."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+from hypothesis.extra.numpy import arrays
+from scipy import ndimage
+from skimage.morphology import convex_hull_image
+
+from tamp_os.relief.hull import convex_hull_mask, labelled_hulls
+
+
+@pytest.mark.timeout(120)
+@settings(max_examples=400, deadline=None)
+@given(mask=arrays(bool, st.tuples(st.integers(1, 40), st.integers(1, 40))), opened=st.booleans())
+def test_same_pixels_as_scikit_image(mask, opened):
+    if opened:
+        mask = ndimage.binary_opening(mask)
+    if not mask.any():
+        return
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # scikit-image warns for degenerate hulls it then still draws
+        expected = convex_hull_image(mask)
+    got = convex_hull_mask(mask)
+    assert got.shape == mask.shape and np.array_equal(got, expected)
+    assert not (mask & ~got).any()  # the hull holds the object
+
+
+@pytest.mark.timeout(60)
+def test_solidity_of_known_shapes():
+    labels = np.zeros((40, 60), np.int32)
+    labels[5:15, 5:25] = 1  # a rectangle: solidity 1
+    labels[20:35, 30:45] = 2
+    labels[20:32, 33:42] = 0  # an upside-down U: 15x15 box less a 12x9 notch open at the top
+    labels[30:33, 10:13] = 3  # not asked for
+    which = np.array([False, True, True, False])
+    got = {k: (box, hull, solidity) for k, box, hull, solidity in labelled_hulls(labels, which)}
+    assert set(got) == {1, 2}
+    assert got[1][2] == 1.0 and got[1][1].all() and got[1][0] == (slice(5, 15), slice(5, 25))
+    assert got[2][2] == pytest.approx((15 * 15 - 12 * 9) / 225)

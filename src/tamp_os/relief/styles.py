@@ -373,4 +373,4 @@ def _separation(image: np.ndarray, thresholds: np.ndarray) -> float:
     # (np.square, not np.dot: a BLAS call wakes OpenBLAS's threads, which then spin on the
     # other core for a while, doubling the CPU time of everything after it.)
     within = (float(np.sum(np.square(values))) - float(np.sum(sums[has] ** 2 / count[has]))) / values.size
-    return 1.0 - within / total
+    return 1.0 - max(within, 0.0) / total  # rounding must not push a perfect split past 1

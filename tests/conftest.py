@@ -12,6 +12,15 @@ STRICT = os.environ.get("TAMP_STRICT") == "1"
 os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 
 
+def run_cli(capsys, *argv) -> tuple[int, str, str]:
+    """Run the tamp-os command line in this process: (exit code, stdout, stderr)."""
+    from tamp_os.cli import main
+
+    code = main([str(a) for a in argv])
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
 def need(condition: bool, what: str) -> None:
     """Skip when a tool or file is missing; under TAMP_STRICT=1 (CI) fail instead."""
     if not condition:

@@ -10,8 +10,7 @@ import time
 import numpy as np
 from PIL import Image
 
-from tamp_os.cli import main
-from conftest import need_module
+from conftest import need_module, run_cli as run
 
 
 def make_inputs(folder, good=25, hostile=5, size=(48, 64)):
@@ -23,12 +22,6 @@ def make_inputs(folder, good=25, hostile=5, size=(48, 64)):
     for i in range(hostile):
         (folder / f"bad{i}.png").write_bytes(bad[i % len(bad)])
     return folder
-
-
-def run(capsys, *argv):
-    code = main([str(a) for a in argv])
-    out = capsys.readouterr()
-    return code, out.out, out.err
 
 
 def test_hostile_inputs_never_stop_the_batch(tmp_path, capsys):

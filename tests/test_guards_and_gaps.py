@@ -11,20 +11,13 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from conftest import FIXTURES, ROOT
+from conftest import FIXTURES, ROOT, run_cli as run
 from tamp_os import make_lithograph
-from tamp_os.cli import main
 from tamp_os.errors import ParameterError
 from tamp_os.relief.heightmap import heights_mm
 from tamp_os.relief.preprocess import prepare, resample, stretch
 
 pytestmark = pytest.mark.timeout(240)
-
-
-def run(capsys, *argv):
-    code = main([str(a) for a in argv])
-    out = capsys.readouterr()
-    return code, out.out, out.err
 
 
 def test_a_grid_too_large_to_mesh_is_refused_before_any_work():

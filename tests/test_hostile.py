@@ -8,7 +8,7 @@ import pytest
 import tifffile
 from PIL import Image
 
-from tamp_os.cli import main
+from conftest import run_cli as run
 from tamp_os.errors import ExportError
 from tamp_os.files import write_atomic
 
@@ -52,12 +52,6 @@ def write_case(tmp_path, name):
     data, _ = FILE_CASES[name]
     path.write_bytes(data)
     return path
-
-
-def run(capsys, *argv):
-    code = main(list(map(str, argv)))
-    out = capsys.readouterr()
-    return code, out.out, out.err
 
 
 def assert_one_clear_error(err, *needles):

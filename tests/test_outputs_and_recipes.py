@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from conftest import ROOT
+from conftest import ROOT, run_cli as run
 from tamp_os import make_lithograph
 from tamp_os.cli import in_cli_words, main
 
@@ -24,12 +24,6 @@ pytestmark = pytest.mark.timeout(240)
 def picture(path: Path, seed: int = 0) -> Path:
     Image.fromarray((np.random.default_rng(seed).random((30, 40)) * 255).astype(np.uint8)).save(path)
     return path
-
-
-def run(capsys, *argv):
-    code = main([str(a) for a in argv])
-    out = capsys.readouterr()
-    return code, out.out, out.err
 
 
 def test_two_inputs_with_one_name_get_distinct_outputs(tmp_path, capsys):

@@ -11,7 +11,7 @@ from hypothesis.extra.numpy import arrays
 from scipy import ndimage
 from skimage.morphology import convex_hull_image
 
-from tamp_os.relief.hull import convex_hull_mask, labelled_hulls
+from tamp_os.relief.hull import convex_hull_mask, labelled_hulls, solid_enough
 
 
 @pytest.mark.timeout(120)
@@ -42,3 +42,15 @@ def test_solidity_of_known_shapes():
     assert set(got) == {1, 2}
     assert got[1][2] == 1.0 and got[1][1].all() and got[1][0] == (slice(5, 15), slice(5, 25))
     assert got[2][2] == pytest.approx((15 * 15 - 12 * 9) / 225)
+
+
+@pytest.mark.timeout(60)
+def test_solid_enough_drops_only_concave_candidates():
+    labels = np.zeros((40, 60), np.int32)
+    labels[5:15, 5:25] = 1  # rectangle, solidity 1
+    labels[20:35, 30:45] = 2
+    labels[20:32, 33:42] = 0  # upside-down U, solidity 117 / 225 = 0.52
+    labels[30:33, 10:13] = 3  # a square that is not a candidate
+    candidates = np.array([False, True, True, False])
+    assert solid_enough(labels, candidates, 0.7).tolist() == [False, True, False, False]
+    assert solid_enough(labels, candidates, 0.5).tolist() == [False, True, True, False]

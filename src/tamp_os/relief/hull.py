@@ -62,10 +62,14 @@ def _fill_polygon(corners: np.ndarray, rows: int, cols: int) -> np.ndarray:
     return (c >= lo[:, None]) & (c <= hi[:, None])
 
 
-def labelled_hulls(labels: np.ndarray, which: np.ndarray) -> Iterator[tuple[int, tuple[slice, slice], np.ndarray, float]]:
+def labelled_hulls(
+    labels: np.ndarray, which: np.ndarray, boxes: list | None = None
+) -> Iterator[tuple[int, tuple[slice, slice], np.ndarray, float]]:
     """For each label k with which[k] (bool, index 0 = background, ignored):
-    (k, its bounding box, the hull mask within the box, solidity = area / hull area)."""
-    boxes = ndimage.find_objects(labels, max_label=which.size - 1)
+    (k, its bounding box, the hull mask within the box, solidity = area / hull area).
+    `boxes`, if given, is ndimage.find_objects(labels, max_label=which.size - 1)."""
+    if boxes is None:
+        boxes = ndimage.find_objects(labels, max_label=which.size - 1)
     for k in np.flatnonzero(which[1:]) + 1:
         box = boxes[k - 1]
         if box is None:
@@ -73,3 +77,18 @@ def labelled_hulls(labels: np.ndarray, which: np.ndarray) -> Iterator[tuple[int,
         region = labels[box] == k
         hull = convex_hull_mask(region)
         yield int(k), box, hull, float(region.sum()) / float(hull.sum())
+
+
+def solid_enough(labels: np.ndarray, candidates: np.ndarray, min_solidity: float) -> np.ndarray:
+    """`candidates` (bool per label 0..n) less the labels whose solidity is under min_solidity.
+
+    Solidity is at least area / bounding-box area, so the hull, the costly part, is drawn
+    only for the labels where that bound leaves doubt.
+    """
+    area = np.bincount(labels.ravel(), minlength=candidates.size)
+    boxes = ndimage.find_objects(labels, max_label=candidates.size - 1)
+    box_area = np.array([1] + [(b[0].stop - b[0].start) * (b[1].stop - b[1].start) if b else 1 for b in boxes])
+    out = candidates.copy()
+    for k, _, _, solidity in labelled_hulls(labels, candidates & (area < min_solidity * box_area), boxes):
+        out[k] = solidity >= min_solidity
+    return out

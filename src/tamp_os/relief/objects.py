@@ -15,7 +15,7 @@ import numpy as np
 from scipy import ndimage
 from skimage import filters, morphology, segmentation
 
-from .hull import labelled_hulls
+from .hull import labelled_hulls, solid_enough
 from .scales import disk, gaussian_mm
 
 MAX_COVER = 0.7  # objects covering more than this share of the picture are the background
@@ -135,12 +135,7 @@ def _enclosed_parts(regions: np.ndarray, ground: int, closed: np.ndarray, pitch_
     np.maximum.at(reach, parts.ravel(), dist.ravel())
     ajar = (rim_share >= AJAR_RIM_SHARE) & (border_share <= MAX_BORDER_SHARE) & (reach * pitch_mm >= GAP_MM)
     ajar[0] = False
-    # Solidity is at least area / bounding-box area: the hull only where that leaves doubt.
-    area = np.bincount(parts.ravel(), minlength=ajar.size)
-    boxes = ndimage.find_objects(parts, max_label=ajar.size - 1)
-    box_area = np.array([1] + [(b[0].stop - b[0].start) * (b[1].stop - b[1].start) if b else 1 for b in boxes])
-    for k, _, _, solidity in labelled_hulls(parts, ajar & (area < CONVEX_SOLIDITY * box_area)):
-        ajar[k] = solidity >= CONVEX_SOLIDITY
+    ajar = solid_enough(parts, ajar, CONVEX_SOLIDITY)
     return whole[regions] | ajar[parts]
 
 
@@ -312,14 +307,9 @@ def _keep_sized(labels: np.ndarray, min_px: int, total_px: int) -> np.ndarray:
 def _keep_solid(labels: np.ndarray) -> np.ndarray:
     """Drop concave objects (pockets of ground between objects); the hull, the costly part,
     only where area / bounding-box area (a lower bound of solidity) leaves it in doubt."""
-    n = int(labels.max())
-    keep = np.ones(n + 1, bool)
+    keep = np.ones(int(labels.max()) + 1, bool)
     keep[0] = False
-    area = np.bincount(labels.ravel(), minlength=n + 1)
-    boxes = ndimage.find_objects(labels, max_label=n)
-    box_area = np.array([0] + [(b[0].stop - b[0].start) * (b[1].stop - b[1].start) if b else 1 for b in boxes])
-    for k, _, _, solidity in labelled_hulls(labels, keep & (area > 0) & (area < MIN_SOLIDITY * box_area)):
-        keep[k] = solidity >= MIN_SOLIDITY
+    keep = solid_enough(labels, keep, MIN_SOLIDITY)
     return np.where(keep[labels], labels, 0)
 
 

@@ -19,6 +19,7 @@ import argparse
 import filecmp
 import json
 import os
+import re
 import subprocess
 import sys
 import tempfile
@@ -32,6 +33,7 @@ VARIANTS = {
     "furniture": ["--formats", "stl,3mf", "--caption", "Test 5 um", "--frame-mm", "2", "--pixel-size", "0.5um"],
     "grid": ["--formats", "stl,glb", "--mesher", "grid", "--preset", "low", "--invert"],
     "step": ["--formats", "step", "--preset", "low", "--width-mm", "60"],
+    "graphic": ["--formats", "pdf,svg,stl", "--preset", "low", "--page-size", "a4"],
 }
 
 
@@ -75,6 +77,11 @@ def _recipe_text(path: Path) -> str:
     return json.dumps(recipe, indent=2, ensure_ascii=False) + "\n"
 
 
+def _pdf_bytes(path: Path) -> bytes:
+    """A PDF without its creation time (cairo writes the clock's time, so two runs always differ there)."""
+    return re.sub(rb"/CreationDate \(D:[0-9Z+\-']*\)", b"", path.read_bytes())
+
+
 def compare(a: Path, b: Path) -> list[str]:
     names_a = {p.relative_to(a) for p in a.rglob("*") if p.is_file()}
     names_b = {p.relative_to(b) for p in b.rglob("*") if p.is_file()}
@@ -83,6 +90,9 @@ def compare(a: Path, b: Path) -> list[str]:
     for name in sorted(names_a & names_b):
         if name.name.endswith(".tamp.json"):
             if _recipe_text(a / name) != _recipe_text(b / name):
+                problems.append(f"differs: {name}")
+        elif name.suffix == ".pdf":
+            if _pdf_bytes(a / name) != _pdf_bytes(b / name):
                 problems.append(f"differs: {name}")
         elif not filecmp.cmp(a / name, b / name, shallow=False):
             problems.append(f"differs: {name}")

@@ -8,10 +8,10 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+from tamp_os.convert import convert as convert_image
 from tamp_os.errors import TampError
-from tamp_os.pipeline import make_lithograph
+from tamp_os.params import LithoParams
 from tamp_os.read import read_array
-from tamp_os.report import summary_line
 
 BUILTIN = ("cell", "immunohistochemistry", "moon")
 FIXTURES = Path(__file__).resolve().parents[2] / "shared" / "fixtures"  # the project's sibling folder
@@ -50,13 +50,12 @@ def main(argv=None) -> int:
 def convert(name: str, source, out: Path, **params) -> bool:
     """Convert one example and print the same line as `tamp-os convert`; False if it failed."""
     try:
-        litho = make_lithograph(source, **params)
-        written = litho.save(out)
+        conversion = convert_image(source, LithoParams(**params), out)
     except TampError as exc:
         print(f"{name}: not converted: {exc}")
         return False
-    print(summary_line(litho.report, [p.name for p in written]))
-    for warning in litho.report.warnings:
+    print(conversion.summary())
+    for warning in conversion.report.warnings:
         print(f"  note: {warning}")
     return True
 

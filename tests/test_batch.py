@@ -103,7 +103,7 @@ def test_overrides_recursive_include_and_name_collisions(tmp_path, capsys):
     bad = tmp_path / "bad.csv"
     bad.write_text("file,relief_mm\nimg00.png,lots\n")
     code, _, err = run(capsys, "batch", src, "-o", tmp_path / "x", "--overrides", bad)
-    assert code == 2 and "line 2" in err and "relief_mm" in err
+    assert code == 1 and "line 2" in err and "relief_mm" in err
 
 
 def test_unreachable_dask_scheduler_is_a_clear_usage_error(tmp_path, capsys):
@@ -111,4 +111,4 @@ def test_unreachable_dask_scheduler_is_a_clear_usage_error(tmp_path, capsys):
 
     src = make_inputs(tmp_path / "in", good=1, hostile=0)
     code, _, err = run(capsys, "batch", src, "-o", tmp_path / "out", "--dask-scheduler", f"tcp://127.0.0.1:{free_port()}")
-    assert code == 2 and "cannot reach a Dask scheduler" in err and "Traceback" not in err
+    assert code == 1 and "cannot reach a Dask scheduler" in err and "Traceback" not in err

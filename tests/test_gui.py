@@ -302,6 +302,32 @@ def test_errors_are_all_reported_at_once_in_plain_words(server, page, tmp_path):
     page.wait_for_selector("text=Your lithographs", timeout=60000)
 
 
+@pytest.mark.timeout(120)
+def test_update_with_a_graphic_format_ticked_keeps_the_page_working(server, page, tmp_path):
+    """Bug: ticking SVG or PDF and pressing "Update the detail choices" gave HTTP 500, and so did
+    every later visit to that job's page."""
+    url, _ = server
+    good = tmp_path / "good.png"
+    good.write_bytes(png_bytes())
+    page.goto(url)
+    page.set_input_files("#images", str(good))
+    page.get_by_role("button", name="Add images").click()
+    page.wait_for_selector("text=Step 2 of 3", timeout=60000)
+    page.check("#format-svg")
+    page.check("#format-pdf")
+    with page.expect_response(lambda r: r.request.method == "POST") as posted:
+        page.get_by_role("button", name="Update the detail choices for this printer").click()
+    assert posted.value.status < 500, posted.value.status
+    page.wait_for_selector("text=Step 2 of 3")
+    cards = page.locator("main").inner_text()
+    assert "SVG not estimated" in cards and "STL about" in cards, cards
+    assert page.is_checked("#format-svg") and page.is_checked("#format-pdf")
+    job_page = page.url.rsplit("/", 1)[0]  # the form posted to /jobs/ID/generate; the job's own page is /jobs/ID
+    again = page.goto(job_page)
+    assert again.status == 200 and "Step 2 of 3" in page.locator("main").inner_text()
+    audit(page, "update-with-svg")
+
+
 @pytest.mark.timeout(60)
 def test_too_many_files_is_an_html_page_with_a_title(server):
     url, _ = server

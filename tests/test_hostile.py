@@ -204,7 +204,7 @@ def test_corrupt_recipe(tmp_path, capsys):
     bad = tmp_path / "x.tamp.json"
     bad.write_text("{ not json")
     code, _, err = run(capsys, "convert", "--recipe", bad)
-    assert code == 2
+    assert code == 1
     assert_one_clear_error(err, "x.tamp.json", "not a readable TAMP-OS recipe")
 
 

@@ -153,7 +153,7 @@ def test_sis_pixel_size_is_read(tmp_path):
     path = tmp_path / "sis.tif"
     write_sis_like(path, _ramp(), pixel_m=0.37e-9)
     for page in (None, 1):
-        size = clean_picture(read_image(path, page=page), pixel_size=None, remove_annotations=False).pixel_size
+        size = clean_picture(read_image(path, page=page), pixel_size_m=None, remove_annotations=False).pixel_size
         assert size.provenance == "Olympus SIS pixelsizex"
         assert size.metres == pytest.approx(0.37e-9, rel=1e-9)
 
@@ -198,7 +198,7 @@ def test_dm_tiff_tags_give_the_scale(tmp_path, unit_tag, unit, scale, metres):
     code, value = unit
     tags = [(65009, 12, 1, scale, True), (65010, 12, 1, scale, True), (unit_tag, code, len(value), value, True)]
     tifffile.imwrite(path, _ramp(64, 64), extratags=tags, metadata=None)
-    size = clean_picture(read_image(path), pixel_size=None, remove_annotations=False).pixel_size
+    size = clean_picture(read_image(path), pixel_size_m=None, remove_annotations=False).pixel_size
     assert size.provenance == "DigitalMicrograph TIFF tags"
     assert size.metres == pytest.approx(metres, rel=1e-9)
 
@@ -210,7 +210,7 @@ def test_dm_tiff_tags_without_a_length_unit_give_no_scale_and_say_so(tmp_path):
     path = tmp_path / "dm.tif"
     tags = [(65009, 12, 1, 0.5, True), (65003, 2, len("1/nm"), "1/nm", True)]  # a diffraction pattern
     tifffile.imwrite(path, _ramp(64, 64), extratags=tags, metadata=None)
-    size = clean_picture(read_image(path), pixel_size=None, remove_annotations=False).pixel_size
+    size = clean_picture(read_image(path), pixel_size_m=None, remove_annotations=False).pixel_size
     assert size.metres is None
     assert any("DigitalMicrograph TIFF tags" in w and "1/nm" in w for w in size.warnings)
 
@@ -229,9 +229,9 @@ def test_spelled_out_units(text, metres):
 def test_zeiss_and_fei_instrument_facts(fixture):
     from tamp_os.clean.stage import clean_picture
 
-    zeiss = clean_picture(read_image(fixture("test_tiff_Zeiss_SEM_1k.tif")), pixel_size=None, remove_annotations=False).instrument
+    zeiss = clean_picture(read_image(fixture("test_tiff_Zeiss_SEM_1k.tif")), pixel_size_m=None, remove_annotations=False).instrument
     assert (zeiss.magnification, zeiss.kv, zeiss.detector, zeiss.signal) == (105, 25.0, "HE-SE2", "SE")
-    fei = clean_picture(read_image(fixture("FEI-Helios-Ebeam-8bits.tif")), pixel_size=None, remove_annotations=False).instrument
+    fei = clean_picture(read_image(fixture("FEI-Helios-Ebeam-8bits.tif")), pixel_size_m=None, remove_annotations=False).instrument
     assert (fei.kv, fei.detector, fei.signal) == (5.0, "ETD", "SE")
     assert fei.magnification == pytest.approx(0.2072 / 0.00172667, rel=1e-6)  # canvas width ÷ field width
 
@@ -243,11 +243,11 @@ def test_tescan_backscatter_and_no_facts(tmp_path):
     path = tmp_path / "tescan.tif"
     text = "[MAIN]\nPixelSizeX=2e-08\nHV=20000\nMagnification=5000\nDetector=BSE\n"
     tifffile.imwrite(path, _ramp(64, 64), extratags=[(50431, 2, len(text), text, True)], metadata=None)
-    found = clean_picture(read_image(path), pixel_size=None, remove_annotations=False).instrument
+    found = clean_picture(read_image(path), pixel_size_m=None, remove_annotations=False).instrument
     assert (found.magnification, found.kv, found.signal) == (5000, 20.0, "BSE")
     plain = tmp_path / "plain.tif"
     tifffile.imwrite(plain, _ramp(64, 64))
-    assert clean_picture(read_image(plain), pixel_size=None, remove_annotations=False).instrument is None
+    assert clean_picture(read_image(plain), pixel_size_m=None, remove_annotations=False).instrument is None
 
 
 @pytest.mark.timeout(30)

@@ -272,7 +272,7 @@ def test_no_false_annotations_on_natural_pictures(fixture):
     for name in ("cell", "moon", "coins", "camera", "retina", "hubble_deep_field", "astronaut", "brick", "gravel", "horse", "clock"):
         _, found = detect_annotations(read_image_array(getattr(skimage.data, name)()))
         assert found == [], name
-    zeiss = clean_picture(read_image(fixture("test_tiff_Zeiss_SEM_1k.tif")), pixel_size=None, remove_annotations=True)
+    zeiss = clean_picture(read_image(fixture("test_tiff_Zeiss_SEM_1k.tif")), pixel_size_m=None, remove_annotations=True)
     assert zeiss.annotations == []  # its bright sample edge is not an arrow or a label
 
 

@@ -16,7 +16,9 @@ from PIL import Image
 
 from conftest import ROOT, run_cli as run
 from tamp_os import make_lithograph
-from tamp_os.cli import in_cli_words, main
+from tamp_os.cli import cli_words, main
+from tamp_os.errors import ParameterError, Text
+from tamp_os.params import LithoParams
 
 pytestmark = pytest.mark.timeout(240)
 
@@ -41,8 +43,8 @@ def test_two_inputs_with_one_name_get_distinct_outputs(tmp_path, capsys):
     assert sorted(r["input"]["path"] for r in recipes) == sorted(map(str, (a, b, c)))  # each output names its own input
 
 
-def test_saving_never_slices(tmp_path):
-    litho = make_lithograph(np.eye(12), gcode=True, scale_bar="off")
+def test_saving_without_gcode_never_slices(tmp_path):
+    litho = make_lithograph(np.eye(12), scale_bar="off")
     written = litho.save(tmp_path)
     assert not list(tmp_path.glob("*.gcode")) and litho.report.print is None
     assert [p.suffix for p in written][-1] == ".json"
@@ -87,7 +89,7 @@ def test_bad_recipes_are_one_clear_error(tmp_path, capsys, recipe, needle):
     path = tmp_path / "r.tamp.json"
     path.write_text(json.dumps(recipe), encoding="utf-8")
     code, _, err = run(capsys, "convert", "--recipe", path, "-o", tmp_path / "o")
-    assert code == 2 and err.count("error:") == 1 and needle in err, err
+    assert code == 1 and err.count("error:") == 1 and needle in err, err
     assert "Traceback" not in err
 
 
@@ -95,11 +97,11 @@ def test_deeply_nested_or_binary_recipes_are_refused_without_echoing_them(tmp_pa
     deep = tmp_path / "deep.tamp.json"
     deep.write_text("[" * 100000 + "]" * 100000)
     code, _, err = run(capsys, "convert", "--recipe", deep, "-o", tmp_path / "o")
-    assert code == 2 and "not the JSON a recipe holds" in err
+    assert code == 1 and "not the JSON a recipe holds" in err
     secret = tmp_path / "secret.tamp.json"
     secret.write_bytes(b"\xff\xfeSECRET-TOKEN-123\x00")
     code, _, err = run(capsys, "convert", "--recipe", secret, "-o", tmp_path / "o")
-    assert code == 2 and "SECRET" not in err and "\\xff" not in err
+    assert code == 1 and "SECRET" not in err and "\\xff" not in err
 
 
 def test_a_recipe_opens_only_its_input_with_the_matching_hash(tmp_path, capsys):
@@ -113,7 +115,7 @@ def test_a_recipe_opens_only_its_input_with_the_matching_hash(tmp_path, capsys):
     (tmp_path / "p.png").unlink()
     recipe_path.write_text(json.dumps(recipe), encoding="utf-8")
     code, _, err = run(capsys, "convert", "--recipe", recipe_path, "-o", tmp_path / "o2")
-    assert code == 2 and "has changed" in err and not (tmp_path / "o2").exists()
+    assert code == 1 and "has changed" in err and not (tmp_path / "o2").exists()
 
 
 def test_batch_refuses_a_negative_worker_count(tmp_path, capsys):
@@ -154,7 +156,7 @@ def test_a_second_batch_into_the_same_folder_is_refused_while_the_first_runs(tmp
     if "another batch is writing" not in second.stderr:  # the first finished before the second started
         assert second.returncode == 0
     else:
-        assert second.returncode == 2
+        assert second.returncode == 1
 
 
 def test_workers_end_when_the_batch_is_killed(tmp_path):
@@ -181,11 +183,18 @@ def test_workers_end_when_the_batch_is_killed(tmp_path):
 
 
 def test_messages_speak_parameters_in_the_library_and_flags_in_the_cli():
-    assert in_cli_words("pixel_size: must be between 1 pm and 1 m") == "--pixel-size: must be between 1 pm and 1 m"
-    assert in_cli_words("x.tif: page must be 0–3; got 5.") == "x.tif: --page must be 0–3; got 5."
-    assert in_cli_words("set depth_mm to 60.0") == "set --depth-mm to 60.0"
-    assert in_cli_words("z_slice must be 0–4") == "--slice must be 0–4"
-    assert in_cli_words("printers.toml: [a] needs 'nozzle_mm'") == "printers.toml: [a] needs 'nozzle_mm'"
+    with pytest.raises(ParameterError) as caught:
+        LithoParams(pixel_size="5 parsecs")
+    assert str(caught.value).startswith("pixel_size: cannot read '5 parsecs'")
+    assert cli_words(caught.value).startswith("--pixel-size: cannot read '5 parsecs'")
+    assert caught.value.parameter == "pixel_size" and caught.value.value == "5 parsecs"
+    assert cli_words(Text("x.tif: `page` must be 0–3; got 5.")) == "x.tif: --page must be 0–3; got 5."
+    assert cli_words(Text("`z_slice` must be 0–4")) == "--slice must be 0–4"
+    # Only a parameter's name between backticks is a name: prose, quotes and a file's own keys are kept.
+    assert cli_words("set depth_mm to 60.0") == "set depth_mm to 60.0"
+    assert cli_words(Text("the `caption` says `hello`")) == "the --caption says `hello`"
+    in_file = ParameterError("printers.toml: [a] needs `nozzle_mm`", in_file=True)
+    assert cli_words(in_file) == "printers.toml: [a] needs nozzle_mm"
 
 
 # Flags of programs we run (PrusaSlicer, lou_translate, tesseract) are not ours.

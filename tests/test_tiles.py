@@ -11,7 +11,7 @@ from hypothesis import given, settings, strategies as st
 
 from tamp_os.errors import ParameterError
 from tamp_os.pipeline import make_lithograph
-from tamp_os.tiles import (CLEARANCE_MM, HEAD_DIAMETER_MM, REACH_MM, cell_edges, parse_bed_mm, plan_grid, tile_label,
+from tamp_os.tactile.tiles import (CLEARANCE_MM, HEAD_DIAMETER_MM, REACH_MM, cell_edges, parse_bed_mm, plan_grid, tile_label,
                            tiles_along)
 
 BED = (120.0, 120.0)

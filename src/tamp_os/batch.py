@@ -103,16 +103,16 @@ def read_overrides(path: Path) -> dict[str, dict]:
         try:
             changes = {k: parse_field(k, v) for k, v in row.items() if k != "file" and v and v.strip()}
             LithoParams().replace(**changes)  # validate now, not in the middle of the batch
-        except ParameterError as exc:
-            raise ParameterError(f"{where}: {exc}", in_file=True) from None
+        except ParameterError as exc:  # a bad cell: the file is the problem (exit 1), named by its own columns
+            raise InputError(f"{where}: {exc}", in_file=True) from None
         overrides[row["file"].strip()] = changes
     return overrides
 
 
 def convert_one(source: str, out_dir: str, params_json: str, stem: str) -> dict:
     """Convert one input in a worker; never raises for a user-facing problem."""
+    from .convert import convert
     from .outputs import RECIPE_SUFFIX, recipe_outputs_if_current
-    from .pipeline import make_lithograph
 
     start = time.perf_counter()
     src, out = Path(source), Path(out_dir)
@@ -121,24 +121,17 @@ def convert_one(source: str, out_dir: str, params_json: str, stem: str) -> dict:
     if done:
         return dataclasses.asdict(Outcome(str(src), "skipped (up to date)", done, time.perf_counter() - start))
     try:
-        litho = make_lithograph(src, params)
-        written = litho.save(out, stem=stem)
-        if params.gcode:
-            from .slicer import slice_outputs
-
-            written = slice_outputs(litho, written)
-    except TampError as exc:
-        return dataclasses.asdict(Outcome(str(src), "failed", [], time.perf_counter() - start, str(exc)))
+        conversion = convert(src, params, out, stem=stem)
+    except TampError as exc:  # exc.text() keeps the parameter names for the CLI to say as options
+        return dataclasses.asdict(Outcome(str(src), "failed", [], time.perf_counter() - start, exc.text()))
     except Exception as exc:  # a bug must not stop the batch either; report it plainly
         log.exception("unexpected error on %s", src)
         return dataclasses.asdict(Outcome(str(src), "failed", [], time.perf_counter() - start, f"{src}: unexpected error: {exc!r}"))
-    from .report import touch_notes
-
-    warnings = list(litho.report.warnings)
-    if litho.report.uniform:
+    warnings = list(conversion.report.warnings)
+    if conversion.report.uniform:
         warnings.insert(0, "flat plate: the image is uniform, so nothing is raised")
-    return dataclasses.asdict(Outcome(str(src), "converted", [p.name for p in written], time.perf_counter() - start,
-                                      warnings=warnings, touch=touch_notes(litho.report)))
+    return dataclasses.asdict(Outcome(str(src), "converted", conversion.names, time.perf_counter() - start,
+                                      warnings=warnings, touch=conversion.touch()))
 
 
 LOCK_NAME = ".tamp-batch.lock"

@@ -29,12 +29,12 @@ def _param_options(parser: argparse.ArgumentParser) -> None:
     for f in dataclasses.fields(LithoParams):
         m = f.metadata
         flag = flags_by_name[f.name]
-        help_text = f"{m['help']} ({describe_range(f)}; default {f.default if f.default is not None else 'derived'})"
+        help_text = f"{cli_words(m['help'])} ({describe_range(f)}; default {f.default if f.default is not None else 'derived'})"
         help_text = help_text.replace("%", "%%")  # argparse formats help strings with %
         if f.name == "formats":
-            group.add_argument(flag, dest=f.name, default=None, help=f"comma-separated: {', '.join(m['choices'])} (default stl)")
+            group.add_argument(flag, dest=f.name, default=None, help=f"comma-separated: {_format_help()} (default stl)")
         elif isinstance(f.default, bool):
-            group.add_argument(flag, dest=f.name, action="store_true", default=None, help=m["help"])
+            group.add_argument(flag, dest=f.name, action="store_true", default=None, help=cli_words(m["help"]))
         else:  # typed later by params.parse_field, so every interface reports bad values alike
             flags = [flag] + ([OLD_OPTION_NAMES[f.name]] if f.name in OLD_OPTION_NAMES else [])
             group.add_argument(*flags, dest=f.name, default=None, metavar=m["unit"].upper() or "VALUE", help=help_text)
@@ -47,24 +47,19 @@ def _flags() -> dict[str, str]:
     return {f.name: OPTION_NAMES.get(f.name, "--" + f.name.replace("_", "-")) for f in dataclasses.fields(LithoParams)}
 
 
-def in_cli_words(message) -> str:
-    """A library message names parameters (pixel_size); say them as this command's options (--pixel-size).
+def cli_words(message) -> str:
+    """A library message (an error, a warning, a help text) with each parameter it names said as
+    this command's option (pixel_size -> --pixel-size); see errors.Text."""
+    from .errors import words
 
-    Names with an underscore are replaced wherever they stand as a word, except in quotes (a file's
-    own keys); one-word names (page, channel) only where a message or its clause starts with them
-    ("page: ...", "x.tif: page must be ...").
-    """
-    import re
+    return words(message, _flags().get)
 
-    text = str(message)
-    if getattr(message, "in_file", False):
-        return text
-    for name, flag in _flags().items():
-        if "_" in name:
-            text = re.sub(rf"(?<![\w/.'\"-]){name}(?![\w'\"]|\.\w)", flag, text)
-        else:
-            text = re.sub(rf"(^|: ){name}(?=[ :])", rf"\g<1>{flag}", text)
-    return text
+
+def _format_help() -> str:
+    """'stl (any slicer), 3mf (...), ...' from the format table."""
+    from .formats import TABLE
+
+    return "; ".join(f"{f.name} ({f.what})" for f in TABLE).replace("%", "%%")
 
 
 def _params_from_args(args, base=None):
@@ -175,10 +170,12 @@ def _add_presets_and_plate(sub) -> None:
 
 
 def _add_check(sub) -> None:
+    from .formats import READABLE_MESH_SUFFIXES
+
     check = sub.add_parser("check", help="what a finger will find: the legibility report of an image or a mesh",
                            description="Measure a relief by touch: fine texture, height levels and steps, narrow "
                                        "features, slopes and objects, with advice. An image is made into a relief "
-                                       "first (with the options given); a mesh (.stl, .3mf, .glb, .obj, .ply) is measured as it is.")
+                                       f"first (with the options given); a mesh ({', '.join(READABLE_MESH_SUFFIXES)}) is measured as it is.")
     check.add_argument("inputs", nargs="+", metavar="IMAGE_OR_MESH")
     _param_options(check)
 
@@ -228,7 +225,7 @@ def main(argv=None) -> int:
     if not args.command:
         parser.print_help()
         return EXIT_USAGE
-    from .errors import TampError
+    from .errors import ParameterError, TampError
 
     try:
         commands = {
@@ -241,8 +238,8 @@ def main(argv=None) -> int:
     except TampError as exc:
         if args.debug:
             raise
-        print(f"error: {in_cli_words(exc)}", file=sys.stderr)
-        return EXIT_USAGE
+        print(f"error: {cli_words(exc)}", file=sys.stderr)
+        return EXIT_USAGE if isinstance(exc, ParameterError) else EXIT_FAILED
     except KeyboardInterrupt:
         print("stopped.", file=sys.stderr)
         return 130
@@ -265,7 +262,7 @@ def _run_each(items, action, debug: bool = False) -> int:
         except TampError as exc:
             if debug:
                 raise
-            print(f"error: {in_cli_words(exc)}", file=sys.stderr)
+            print(f"error: {cli_words(exc)}", file=sys.stderr)
             failed += 1
             continue
         for line in lines:
@@ -276,8 +273,9 @@ def _run_each(items, action, debug: bool = False) -> int:
 
 
 def cmd_convert(args) -> int:
+    from .convert import convert
     from .outputs import distinct_stems, load_recipe
-    from .pipeline import make_lithograph, resolve_printer
+    from .pipeline import resolve_printer
 
     jobs = []
     if args.recipe:
@@ -291,31 +289,23 @@ def cmd_convert(args) -> int:
     jobs += [(Path(p), params, None) for p in args.images]
     stems = distinct_stems([image for image, _, _ in jobs])  # never overwrite an output of this run
 
-    def convert(job_and_stem):
+    def convert_job(job_and_stem):
         (image, job_params, printer), stem = job_and_stem
-        litho = make_lithograph(image, job_params, printer_profile=printer)
-        lines = _save_and_say(litho, Path(args.output), stem)
+        lines = _say(convert(image, job_params, Path(args.output), stem=stem, printer_profile=printer))
         if stem != (image.stem or "lithograph"):
             lines.append(f"  note: named {stem} because another input of this run has the same name")
         return lines
 
-    return _run_each(list(zip(jobs, stems)), convert, args.debug)
+    return _run_each(list(zip(jobs, stems)), convert_job, args.debug)
 
 
-def _save_and_say(litho, out: Path, stem: str | None = None) -> list[str]:
-    """Save (and slice, when asked) one lithograph; its warnings to stderr, its lines returned."""
-    from .report import removed_notes, summary_line
-
-    written = litho.save(out, stem=stem)
-    if litho.params.gcode:
-        from .slicer import slice_outputs
-
-        written = slice_outputs(litho, written)
-    for warning in litho.report.warnings:
-        print(f"warning: {in_cli_words(warning)}", file=sys.stderr)
-    lines = [summary_line(litho.report, [p.name for p in written])] + [f"  note: {n}" for n in removed_notes(litho.report)]
-    if litho.report.print:
-        lines.append(f"  print: {litho.report.print['summary']}")
+def _say(conversion) -> list[str]:
+    """One conversion's warnings to stderr; its lines (summary, notes, printing) returned."""
+    for warning in conversion.report.warnings:
+        print(f"warning: {cli_words(warning)}", file=sys.stderr)
+    lines = [conversion.summary()] + [f"  note: {n}" for n in conversion.notes()]
+    if conversion.printing:
+        lines.append(f"  print: {conversion.printing}")
     return lines
 
 
@@ -382,9 +372,9 @@ class _BatchProgress:
         if self.bar:
             self.bar.update(1)
             if outcome["status"] == "failed":
-                self.bar.write(f"failed: {in_cli_words(outcome['error'])}")
+                self.bar.write(f"failed: {cli_words(outcome['error'])}")
         else:
-            detail = in_cli_words(outcome["error"]) if outcome["status"] == "failed" else f"{outcome['seconds']:.1f} s"
+            detail = cli_words(outcome["error"]) if outcome["status"] == "failed" else f"{outcome['seconds']:.1f} s"
             print(f"{count} of {total}: {name} {outcome['status']} ({detail})", flush=True)
 
     def close(self) -> None:
@@ -398,12 +388,10 @@ def cmd_sweep(args) -> int:
     params = _params_from_args(args)
     vary = parse_vary(args.vary)
     result = run_sweep(Path(args.image), params, vary, Path(args.output), render=not args.no_render)
-    from .report import summary_line
-
-    for stem, litho in result["variants"]:
-        print(summary_line(litho.report, [p.name for p in result["written"] if p.name.startswith(stem + ".")]))
-    sheets = [p.name for p in result["written"] if "_sweep_" in p.name and p.suffix == ".png"]
-    print(f"sweep: {len(result['variants'])} variants; contact sheets {', '.join(sheets)} in {args.output}")
+    for conversion in result.conversions:
+        for line in _say(conversion):
+            print(line)
+    print(f"sweep: {len(result.conversions)} variants; contact sheets {', '.join(p.name for p in result.sheets)} in {args.output}")
     return EXIT_OK
 
 
@@ -419,7 +407,9 @@ def cmd_render(args) -> int:
     view = View(width, height, args.azimuth, args.elevation, args.zoom, args.closeup_zoom, args.theme)
     meshes = find_meshes(args.inputs)
     if not meshes:
-        print("error: no meshes found (.stl, .obj, .ply, .glb, .3mf).", file=sys.stderr)
+        from .formats import READABLE_MESH_SUFFIXES
+
+        print(f"error: no meshes found ({', '.join(READABLE_MESH_SUFFIXES)}).", file=sys.stderr)
         return EXIT_USAGE
 
     def render(path):
@@ -499,7 +489,7 @@ def cmd_estimate(args) -> int:
 
 
 def cmd_presets(args) -> int:
-    from .preset_table import megabytes, preset_rows
+    from .preset_table import preset_rows, size_words
     from .relief.touch import suggest_by_touch
     from .pipeline import layout_for, resolve_printer
     from .printers import height_levels
@@ -518,7 +508,7 @@ def cmd_presets(args) -> int:
     print(f"printer {printer.name}: nozzle {printer.nozzle_mm:g} mm, layer {layer:g} mm, mesher {params.mesher}")
     print(f"height levels: {height_levels(params.relief_mm, layer)} (relief {params.relief_mm:g} mm ÷ layer {layer:g} mm)")
     for row in preset_rows(params, picture=picture):
-        sizes = ", ".join(f"{fmt.upper()} {megabytes(n)}" for fmt, n in row["bytes"].items())
+        sizes = size_words(row["bytes"])
         about = "" if row["exact"] or params.mesher == "grid" else "about "
         print(
             f"{row['preset'].capitalize()}: grid {row['cols']} × {row['rows']}, {row['mm_per_px']:.3f} mm per pixel, "
@@ -560,7 +550,7 @@ def cmd_check(args) -> int:
             head = f"{path.name} (mesh, measured as it is):"
         else:
             report = make_lithograph(path, params).report
-            verdicts = report.legibility["verdicts"]
+            verdicts = report.legibility.verdicts
             head = f"{path.name} (relief style {report.relief_style}: {report.relief_reason}):"
         return [head] + [f"  {v}" for v in verdicts]
 
@@ -602,28 +592,16 @@ def cmd_braille_plate(args) -> int:
     return EXIT_OK
 
 
-def _instrument_words(facts: dict) -> str:
-    """'magnification 105×, 25 kV, detector HE-SE2 (secondary electrons), from Zeiss SmartSEM'."""
-    signals = {"SE": "secondary electrons", "BSE": "backscattered electrons", "STEM": "scanning transmission"}
-    words = []
-    if facts.get("magnification"):
-        words.append(f"magnification {facts['magnification']:,.0f}×")
-    if facts.get("kv"):
-        words.append(f"{facts['kv']:g} kV")
-    if facts.get("detector"):
-        signal = signals.get(facts.get("signal") or "")
-        words.append(f"detector {facts['detector']}" + (f" ({signal})" if signal else ""))
-    return ", ".join(words) + (f", from {facts['source']}" if facts.get("source") else "")
-
-
 def cmd_info(args) -> int:
     from .clean.stage import clean_picture
     from .read import read_image
-    from .units import format_length
+    from .report import instrument_words
+    from .units import format_length, parse_length_m
 
+    pixel_size_m = parse_length_m(args.pixel_size, "pixel_size") if args.pixel_size else None
     picture = read_image(args.image, page=args.page, z_slice=args.slice, channel=args.channel)  # the same size guard as convert
     s = picture.file
-    cleaned = clean_picture(picture, pixel_size=args.pixel_size, remove_annotations=True)
+    cleaned = clean_picture(picture, pixel_size_m=pixel_size_m, remove_annotations=True)
     scale, crop, found = cleaned.pixel_size, cleaned.band.as_dict(), cleaned.annotations
     meta_found = sorted(k for k in s.metadata if not k.startswith("_"))
     facts = {
@@ -661,9 +639,9 @@ def cmd_info(args) -> int:
     print(f"data band: {' and '.join(removed)} ({crop['source']})" if removed else "data band: none found")
     print(f"annotations to remove: {'; '.join(a.describe() for a in found) if found else 'none found'}")
     if cleaned.instrument:
-        print(f"instrument: {_instrument_words(facts['instrument'])}")
+        print(f"instrument: {instrument_words(cleaned.instrument)}")
     for note in facts["notes"]:
-        print(f"note: {note}")
+        print(f"note: {cli_words(note)}")
     return EXIT_OK
 
 

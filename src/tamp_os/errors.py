@@ -1,26 +1,148 @@
-"""The few error types TAMP-OS raises. Each message names the file or parameter,
-the allowed range, the value received and what to do, so the CLI can print it as is."""
+"""The few error types TAMP-OS raises, and `Text`, the one way a message names a parameter.
+
+Each message names the file or parameter, the allowed range, the value received and what to do.
+A library message writes a parameter's name between backticks (`pixel_size`); `str()` gives it as
+the library says it (pixel_size), and `words(namer)` as a front end says it (its option on the
+command line, the field's label in the web app). That is template filling, not rewriting:
+nothing but a backticked parameter name is ever replaced.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Callable
+
+Namer = Callable[[str], "str | None"]  # a parameter's name -> a front end's word for it (None: keep it)
+
+
+def _known_names() -> frozenset[str]:
+    from .params import parameter_names
+
+    return parameter_names()
+
+
+def render(template: str, namer: Namer | None = None) -> str:
+    """Fill a message template: each `name` of a parameter becomes namer(name) (or the name itself).
+
+    Backticks around anything else (a user's own text) are kept as they were."""
+    if "`" not in template:
+        return template
+    pieces = template.split("`")
+    if len(pieces) % 2 == 0:  # an unpaired backtick: the text is not a template
+        return template
+    known = _known_names()
+    out = []
+    for i, piece in enumerate(pieces):
+        if i % 2 == 0:
+            out.append(piece)
+        elif piece in known:
+            out.append((namer(piece) if namer else None) or piece)
+        else:
+            out.append(f"`{piece}`")
+    return "".join(out)
+
+
+class Text(str):
+    """A sentence that may name parameters: reads as the library says it, and `words(namer)` says
+    it in a front end's words. Stored and serialised as the library's text."""
+
+    template: str
+
+    def __new__(cls, template: str):
+        if isinstance(template, Text):
+            return template
+        self = super().__new__(cls, render(str(template)))
+        self.template = str(template)
+        return self
+
+    def words(self, namer: Namer | None = None) -> str:
+        return render(self.template, namer)
+
+    def __reduce__(self):  # pickles (batch workers) and copies keep the template
+        return (Text, (self.template,))
+
+    def __deepcopy__(self, memo):
+        return self
+
+
+def words(message: Any, namer: Namer | None = None) -> str:
+    """Any message (an error, a Text, a plain string) in a front end's words."""
+    if isinstance(message, TampError):
+        return message.words(namer)
+    if isinstance(message, Text):
+        return message.words(namer)
+    return render(str(message), namer)
 
 
 class TampError(Exception):
     """Base class: a problem the user can fix; the CLI prints it without a traceback.
 
-    Messages name parameters as the library does (`pixel_size`); the CLI and the web app say
-    them in their own words. `in_file=True` marks a message about a file's own keys (a CSV
-    column, a TOML key), which keep their names everywhere.
+    `hint` is what to do, kept apart from what is wrong so that a front end that cannot offer the
+    setting a hint names (the web app has no `max_megapixels`) can give its own advice instead.
+    `in_file=True` marks a message about a file's own keys (a CSV column, a TOML key), which keep
+    their names everywhere.
     """
 
-    def __init__(self, message: str = "", *, in_file: bool = False):
-        super().__init__(message)
+    def __init__(self, message: str = "", *, hint: str | None = None, in_file: bool = False):
+        self.problem = _template(message)
+        self.hint = _template(hint) if hint else None
         self.in_file = in_file
+        super().__init__(render(self.template))
+
+    @property
+    def template(self) -> str:
+        return f"{self.problem} {self.hint}" if self.hint else self.problem
+
+    def words(self, namer: Namer | None = None, *, hint: bool = True) -> str:
+        return render(self.template if hint else self.problem, None if self.in_file else namer)
+
+    def text(self) -> "Text | str":
+        """The message as a Text (it keeps the parameter names for a front end to say), or as plain
+        text for a message about a file's own keys."""
+        return str(self) if self.in_file else Text(self.template)
+
+    def __reduce__(self):  # batch workers send errors back pickled: keep the template and the data
+        return (_restore, (type(self), dict(self.__dict__)))
+
+    def hint_names(self) -> set[str]:
+        """The parameters the hint names (to tell whether a front end can offer them)."""
+        return names_in(self.hint or "")
+
+
+def _restore(cls, state: dict) -> "TampError":
+    error = cls.__new__(cls)
+    error.__dict__.update(state)
+    Exception.__init__(error, render(error.template))
+    return error
+
+
+def _template(message) -> str:
+    return str(message.template if isinstance(message, Text) else message)
+
+
+def names_in(template: str) -> set[str]:
+    """The parameters a message template names between backticks."""
+    pieces = str(template).split("`")
+    return {p for p in pieces[1::2] if p in _known_names()} if len(pieces) % 2 else set()
 
 
 class InputError(TampError):
     """An input file that cannot be read or used."""
 
 
+_UNSET: Any = object()
+
+
 class ParameterError(TampError, ValueError):
-    """A parameter outside its allowed range."""
+    """A parameter outside its allowed range. Besides the message it carries, as data, the
+    `parameter` (a LithoParams field name, or None), the `value` received, what is `allowed`
+    and a `hint` (what to do), so a front end can lay them out itself."""
+
+    def __init__(self, message: str = "", *, parameter: str | None = None, value: Any = _UNSET,
+                 allowed: str | None = None, hint: str | None = None, in_file: bool = False):
+        self.parameter, self.allowed = parameter, allowed
+        self.value = None if value is _UNSET else value
+        self.has_value = value is not _UNSET
+        super().__init__(message, hint=hint, in_file=in_file)
 
 
 class MissingDependencyError(TampError):

@@ -8,8 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import InputError
-
-MESH_SUFFIXES = (".stl", ".3mf", ".glb", ".gltf", ".obj", ".ply", ".off")
+from .formats import READABLE_MESH_SUFFIXES as MESH_SUFFIXES
 
 
 def read_mesh_file(path):

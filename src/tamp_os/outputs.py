@@ -16,12 +16,13 @@ from pathlib import Path
 import numpy as np
 
 
-from .errors import ExportError, InputError
+from .errors import ExportError, InputError, ParameterError
 from .export import check_export, save_mesh
 from .files import to_uint8, write_png, write_text
 from .export.graphic2d import Graphic2D, layout_graphic, page_placement, regions_from_image
 from .export.tactile2d import save_graphic
-from .params import GRAPHIC_FORMATS, LithoParams
+from .formats import GRAPHIC_FORMATS
+from .params import LithoParams
 from .printers import PrinterProfile
 from .report import describe
 from .version import __version__
@@ -43,7 +44,7 @@ def metadata(litho) -> dict:
 def multipart_sentences(litho) -> list[str]:
     """How the parts or tiles go together, for the description (tactile/parts.py, tiles.py)."""
     from .tactile.parts import describe_parts
-    from .tiles import describe_tiles
+    from .tactile.tiles import describe_tiles
 
     out = [describe_parts(litho.parts)] if getattr(litho, "parts", None) else []
     return out + ([describe_tiles(litho.tiles)] if getattr(litho, "tiles", None) else [])
@@ -117,16 +118,17 @@ def tactile_graphic(litho) -> Graphic2D:
     touch (the levels style's plateaus, the objects found, or thresholds of the heights), with the
     same caption, scale bar and cut corner as the 3-D plate."""
     relief = (litho.heightmap - litho.params.base_mm) / litho.params.relief_mm
-    objects = litho.report.relief_style == "objects" and (litho.report.legibility or {}).get("object_count")
+    legibility = litho.report.legibility
+    objects = litho.report.relief_style == "objects" and legibility is not None and legibility.object_count
     if litho.report.uniform:
         regions = np.zeros(relief.shape, np.int32)
     elif objects:
         regions = (relief > 0.5).astype(np.int32)  # the domes: one texture over a plain background
     else:
-        levels = len((litho.report.legibility or {}).get("levels_mm") or []) - 1
+        levels = len((legibility.levels_mm if legibility else None) or []) - 1
         regions = regions_from_image(np.clip(relief, 0, 1), levels=min(3, levels) if levels >= 1 else 3)
     furniture = litho.furniture
-    bar = (litho.report.tactile or {}).get("scale_bar_box_mm")
+    bar = litho.report.tactile.scale_bar_box_mm if litho.report.tactile else None
     if furniture is not None and bar and furniture.scale_bar_m is None and furniture.sample_m_per_print_mm:
         furniture = dataclasses.replace(furniture, scale_bar_m=(bar[2] - bar[0]) * furniture.sample_m_per_print_mm)
     return layout_graphic(regions, litho.layout.width_mm / regions.shape[1], furniture)
@@ -177,8 +179,9 @@ def recipe_dict(litho, files: list[str]) -> dict:
         "input": {"name": src.name, "path": src.path, "sha256": src.sha256},
         "params": litho.params.to_dict(),
         "outputs": files,
-        "print": litho.report.print,
-        "relief": {"style": litho.report.relief_style, "reason": litho.report.relief_reason, "legibility": litho.report.legibility},
+        "print": litho.report.print.as_dict() if litho.report.print else None,
+        "relief": {"style": litho.report.relief_style, "reason": litho.report.relief_reason,
+                   "legibility": litho.report.legibility.as_dict() if litho.report.legibility else None},
         "versions": dict(dependency_versions()),
         "printer_profile": litho.printer.as_dict(),
     }
@@ -205,6 +208,8 @@ def load_recipe(path) -> tuple[Path, LithoParams, PrinterProfile | None, dict]:
         profile = PrinterProfile.from_dict(recipe["printer_profile"]) if recipe.get("printer_profile") else None
     except (TypeError, AttributeError) as exc:
         raise InputError(f"{path}: not a usable TAMP-OS recipe ({exc.__class__.__name__} in its parameters).") from None
+    except ParameterError as exc:  # a bad value inside the file: the file is the problem (exit 1), named by its own keys
+        raise InputError(f"{path}: {exc}", in_file=True) from None
     candidates = [Path(info["path"])] if info.get("path") else []
     if info.get("path_from_recipe"):
         candidates.insert(0, Path(os.path.normpath(path.parent / info["path_from_recipe"])))

@@ -8,18 +8,17 @@ it for the recipe sidecar. Each field carries its help text, unit and allowed ra
 from __future__ import annotations
 
 import dataclasses
+import functools
 import json
 import math
 from dataclasses import dataclass, field
 from typing import Any
 
-from .errors import ParameterError
-from .tactile.braille import DEFAULT_TABLE, BrailleSpec
+from .errors import ParameterError, render
+from .formats import GRAPHIC_FORMATS, NAMES as FORMATS  # noqa: F401  (GRAPHIC_FORMATS: re-exported)
 from .printers import PRESETS
-from .units import parse_length_m
-
-FORMATS = ("stl", "3mf", "glb", "obj", "ply", "step", "pdf", "svg")
-GRAPHIC_FORMATS = ("pdf", "svg")  # 2-D tactile graphics for swell paper and embossers
+from .standards import DEFAULT_TABLE, BrailleSpec
+from .units import PIXEL_SIZE_RANGE_M, format_length, parse_bed_mm, parse_length_m
 FITS = ("pad", "crop", "stretch")
 MESHERS = ("adaptive", "grid")
 # The relief styles (relief/styles.py implements them; a test keeps the two lists equal).
@@ -46,7 +45,7 @@ class LithoParams:
     base_mm: float = _f(1.0, "solid base under the relief", "mm", 0.0, 50.0, lo_open=True)
     relief_mm: float = _f(3.0, "height of the relief above the base", "mm", 0.0, 50.0, lo_open=True)
     blur_px: float | None = _f(None, "Gaussian blur sigma in output pixels (default: from the preset)", "px", 0.0, 100.0)
-    blur_mm: float | None = _f(None, "Gaussian blur sigma on the print (instead of blur_px)", "mm", 0.0, 50.0)
+    blur_mm: float | None = _f(None, "Gaussian blur sigma on the print (instead of `blur_px`)", "mm", 0.0, 50.0)
     invert: bool = _f(False, "raise dark parts instead of bright ones")
     flip_x: bool = _f(False, "mirror the image left to right")
     stretch_low_pct: float = _f(2.0, "lower percentile of the contrast stretch", "%", 0.0, 100.0)
@@ -67,14 +66,14 @@ class LithoParams:
     channel: str = _f("luminance", "luminance, or a channel: a number from 0 or red/green/blue/alpha")
     page: int | None = _f(None, "TIFF page or series to read (default: the first, or the data page beside a preview)", "", 0, 100000)
     z_slice: int | None = _f(None, "z-stack slice to use (default: maximum-intensity projection)", "", 0, 100000)
-    pixel_size: str | None = _f(None, "physical pixel size, overriding the file's, e.g. 4.2nm, 0.5um, 3 micron, 0.01mm")
+    pixel_size: str | float | None = _f(None, "physical pixel size, overriding the file's: a length such as 4.2nm, 0.5um, 3 micron, 0.01mm, or a number in metres (4.2e-9)")
     keep_annotations: bool = _f(False, "keep burned-in scale bars, labels and data bands (default: remove them)")
     save_masks: bool = _f(False, "write NAME.annotations.png showing what was removed")
     max_megapixels: float = _f(400.0, "refuse larger images (decompression-bomb guard)", "Mpx", 0.0, 1e6, lo_open=True)
     max_decoded_gb: float = _f(2.0, "refuse images whose decoded pixels would take more memory (checked before decoding)", "GB", 0.0, 1024.0, lo_open=True)
     caption: str | None = _f(None, "braille caption along the bottom margin (text, or Unicode braille as is)")
     braille_table: str = _f(DEFAULT_TABLE, "liblouis table for braille (en-ueb-g1.ctb for grade 1, or any other)")
-    scale_bar: str = _f("auto", "auto (when the pixel size is known), off, or a length such as 5um")
+    scale_bar: str | float = _f("auto", "auto (when the pixel size is known), off, or a length such as 5um (a number: metres)")
     orientation_corner: str = _f("cut", "orientation mark: cut (top right corner cut off, as on braille cards) or none", choices=("cut", "none"))
     frame_mm: float = _f(0.0, "width of a raised frame around the relief (0 = none)", "mm", 0.0, 10.0)
     dot_diameter_mm: float = _f(1.5, "braille dot base diameter", "mm", *BrailleSpec.RANGES["dot_diameter_mm"])
@@ -83,8 +82,8 @@ class LithoParams:
     cell_spacing_mm: float = _f(6.0, "braille cell to cell spacing", "mm", *BrailleSpec.RANGES["cell_spacing_mm"])
     line_spacing_mm: float = _f(10.0, "braille line to line spacing", "mm", *BrailleSpec.RANGES["line_spacing_mm"])
     multicolour: bool = _f(False, "two-colour print: the braille, scale bar and frame as a second part (a 3MF with two coloured parts; with STL, NAME.base.stl and NAME.raised.stl)")
-    bed_mm: str | None = _f(None, "printer bed size, e.g. 120 or 120x200: a larger plate is split into tiles that fit, with pegs and sockets, written as NAME.tile-R-C.*")
-    mesher: str = _f("adaptive", "adaptive: fewest triangles within max_error_mm; grid: every pixel a vertex", choices=MESHERS)
+    bed_mm: str | float | None = _f(None, "printer bed size in mm, e.g. 120 or 120x200 (a number: a square bed): a larger plate is split into tiles that fit, with pegs and sockets, written as NAME.tile-R-C.*")
+    mesher: str = _f("adaptive", "adaptive: fewest triangles within `max_error_mm`; grid: every pixel a vertex", choices=MESHERS)
     max_error_mm: float | None = _f(None, "largest height error of the adaptive mesh (default: half the layer height; 0 = exact grid)", "mm", 0.0, 5.0)
     gcode: bool = _f(False, "also slice with PrusaSlicer to NAME.gcode and report print time, grams and cost")
     material: str = _f("PLA", "filament for slicing and estimates", choices=("PLA", "PETG", "ABS"))
@@ -98,25 +97,34 @@ class LithoParams:
             _check_field(f, getattr(self, f.name))
         if self.blur_px is not None and self.blur_mm is not None:
             raise ParameterError(
-                f"blur_px and blur_mm: give one of them, not both (got blur_px={self.blur_px}, blur_mm={self.blur_mm})."
+                f"`blur_px` and `blur_mm`: give one of them, not both (got `blur_px`={self.blur_px}, `blur_mm`={self.blur_mm})."
             )
         if self.stretch_low_pct >= self.stretch_high_pct:
             raise ParameterError(
-                f"stretch_low_pct must be below stretch_high_pct; got {self.stretch_low_pct} and {self.stretch_high_pct}."
+                f"`stretch_low_pct` must be below `stretch_high_pct`; got {self.stretch_low_pct} and {self.stretch_high_pct}."
             )
-        if self.pixel_size is not None:
-            parse_length_m(self.pixel_size, "pixel_size")
-        if self.scale_bar not in ("auto", "off"):
-            parse_length_m(self.scale_bar, "scale_bar")
+        self.pixel_size_m, self.scale_bar_m, self.bed_size_mm  # each parsed (and so checked) here, once
         self.braille_spec()  # checks the dot sizes against each other
         if self.bed_mm is not None:
-            from .tiles import parse_bed_mm
-
-            parse_bed_mm(self.bed_mm)
             if self.multicolour:
-                raise ParameterError("multicolour and bed_mm: tiled two-colour prints are not made yet; choose one of them.")
+                raise ParameterError("`multicolour` and `bed_mm`: tiled two-colour prints are not made yet; choose one of them.")
         if not self.formats:
-            raise ParameterError(f"formats: choose at least one of {', '.join(FORMATS)}.")
+            raise ParameterError(f"`formats`: choose at least one of {', '.join(FORMATS)}.")
+
+    @property
+    def pixel_size_m(self) -> float | None:
+        """`pixel_size` in metres (None: use the file's)."""
+        return _length_m(self.pixel_size, "pixel_size", PIXEL_SIZE_RANGE_M)
+
+    @property
+    def scale_bar_m(self) -> float | None:
+        """The scale bar's length in metres when one is given; None for auto and off."""
+        return None if self.scale_bar in ("auto", "off") else _length_m(self.scale_bar, "scale_bar", None)
+
+    @property
+    def bed_size_mm(self) -> tuple[float, float] | None:
+        """`bed_mm` as (width, depth) in mm, or None (no tiling)."""
+        return None if self.bed_mm is None else parse_bed_mm(self.bed_mm)
 
     def braille_spec(self) -> BrailleSpec:
         return BrailleSpec(self.dot_diameter_mm, self.dot_height_mm, self.dot_spacing_mm, self.cell_spacing_mm, self.line_spacing_mm)
@@ -149,6 +157,40 @@ class LithoParams:
         return dataclasses.replace(self, **changes)
 
 
+def _length_m(value, name: str, range_m) -> float | None:
+    """A length parameter given as text with a unit ('4.2nm') or as a number of metres (4.2e-9)."""
+    if value is None:
+        return None
+    if isinstance(value, str):
+        return parse_length_m(value, name, range_m)
+    lo, hi = range_m or (0.0, math.inf)
+    allowed = f"a length from {format_length(lo)} to {format_length(hi)}" if range_m else "a length greater than 0"
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or not (lo <= value <= hi) or value <= 0:
+        raise ParameterError(
+            f"`{name}`: must be {allowed}, as text with a unit (4.2nm) or a number of metres (4.2e-9); got {value!r}.",
+            parameter=name, value=value, allowed=allowed, hint="give a number in metres or text with a unit",
+        )
+    return float(value)
+
+
+@functools.lru_cache(maxsize=1)
+def parameter_names() -> frozenset[str]:
+    """Every parameter's name (the fields of LithoParams), as messages may name them."""
+    return frozenset(f.name for f in dataclasses.fields(LithoParams))
+
+
+def field_table() -> str:
+    """Every parameter with its unit, allowed range, default and meaning, one per line (for help())."""
+    lines = []
+    for f in dataclasses.fields(LithoParams):
+        m = f.metadata
+        unit = f" [{m['unit']}]" if m["unit"] else ""
+        default = "derived" if f.default is None else repr(f.default)
+        lines.append(f"    {f.name}{unit}: {render(m['help'])}. Allowed: {describe_range(f)}; default {default}.")
+    return "\n".join(lines)
+
+
+
 # Earlier names of parameters, still accepted (older recipes, scripts): old -> new.
 RENAMED = {"height_mm": "depth_mm"}
 
@@ -157,16 +199,34 @@ def _renamed(changes: dict) -> dict:
     for old, new in RENAMED.items():
         if old in changes:
             if new in changes:
-                raise ParameterError(f"{old} and {new}: {old} is the old name of {new}; give one of them.")
+                raise ParameterError(f"{old} and `{new}`: {old} is the old name of `{new}`; give one of them.", parameter=new)
             changes[new] = changes.pop(old)
     return changes
 
 
 def _check_known(names) -> None:
-    known = {f.name for f in dataclasses.fields(LithoParams)}
-    unknown = sorted(set(names) - known)
+    known = parameter_names()
+    unknown = sorted(set(names) - known, key=str)
     if unknown:
-        raise ParameterError(f"unknown parameter(s) {', '.join(map(str, unknown))}; known: {', '.join(sorted(known))}.")
+        raise ParameterError(
+            f"unknown parameter(s) {', '.join(map(str, unknown))}; known: {', '.join(sorted(known))}.",
+            value=unknown[0], allowed="a parameter name",
+        )
+
+
+# Text fields that also take a number (in the unit their help names).
+NUMBER_OR_TEXT = ("pixel_size", "scale_bar", "bed_mm")
+
+
+def _field(name: str) -> dataclasses.Field:
+    return next(f for f in dataclasses.fields(LithoParams) if f.name == name)
+
+
+def _refuse(f: dataclasses.Field, value: Any, allowed: str, hint: str | None = None, shown: str | None = None) -> ParameterError:
+    """The one shape of a parameter error: `name`: must be ALLOWED; got VALUE."""
+    got = shown if shown is not None else repr(value)
+    return ParameterError(f"`{f.name}`: must be {allowed}; got {got}." + (f" {hint}" if hint else ""),
+                          parameter=f.name, value=value, allowed=allowed, hint=hint)
 
 
 def parse_field(name: str, text: str):
@@ -176,11 +236,11 @@ def parse_field(name: str, text: str):
     happen when the LithoParams is built.
     """
     _check_known([name])
-    f, text = next(f for f in dataclasses.fields(LithoParams) if f.name == name), text.strip()
+    f, text = _field(name), text.strip()
     m = f.metadata
     if isinstance(f.default, bool):
         if text.lower() not in ("true", "false", "yes", "no", "1", "0", "on", "off"):
-            raise ParameterError(f"{name}: must be true or false; got {text!r}.")
+            raise _refuse(f, text, "true or false")
         return text.lower() in ("true", "yes", "1", "on")
     if name == "formats":
         return tuple(v.strip().lower().lstrip(".") for v in text.split(",") if v.strip())
@@ -190,7 +250,7 @@ def parse_field(name: str, text: str):
     try:
         return int(text) if whole else float(text)
     except ValueError:
-        raise ParameterError(f"{name}: must be a {'whole ' if whole else ''}number ({describe_range(f)}); got {text!r}.") from None
+        raise _refuse(f, text, f"a {'whole ' if whole else ''}number ({describe_range(f)})") from None
 
 
 def describe_range(f: dataclasses.Field) -> str:
@@ -208,27 +268,37 @@ def _check_field(f: dataclasses.Field, value: Any) -> None:
     if value is None:
         if f.default is None:
             return
-        raise ParameterError(f"{f.name}: a value is required ({describe_range(f)}).")
+        raise ParameterError(f"`{f.name}`: a value is required ({describe_range(f)}).", parameter=f.name, value=None,
+                             allowed=describe_range(f))
     if f.name == "formats":
         if isinstance(value, str) or not all(v in FORMATS for v in value):
-            raise ParameterError(f"formats: each must be one of {', '.join(FORMATS)}; got {value!r}.")
+            raise _refuse(f, value, f"each one of {', '.join(FORMATS)}")
         return
     if m["choices"]:
         if value not in m["choices"]:
-            raise ParameterError(f"{f.name}: must be {describe_range(f)}; got {value!r}.")
+            raise _refuse(f, value, describe_range(f))
         return
     if isinstance(f.default, bool):
         if not isinstance(value, bool):
-            raise ParameterError(f"{f.name}: must be true or false; got {value!r}.")
+            raise _refuse(f, value, "true or false")
         return
     if m["lo"] is None:
+        is_number = isinstance(value, (int, float)) and not isinstance(value, bool)
+        if f.name in NUMBER_OR_TEXT and is_number:
+            return  # checked by its parser (pixel_size_m, scale_bar_m, bed_size_mm)
         if not isinstance(value, str) or not value.strip():
-            raise ParameterError(f"{f.name}: must be text; got {value!r}.")
+            raise _refuse(f, value, "a length or a number" if f.name in NUMBER_OR_TEXT else "text")
         return
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise ParameterError(f"{f.name}: must be a number {describe_range(f)}; got {value!r}.")
+        raise _refuse(f, value, f"a number {describe_range(f)}")
     if isinstance(m["lo"], int) and isinstance(m["hi"], int) and value != int(value):
-        raise ParameterError(f"{f.name}: must be a whole number {describe_range(f)}; got {value!r}.")
+        raise _refuse(f, value, f"a whole number {describe_range(f)}")
     too_low = value <= m["lo"] if m["lo_open"] else value < m["lo"]
     if too_low or value > m["hi"]:
-        raise ParameterError(f"{f.name}: must be {describe_range(f)}; got {value}{(' ' + m['unit']) if m['unit'] else ''}.")
+        raise _refuse(f, value, describe_range(f), shown=f"{value}{(' ' + m['unit']) if m['unit'] else ''}")
+
+
+LithoParams.__doc__ = (
+    "Every setting of a lithograph, frozen and checked when made; `replace(**changes)` makes a variant.\n\n"
+    "Parameters (name [unit]: meaning. Allowed values; default):\n" + field_table()
+)

@@ -6,6 +6,7 @@ slicer.py's, which this module never imports.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import time
 from dataclasses import dataclass
@@ -15,21 +16,20 @@ import numpy as np
 
 from .clean.scale import scale_sentence
 from .clean.stage import Cleaned, clean_picture
-from .errors import ParameterError
+from .errors import ParameterError, Text
 from .mesh.adaptive import adaptive_solid
 from .mesh.solid import Mesh, grid_solid
-from .params import LithoParams
+from .params import LithoParams, field_table
 from .printers import PrinterProfile, get_printer, height_levels
 from .read import Picture, read_array, read_image
 from .relief.legibility import Legibility, assess
 from .relief.layout import Layout, plan_layout
 from .relief.preprocess import Prepared, prepare
 from .relief.styles import ReliefResult, StyleOptions, make_relief
-from .report import Report
+from .report import Plate, Report
 from .tactile.furniture import Furniture, Placed, add_furniture
 from .tactile.parts import two_colour_parts
-from .tiles import Tiling, parse_bed_mm, tiles_for
-from .units import parse_length_m
+from .tactile.tiles import Tiling, tiles_for
 
 log = logging.getLogger(__name__)
 
@@ -71,10 +71,19 @@ class Lithograph:
         return metadata(self)
 
     def save(self, target, formats=None, stem: str | None = None) -> list[Path]:
-        """Write the mesh in each format, a description and a recipe; see `outputs.save`."""
-        from .outputs import save
+        """Write the mesh in each format, a description and a recipe (see `outputs.save`), and
+        slice it when `gcode` is set; then `report.print` holds what slicing found."""
+        from .convert import save_outputs
 
-        return save(self, target, formats, stem)
+        written, done = save_outputs(self, target, formats, stem)
+        self.report = done.report  # a new report (with the slicing result) replaces the old one
+        return written
+
+    def __repr__(self) -> str:
+        r = self.report
+        w, d, h = r.print_mm
+        return (f"<Lithograph {self.name}: {w:g} × {d:g} × {h:g} mm, grid {r.grid[0]} × {r.grid[1]}, "
+                f"{r.triangles:,} triangles, relief style {r.relief_style}>")
 
 
 def resolve_printer(params: LithoParams, printer: PrinterProfile | None = None) -> PrinterProfile:
@@ -108,7 +117,7 @@ def make_lithograph(source, params: LithoParams | None = None, *, printer_profil
         picture = _read(source, params)
     machine = resolve_printer(params, printer_profile)
     with clock("annotations"):
-        cleaned = clean_picture(picture, pixel_size=params.pixel_size, remove_annotations=not params.keep_annotations)
+        cleaned = clean_picture(picture, pixel_size_m=params.pixel_size_m, remove_annotations=not params.keep_annotations)
     layout = layout_for(params, machine, cleaned.values.shape[1], cleaned.values.shape[0])
     _check_grid(layout, params.mesher)
     with clock("preprocess"):
@@ -131,9 +140,9 @@ def make_lithograph(source, params: LithoParams | None = None, *, printer_profil
     with clock("tactile"):
         tactile = _tactile(mesh, layout, params, furniture)
     later = flattening + list(tactile.placed.notes if tactile.placed else []) + list(relief.notes) + list(tactile.tiles.notes if tactile.tiles else [])
-    report = _report(picture, cleaned, prepared, layout, params, machine, tactile.mesh, tactile.placed, max_error, timings, later)
-    report.relief_style, report.relief_reason = relief.style, relief.reason
-    report.legibility = _legibility_report(legibility, relief)
+    legibility = dataclasses.replace(legibility, levels_mm=tuple(round(v, 3) for v in relief.levels_mm))
+    report = _report(picture, cleaned, prepared, layout, params, machine, tactile.mesh, tactile.placed, max_error, timings, later,
+                     relief, legibility)
     return Lithograph(mesh=tactile.mesh, heightmap=heights, params=params, printer=machine, layout=layout, picture=picture,
                       report=report, furniture=furniture, mask=cleaned.source_mask(), parts=tactile.parts, tiles=tactile.tiles)
 
@@ -156,7 +165,7 @@ def _tactile(relief_mesh: Mesh, layout: Layout, params: LithoParams, furniture: 
     if params.bed_mm:
         (ox, oy), legs = (placed.relief_origin_mm, placed.corner_cut_mm) if placed else ((0.0, 0.0), 0.0)
         picture_box = (ox, oy, ox + layout.width_mm, oy + layout.depth_mm)
-        tiles = tiles_for(mesh, parse_bed_mm(params.bed_mm), params.base_mm, furniture.spec, picture_box, legs)
+        tiles = tiles_for(mesh, params.bed_size_mm, params.base_mm, furniture.spec, picture_box, legs)
     return _Tactile(mesh, placed, parts, tiles)
 
 
@@ -186,20 +195,23 @@ def _read(source, params: LithoParams) -> Picture:
     return read_array(source, channel=params.channel)
 
 
+make_lithograph.__doc__ += "\n    Parameters (in `params` or as keyword changes):\n" + field_table().replace("\n    ", "\n        ")
+
+
 def _check_grid(layout: Layout, mesher: str) -> None:
     """Refuse, before any work, a grid too large to mesh in bounded memory or a print too thin to read."""
     if min(layout.width_mm, layout.depth_mm) < MIN_PRINT_SIDE_MM:
         raise ParameterError(
-            f"depth_mm: the print would be {layout.width_mm:.3g} × {layout.depth_mm:.3g} mm, thinner than "
+            f"`depth_mm`: the print would be {layout.width_mm:.3g} × {layout.depth_mm:.3g} mm, thinner than "
             f"{MIN_PRINT_SIDE_MM:g} mm, which nothing can read by touch (the image is very long and thin). "
-            f"Give both width_mm and depth_mm (at least {MIN_PRINT_SIDE_MM:g} mm) with fit pad, or crop the image."
+            f"Give both `width_mm` and `depth_mm` (at least {MIN_PRINT_SIDE_MM:g} mm) with fit pad, or crop the image."
         )
     points = layout.cols * layout.rows
     need_gb = points * MESH_BYTES_PER_POINT[mesher] / 1e9
     if layout.rows > MAX_GRID_ROWS or points > MAX_GRID_POINTS or need_gb > MAX_MESH_GB:
         raise ParameterError(
-            f"resolution_px: a {layout.cols}×{layout.rows} grid would need about {need_gb:.1f} GB of memory with the "
-            f"{mesher} mesher (at most {MAX_MESH_GB:g} GB); lower resolution_px or the preset"
+            f"`resolution_px`: a {layout.cols}×{layout.rows} grid would need about {need_gb:.1f} GB of memory with the "
+            f"{mesher} mesher (at most {MAX_MESH_GB:g} GB); lower `resolution_px` or the preset"
             + (", or use the adaptive mesher." if mesher == "grid" else ".")
         )
 
@@ -208,9 +220,9 @@ def _flattening_warning(max_error_mm: float, params: LithoParams) -> list[str]:
     """A sentence when the adaptive mesh may leave out height steps a finger would feel (~0.5 mm)."""
     if max_error_mm <= min(0.25, params.relief_mm / 4):
         return []
-    return [f"max_error_mm {max_error_mm:g} mm lets the mesh leave out height steps of up to that size (a finger feels "
+    return [Text(f"`max_error_mm` {max_error_mm:g} mm lets the mesh leave out height steps of up to that size (a finger feels "
             f"about 0.5 mm, and the relief is {params.relief_mm:g} mm): shapes may come out flattened. "
-            f"Half a layer height (the default) keeps every step."]
+            f"Half a layer height (the default) keeps every step.")]
 
 
 def _prepare(cleaned: Cleaned, layout: Layout, params: LithoParams) -> Prepared:
@@ -232,17 +244,11 @@ def _relief(prepared: Prepared, layout: Layout, params: LithoParams, machine: Pr
                        options=options, uniform=prepared.uniform)
 
 
-def _legibility_report(legibility: Legibility, relief: ReliefResult) -> dict:
-    out = legibility.as_dict()
-    out["levels_mm"] = [round(v, 3) for v in relief.levels_mm]
-    return out
-
-
 def _furniture(params: LithoParams, sample_per_mm: float | None) -> Furniture:
     return Furniture(
         caption=params.caption,
         braille_table=params.braille_table,
-        scale_bar_m=_scale_bar_m(params.scale_bar, sample_per_mm),
+        scale_bar_m=_scale_bar_m(params, sample_per_mm),
         auto_scale_bar=params.scale_bar == "auto",
         corner_cut=params.orientation_corner == "cut",
         sample_m_per_print_mm=sample_per_mm,
@@ -251,18 +257,17 @@ def _furniture(params: LithoParams, sample_per_mm: float | None) -> Furniture:
     )
 
 
-def _scale_bar_m(setting: str, sample_per_mm: float | None) -> float | None:
+def _scale_bar_m(params: LithoParams, sample_per_mm: float | None) -> float | None:
     """The sample length the scale bar stands for, from scale_bar = auto | off | a length."""
-    if setting == "off":
-        return None
-    if setting == "auto":  # chosen by the furniture layout, to fit the plate
+    setting = params.scale_bar
+    if setting in ("off", "auto"):  # auto: chosen by the furniture layout, to fit the plate
         return None
     if not sample_per_mm:
         raise ParameterError(
-            f"scale_bar: a scale bar of {setting} needs the image's pixel size, and none is known; "
-            f"give pixel_size (for example 4.2nm) or set scale_bar to off."
+            f"`scale_bar`: a scale bar of {setting} needs the image's pixel size, and none is known; "
+            f"give `pixel_size` (for example 4.2nm) or set `scale_bar` to off."
         )
-    return parse_length_m(setting, "scale_bar")
+    return params.scale_bar_m
 
 
 def _warnings(picture: Picture, cleaned: Cleaned, prepared: Prepared, layout: Layout, params: LithoParams,
@@ -272,14 +277,15 @@ def _warnings(picture: Picture, cleaned: Cleaned, prepared: Prepared, layout: La
     if prepared.uniform:
         warnings.append(f"{picture.file.name}: the image is uniform (every usable pixel has the same value); the print is a flat plate.")
     if params.base_mm < 0.8:
-        warnings.append(f"base_mm {params.base_mm} is below 0.8 mm; thin bases warp and break. 1.0–1.5 mm is typical.")
+        warnings.append(Text(f"`base_mm` {params.base_mm} is below 0.8 mm; thin bases warp and break. 1.0–1.5 mm is typical."))
     warnings += later
     for w in warnings:
         log.warning(w)
     return warnings
 
 
-def _report(picture, cleaned, prepared, layout, params, machine, mesh, placed, max_error, timings, later) -> Report:
+def _report(picture, cleaned, prepared, layout, params, machine, mesh, placed, max_error, timings, later,
+            relief: ReliefResult, legibility: Legibility) -> Report:
     scale = cleaned.pixel_size
     source_px_per_print_mm = prepared.fitted_width_px / layout.width_mm
     return Report(
@@ -302,28 +308,32 @@ def _report(picture, cleaned, prepared, layout, params, machine, mesh, placed, m
         pixel_size_source=scale.provenance,
         scale=scale_sentence(scale.metres, source_px_per_print_mm) if scale.metres else "no physical scale is known",
         tactile=_tactile_report(placed),
-        crop=cleaned.band.as_dict(),
-        annotations=[a.describe() for a in cleaned.annotations],
-        warnings=_warnings(picture, cleaned, prepared, layout, params, later),
+        crop=cleaned.band,
+        annotations=tuple(cleaned.annotations),
+        warnings=tuple(_warnings(picture, cleaned, prepared, layout, params, later)),
         timings_s={k: round(v, 4) for k, v in timings.items()},
-        instrument=cleaned.instrument.as_dict() if cleaned.instrument else None,
+        relief_style=relief.style,
+        relief_reason=relief.reason,
+        legibility=legibility,
+        instrument=cleaned.instrument,
+        source_px=(picture.file.width, picture.file.height),
     )
 
 
-def _tactile_report(placed: Placed | None) -> dict | None:
+def _tactile_report(placed: Placed | None) -> Plate | None:
     if placed is None:
         return None
-    return {
-        "plate_mm": [round(v, 3) for v in placed.plate_mm],
-        "relief_origin_mm": [round(v, 3) for v in placed.relief_origin_mm],
-        "caption_braille": placed.caption_braille,
-        "caption_box_mm": placed.caption_box,
-        "scale_bar_box_mm": placed.scale_bar_box,
-        "scale_bar_label": placed.scale_label,
-        "scale_bar_label_braille": placed.scale_label_braille,
-        "scale_label_box_mm": placed.scale_label_box,
-        "frame_box_mm": placed.frame_box,
-        "braille_dots": placed.dots,
-        "scale_label_beside": placed.scale_label_beside,
-        "orientation": "cut corner at the top right" if placed.corner_cut_mm else None,
-    }
+    return Plate(
+        plate_mm=[round(v, 3) for v in placed.plate_mm],
+        relief_origin_mm=[round(v, 3) for v in placed.relief_origin_mm],
+        caption_braille=placed.caption_braille,
+        caption_box_mm=placed.caption_box,
+        scale_bar_box_mm=placed.scale_bar_box,
+        scale_bar_label=placed.scale_label,
+        scale_bar_label_braille=placed.scale_label_braille,
+        scale_label_box_mm=placed.scale_label_box,
+        frame_box_mm=placed.frame_box,
+        braille_dots=placed.dots,
+        scale_label_beside=placed.scale_label_beside,
+        orientation="cut corner at the top right" if placed.corner_cut_mm else None,
+    )

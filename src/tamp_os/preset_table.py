@@ -43,3 +43,9 @@ def preset_rows(params: LithoParams, width_px: int = 4, height_px: int = 3, pict
 
 def megabytes(n: int) -> str:
     return f"{n / 1e6:.1f} MB" if n >= 1e5 else f"{n / 1e3:.0f} kB"
+
+
+def size_words(bytes_by_format: dict[str, int | None], about: str = "") -> str:
+    """'STL about 1.2 MB, PDF not estimated (a page, not a mesh)': a row's file sizes in words."""
+    return ", ".join(f"{fmt.upper()} {about}{megabytes(n)}" if n is not None else f"{fmt.upper()} not estimated (a page, not a mesh)"
+                     for fmt, n in bytes_by_format.items())

@@ -130,7 +130,7 @@ def get_printer(name: str) -> PrinterProfile:
         if bundles():  # a PrusaSlicer system preset; its error lists close names
             return system_printer_profile(name)
         raise ParameterError(
-            f"printer: unknown profile {name!r}; choose one of {', '.join(sorted(printers))}, "
+            f"`printer`: unknown profile {name!r}; choose one of {', '.join(sorted(printers))}, "
             f"or add it to {user_profiles_path()}."
         )
     return printers[name]
@@ -162,13 +162,8 @@ def grid_triangles(nx: int, ny: int) -> int:
 ADAPTIVE_RATIO = 1 / 15
 
 
-def estimate_file_bytes(fmt: str, triangles: int, vertices: int) -> int:
-    """Rough output size per format (measured on our own exports; the 3MF is zip-compressed)."""
-    return {
-        "stl": 84 + 50 * triangles,
-        "3mf": 2000 + 9 * vertices + 7 * triangles,
-        "glb": 1500 + 24 * vertices + 12 * triangles,
-        "obj": 40 * vertices + 30 * triangles,
-        "ply": 300 + 12 * vertices + 13 * triangles,
-        "step": 5000 + 800 * triangles,
-    }[fmt]
+def estimate_file_bytes(fmt: str, triangles: int, vertices: int) -> int | None:
+    """Rough output size of a format (formats.py's table); None for 2-D graphics (not estimated)."""
+    from .formats import estimate_bytes
+
+    return estimate_bytes(fmt, triangles, vertices)

@@ -118,7 +118,7 @@ def find_system_printer(name: str) -> SystemPrinter:
     hint = f" Did you mean {' or '.join(repr(c) for c in close)}?" if close else ""
     where = ", ".join(str(d) for d in profile_dirs())
     raise ParameterError(
-        f"printer: unknown profile {name!r}: neither a profile (standard, fine, large or yours) nor a PrusaSlicer system printer "
+        f"`printer`: unknown profile {name!r}: neither a profile (standard, fine, large or yours) nor a PrusaSlicer system printer "
         f"preset in {where}.{hint} List them all with the printers command."
     )
 

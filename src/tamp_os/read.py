@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import InputError, MissingDependencyError, ParameterError
+from .errors import InputError, MissingDependencyError, ParameterError, Text
 
 log = logging.getLogger(__name__)
 
@@ -175,8 +175,9 @@ def _check_bytes(path, shape, dtype, limits: _Limits, what: str = "image") -> No
         dims = "×".join(str(int(n)) for n in shape)
         raise InputError(
             f"{path}: decoding this {what} ({dims} values × {itemsize} bytes = {total / 1e9:.1f} GB) would exceed "
-            f"the limit of {limits.max_decoded_gb:g} GB that guards against decompression bombs. If you trust the "
-            f"file and the computer has the memory (about 3× that), raise the limit: max_decoded_gb = {math.ceil(total / 1e9)}."
+            f"the limit of {limits.max_decoded_gb:g} GB that guards against decompression bombs.",
+            hint=f"If you trust the file and the computer has the memory (about 3× that), raise the limit: "
+                 f"`max_decoded_gb` = {math.ceil(total / 1e9)}.",
         )
 
 
@@ -186,8 +187,8 @@ def _check_size(path, shape, limits: _Limits) -> None:
     if h * w > max_megapixels * 1e6:
         raise InputError(
             f"{path}: the image claims {w}×{h} pixels ({h * w / 1e6:.0f} Mpx), above the limit of "
-            f"{max_megapixels:g} Mpx that guards against decompression bombs. If you trust the file, "
-            f"raise the limit: max_megapixels = {int(h * w / 1e6) + 1}."
+            f"{max_megapixels:g} Mpx that guards against decompression bombs.",
+            hint=f"If you trust the file, raise the limit: `max_megapixels` = {int(h * w / 1e6) + 1}.",
         )
 
 
@@ -256,7 +257,7 @@ def _tiff_source(path, tif, page: int | None) -> _TiffSource:
     if data_page is not None:  # pages of different kinds: tifffile's series would mix them
         index = data_page.index if page is None else page
         if not 0 <= index < len(tif.pages):
-            raise ParameterError(f"{path}: page must be 0–{len(tif.pages) - 1} (pages in this file); got {index}.")
+            raise ParameterError(f"{path}: `page` must be 0–{len(tif.pages) - 1} (pages in this file); got {index}.")
         notes = [data_page.note()] if page is None else []
         return _TiffSource(tif.pages[index], 0, len(tif.pages), index, notes=notes)
     page, series = page or 0, tif.series
@@ -264,7 +265,7 @@ def _tiff_source(path, tif, page: int | None) -> _TiffSource:
         raise InputError(f"{path}: a TIFF without any image in it.")
     if len(series) > 1:
         if page >= len(series):
-            raise ParameterError(f"{path}: page must be 0–{len(series) - 1} (series in this file); got {page}.")
+            raise ParameterError(f"{path}: `page` must be 0–{len(series) - 1} (series in this file); got {page}.")
         return _TiffSource(series[page], 0, len(series), series=len(series))
     return _TiffSource(series[0], page, 1)
 
@@ -328,7 +329,7 @@ def _pick_channel(path, array, axes, channel, meta, notes):
     else:
         raise ParameterError(f"{path}: channel {channel!r} is not one of 0–{n - 1}{' or ' + ', '.join(names) if names else ''}.")
     if not 0 <= index < n:
-        raise ParameterError(f"{path}: channel must be 0–{n - 1}; got {index}.")
+        raise ParameterError(f"{path}: `channel` must be 0–{n - 1}; got {index}.")
     return np.take(array, index, axis=axes.index("C")), axes.replace("C", "")
 
 
@@ -337,10 +338,10 @@ def _pick_z(path, array, axes, z_slice, notes):
     if z_slice is None:
         array = array.max(axis=axes.index("Z"))
         if n > 1:
-            notes.append(f"z-stack of {n} slices: maximum-intensity projection (choose one slice with z_slice).")
+            notes.append(Text(f"z-stack of {n} slices: maximum-intensity projection (choose one slice with `z_slice`)."))
     else:
         if not 0 <= z_slice < n:
-            raise ParameterError(f"{path}: z_slice must be 0–{n - 1} (slices in this stack); got {z_slice}.")
+            raise ParameterError(f"{path}: `z_slice` must be 0–{n - 1} (slices in this stack); got {z_slice}.")
         array = np.take(array, z_slice, axis=axes.index("Z"))
     return array, axes.replace("Z", "")
 
@@ -353,7 +354,7 @@ def _pick_page(path, array, axes, page):
         return array, axes, 1
     planes = int(np.prod([array.shape[i] for i in leading]))
     if page >= planes:
-        raise ParameterError(f"{path}: page must be 0–{planes - 1} (planes in this file); got {page}.")
+        raise ParameterError(f"{path}: `page` must be 0–{planes - 1} (planes in this file); got {page}.")
     keep = [a for a in axes if a in "YXS"]
     shape = (planes,) + tuple(array.shape[axes.index(a)] for a in keep)
     array = np.moveaxis(array, leading, range(len(leading))).reshape(shape)[page]
@@ -424,7 +425,7 @@ def _read_pillow(path, data, page, limits: _Limits) -> _Decoded:
         frames = getattr(im, "n_frames", 1)
         if page:
             if page >= frames:
-                raise ParameterError(f"{path}: page must be 0–{frames - 1} (frames in this file); got {page}.")
+                raise ParameterError(f"{path}: `page` must be 0–{frames - 1} (frames in this file); got {page}.")
             im.seek(page)
         im.load()
     except UnidentifiedImageError:
@@ -560,6 +561,6 @@ def _grayscale(array, channel: str, name: str):
     index = CHANNEL_NAMES.get(channel.lower()) if not channel.isdigit() else int(channel)
     if index is None or index >= n:
         raise ParameterError(
-            f"{name}: channel must be luminance, a number 0–{n - 1} or a colour name the image has; got {channel!r}."
+            f"{name}: `channel` must be luminance, a number 0–{n - 1} or a colour name the image has; got {channel!r}."
         )
     return array[..., index].astype(np.float32), (None if index == n - 1 and has_alpha else alpha)

@@ -16,8 +16,7 @@ import numpy as np
 
 from .errors import MissingDependencyError, ParameterError
 from .files import write_png, write_text
-
-MESH_SUFFIXES = (".stl", ".obj", ".ply", ".glb", ".3mf")
+from .formats import READABLE_MESH_SUFFIXES as MESH_SUFFIXES
 THEMES = {"light": ("white", "#b9b4ab"), "dark": ("#1e1e1e", "#c8c2b8")}
 
 

@@ -6,14 +6,58 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
+from .clean.annotations import Annotation
+from .clean.band import Band
+from .clean.instrument import Instrument
+from .facts import Facts
 from .params import LithoParams
+from .relief.legibility import Legibility
+
+if TYPE_CHECKING:
+    from .slicer import SliceResult
 
 
-@dataclass
+@dataclass(frozen=True)
+class Plate(Facts):
+    """Where the tactile furniture went on the plate (mm, x from the left, y from the near edge)."""
+
+    plate_mm: list[float]
+    relief_origin_mm: list[float]
+    caption_braille: str | None
+    caption_box_mm: Any
+    scale_bar_box_mm: Any
+    scale_bar_label: str | None  # the scale bar's chosen length in words ("5 µm")
+    scale_bar_label_braille: str | None
+    scale_label_box_mm: Any
+    frame_box_mm: Any
+    braille_dots: int
+    scale_label_beside: bool
+    orientation: str | None  # "cut corner at the top right", or None
+
+
+@dataclass(frozen=True)
+class Printing(Facts):
+    """What PrusaSlicer made of the print: the slicing result and its G-code file's name."""
+
+    result: "SliceResult"
+    gcode: str
+
+    @property
+    def summary(self) -> str:
+        return self.result.sentence()
+
+    def as_dict(self) -> dict:
+        return {**self.result.as_dict(), "gcode": self.gcode, "summary": self.summary}
+
+
+@dataclass(frozen=True)
 class Report:
-    """Facts about one lithograph. Lengths in mm; `print_mm` is the whole object (width, depth,
-    height), `relief_mm` the picture's width and depth on the plate."""
+    """Facts about one lithograph, built once. Lengths in mm; `print_mm` is the whole object (width,
+    depth, height), `relief_mm` the picture's width and depth on the plate. The parts (plate,
+    crop, annotations, instrument, legibility, printing) are typed; `as_dict()` gives the JSON of
+    the recipe and `report["key"]` reads it."""
 
     input: str
     print_mm: list[float]
@@ -33,24 +77,40 @@ class Report:
     pixel_size_m: float | None
     pixel_size_source: str | None
     scale: str  # a sentence: "1 mm on the print = ... in the sample"
-    tactile: dict | None
-    crop: dict
-    annotations: list[str]
-    warnings: list[str]
+    tactile: Plate | None
+    crop: Band
+    annotations: tuple[Annotation, ...]
+    warnings: tuple[str, ...]
     timings_s: dict[str, float]
-    print: dict | None = None  # slicing results, set by slicer.slice_outputs when sliced
+    print: Printing | None = None  # slicing results; `with_printing` makes the report of a sliced print
     relief_style: str = "reference"  # the style that made the heights (auto resolved)
     relief_reason: str = ""  # why that style, or what it did, in one sentence
-    legibility: dict | None = None  # relief.legibility.Legibility.as_dict(): figures and verdicts
-    instrument: dict | None = None  # magnification, kv, detector, signal, source when the file records them
+    legibility: Legibility | None = None  # figures and verdicts
+    instrument: Instrument | None = None  # magnification, kv, detector, signal, source when the file records them
+    source_px: tuple[int, int] = (0, 0)  # the source image's width and height (where annotations were)
 
     def as_dict(self) -> dict:
         """The report as a plain dict (JSON-ready), with the keys of the earlier untyped report
         (except `files`: `save()` returns the paths it wrote)."""
-        d = dataclasses.asdict(self)
-        if d["print"] is None:
+        d = {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.name != "source_px"}
+        d["tactile"] = self.tactile.as_dict() if self.tactile else None
+        d["crop"] = self.crop.as_dict()
+        d["annotations"] = [a.describe() for a in self.annotations]
+        d["warnings"] = [str(w) for w in self.warnings]
+        d["legibility"] = self.legibility.as_dict() if self.legibility else None
+        d["instrument"] = self.instrument.as_dict() if self.instrument else None
+        d["timings_s"] = dict(self.timings_s)
+        for key in ("print_mm", "relief_mm", "grid"):
+            d[key] = list(d[key])
+        if self.print is None:
             del d["print"]
+        else:
+            d["print"] = self.print.as_dict()
         return d
+
+    def with_printing(self, printing: Printing) -> "Report":
+        """This report for the print once sliced (a new report: a report is never changed)."""
+        return dataclasses.replace(self, print=printing)
 
     # Read-only dict-style access, kept for code and notebooks written against the old dict.
     def __getitem__(self, key: str):
@@ -74,18 +134,67 @@ def summary_line(report: Report, written_names: list[str]) -> str:
 
 def touch_notes(report: Report) -> list[str]:
     """The legibility verdicts: what a finger will find, with advice."""
-    return list((report.legibility or {}).get("verdicts", []))
+    return list(report.legibility.verdicts) if report.legibility else []
 
 
 def removed_notes(report: Report) -> list[str]:
     """Plain sentences for what was cropped or inpainted."""
-    crop, notes = report.crop or {}, []
-    for side in ("top", "bottom"):
-        if crop.get(f"{side}_rows"):
-            notes.append(f"removed the data band: {crop[f'{side}_rows']} rows at the {side} ({crop['source']})")
+    crop, notes = report.crop, []
+    for side, rows in (("top", crop.top_rows), ("bottom", crop.bottom_rows)):
+        if rows:
+            notes.append(f"removed the data band: {rows} rows at the {side} ({crop.provenance or None})")
     if report.annotations:
-        notes.append("removed burned-in annotations: " + "; ".join(report.annotations))
+        notes.append("removed burned-in annotations: " + "; ".join(a.describe() for a in report.annotations))
     return notes
+
+
+ANNOTATION_KINDS = {"box": "a label or scale-bar box", "bar": "a scale bar", "text": "a text label"}
+
+
+def annotation_words(annotation: Annotation, width_px: int, height_px: int) -> str:
+    """An annotation in plain words, by where it sat: 'a label or scale-bar box near the bottom left'."""
+    (r0, r1), (c0, c1) = annotation.rows, annotation.cols
+    row, col = (r0 + r1 - 1) / 2 / max(height_px, 1), (c0 + c1 - 1) / 2 / max(width_px, 1)
+    vertical = "top" if row < 1 / 3 else "bottom" if row > 2 / 3 else "middle"
+    horizontal = "left" if col < 1 / 3 else "right" if col > 2 / 3 else "centre"
+    where = "the centre" if (vertical, horizontal) == ("middle", "centre") else f"the {vertical} {horizontal}".replace("middle ", "")
+    return f"{ANNOTATION_KINDS.get(annotation.kind, annotation.kind)} near {where}"
+
+
+def web_summary_lines(report: Report, namer=None) -> list[str]:
+    """The web app's result lines: size, grid, scale, notes (in its words), what was removed, printing."""
+    from .errors import words
+
+    w, d, top = report.print_mm
+    levels = "a flat plate." if report.uniform else f"{report.height_levels} height levels."
+    lines = [
+        f"Print {w:g} × {d:g} mm, up to {top:g} mm high.",
+        f"Grid {report.grid[0]} × {report.grid[1]} points, {report.triangles:,} triangles, {levels}",
+        f"Scale: {report.scale}.",
+        *[f"Note: {words(x, namer)}" for x in report.warnings],
+    ]
+    removed = [annotation_words(a, *report.source_px) for a in report.annotations]
+    if removed:
+        lines.append("Removed before printing, so they do not print as raised blocks: " + "; ".join(removed) + ".")
+    if report.print:
+        lines.append(f"Printing: {report.print.summary}.")
+    return lines
+
+
+_SIGNAL_NAMES = {"SE": "secondary electrons", "BSE": "backscattered electrons", "STEM": "scanning transmission"}
+
+
+def instrument_words(instrument: Instrument) -> str:
+    """'magnification 105×, 25 kV, detector HE-SE2 (secondary electrons), from Zeiss SmartSEM'."""
+    words = []
+    if instrument.magnification:
+        words.append(f"magnification {instrument.magnification:,.0f}×")
+    if instrument.kv:
+        words.append(f"{instrument.kv:g} kV")
+    if instrument.detector:
+        signal = _SIGNAL_NAMES.get(instrument.signal or "")
+        words.append(f"detector {instrument.detector}" + (f" ({signal})" if signal else ""))
+    return ", ".join(words) + (f", from {instrument.source}" if instrument.source else "")
 
 
 _SIGNAL_WORDS = {
@@ -95,14 +204,14 @@ _SIGNAL_WORDS = {
 }
 
 
-def _instrument_sentence(instrument: dict) -> str:
+def _instrument_sentence(instrument: Instrument) -> str:
     """'Recorded with a secondary-electron (SE) detector at 5 kV: ... not height.' from Report.instrument."""
-    kv = f" at {instrument['kv']:g} kV" if instrument.get("kv") else ""
-    mag = f", magnification {instrument['magnification']:,.0f}×" if instrument.get("magnification") else ""
-    signal = _SIGNAL_WORDS.get(instrument.get("signal") or "")
+    kv = f" at {instrument.kv:g} kV" if instrument.kv else ""
+    mag = f", magnification {instrument.magnification:,.0f}×" if instrument.magnification else ""
+    signal = _SIGNAL_WORDS.get(instrument.signal or "")
     if signal:
         return f"Recorded with {signal[0]}{kv}{mag}: {signal[1]}."
-    detector = f" with the {instrument['detector']} detector" if instrument.get("detector") else ""
+    detector = f" with the {instrument.detector} detector" if instrument.detector else ""
     return f"Recorded{detector}{kv}{mag}."
 
 
@@ -123,16 +232,16 @@ def describe(report: Report, params: LithoParams, source_name: str) -> str:
         parts.append(_instrument_sentence(report.instrument))
     t = report.tactile
     if t:
-        if t["orientation"]:
+        if t.orientation:
             parts.append("The top right corner of the plate is cut off at 45 degrees: hold the print with that corner at the top right.")
-        if t["frame_box_mm"]:
+        if t.frame_box_mm:
             parts.append(f"A raised frame {params.frame_mm:g} mm wide surrounds the picture.")
-        if t["scale_bar_box_mm"]:
+        if t.scale_bar_box_mm:
             parts.append(
-                f"Below the picture, at the left, a raised scale bar with end ticks stands for {t['scale_bar_label']} "
-                f"in the sample; its value is in braille {'to its right' if t['scale_label_beside'] else 'below it'}."
+                f"Below the picture, at the left, a raised scale bar with end ticks stands for {t.scale_bar_label} "
+                f"in the sample; its value is in braille {'to its right' if t.scale_label_beside else 'below it'}."
             )
-        if t["caption_braille"]:
+        if t.caption_braille:
             parts.append(f"Along the bottom margin, a braille caption reads: {params.caption}.")
     return " ".join(parts)
 
@@ -144,12 +253,12 @@ def _what_is_raised(report: Report, params: LithoParams) -> str:
     if report.uniform:
         return "The image is uniform, so the print is a flat plate with no raised parts."
     if report.relief_style == "levels":
-        levels = (report.legibility or {}).get("levels_mm") or []
+        levels = (report.legibility.levels_mm if report.legibility else None) or []
         heights = ", ".join(f"{v:g}" for v in levels)
         return (f"The picture is made of {len(levels)} flat levels, {heights} mm above the base: "
                 f"{lowered} parts of the image lowest, {raised} parts highest.")
     if report.relief_style == "objects":
-        n = (report.legibility or {}).get("object_count", 0)
+        n = report.legibility.object_count if report.legibility else 0
         return (f"{n} object{'s' if n != 1 else ''} found in the picture stand{'s' if n == 1 else ''} up as rounded domes, "
                 f"up to {up} above the base, over a flat, lightly textured background.")
     if report.relief_style == "structure":

@@ -22,10 +22,14 @@ import subprocess
 import tempfile
 from dataclasses import asdict, dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .errors import MissingDependencyError, ParameterError, TampError
+
+if TYPE_CHECKING:
+    from .report import Printing
 from .printers import PrinterProfile
 
 GENERIC_NOTE = "generic printer profile: the G-code is for estimates only, not for sending to a printer"
@@ -54,7 +58,7 @@ MATERIALS = {m.name: m for m in (Material("PLA", 1.24, 25.0), Material("PETG", 1
 def material(name: str, price_per_kg: float | None = None) -> Material:
     key = name.upper()
     if key not in MATERIALS:
-        raise ParameterError(f"material: must be one of {', '.join(MATERIALS)}; got {name!r}.")
+        raise ParameterError(f"`material`: must be one of {', '.join(MATERIALS)}; got {name!r}.")
     base = MATERIALS[key]
     if price_per_kg is None:
         return base
@@ -136,8 +140,8 @@ def _preset_config(folder: Path, printer: PrinterProfile, mat: Material, layer_m
     nozzle = resolved.printer.nozzle_mm
     if nozzle_mm and abs(nozzle_mm - nozzle) > 1e-6:
         raise ParameterError(
-            f"nozzle_mm: the printer preset {printer.prusa_preset!r} has a {nozzle:g} mm nozzle; got {nozzle_mm:g}. "
-            f"Choose the preset for your nozzle (list them with the printers command) or leave nozzle_mm unset."
+            f"`nozzle_mm`: the printer preset {printer.prusa_preset!r} has a {nozzle:g} mm nozzle; got {nozzle_mm:g}. "
+            f"Choose the preset for your nozzle (list them with the printers command) or leave `nozzle_mm` unset."
         )
     return resolved.write(folder / "config.ini"), print_args(layer_mm or printer.layer_mm, nozzle, mat)
 
@@ -147,7 +151,7 @@ def _run(args: list[str], timeout_s: float, what: str) -> subprocess.CompletedPr
         return subprocess.run(args, capture_output=True, text=True, encoding="utf-8", errors="replace", timeout=timeout_s)
     except subprocess.TimeoutExpired:
         raise SlicerError(f"{what}: PrusaSlicer ran longer than the timeout of {timeout_s:g} s and was stopped; the mesh is kept. "
-                          f"Raise slice_timeout_s, or use a coarser mesh (a larger max_error_mm or a lower preset).") from None
+                          f"Raise `slice_timeout_s`, or use a coarser mesh (a larger `max_error_mm` or a lower preset).") from None
 
 
 def slice_mesh(mesh_path, printer: PrinterProfile, mat: Material, *, timeout_s: float = 600.0,
@@ -262,12 +266,13 @@ def estimate(volume_mm3: float, vertices: np.ndarray, faces: np.ndarray, printer
     }
 
 
-def slice_outputs(litho, written: list[Path]) -> list[Path]:
+def slice_outputs(litho, written: list[Path]) -> tuple[list[Path], "Printing"]:
     """Slice a saved lithograph with PrusaSlicer: its STL (written first when `written` has none)
-    becomes NAME.gcode beside it; the results go into `litho.report.print` and the recipe is
-    rewritten to include them. Returns the paths now written, recipe last."""
+    becomes NAME.gcode beside it. Returns the paths now written (recipe last, not yet rewritten)
+    and what slicing found; convert.save_outputs makes the new report and recipe from them."""
     from .export import save_mesh
-    from .outputs import RECIPE_SUFFIX, metadata, write_recipe
+    from .outputs import RECIPE_SUFFIX, metadata
+    from .report import Printing
 
     recipe = next(p for p in written if p.name.endswith(RECIPE_SUFFIX))
     others = [p for p in written if p != recipe]
@@ -278,7 +283,5 @@ def slice_outputs(litho, written: list[Path]) -> list[Path]:
     params = litho.params
     result = slice_mesh(stl, litho.printer, material(params.material, params.filament_price_per_kg), timeout_s=params.slice_timeout_s)
     others.append(Path(result.gcode))
-    litho.report.print = {**result.as_dict(), "gcode": Path(result.gcode).name, "summary": result.sentence()}
-    write_recipe(litho, recipe, [p.name for p in others])
-    return others + [recipe]
+    return others + [recipe], Printing(result, Path(result.gcode).name)
 

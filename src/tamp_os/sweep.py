@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -83,36 +84,55 @@ def save_png(image, path: Path, alt: str) -> list[Path]:
     return written
 
 
-def run_sweep(image_path, params: LithoParams, vary: dict[str, list], out_dir: Path, render: bool = True) -> dict:
-    """Make every variant, save each (named STEM_NAME_VALUE.ext), and the contact sheet(s)."""
-    from .pipeline import make_lithograph
+@dataclass(frozen=True)
+class SweepResult:
+    conversions: tuple  # convert.Conversion of each variant, in order
+    sheets: tuple[Path, ...]  # the contact sheets (PNG), each with its .alt.txt
 
+    @property
+    def written(self) -> list[Path]:
+        """Every file written: each variant's files, then the sheets and their alt texts."""
+        files = [p for c in self.conversions for p in c.written]
+        return files + [q for sheet in self.sheets for q in (sheet, sheet.with_suffix(".alt.txt"))]
+
+
+def run_sweep(source, params: LithoParams, vary: dict[str, list], out_dir: Path, render: bool = True,
+              name: str | None = None) -> SweepResult:
+    """Make every variant of an image file, an array or a read Picture, convert each (named
+    NAME_VARIANT.ext, sliced when `gcode` is set) and write the contact sheet(s)."""
+    from .convert import convert
+    from .read import Picture
+
+    out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    image_path = Path(image_path)
-    panels, render_panels, written, lines = [], [], [], []
+    if isinstance(source, (str, Path)):
+        source = Path(source)
+        name, shown = name or source.stem, source.name
+    else:
+        name = name or (Path(source.file.name).stem if isinstance(source, Picture) else "array")
+        shown = name
+    panels, render_panels, conversions, sheets = [], [], [], []
     for suffix, p in variants(params, vary):
-        litho = make_lithograph(image_path, p)
-        stem = f"{image_path.stem}_{suffix}"
-        paths = litho.save(out_dir, stem=stem)
-        written += paths
+        conversion = convert(source, p, out_dir, stem=f"{name}_{suffix}")
+        conversions.append(conversion)
         label = suffix.replace("_", " ")
-        panels.append((label, litho.heightmap))
-        lines.append((stem, litho))
+        panels.append((label, conversion.litho.heightmap))
         if render:
             from .render import View, render_views
 
-            full, _ = render_views(litho.mesh.vertices, litho.mesh.faces, View(width_px=480, height_px=360))
+            mesh = conversion.litho.mesh
+            full, _ = render_views(mesh.vertices, mesh.faces, View(width_px=480, height_px=360))
             render_panels.append((label, full))
     names = ", ".join(vary)
-    written += save_png(
-        contact_sheet(panels), out_dir / f"{image_path.stem}_sweep_heightmaps.png",
-        f"Contact sheet of {len(panels)} heightmaps of {image_path.name}, varying {names}; brighter means higher. "
+    sheets.append(save_png(
+        contact_sheet(panels), out_dir / f"{name}_sweep_heightmaps.png",
+        f"Contact sheet of {len(panels)} heightmaps of {shown}, varying {names}; brighter means higher. "
         f"Panels, left to right and top to bottom: {'; '.join(label for label, _ in panels)}.",
-    )
+    )[0])
     if render_panels:
-        written += save_png(
-            contact_sheet(render_panels), out_dir / f"{image_path.stem}_sweep_renders.png",
-            f"Contact sheet of {len(render_panels)} rendered reliefs of {image_path.name}, varying {names}. "
+        sheets.append(save_png(
+            contact_sheet(render_panels), out_dir / f"{name}_sweep_renders.png",
+            f"Contact sheet of {len(render_panels)} rendered reliefs of {shown}, varying {names}. "
             f"Panels: {'; '.join(label for label, _ in render_panels)}.",
-        )
-    return {"variants": lines, "written": written}
+        )[0])
+    return SweepResult(tuple(conversions), tuple(sheets))

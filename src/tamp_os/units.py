@@ -32,6 +32,7 @@ def unit_factor_m(unit: str) -> float | None:
 
 
 PIXEL_SIZE_RANGE_M = (1e-12, 1.0)  # 1 pm to 1 m per pixel: anything else is a typo
+MIN_BED_MM = 60.0  # smaller beds leave no room for the tiles' pegs, sockets and labels
 
 
 def parse_length_m(text: str, name: str = "pixel_size", range_m: tuple[float, float] | None = None) -> float:
@@ -45,18 +46,19 @@ def parse_length_m(text: str, name: str = "pixel_size", range_m: tuple[float, fl
     factor = unit_factor_m(match.group(2)) if match else None
     if not match or factor is None:
         raise ParameterError(
-            f"{name}: cannot read {text!r} as a length; give a number and a unit, for example 4.2nm, "
-            f"0.5um, 3 micron, 12Å or 0.01mm (units: pm, Å, nm, µm, um, micron, mm, cm, m)."
+            f"`{name}`: cannot read {text!r} as a length; give a number and a unit, for example 4.2nm, "
+            f"0.5um, 3 micron, 12Å or 0.01mm (units: pm, Å, nm, µm, um, micron, mm, cm, m).",
+            parameter=name, value=text, allowed="a number and a unit", hint="for example 4.2nm",
         )
     value = float(match.group(1)) * factor
     if value <= 0:
         bounds = f" (between {format_length(range_m[0])} and {format_length(range_m[1])})" if range_m else ""
-        raise ParameterError(f"{name}: must be a length greater than 0{bounds}; got {text!r}.")
+        raise ParameterError(f"`{name}`: must be a length greater than 0{bounds}; got {text!r}.", parameter=name, value=text,
+                             allowed=f"a length greater than 0{bounds}")
     if range_m and not range_m[0] <= value <= range_m[1]:
-        raise ParameterError(
-            f"{name}: must be between {format_length(range_m[0])} and {format_length(range_m[1])}; got {text!r} "
-            f"({value:g} m). Check the unit."
-        )
+        allowed = f"between {format_length(range_m[0])} and {format_length(range_m[1])}"
+        raise ParameterError(f"`{name}`: must be {allowed}; got {text!r} ({value:g} m). Check the unit.",
+                             parameter=name, value=text, allowed=allowed, hint="Check the unit.")
     return value
 
 
@@ -66,3 +68,18 @@ def format_length(metres: float) -> str:
         if abs(metres) >= factor or unit == "pm":
             return f"{metres / factor:.4g} {unit}"
     raise AssertionError("unreachable")
+
+
+def parse_bed_mm(text: "str | float") -> tuple[float, float]:
+    """'120' or '120x200' (mm), or a number of mm (a square bed), as (width, depth); ParameterError
+    with the allowed form otherwise."""
+    if isinstance(text, (int, float)) and not isinstance(text, bool):
+        text = f"{float(text)!r}"
+    match = re.fullmatch(r"\s*(\d+(?:\.\d*)?)\s*(?:[x×*]\s*(\d+(?:\.\d*)?)\s*)?(?:mm)?\s*", str(text))
+    if not match:
+        raise ParameterError(f"`bed_mm`: give the bed as a size in mm, such as 120 or 120x200; got {text!r}.")
+    width = float(match.group(1))
+    depth = float(match.group(2)) if match.group(2) else width
+    if min(width, depth) < MIN_BED_MM or max(width, depth) > 2000:
+        raise ParameterError(f"`bed_mm`: each side must be {MIN_BED_MM:g} to 2000 mm (pegs and labels need room); got {text!r}.")
+    return width, depth

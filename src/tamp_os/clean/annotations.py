@@ -9,9 +9,11 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
+from ..facts import Facts
 
-@dataclass
-class Annotation:
+
+@dataclass(frozen=True)
+class Annotation(Facts):
     kind: str  # "box" (label or scale-bar box), "bar" (thin scale bar), "text"
     rows: tuple[int, int]  # first row, one past the last
     cols: tuple[int, int]

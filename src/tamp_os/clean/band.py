@@ -9,11 +9,12 @@ from pathlib import Path
 
 import numpy as np
 
+from ..facts import Facts
 from .vendor import number, tescan_main
 
 
 @dataclass(frozen=True)
-class Band:
+class Band(Facts):
     """Rows removed from the source image.
 
     top_rows, bottom_rows : rows cut at each edge (0 when none).

@@ -11,6 +11,7 @@ import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 
+from ..facts import Facts
 from .vendor import number, tescan_main
 
 SIGNALS = {"SE": "secondary-electron", "BSE": "backscattered-electron", "STEM": "scanning transmission"}
@@ -23,7 +24,7 @@ _DETECTOR_WORDS = (
 
 
 @dataclass(frozen=True)
-class Instrument:
+class Instrument(Facts):
     """Facts of the acquisition, each None when the file does not record it.
 
     magnification : as the microscope reported it (×).

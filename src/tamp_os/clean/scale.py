@@ -13,11 +13,12 @@ import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
 
+from ..errors import Text
 from ..units import format_length, unit_factor_m
 from .vendor import number, tescan_main
 
 PLAUSIBLE_M = (1e-13, 1e-2)  # 0.1 pm to 1 cm per pixel
-USER_GIVEN = "given by the user (pixel_size)"
+USER_GIVEN = Text("given by the user (`pixel_size`)")
 
 
 @dataclass(frozen=True)
@@ -211,9 +212,9 @@ def read_pixel_size(
             break
     if pixel_size_m is not None:
         if metres and abs(metres / pixel_size_m - 1) > 0.01:
-            warnings.append(
-                f"pixel_size {format_length(pixel_size_m)} (given by the user) overrides {format_length(metres)} from {provenance}."
-            )
+            warnings.append(Text(
+                f"`pixel_size` {format_length(pixel_size_m)} (given by the user) overrides {format_length(metres)} from {provenance}."
+            ))
         metres, provenance = pixel_size_m, USER_GIVEN
     if metres is None and ("dpi_not_physical" in metadata or 282 in tiff_tags):
         warnings.append("the file's dpi/resolution tag is not a physical pixel size and was ignored.")

@@ -9,7 +9,6 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..read import Picture
-from ..units import parse_length_m
 from . import annotations as marks
 from .annotations import Annotation
 from .band import Band, band_from_metadata, detect_info_band
@@ -69,18 +68,17 @@ def _band(picture: Picture, remove_annotations: bool) -> Band:
     return band
 
 
-def clean_picture(picture: Picture, *, pixel_size: str | None, remove_annotations: bool) -> Cleaned:
+def clean_picture(picture: Picture, *, pixel_size_m: float | None, remove_annotations: bool) -> Cleaned:
     """Scale, band crop and annotation removal for one picture.
 
     Parameters
     ----------
     picture : the image as read.
-    pixel_size : the user's pixel size as text ("4.2nm"), or None to use the file's.
+    pixel_size_m : the user's pixel size in metres, or None to use the file's.
     remove_annotations : detect and remove data bands and burned-in annotations.
     """
     file = picture.file
-    override_m = parse_length_m(pixel_size, "pixel_size") if pixel_size else None
-    size = read_pixel_size(file.metadata, file.tiff_tags, file.path, file.width, override_m)
+    size = read_pixel_size(file.metadata, file.tiff_tags, file.path, file.width, pixel_size_m)
     instrument = read_instrument(file.metadata, file.tiff_tags, file.path)
     band = _band(picture, remove_annotations)
     rows = band.rows(picture.values.shape[0])

@@ -33,25 +33,21 @@ class Exporter:
 
 
 def _registry() -> dict[str, Exporter]:
-    from . import glb, plain, step, stl, threemf
+    """The mesh formats of the format table (formats.py), with their writers and checks."""
+    from ..formats import TABLE
 
-    return {
-        "stl": Exporter(stl.write_stl),
-        "3mf": Exporter(threemf.write_3mf),
-        "glb": Exporter(glb.write_glb),
-        "obj": Exporter(plain.write_obj),
-        "ply": Exporter(plain.write_ply),
-        "step": Exporter(step.write_step, step.check_step),
-    }
+    return {f.name: Exporter(f.write_function(), f.check_function() or _no_check) for f in TABLE if f.kind == "mesh"}
 
 
 def format_of(path: Path) -> str:
-    """The format a file name asks for ('stp' is 'step'); ParameterError if none writes it."""
-    ext = Path(path).suffix.lower().lstrip(".")
-    ext = "step" if ext == "stp" else ext
-    if ext not in _registry():
-        raise ParameterError(f"{path}: no exporter for '.{ext}'; choose one of {', '.join('.' + k for k in _registry())}.")
-    return ext
+    """The mesh format a file name asks for ('stp' is 'step'); ParameterError if none writes it."""
+    from ..formats import MESH_FORMATS, by_suffix
+
+    found = by_suffix(Path(path).suffix or ".")
+    if found is None or found.kind != "mesh":
+        ext = Path(path).suffix.lower().lstrip(".")
+        raise ParameterError(f"{path}: no exporter for '.{ext}'; choose one of {', '.join('.' + k for k in MESH_FORMATS)}.")
+    return found.name
 
 
 def exporter_for(path: Path) -> Writer:

@@ -138,8 +138,8 @@ def _rows_below(furniture: Furniture, inner_w: float) -> tuple[list[str], float 
         label_w = block_size_mm(label_lines, spec)[0]
         if bar_mm + CLEARANCE_MM + label_w > inner_w:
             raise ParameterError(
-                f"scale_bar: {bar_mm:.1f} mm plus its braille value ({label_w:.1f} mm) does not fit the "
-                f"{inner_w:.1f} mm of the graphic; choose a shorter scale_bar or a wider print."
+                f"`scale_bar`: {bar_mm:.1f} mm plus its braille value ({label_w:.1f} mm) does not fit the "
+                f"{inner_w:.1f} mm of the graphic; choose a shorter `scale_bar` or a wider print."
             )
     caption_lines = []
     if furniture.caption:
@@ -200,12 +200,12 @@ def page_placement(plate_mm: tuple[float, float], page_size: str | None) -> tupl
         return (w, d), (0.0, 0.0)
     key = page_size.lower()
     if key not in PAGE_SIZES_MM:
-        raise ParameterError(f"page_size: must be one of plate, {', '.join(PAGE_SIZES_MM)}; got {page_size!r}.")
+        raise ParameterError(f"`page_size`: must be one of plate, {', '.join(PAGE_SIZES_MM)}; got {page_size!r}.")
     pw, ph = PAGE_SIZES_MM[key]
     for page in ((pw, ph), (ph, pw)):
         if w <= page[0] + 1e-9 and d <= page[1] + 1e-9:
             return page, ((page[0] - w) / 2, (page[1] - d) / 2)
     raise ParameterError(
-        f"page_size {key}: the graphic is {w:.1f} × {d:.1f} mm and does not fit a {pw:g} × {ph:g} mm page in either "
-        f"orientation; make the print smaller (width_mm) or use page_size plate (the graphic's own size)."
+        f"`page_size` {key}: the graphic is {w:.1f} × {d:.1f} mm and does not fit a {pw:g} × {ph:g} mm page in either "
+        f"orientation; make the print smaller (`width_mm`) or use `page_size` plate (the graphic's own size)."
     )

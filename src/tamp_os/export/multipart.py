@@ -19,7 +19,9 @@ from ..files import write_atomic
 
 def split_formats(formats: list[str]) -> tuple[list[str], list[str]]:
     """(formats written per part, formats written as the fused solid) for a two-colour print."""
-    per_part = [f for f in formats if f in ("stl", "3mf")]
+    from ..formats import BY_NAME
+
+    per_part = [f for f in formats if BY_NAME[f].holds_parts]
     return per_part, [f for f in formats if f not in per_part]
 
 

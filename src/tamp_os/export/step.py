@@ -194,7 +194,7 @@ def check_step(mesh) -> None:
     if mesh.n_triangles > MAX_TRIANGLES:
         raise ExportError(
             f"STEP: {mesh.n_triangles:,} triangles is more than CAD programs import in reasonable time "
-            f"(limit {MAX_TRIANGLES:,}). Use the adaptive mesher with a larger max_error_mm (for example 0.1), "
+            f"(limit {MAX_TRIANGLES:,}). Use the adaptive mesher with a larger `max_error_mm` (for example 0.1), "
             f"or a lower preset."
         )
 

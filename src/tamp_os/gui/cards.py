@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 from ..errors import TampError
 from ..params import LithoParams
-from ..preset_table import megabytes, preset_rows
+from ..preset_table import preset_rows, size_words
 
 
 @dataclass
@@ -34,7 +34,7 @@ def detail_cards(job, params: LithoParams) -> list[DetailCard]:
     for i, first in enumerate(per_image[0][1]):
         images = [
             ImageFacts(name, rows[i]["cols"], rows[i]["rows"], rows[i]["width_mm"], rows[i]["depth_mm"],
-                       ", ".join(f"{fmt.upper()} about {megabytes(n)}" for fmt, n in rows[i]["bytes"].items()))
+                       size_words(rows[i]["bytes"], about="about "))
             for name, rows in per_image
         ]
         cards.append(DetailCard(first["preset"], first["mm_per_px"], first["height_levels"], images))

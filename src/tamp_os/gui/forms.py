@@ -4,7 +4,6 @@ every invalid field reported at once, by its label, with the allowed range and w
 from __future__ import annotations
 
 import dataclasses
-import re
 from dataclasses import dataclass
 
 from ..errors import ParameterError
@@ -91,7 +90,7 @@ def params_from_form(form) -> tuple[LithoParams | None, FormErrors]:
     try:
         return LithoParams(**changes), FormErrors({})
     except ParameterError as exc:  # a rule between fields (say, blur and resolution together)
-        return None, FormErrors({"general": plain(str(exc))})
+        return None, FormErrors({"general": web_words(exc)})
 
 
 def field_message(name: str, text: str) -> str:
@@ -102,7 +101,10 @@ def field_message(name: str, text: str) -> str:
         try:
             LithoParams(**{name: text})
         except ParameterError as exc:
-            return f"{label}: {plain(str(exc))} You entered “{text}”."
+            if exc.parameter == name and exc.allowed:  # laid out from the error's data, not its sentence
+                hint = f" {web_words(exc.hint)}" if exc.hint else ""
+                return f"{label}: enter {exc.allowed}.{hint} You entered “{text}”."
+            return f"{label}: {web_words(exc)} You entered “{text}”."
         return f"{label}: this value cannot be used; you entered “{text}”."
     whole = isinstance(m["lo"], int) and isinstance(m["hi"], int)
     unit = f" {m['unit']}" if m["unit"] in ("mm",) else ""
@@ -111,10 +113,25 @@ def field_message(name: str, text: str) -> str:
     return f"{label}: enter {kind} {span}{unit}, or leave it empty for the default; you entered “{text}”."
 
 
-def plain(message: str) -> str:
-    """A library message in the form's words: field names and command-line flags become labels."""
-    message = re.sub(r"^\w+(?: and \w+)?: ", "", message)
-    message = re.sub(r"--([a-z][a-z-]*)(?: \S+)?", lambda m: "“" + LABELS.get(m.group(1).replace("-", "_"), m.group(1)) + "”", message)
-    for name, label in LABELS.items():
-        message = re.sub(rf"\b{name}\b", f"“{label}”", message)
-    return message[:1].upper() + message[1:]
+def label_of(name: str) -> str:
+    """A parameter as the web app says it: its field's label, or its name in plain words for a
+    setting this app does not show."""
+    return f"“{LABELS[name]}”" if name in LABELS else f"“{name.replace('_', ' ')}”"
+
+
+def offers(name: str) -> bool:
+    """Whether the web app has a control for this parameter."""
+    return name in LABELS or name in FLAGS
+
+
+def web_words(message) -> str:
+    """A library message (an error, a warning, a verdict) in the web app's words: each parameter
+    it names becomes its field's label (errors.Text); a hint that names a setting this app does not
+    have is left out."""
+    from ..errors import TampError, words
+
+    if isinstance(message, TampError) and message.hint and not all(offers(n) for n in message.hint_names()):
+        text = message.words(label_of, hint=False)
+    else:
+        text = words(message, label_of)
+    return text[:1].upper() + text[1:]

@@ -2,8 +2,8 @@
 removed after its zip is downloaded (after a grace period), when it expires, or when the server
 stops.
 
-Every call into the library (make_lithograph, save, the report's keys, rendering) is in
-`run_library`, so a change of the library's interface is adapted in one place.
+Every call into the library is `run_library` (convert.convert, which makes, saves and slices) and
+the report's own sentences (report.web_summary_lines), so the web app rebuilds no text itself.
 """
 
 from __future__ import annotations
@@ -20,7 +20,6 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import numpy as np
 
 from ..errors import TampError
 from ..files import to_uint8, write_png
@@ -175,112 +174,43 @@ class JobStore:
         return buf.getvalue()
 
 
-@dataclass
-class LibraryOutput:
-    """What the web app needs from one made lithograph."""
-
-    files: list[Path]
-    heightmap: np.ndarray  # H×W heights, mm
-    vertices: np.ndarray  # N×3, mm
-    faces: np.ndarray  # M×3 vertex indices
-    description: str
-    print_mm: tuple[float, float, float]
-    grid: tuple[int, int]
-    triangles: int
-    height_levels: int
-    scale: str
-    warnings: list[str]
-    annotations: list[str]
-    printing: str  # the slicer's sentence, or ""
-    relief_style: str  # the style that made the heights
-    relief_reason: str  # why that style, or what it did
-    touch: list[str]  # what a finger will find (legibility verdicts)
-
-
-def run_library(path: Path, params: LithoParams, out: Path, stem: str) -> LibraryOutput:
-    """The one place the web app calls the library: make, save, and read the report."""
+def run_library(path: Path, params: LithoParams, out: Path, stem: str):
+    """The one place the web app calls the library: convert (make, save, slice) and a preview model."""
+    from ..convert import convert as convert_image
     from ..export import save_mesh
-    from ..pipeline import make_lithograph
 
-    from ..report import touch_notes
-    from .forms import plain
-
-    litho = make_lithograph(path, params)
-    written = litho.save(out, stem=stem)
-    if params.gcode:  # saving never slices; slicing is its own step
-        from ..slicer import slice_outputs
-
-        written = slice_outputs(litho, written)
-    meta = litho.metadata()
-    save_mesh(litho.mesh, out / f"{stem}{PREVIEW_SUFFIX}", meta)
-    r = litho.report
-    return LibraryOutput(
-        files=written, heightmap=litho.heightmap, vertices=litho.mesh.vertices, faces=litho.mesh.faces,
-        description=meta["description"], print_mm=tuple(r.print_mm), grid=tuple(r.grid), triangles=r.triangles,
-        height_levels=0 if r.uniform else r.height_levels, scale=r.scale, warnings=list(r.warnings),
-        annotations=list(r.annotations), printing=r.print["summary"] if r.print else "",
-        relief_style=r.relief_style, relief_reason=r.relief_reason, touch=[plain(line) for line in touch_notes(r)],
-    )
+    conversion = convert_image(path, params, out, stem=stem)
+    save_mesh(conversion.litho.mesh, out / f"{stem}{PREVIEW_SUFFIX}", conversion.litho.metadata())
+    return conversion
 
 
 def convert(job: WebJob, upload: Upload) -> Result:
+    from ..report import web_summary_lines
+    from .forms import label_of, web_words
+
     params = job.params.replace(preset=upload.override) if upload.override else job.params
     stem = Path(upload.name).stem
     try:
         made = run_library(upload.path, params, job.out, stem)
     except TampError as exc:
-        return Result(upload.name, False, str(exc).replace(str(upload.path), upload.name))
+        return Result(upload.name, False, web_words(exc).replace(str(upload.path), upload.name))
     except Exception as exc:  # keep the server alive and say what happened
         return Result(upload.name, False, f"{upload.name}: unexpected error ({exc.__class__.__name__}); please report it.")
-    gray = to_uint8(made.heightmap)
+    report, mesh = made.report, made.litho.mesh
     result = Result(
-        upload.name, True, files=[OutputFile(p.name, p.stat().st_size) for p in made.files],
-        description=made.description, heightmap_png=f"{stem}.heightmap.png", model_glb=f"{stem}{PREVIEW_SUFFIX}",
-        summary=summary_lines(made, upload), relief_style=made.relief_style, relief_reason=made.relief_reason,
-        touch=made.touch,
+        upload.name, True, files=[OutputFile(p.name, p.stat().st_size) for p in made.written],
+        description=made.litho.metadata()["description"], heightmap_png=f"{stem}.heightmap.png",
+        model_glb=f"{stem}{PREVIEW_SUFFIX}", summary=web_summary_lines(report, label_of),
+        relief_style=report.relief_style, relief_reason=report.relief_reason, touch=[web_words(v) for v in made.touch()],
     )
-    write_png(job.out / result.heightmap_png, gray)
+    write_png(job.out / result.heightmap_png, to_uint8(made.litho.heightmap))
     try:
         from ..render import View, render_views
 
         with RENDER_LOCK:
-            full, _ = render_views(made.vertices, made.faces, View(width_px=640, height_px=480))
+            full, _ = render_views(mesh.vertices, mesh.faces, View(width_px=640, height_px=480))
         result.render_png = f"{stem}.render.png"
         write_png(job.out / result.render_png, full)
     except Exception as exc:  # previews are a help, not the product: report and go on
         result.summary.append(f"No rendered picture: {exc}")
     return result
-
-
-def summary_lines(made: LibraryOutput, upload: Upload) -> list[str]:
-    w, d, top = made.print_mm
-    lines = [
-        f"Print {w:g} × {d:g} mm, up to {top:g} mm high.",
-        f"Grid {made.grid[0]} × {made.grid[1]} points, {made.triangles:,} triangles, "
-        + (f"{made.height_levels} height levels." if made.height_levels else "a flat plate."),
-        f"Scale: {made.scale}.",
-        *[f"Note: {x}" for x in made.warnings],
-    ]
-    removed = [plain_annotation(a, upload.width, upload.height) for a in made.annotations]
-    if removed:
-        lines.append("Removed before printing, so they do not print as raised blocks: " + "; ".join(removed) + ".")
-    if made.printing:
-        lines.append(f"Printing: {made.printing}.")
-    return lines
-
-
-ANNOTATION = re.compile(r"(\w+) at rows (\d+)–(\d+), columns (\d+)–(\d+)")
-KINDS = {"box": "a label or scale-bar box", "bar": "a scale bar", "text": "a text label"}
-
-
-def plain_annotation(text: str, width_px: int, height_px: int) -> str:
-    """'box at rows 707–745, columns 10–90' -> 'a label or scale-bar box near the bottom left'."""
-    m = ANNOTATION.fullmatch(text)
-    if not m:
-        return text
-    kind, r0, r1, c0, c1 = m.group(1), *map(int, m.groups()[1:])
-    row, col = (r0 + r1) / 2 / max(height_px, 1), (c0 + c1) / 2 / max(width_px, 1)
-    vertical = "top" if row < 1 / 3 else "bottom" if row > 2 / 3 else "middle"
-    horizontal = "left" if col < 1 / 3 else "right" if col > 2 / 3 else "centre"
-    where = "the centre" if (vertical, horizontal) == ("middle", "centre") else f"the {vertical} {horizontal}".replace("middle ", "")
-    return f"{KINDS.get(kind, kind)} near {where}"

@@ -10,6 +10,7 @@ from fastapi.responses import FileResponse, JSONResponse, RedirectResponse, Resp
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from ..errors import TampError
+from ..formats import GRAPHIC_FORMATS
 from ..params import FORMATS, LithoParams
 from ..printers import PRESETS, all_printers
 from .forms import FIELDS, FLAGS, NUMBER_FIELDS, STYLE_CHOICES, TEXT_FIELDS, params_from_form
@@ -144,7 +145,7 @@ def settings_page(web, request, job: WebJob, status: int = 200, values=None, err
     return web.page(
         request, "settings.html", status=status, job=job, step=2, values=values or form_values(job.params), errors=errors,
         summary=list(errors.items()), cards=detail_cards(job, job.params), printers=all_printers(), presets=list(PRESETS),
-        formats=FORMATS, fields=FIELDS, styles=STYLE_CHOICES, customize_open=bool(set(errors) & set(FIELDS)) or request.query_params.get("customize") == "open",
+        formats=FORMATS, graphic_formats=GRAPHIC_FORMATS, fields=FIELDS, styles=STYLE_CHOICES, customize_open=bool(set(errors) & set(FIELDS)) or request.query_params.get("customize") == "open",
     )
 
 

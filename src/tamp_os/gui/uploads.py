@@ -89,10 +89,13 @@ def check_size(path: Path, max_decoded_mb: float) -> None:
 
 
 def plain_error(exc: TampError, path: Path, name: str) -> str:
-    """A library error about an upload, without folders, byte dumps or command-line advice."""
-    text = str(exc).replace(str(path), name)
-    text = re.sub(r" \(the file starts with b?['\"].*?['\"]\)", "", text)
-    text = re.sub(r"If you trust the file, raise the limit with --[\w-]+ \d+\.?", "Make the image smaller and try again.", text)
+    """A library error about an upload in the web app's words, with the upload's name instead of
+    its temporary path; advice about a setting this app does not have becomes its own."""
+    from .forms import offers, web_words
+
+    text = web_words(exc).replace(str(path), name)
+    if exc.hint and not all(offers(n) for n in exc.hint_names()):
+        text += " Make the image smaller and try again."
     return text
 
 

@@ -28,6 +28,12 @@ class Mesh:
     def n_triangles(self) -> int:
         return int(len(self.faces))
 
+    def __repr__(self) -> str:
+        if len(self.vertices) == 0:
+            return "<Mesh: empty>"
+        (x0, y0, z0), (x1, y1, z1) = self.bounds_mm
+        return f"<Mesh: {x1 - x0:.4g} × {y1 - y0:.4g} × {z1 - z0:.4g} mm, {self.n_triangles:,} triangles, {len(self.vertices):,} vertices>"
+
     @property
     def bounds_mm(self) -> np.ndarray:
         return np.array([self.vertices.min(axis=0), self.vertices.max(axis=0)])

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from ..errors import Text
 from ..printers import preset_blur_px, preset_resolution_px
 
 
@@ -47,11 +48,11 @@ def plan_layout(
         width_mm = depth_mm / aspect
     elif abs(depth_mm / width_mm - aspect) > 0.01 * aspect and fit is None:
         suggested = width_mm * aspect
-        warnings.append(
+        warnings.append(Text(
             f"width {width_mm:g} mm and depth {depth_mm:g} mm do not match the image's aspect ratio; "
-            f"the image was padded at base level to fit. For no padding set depth_mm to {suggested:.1f} "
+            f"the image was padded at base level to fit. For no padding set `depth_mm` to {suggested:.1f} "
             f"(or set fit to crop, or to stretch to distort it)."
-        )
+        ))
     if fit is None:
         fit = "pad"
     cols = resolution_px or preset_resolution_px(preset, nozzle_mm, width_mm)

@@ -14,6 +14,8 @@ import numpy as np
 from scipy import ndimage
 from skimage import measure
 
+from ..errors import Text
+from ..facts import Facts
 from .scales import WorkGrid, disk
 
 FINGERTIP_SIGMA_MM = 1.0
@@ -25,7 +27,7 @@ LIFT_MM = 1.0  # an object should stand at least this far above its surroundings
 
 
 @dataclass(frozen=True)
-class Legibility:
+class Legibility(Facts):
     """The legibility figures of one relief (lengths in mm, areas in mm²).
 
     fine_share : variance finer than a fingertip ÷ total variance (0..1).
@@ -52,10 +54,15 @@ class Legibility:
     lowest_lift_mm: float | None
     relief_span_mm: float
     verdicts: tuple[str, ...]
+    levels_mm: tuple[float, ...] | None = None  # the plateaus of the relief style, when it made plateaus (set by the pipeline)
 
     def as_dict(self) -> dict:
         out = asdict(self)
         out["verdicts"] = list(self.verdicts)
+        if self.levels_mm is None:
+            del out["levels_mm"]
+        else:
+            out["levels_mm"] = list(self.levels_mm)
         return out
 
 
@@ -168,11 +175,11 @@ def verdicts(f: dict, nozzle_mm: float, style: str | None = None) -> tuple[str, 
     out = []
     share = f["fine_share"]
     if share > FINE_SHARE_WARN:
-        out.append(
+        out.append(Text(
             f"{share:.0%} of this relief's height variation is finer than a fingertip resolves (about 1 mm), so it is "
             f"felt as roughness, not as shape; "
-            + ("try a larger detail_mm or a lower texture_mm." if style == "structure" else "try relief_style structure, or a larger detail_mm.")
-        )
+            + ("try a larger `detail_mm` or a lower `texture_mm`." if style == "structure" else "try `relief_style` structure, or a larger `detail_mm`.")
+        ))
     else:
         out.append(f"Most of the relief is shape a fingertip can follow: only {share:.0%} of its variation is finer than about 1 mm.")
     levels, step = f["levels_used"], f["smallest_step_mm"]
@@ -186,19 +193,19 @@ def verdicts(f: dict, nozzle_mm: float, style: str | None = None) -> tuple[str, 
     elif step is not None:
         out.append(f"{levels} distinct height levels, at least {step:.2g} mm apart: easy to tell apart by touch.")
     if f["narrow_share"] > 0.05:
-        out.append(
+        out.append(Text(
             f"{f['narrow_area_mm2']:.0f} mm² ({f['narrow_share']:.0%} of the picture) is ridges or grooves narrower than two "
-            f"nozzle widths ({2 * nozzle_mm:g} mm): they may not print and read as noise; a larger detail_mm removes them."
-        )
+            f"nozzle widths ({2 * nozzle_mm:g} mm): they may not print and read as noise; a larger `detail_mm` removes them."
+        ))
     if f["object_count"]:
         lift, low = f["object_lift_mm"], f["lowest_lift_mm"]
         n = f["object_count"]
         if lift < LIFT_MM:
-            out.append(
+            out.append(Text(
                 f"The {n} object{'s' * (n != 1)} stand only {lift:.2g} mm (median) above the ground around them; "
                 f"a finger may not find them; "
-                + ("try a taller relief_mm." if style == "objects" else "try relief_style objects.")
-            )
+                + ("try a taller `relief_mm`." if style == "objects" else "try `relief_style` objects.")
+            ))
         else:
             out.append(f"{n} object{'s' * (n != 1)} stand {lift:.2g} mm (median; lowest {low:.2g} mm) above the ground around them.")
     out.append(f"The steepest slope is {f['steepest_slope_deg']:.0f} degrees.")

@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from skimage import exposure, filters
 
-from ..errors import ParameterError
+from ..errors import ParameterError, Text
 from .heightmap import heights_mm
 from .objects import ObjectMap, dome_profile, find_objects
 from .scales import WorkGrid, coarse_gaussian_mm, gaussian_mm, guided_smooth, robust_unit
@@ -80,21 +80,21 @@ class ReliefResult:
 def check_style(style: str, options: StyleOptions, mm_per_px: float) -> None:
     """Raise one ParameterError naming the parameter, its range and the value, if any is bad."""
     if style not in STYLES:
-        raise ParameterError(f"relief_style: must be one of {', '.join(STYLES)}; got {style!r}.")
+        raise ParameterError(f"`relief_style`: must be one of {', '.join(STYLES)}; got {style!r}.")
     if not (math.isfinite(options.detail_mm) and options.detail_mm >= mm_per_px and options.detail_mm <= 50):
         raise ParameterError(
-            f"detail_mm: must be between the grid pitch ({mm_per_px:.3g} mm) and 50 mm; got {options.detail_mm!r}. "
-            f"Use a larger detail_mm or a finer grid (a higher preset or resolution_px)."
+            f"`detail_mm`: must be between the grid pitch ({mm_per_px:.3g} mm) and 50 mm; got {options.detail_mm!r}. "
+            f"Use a larger `detail_mm` or a finer grid (a higher preset or `resolution_px`)."
         )
     if not (math.isfinite(options.texture_mm) and 0 <= options.texture_mm <= 2):
-        raise ParameterError(f"texture_mm: must be between 0 and 2 mm; got {options.texture_mm!r}.")
+        raise ParameterError(f"`texture_mm`: must be between 0 and 2 mm; got {options.texture_mm!r}.")
     lo, hi = LEVEL_RANGE
     if isinstance(options.level_count, bool) or not isinstance(options.level_count, (int, np.integer)) or not lo <= options.level_count <= hi:
-        raise ParameterError(f"level_count: must be a whole number from {lo} to {hi}; got {options.level_count!r}.")
+        raise ParameterError(f"`level_count`: must be a whole number from {lo} to {hi}; got {options.level_count!r}.")
     if not (math.isfinite(options.min_area_mm2) and 0 <= options.min_area_mm2 <= 1000):
         raise ParameterError(f"min_area_mm2: must be between 0 and 1000 mm²; got {options.min_area_mm2!r}.")
     if not (math.isfinite(options.nozzle_mm) and 0.05 <= options.nozzle_mm <= 2):
-        raise ParameterError(f"nozzle_mm: must be between 0.05 and 2 mm; got {options.nozzle_mm!r}.")
+        raise ParameterError(f"`nozzle_mm`: must be between 0.05 and 2 mm; got {options.nozzle_mm!r}.")
 
 
 def make_relief(
@@ -239,10 +239,10 @@ def _levels(work, pitch_mm, relief_mm, options, found) -> _Made:
     while count > 2 and relief_mm / (count - 1) < MIN_STEP_MM:
         count -= 1
     if count != options.level_count:
-        notes.append(
-            f"level_count: {options.level_count} levels in a {relief_mm:g} mm relief would make steps under "
+        notes.append(Text(
+            f"`level_count`: {options.level_count} levels in a {relief_mm:g} mm relief would make steps under "
             f"{MIN_STEP_MM} mm, which fingers do not tell apart; {count} levels were used."
-        )
+        ))
     shape, found = structure_shape(work, pitch_mm, options, found)
     classes = plateau_classes(shape, count, pitch_mm=pitch_mm, options=options)
     used = int(np.unique(classes).size)

@@ -19,9 +19,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from ..standards import DEFAULT_TABLE, BrailleSpec  # noqa: F401  (re-exported: the braille stage's numbers)
 from ..errors import MissingDependencyError, ParameterError
 
-DEFAULT_TABLE = "en-ueb-g2.ctb"
 BLANK = "\u2800"
 # North American Braille ASCII: the character for each cell 0x00-0x3F (dots 1-6 as bits 0-5).
 BRAILLE_ASCII = " A1B'K2L@CIF/MSP\"E3H9O6R^DJG>NTQ,*5<-U8V.%[$+X!&;:4\\0Z7(_?W]#Y)="
@@ -29,43 +29,6 @@ INSTALL_HINT = (
     "braille needs liblouis: on Debian or Ubuntu run 'sudo apt-get install liblouis-bin liblouis-data "
     "python3-louis' (make setup does this), or give the caption directly as Unicode braille (⠠⠋⠑⠠⠏⠞)."
 )
-
-
-@dataclass(frozen=True)
-class BrailleSpec:
-    """Dot and spacing sizes in mm; defaults follow Marburg Medium / printed-dome practice."""
-
-    dot_diameter_mm: float = 1.5
-    dot_height_mm: float = 0.7
-    dot_spacing_mm: float = 2.5
-    cell_spacing_mm: float = 6.0
-    line_spacing_mm: float = 10.0
-
-    RANGES = {
-        "dot_diameter_mm": (1.2, 2.0),
-        "dot_height_mm": (0.4, 1.2),
-        "dot_spacing_mm": (2.0, 3.0),
-        "cell_spacing_mm": (5.0, 8.0),
-        "line_spacing_mm": (8.0, 15.0),
-    }
-
-    def __post_init__(self):
-        for name, (lo, hi) in self.RANGES.items():
-            value = getattr(self, name)
-            if not lo <= value <= hi:
-                raise ParameterError(
-                    f"braille {name}: must be {lo}–{hi} mm (tactile standards: NLS Spec 800, ADA 703.3, "
-                    f"Marburg Medium); got {value}."
-                )
-        if self.dot_diameter_mm > self.dot_spacing_mm - 0.4:
-            raise ParameterError(
-                f"braille dot_diameter_mm {self.dot_diameter_mm} must be at least 0.4 mm smaller than "
-                f"dot_spacing_mm {self.dot_spacing_mm}, or neighbouring dots merge."
-            )
-
-    @property
-    def cell_height_mm(self) -> float:
-        return 2 * self.dot_spacing_mm + self.dot_diameter_mm
 
 
 def _load_binding():
@@ -172,7 +135,7 @@ def to_braille(text: str, table: str = DEFAULT_TABLE, translator: Liblouis | Non
         bad = [ch for ch in sorted(set(text)) if not ch.isspace() and _has_escape(translator.translate(ch, table))]
         raise ParameterError(
             f"{what}: the braille table {table} cannot write {', '.join(map(_name, bad)) or 'some characters'} "
-            f"(liblouis would emboss escape codes); remove them, choose another braille_table, or give the text as Unicode braille."
+            f"(liblouis would emboss escape codes); remove them, choose another `braille_table`, or give the text as Unicode braille."
         )
     return cells.replace(" ", BLANK)
 

@@ -30,7 +30,7 @@ import numpy as np
 
 from .braille import DEFAULT_TABLE, BrailleSpec, block_size_mm, dot_centres, to_braille, wrap_cells
 from .scalebar import GAP_MM, ScaleBar, auto_scale_bar, chosen_scale_bar
-from ..errors import ExportError
+from ..errors import ExportError, Text
 from ..mesh.solid import INDEX, Mesh
 
 CLEARANCE_MM = 4.0  # between distinct raised elements (standard: at least 3 mm)
@@ -120,7 +120,7 @@ def _scale_bar(furniture: Furniture, inner_w: float) -> tuple[ScaleBar | None, l
         return None, []
     bar = auto_scale_bar(*args)
     if bar is None:
-        return None, [f"scale_bar: the plate has no room for a scale bar of at least 8 mm ({inner_w:.1f} mm inside its borders); it was left out. The scale is in the description."]
+        return None, [Text(f"`scale_bar`: the plate has no room for a scale bar of at least 8 mm ({inner_w:.1f} mm inside its borders); it was left out. The scale is in the description.")]
     return bar, []
 
 

@@ -99,12 +99,12 @@ def chosen_scale_bar(value_m: float, sample_m_per_mm: float, inner_mm: float, sp
     label = label_text(value_m)
     if length < MIN_BAR_MM:
         raise ParameterError(
-            f"scale_bar: {label} is {length:.2g} mm on this print, shorter than the {MIN_BAR_MM:g} mm a finger "
-            f"can read as a bar with two ends; choose a longer scale_bar (at least {format_length(MIN_BAR_MM * sample_m_per_mm)}) or 'auto'."
+            f"`scale_bar`: {label} is {length:.2g} mm on this print, shorter than the {MIN_BAR_MM:g} mm a finger "
+            f"can read as a bar with two ends; choose a longer `scale_bar` (at least {format_length(MIN_BAR_MM * sample_m_per_mm)}) or 'auto'."
         )
     if length > inner_mm:
         raise ParameterError(
-            f"scale_bar: {label} is {length:.1f} mm on this print, longer than the {inner_mm:.1f} mm of the plate "
-            f"inside its borders; choose a shorter scale_bar, 'auto', or a wider print (width_mm)."
+            f"`scale_bar`: {label} is {length:.1f} mm on this print, longer than the {inner_mm:.1f} mm of the plate "
+            f"inside its borders; choose a shorter `scale_bar`, 'auto', or a wider print (`width_mm`)."
         )
     return arrange(value_m, sample_m_per_mm, inner_mm, spec, table)

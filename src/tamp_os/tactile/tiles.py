@@ -14,21 +14,19 @@ bit of the picture.
 from __future__ import annotations
 
 import math
-import re
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from .errors import ParameterError
-from .mesh.solid import Mesh
-from .tactile.braille import BrailleSpec, block_size_mm, dot_centres
+from ..mesh.solid import Mesh
+from ..units import MIN_BED_MM, parse_bed_mm  # noqa: F401  (re-exported)
+from .braille import BrailleSpec, block_size_mm, dot_centres
 
 CLEARANCE_MM = 0.2  # socket larger than the peg all round: a usual FDM fit clearance
 NECK_WIDTH_MM = 5.0
 NECK_LENGTH_MM = 3.0
 HEAD_DIAMETER_MM = 8.0
 REACH_MM = NECK_LENGTH_MM + HEAD_DIAMETER_MM  # how far a peg reaches past its seam
-MIN_BED_MM = 60.0  # smaller beds leave no room for pegs, sockets and labels
 LABEL_MARGIN_MM = 3.0  # label from the tile's edges and from anything raised
 FLAT_TOLERANCE_MM = 0.05  # the margin counts as flat up to this above the base
 CIRCLE_SEGMENTS = 48
@@ -71,18 +69,6 @@ class Tiling:
     joints: list[Joint]
     rotated: bool  # tiles lie on the bed turned by 90 degrees
     notes: list[str] = field(default_factory=list)
-
-
-def parse_bed_mm(text: str) -> tuple[float, float]:
-    """'120' or '120x200' (mm) as (width, depth); ParameterError with the allowed form otherwise."""
-    match = re.fullmatch(r"\s*(\d+(?:\.\d*)?)\s*(?:[x×*]\s*(\d+(?:\.\d*)?)\s*)?(?:mm)?\s*", str(text))
-    if not match:
-        raise ParameterError(f"bed_mm: give the bed as a size in mm, such as 120 or 120x200; got {text!r}.")
-    width = float(match.group(1))
-    depth = float(match.group(2)) if match.group(2) else width
-    if min(width, depth) < MIN_BED_MM or max(width, depth) > 2000:
-        raise ParameterError(f"bed_mm: each side must be {MIN_BED_MM:g} to 2000 mm (pegs and labels need room); got {text!r}.")
-    return width, depth
 
 
 def tiles_along(length_mm: float, bed_mm: float) -> int:
@@ -216,7 +202,7 @@ def _label_solid(mesh: Mesh, box: Box, on_margin: bool, label: str, base_mm: flo
     """The label's domes (and, off the margin, the flat pad they stand on) as one manifold3d solid."""
     import manifold3d as m3
 
-    from .tactile.furniture import _dome  # the caption's dome, so labels feel like the caption
+    from .furniture import _dome  # the caption's dome, so labels feel like the caption
 
     x0, y0, x1, y1 = box
     stand = base_mm if on_margin else _top_within(mesh, box)
@@ -270,7 +256,7 @@ def make_tiles(mesh: Mesh, bed_mm: tuple[float, float], base_mm: float, spec: Br
     """
     import manifold3d as m3
 
-    from .tactile.furniture import to_mesh
+    from .furniture import to_mesh
 
     plate_w, plate_d = (float(v) for v in mesh.vertices[:, :2].max(axis=0))
     rows, cols, rotated = plan_grid((plate_w, plate_d), bed_mm)

@@ -1,0 +1,80 @@
+"""Converting one image, the one way every front end does it: make the lithograph, save its files,
+slice it when `gcode` asks, and say what happened. The CLI, batch, sweep, the web app and the demo
+all call `convert` (or `save_outputs` for a lithograph already made); slicing is called only here.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from pathlib import Path
+
+from .params import LithoParams
+from .pipeline import Lithograph, make_lithograph
+from .printers import PrinterProfile
+from .report import Report, removed_notes, summary_line, touch_notes
+
+
+@dataclass(frozen=True)
+class Conversion:
+    """One converted image: the lithograph (its report includes the slicing result when sliced)
+    and the files written, recipe last."""
+
+    litho: Lithograph
+    written: tuple[Path, ...]
+
+    @property
+    def report(self) -> Report:
+        return self.litho.report
+
+    @property
+    def names(self) -> list[str]:
+        return [p.name for p in self.written]
+
+    def summary(self) -> str:
+        """The one-line summary `tamp-os convert` prints."""
+        return summary_line(self.report, self.names)
+
+    def notes(self) -> list[str]:
+        """What was removed from the picture (data band, annotations), in sentences."""
+        return removed_notes(self.report)
+
+    def touch(self) -> list[str]:
+        """What a finger will find (the legibility verdicts)."""
+        return touch_notes(self.report)
+
+    @property
+    def printing(self) -> str:
+        """The slicing result in one sentence, or '' when not sliced."""
+        return self.report.print.summary if self.report.print else ""
+
+
+def save_outputs(litho: Lithograph, target, formats=None, stem: str | None = None) -> tuple[list[Path], Lithograph]:
+    """Save a lithograph's files and, when its parameters ask for G-code, slice it and rewrite the
+    recipe with the result. Returns the paths written (recipe last) and the lithograph whose report
+    says so (a new report: the old one is not changed)."""
+    from .outputs import RECIPE_SUFFIX, save, write_recipe
+
+    written = save(litho, target, formats, stem)
+    if not litho.params.gcode:
+        return written, litho
+    from .slicer import slice_outputs
+
+    written, printing = slice_outputs(litho, written)
+    sliced = dataclasses.replace(litho, report=litho.report.with_printing(printing))
+    recipe = written[-1]
+    assert recipe.name.endswith(RECIPE_SUFFIX)
+    write_recipe(sliced, recipe, [p.name for p in written[:-1]])
+    return written, sliced
+
+
+def convert(source, params: LithoParams | None, out_dir, *, stem: str | None = None,
+            printer_profile: PrinterProfile | None = None, formats=None) -> Conversion:
+    """Convert one image (a file, an array or a read Picture) into `out_dir`: see the module notes.
+
+    `stem` names the files (default: after the input); `printer_profile` replaces the printer that
+    `params.printer` names (a recipe brings its own); `formats` replaces `params.formats`.
+    """
+    litho = make_lithograph(source, params or LithoParams(), printer_profile=printer_profile)
+    written, litho = save_outputs(litho, Path(out_dir), formats, stem)
+    return Conversion(litho, tuple(written))

@@ -1,0 +1,102 @@
+"""convert.py: the one conversion path (make, save, slice when asked, summary) that the CLI, batch,
+sweep, the web app and the demo use. Slicing tests need PrusaSlicer."""
+
+from __future__ import annotations
+
+import json
+import re
+import shutil
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from conftest import need, run_cli
+from tamp_os import make_lithograph
+from tamp_os.convert import convert
+
+pytestmark = pytest.mark.timeout(600)
+
+
+def _picture(path, seed=3):
+    rng = np.random.default_rng(seed)
+    yy, xx = np.mgrid[0:60, 0:80]
+    img = 200 * np.exp(-((xx - 30) ** 2 + (yy - 25) ** 2) / 90) + rng.normal(0, 2, (60, 80))
+    Image.fromarray(np.clip(img + 20, 0, 255).astype(np.uint8)).save(path)
+    return path
+
+
+def _slicer():
+    need(shutil.which("prusa-slicer") is not None, "PrusaSlicer (apt-get install prusa-slicer)")
+
+
+def _layers(gcode_path):
+    zs = [float(z) for z in re.findall(r"^;Z:([0-9.]+)", gcode_path.read_text(), re.M)]
+    return len(zs), np.diff(zs)
+
+
+def test_convert_returns_the_files_and_the_report_it_wrote(tmp_path):
+    image = _picture(tmp_path / "spot.png")
+    done = convert(image, None, tmp_path / "out", formats=("stl", "3mf"))
+    assert done.names == ["spot.stl", "spot.3mf", "spot.description.txt", "spot.tamp.json"]
+    assert all(p.is_file() for p in done.written) and done.report.print is None and done.printing == ""
+    assert done.summary().startswith("spot.png: ") and "wrote spot.stl, spot.3mf" in done.summary()
+    recipe = json.loads((tmp_path / "out" / "spot.tamp.json").read_text(encoding="utf-8"))
+    assert recipe["outputs"] == done.names[:-1] and recipe["print"] is None
+
+
+def test_save_with_gcode_slices_and_records_it(tmp_path):
+    """Bug: make_lithograph(img, gcode=True).save(...) wrote no G-code."""
+    _slicer()
+    litho = make_lithograph(np.pad(np.ones((20, 20)), 10), gcode=True, preset="low", width_mm=30, scale_bar="off")
+    before = litho.report
+    written = litho.save(tmp_path)
+    gcode = tmp_path / "array.gcode"
+    assert gcode in written and written[-1].name == "array.tamp.json"
+    count, steps = _layers(gcode)
+    assert count > 10 and np.allclose(steps, 0.12, atol=1e-6)
+    assert before.print is None, "the report a caller held is never changed"
+    assert litho.report.print is not None and litho.report.print.result.layers == count
+    recipe = json.loads(written[-1].read_text(encoding="utf-8"))
+    assert recipe["print"]["layers"] == count and "array.gcode" in recipe["outputs"]
+
+
+def test_sweep_with_gcode_slices_every_variant(tmp_path, capsys):
+    """Bug: `tamp-os sweep IMAGE --vary relief=2,3 --gcode` wrote no G-code while its recipes said gcode: true."""
+    _slicer()
+    image = _picture(tmp_path / "spot.png")
+    code, out, err = run_cli(capsys, "sweep", image, "--vary", "relief=2,3", "--gcode", "--preset", "low",
+                             "--width-mm", "30", "--no-render", "-o", tmp_path / "sw")
+    assert code == 0, err
+    for relief in ("2", "3"):
+        gcode = tmp_path / "sw" / f"spot_relief_{relief}.gcode"
+        assert gcode.is_file(), sorted(p.name for p in (tmp_path / "sw").iterdir())
+        recipe = json.loads((tmp_path / "sw" / f"spot_relief_{relief}.tamp.json").read_text(encoding="utf-8"))
+        assert recipe["params"]["gcode"] is True and recipe["print"]["gcode"] == gcode.name
+        top_mm = max(float(z) for z in re.findall(r"^;Z:([0-9.]+)", gcode.read_text(), re.M))
+        assert top_mm == pytest.approx(1.0 + float(relief), abs=0.13)  # base + relief, to a layer
+    assert out.count("print: ") == 2
+
+
+def test_sweep_takes_an_array(tmp_path):
+    from tamp_os.params import LithoParams
+    from tamp_os.sweep import run_sweep
+
+    yy, xx = np.mgrid[0:48, 0:64]
+    result = run_sweep(np.hypot(xx - 20, yy - 30), LithoParams(preset="low"), {"relief_mm": [1.5, 2.5]}, tmp_path,
+                       render=False, name="ring")
+    assert [c.names[0] for c in result.conversions] == ["ring_relief_1.5.stl", "ring_relief_2.5.stl"]
+    tops = [c.report.print_mm[2] for c in result.conversions]
+    assert tops[1] - tops[0] == pytest.approx(1.0, abs=0.01)
+    assert (tmp_path / "ring_sweep_heightmaps.png").is_file() and (tmp_path / "ring_sweep_heightmaps.alt.txt").is_file()
+
+
+def test_every_front_end_converts_through_convert():
+    """One conversion path: no front end makes, saves or slices a lithograph itself."""
+    from conftest import ROOT
+
+    for rel in ("cli.py", "batch.py", "sweep.py", "gui/jobs.py", "gui/routes.py"):
+        text = (ROOT / "src" / "tamp_os" / rel).read_text(encoding="utf-8")
+        assert "slice_outputs" not in text and ".save(" not in text, rel
+    demo = (ROOT / "scripts" / "demo.py").read_text(encoding="utf-8")
+    assert "convert" in demo and ".save(" not in demo and "make_lithograph" not in demo

@@ -135,7 +135,9 @@ def make_lithograph(source, params: LithoParams | None = None, *, printer_profil
             mesh = adaptive_solid(heights, layout.width_mm, layout.depth_mm, max_error)
         else:
             mesh = grid_solid(heights, layout.width_mm, layout.depth_mm)
-    sample_per_mm = cleaned.pixel_size.metres * prepared.fitted_width_px / layout.width_mm if cleaned.pixel_size.metres else None
+    with clock("scale bar wait"):  # a scale bar's label is read beside the relief and mesh work (clean/stage.py)
+        metres = cleaned.pixel_size.metres
+    sample_per_mm = metres * prepared.fitted_width_px / layout.width_mm if metres else None
     furniture = _furniture(params, sample_per_mm)
     with clock("tactile"):
         tactile = _tactile(mesh, layout, params, furniture)

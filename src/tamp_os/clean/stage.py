@@ -4,6 +4,9 @@ no scale. Used by the pipeline and by `tamp-os info`, so both report the same fa
 
 from __future__ import annotations
 
+import functools
+import os
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -26,7 +29,8 @@ class Cleaned:
 
     values : (H', W) float32, the band cropped and annotations inpainted.
     alpha : (H', W) float32 opacity in 0..1, or None.
-    pixel_size : the physical pixel size and its provenance.
+    pixel_size_found : the physical pixel size and its provenance, or its Future while a scale
+        bar's label is still being read (read `pixel_size`, which waits for it).
     band : the rows cropped from the source image.
     annotations : burned-in annotations removed (empty when removal is off).
     mask : (H', W) bool where annotations were removed, or None when removal is off.
@@ -35,11 +39,16 @@ class Cleaned:
 
     values: np.ndarray
     alpha: np.ndarray | None
-    pixel_size: PixelSize
+    pixel_size_found: "PixelSize | Future[PixelSize]"
     band: Band
     annotations: list[Annotation]
     mask: np.ndarray | None
     instrument: Instrument | None = None
+
+    @property
+    def pixel_size(self) -> PixelSize:
+        found = self.pixel_size_found
+        return found.result() if isinstance(found, Future) else found
 
     def source_mask(self) -> np.ndarray | None:
         """What cleaning took away, over the whole source image, for NAME.annotations.png.
@@ -87,9 +96,19 @@ def clean_picture(picture: Picture, *, pixel_size_m: float | None, remove_annota
     if not remove_annotations:
         return Cleaned(values, alpha, size, band, [], None, instrument)
     removal = marks.remove_annotations(values)
-    if size.metres is None:
-        size = _scale_from_bars(picture.values, band, values, removal.annotations, size)
+    if size.metres is None:  # OCR of a scale bar's label (Tesseract, ~0.1 s) runs beside the relief on the other core
+        size = _reader().submit(_scale_from_bars, picture.values, band, values, removal.annotations, size)
     return Cleaned(removal.values, alpha, size, band, removal.annotations, removal.mask, instrument)
+
+
+@functools.lru_cache(maxsize=1)
+def _reader() -> ThreadPoolExecutor:
+    """One thread for reading scale bars: Tesseract is a separate process, so it overlaps the
+    relief and mesh work of this one (the pipeline needs the scale only for the furniture)."""
+    return ThreadPoolExecutor(max_workers=1, thread_name_prefix="tamp-scalebar")
+
+
+os.register_at_fork(after_in_child=_reader.cache_clear)  # a forked worker starts its own thread, not the parent's
 
 
 def _scale_from_bars(source: np.ndarray, band: Band, picture: np.ndarray, found: list[Annotation], size: PixelSize) -> PixelSize:

@@ -187,7 +187,9 @@ def _ome(inp: _Inputs, warnings: list[str]) -> Found:
         return None
     unit = unit_factor_m(pixels.attrib.get("PhysicalSizeXUnit", "µm"))
     value = number(pixels.attrib["PhysicalSizeX"])
-    return (value * unit if value is not None and unit else None), "OME PhysicalSizeX"
+    down = float(inp.metadata.get("pyramid_downsample", 1.0))  # PhysicalSizeX is level 0's
+    where = "OME PhysicalSizeX" + (f" × {down:.3g} (pyramid level {inp.metadata.get('pyramid_level')})" if down != 1.0 else "")
+    return (value * unit * down if value is not None and unit else None), where
 
 
 def _dm(inp: _Inputs, warnings: list[str]) -> Found:

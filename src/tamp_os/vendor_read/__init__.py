@@ -33,7 +33,7 @@ DEFAULT_TARGET_PX = 2048  # pyramid level: the smallest at least this wide (a pr
 
 def detect(path: Path) -> str | None:
     """The vendor kind of `path` (a file or an OME-Zarr folder), or None when read.py reads it."""
-    from .detect import HEAD_BYTES, hdf5_kind, kind_of_folder, kind_of_head
+    from .signatures import HEAD_BYTES, hdf5_kind, kind_of_folder, kind_of_head
 
     if path.is_dir():
         return kind_of_folder(path)
@@ -138,6 +138,12 @@ def read_planes(path: Path, kind: str, request: Request, limits, *, all_channels
             except Exception:  # closing a damaged file must not hide the first error
                 pass
     notes = list(stack.notes) + list(chosen.notes)
+    if stack.pixel_size_m and abs(stack.pixel_size_m[1] / stack.pixel_size_m[0] - 1) > 0.01:
+        from ..units import format_length
+
+        x, y = stack.pixel_size_m
+        notes.append(f"pixels are not square ({format_length(x)} across × {format_length(y)} down); the print shows them "
+                     f"square, so it is {y / x:.3g}× as deep, relative to its width, as the sample (give depth_mm to correct it).")
     notes += _blank_notes(stack, chosen)
     return VendorPlanes(stack, chosen, notes)
 

@@ -12,6 +12,7 @@ from the `Pixel` items some files hold (value 1, no unit); channel names from
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET
+from pathlib import Path
 
 import numpy as np
 
@@ -32,6 +33,9 @@ def open_czi(path, scene: int | None) -> Stack:
         blocks = [b for b in czi.filtered_subblock_directory if tuple(b.shape) == tuple(b.stored_shape)]  # no pyramid copies
         if not blocks:
             raise ValueError("no image subblocks")
+        file_bytes, end = Path(path).stat().st_size, _segments_end(path, czi.filtered_subblock_directory)
+        if end > file_bytes:  # the directory lists image data beyond the end: the file was cut short
+            raise EOFError(f"the file ends at byte {file_bytes:,} but its image data runs to byte {end:,}")
         scenes = czi.shape[axes.index("S")] if "S" in axes else 1
         s = check_index(path, "scene", scene, scenes, "scene")
 
@@ -75,6 +79,25 @@ def open_czi(path, scene: int | None) -> Stack:
         z_key="Scaling/Items/Distance[@Id='Z']/Value" if z_step else "", samples=samples,
         metadata={"czi_document_name": _text(root, ".//Information/Document/Name")}, close=czi.close,
     )
+
+
+SEGMENT_HEADER = 32  # 16-byte id, then allocated and used sizes (int64 each)
+
+
+def _segments_end(path, entries) -> int:
+    """Where the last subblock segment ends, from each segment's own header (sizes are not in the directory)."""
+    import struct
+
+    end = 0
+    with open(path, "rb") as fh:
+        for entry in entries:
+            fh.seek(int(entry.file_position))
+            head = fh.read(SEGMENT_HEADER)
+            if len(head) < SEGMENT_HEADER:
+                return int(entry.file_position) + SEGMENT_HEADER
+            _allocated, used = struct.unpack("<qq", head[16:32])
+            end = max(end, int(entry.file_position) + SEGMENT_HEADER + used)
+    return end
 
 
 def _text(root, path: str) -> str:

@@ -10,6 +10,8 @@ XYZ stack) is the stack axis, projected or sliced like Z.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 
 from .model import Channel, Stack
@@ -36,6 +38,11 @@ def open_lif(path, scene: int | None) -> Stack:
         images = list(lif.images)
         if not images:
             raise ValueError("no images in the file")
+        file_bytes = Path(path).stat().st_size
+        for each in images:  # a cut-short file loses the images stored last: say so, whichever is read
+            block = each.memory_block
+            if block is not None and int(block.offset) + int(block.size) > file_bytes:
+                raise EOFError(f"image {each.name!r} runs to byte {int(block.offset) + int(block.size):,}, past the end of the file ({file_bytes:,} bytes)")
         s = check_index(path, "scene", scene, len(images), "image")
         im = images[s]
         dims, shape = tuple(im.dims), tuple(int(n) for n in im.shape)

@@ -98,10 +98,12 @@ def choose(path, stack: Stack, request: Request, limits, *, all_channels: bool =
 
 
 def _project(stack: Stack, t: int, c: int, zs: list[int]) -> np.ndarray:
-    """One plane, or the running maximum over `zs`: two planes in memory at most."""
-    out = np.asarray(stack.plane(t, c, zs[0]))
+    """One plane, or the running maximum over `zs`: two planes in memory at most.
+
+    Always a copy: a reader may hand back a view of its memory-mapped file, which closes after reading.
+    """
+    out = np.array(stack.plane(t, c, zs[0]), copy=True)
     if len(zs) > 1:
-        out = np.array(out, copy=True)
         for z in zs[1:]:
             np.maximum(out, np.asarray(stack.plane(t, c, z)), out=out)
     return out

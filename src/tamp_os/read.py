@@ -133,14 +133,17 @@ def read_image(
         if value:
             raise ParameterError(f"{path}: {name} {value} asked for, but this file has no {name} axis; leave {name} out (TIFF series: page).")
     try:
-        data = path.read_bytes()
+        if head[:4] in TIFF_MAGIC or head[:4] in DM_MAGIC:  # hashed in pieces: a large stack never sits in memory whole
+            sha, data = _sha256_of(path), None
+        else:
+            data = path.read_bytes()
+            sha = hashlib.sha256(data).hexdigest()
     except OSError as exc:
         raise InputError(f"{path}: cannot be read ({exc.strerror}); check its permissions.") from None
-    sha = hashlib.sha256(data).hexdigest()
     if head[:4] in TIFF_MAGIC:
         decoded = _read_tiff(path, page, limits, z_slice, channel, target_px or DEFAULT_TARGET_PX)
     elif head[:4] in DM_MAGIC:
-        decoded = _read_dm(path, limits, len(data))
+        decoded = _read_dm(path, limits, path.stat().st_size)
     else:
         decoded = _read_pillow(path, data, page, limits)
     if decoded.channel_chosen:
@@ -335,7 +338,10 @@ def _read_tiff(path, page, limits: _Limits, z_slice=None, channel="luminance", t
             meta = {"tiff_series_axes": axes, "tiff_series": source.series, **_vendor_blocks(tif, source.tag_page), **level_meta}
             tags = {tag.code: tag.value for tag in tif.pages[0].tags}
             tags.update({tag.code: tag.value for tag in tif.pages[source.tag_page].tags} if source.tag_page else {})
-            plane = _reduce_axes(path, chosen.asarray(), axes, source.page, z_slice, channel, meta)
+            big = int(np.prod([int(n) for n in shape])) * np.dtype(chosen.dtype).itemsize > STREAM_BYTES
+            plane = _reduce_by_pages(path, chosen, axes, shape, source.page, z_slice, channel, meta) if big else None
+            if plane is None:
+                plane = _reduce_axes(path, chosen.asarray(), axes, source.page, z_slice, channel, meta)
             if chosen.keyframe.photometric == tifffile.PHOTOMETRIC.SEPARATED and plane.array.ndim == 3:
                 plane.array = _cmyk_to_rgb(plane.array)
                 plane.notes.append("CMYK (separated) TIFF: converted to RGB, then to luminance.")
@@ -476,7 +482,12 @@ def _reduce_axes(path, array, axes, page, z_slice, channel, meta) -> _Plane:
 
 
 def _pick_channel(path, array, axes, channel, meta, notes):
-    n = array.shape[axes.index("C")]
+    index = _channel_choice(path, array.shape[axes.index("C")], channel, meta, notes)
+    return np.take(array, index, axis=axes.index("C")), axes.replace("C", "")
+
+
+def _channel_choice(path, n: int, channel, meta, notes) -> int:
+    """The C index `channel` names among `n` (a number, an OME/ImageJ name, or luminance: 0 with a note)."""
     names = _channel_names(meta)
     if channel.isdigit():
         index = int(channel)
@@ -491,7 +502,54 @@ def _pick_channel(path, array, axes, channel, meta, notes):
         raise ParameterError(f"{path}: channel {channel!r} is not one of 0–{n - 1}{' or ' + ', '.join(names) if names else ''}.")
     if not 0 <= index < n:
         raise ParameterError(f"{path}: channel must be 0–{n - 1}; got {index}.")
-    return np.take(array, index, axis=axes.index("C")), axes.replace("C", "")
+    return index
+
+
+STREAM_BYTES = 64e6  # series larger than this are reduced page by page, never decoded whole
+
+
+def _reduce_by_pages(path, series, axes, shape, page, z_slice, channel, meta) -> _Plane | None:
+    """Like _reduce_axes, but decoding one page at a time (a running maximum over Z), for a series
+    stored one plane per page with its other axes first; None when the series is not laid out so."""
+    lead = [(a, int(n)) for a, n in zip(axes, shape) if a not in "YXS"]
+    names, dims = [a for a, _ in lead], [n for _, n in lead]
+    pages = list(getattr(series, "pages", []) or [])
+    count = int(np.prod(dims)) if dims else 1
+    if count < 2 or len(pages) != count or any(p is None for p in pages) or "".join(names) != axes[: len(names)]:
+        return None
+    notes: list[str] = []
+    fixed = {}
+    if "C" in names:
+        fixed["C"] = _channel_choice(path, dims[names.index("C")], channel, meta, notes)
+    zs = [0]
+    if "Z" in names:
+        nz = dims[names.index("Z")]
+        if z_slice is None:
+            zs = list(range(nz))
+            if nz > 1:
+                notes.append(f"z-stack of {nz} slices: maximum-intensity projection (choose one slice with z_slice).")
+        elif not 0 <= z_slice < nz:
+            raise ParameterError(f"{path}: z_slice must be 0–{nz - 1} (slices in this stack); got {z_slice}.")
+        else:
+            zs = [z_slice]
+    others = [a for a in names if a not in "CZ"]
+    planes = int(np.prod([dims[names.index(a)] for a in others])) if others else 1
+    page = page or 0
+    if not others and page:
+        raise ParameterError(f"{path}: page {page} asked for, but the file has a single image plane.")
+    if page >= planes:
+        raise ParameterError(f"{path}: page must be 0–{planes - 1} (planes in this file); got {page}.")
+    fixed.update(zip(others, np.unravel_index(page, [dims[names.index(a)] for a in others]) if others else []))
+    out = None
+    for z in zs:
+        where = {**fixed, "Z": z}
+        flat = int(np.ravel_multi_index([int(where.get(a, 0)) for a in names], dims))
+        plane = pages[flat].asarray()
+        out = plane if out is None else np.maximum(out, plane, out=out)
+    rest = axes[len(names):]
+    if "S" in rest and rest.index("S") < rest.index("Y"):
+        out = np.moveaxis(out, 0, -1)
+    return _Plane(out, planes, notes, "C" in names)
 
 
 def _pick_z(path, array, axes, z_slice, notes):

@@ -39,7 +39,7 @@ def missing(path, kind: str, package: str):
     what, _ = KINDS[kind]
     return MissingDependencyError(
         f"{path}: is {what}; reading it needs the Python package {package}, which the set-up installs "
-        f"(pip install {package}, or run make setup again)."
+        f"(pip install 'tamp-os[vendor]', or run make setup again)."
     )
 
 

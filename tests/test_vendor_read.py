@@ -462,6 +462,7 @@ def test_batch_scan_finds_vendor_files_once(real, tmp_path):
     write_ome_zarr(tmp_path / "stack.zarr", np.zeros((1, 1, 8, 8), np.uint8), labels=("a",))
     found = sorted(rel.as_posix() for _, rel in collect_inputs([tmp_path], recursive=True))
     assert found == ["mrc_emdb3197_subtomo.map", "stack.zarr", "tia_talos_tem_search.emi", "zeiss_dapi_gfp_2ch.czi"]
+    assert [rel.as_posix() for _, rel in collect_inputs([tmp_path / "stack.zarr"])] == ["stack.zarr"]  # named: one image
 
 
 @pytest.mark.timeout(120)

@@ -86,7 +86,7 @@ def collect_inputs(items, recursive: bool = False, include: tuple[str, ...] | No
     patterns = tuple(p.lower() for p in (include or IMAGE_PATTERNS))
     found = []
     for item in map(Path, items):
-        if item.is_dir():
+        if item.is_dir() and item.suffix.lower() not in FOLDER_FORMATS:
             walker = item.rglob("*") if recursive else item.glob("*")
             excluded = os.path.realpath(exclude_dir) if exclude_dir else None
             for path in sorted(walker):

@@ -3,7 +3,8 @@
 Why czifile: it read all three fixtures correctly (Gray8, Gray16, T×C and mosaic layouts), is
 pure Python over imagecodecs (already a dependency; 0.2 MB installed), and lets us decode only
 the subblocks of the chosen plane. pylibCZIrw (libCZI) reads planes natively too but needs
-12 MB and an extra dependency (`validators`); bioio-czi pulls in bioio, xarray and dask plugins.
+12 MB and an extra dependency (`validators`); bioio + bioio-czi resolve to 61 packages here
+(pandas, xarray, aiohttp, cmake, and both pylibCZIrw and aicspylibczi).
 Metadata is read from the CZI's XML: pixel size only from `Scaling/Items/Distance` (metres), never
 from the `Pixel` items some files hold (value 1, no unit); channel names from
 `Information/Image/Dimensions/Channels` or else `DisplaySetting/Channels`.

@@ -366,6 +366,13 @@ def test_read_channels_of_ordinary_images(tmp_path):
     planes = read_channels(tmp_path / "rgb.png")
     assert [p.name for p in planes] == ["red", "green", "blue"]
     assert planes[0].values.max() == 200 and planes[1].values.max() == 0 and planes[2].values.max() == 50
+    tifffile = need_module("tifffile")
+    stack = np.stack([np.full((6, 7), 10 * (i + 1), np.uint16) for i in range(3)])
+    tifffile.imwrite(tmp_path / "c3.ome.tif", stack, ome=True, photometric="minisblack", metadata={"axes": "CYX", "Channel": {"Name": ["a", "b", "c"]}})
+    planes = read_channels(tmp_path / "c3.ome.tif")
+    assert [p.name for p in planes] == ["a", "b", "c"] and [p.values.max() for p in planes] == [10, 20, 30]
+    tifffile.imwrite(tmp_path / "c3.tif", stack, photometric="minisblack", imagej=True, metadata={"axes": "CYX"})  # ImageJ, unnamed
+    assert [(p.name, p.values.max()) for p in read_channels(tmp_path / "c3.tif")] == [("channel 0", 10), ("channel 1", 20), ("channel 2", 30)]
     grey = tmp_path / "grey.png"
     write_png(grey, rgb[..., 0])
     assert [p.name for p in read_channels(grey)] == ["luminance"]
@@ -519,3 +526,41 @@ def test_tiff_stack_reduced_page_by_page_equals_the_whole_read(tmp_path, monkeyp
         monkeypatch.undo()
         np.testing.assert_array_equal(paged.values, whole.values)
         assert paged.file.notes == whole.file.notes and paged.file.pages == whole.file.pages
+
+
+# --- any bytes behind a vendor signature: one clear error, never a crash ---------------------------
+
+SIGNATURES = {
+    "x.czi": b"ZISRAWFILE" + bytes(22), "x.lif": b"\x70\x00\x00\x00\x00\x00\x00\x00\x2a", "x.nd2": b"\xda\xce\xbe\x0a",
+    "x.emd": b"\x89HDF\r\n\x1a\n", "x.ser": b"II\x97\x01", "x.img": b"\x34\x00\x00\x00JED-2200:Lib",
+    "x.elid": b"BZh91AY&SY", "x.map": None,
+}
+
+
+@pytest.mark.timeout(300)
+@pytest.mark.parametrize("name", sorted(SIGNATURES))
+def test_random_bytes_behind_a_signature_give_one_clear_error(tmp_path, name):
+    from hypothesis import HealthCheck, given, settings
+    from hypothesis import strategies as st
+
+    from tamp_os.errors import TampError
+
+    need_module("rsciio")
+
+    @settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+    @given(tail=st.binary(min_size=0, max_size=3000))
+    def check(tail):
+        head = SIGNATURES[name]
+        if head is None:  # MRC: the "MAP " stamp at byte 208
+            data = bytearray(tail.ljust(1100, b"\0"))
+            data[208:212] = b"MAP "
+            data = bytes(data)
+        else:
+            data = head + tail
+        path = tmp_path / name
+        path.write_bytes(data)
+        with pytest.raises(TampError) as caught:
+            read_image(path)
+        assert str(path) in str(caught.value)
+
+    check()

@@ -200,7 +200,7 @@ def read_channels(path, *, scene: int | None = None, time: int | None = None, z_
                 for a, c in zip(planes.chosen.arrays, planes.chosen.channels)]
     first = read_image(path, page=scene, z_slice=z_slice, max_megapixels=max_megapixels, max_decoded_gb=max_decoded_gb)
     count = first.file.channel_count
-    if count > 1 and first.file.channel_names is not None:
+    if count > 1 and "C" in first.file.axes:
         names = first.file.channel_names or [f"channel {i}" for i in range(count)]
         out = [ChannelPlane(names[0] if names else "channel 0", None, first.values)]
         for i in range(1, count):

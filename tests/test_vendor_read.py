@@ -564,3 +564,23 @@ def test_random_bytes_behind_a_signature_give_one_clear_error(tmp_path, name):
         assert str(path) in str(caught.value)
 
     check()
+
+
+@pytest.mark.timeout(180)
+@pytest.mark.parametrize("name, module", VENDOR_FILES)
+def test_info_text_and_json_agree(real, capsys, name, module):
+    path = real(name, module)
+    need_module("rsciio")
+    code, out, _ = run_cli(capsys, "info", path, "--json")
+    facts = json.loads(out)
+    code_text, text, _ = run_cli(capsys, "info", path)
+    assert code == code_text == 0
+    n = facts["channels"]
+    assert f"{n} channel{'s' if n != 1 else ''}," in text.splitlines()[0]
+    if facts["channel_names"]:
+        assert len(facts["channel_names"]) == n
+    if n > 1:  # the note names the same count
+        assert any(note.startswith(f"{n} channels") for note in facts["notes"])
+    assert facts["reader"] and facts["vendor"]["reader"] == facts["reader"]
+    if facts["pixel_size_m"]:
+        assert facts["vendor"]["reader"] in facts["pixel_size_source"]

@@ -679,6 +679,7 @@ def cmd_info(args) -> int:
         "pixel_size_xy_m": _pixel_xy(s, scale),
         "pixel_size_source": scale.provenance,
         "chosen": {k: s.metadata["vendor"].get(k) for k in ("scene", "scene_name", "time", "z", "channels_used")} if "vendor" in s.metadata else None,
+        "vendor": s.metadata.get("vendor"),  # the reader's facts with the keys they were read from
         "crop": crop,
         "annotations": [a.describe() for a in found],
         "nonfinite_pixels": s.nonfinite_pixels,

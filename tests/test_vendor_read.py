@@ -232,6 +232,9 @@ def test_pyramid_reads_the_level_that_fits_and_prices_only_it(tmp_path):
     level1_gb = 1536 * 2048 / 1e9
     assert read_image(path, max_decoded_gb=level1_gb * 1.01).values.shape == (1536, 2048)
     assert read_image(path, target_px=1000).values.shape == (768, 1024)
+    from tamp_os.gui.uploads import decoded_bytes
+
+    assert decoded_bytes(path) == (2048, 1536, 2048 * 1536)  # the web app prices the level that is read
 
 
 # --- Olympus SIS: the tag on the data page behind the preview -------------------------------------

@@ -49,7 +49,7 @@ def decoded_bytes(path: Path) -> tuple[int, int, int] | None:
 
         try:
             with tifffile.TiffFile(path) as tif:
-                series = tif.series[0]
+                series = _level_read(tif.series[0])
                 x, y = series.shape[series.axes.index("X")], series.shape[series.axes.index("Y")]
                 return int(x), int(y), int(np.prod(series.shape)) * series.dtype.itemsize
         except Exception:
@@ -73,6 +73,15 @@ def decoded_bytes(path: Path) -> tuple[int, int, int] | None:
         raise InputError(not_an_image(path.name)) from None
     except Exception:
         raise InputError(f"{path.name} is damaged or truncated, so it cannot be read. Export it again.") from None
+
+
+def _level_read(series):
+    """The pyramid level read.py reads (the smallest at least 2048 px wide): that is what is decoded."""
+    from ..read import DEFAULT_TARGET_PX
+
+    levels = getattr(series, "levels", None) or [series]
+    wide = [lv for lv in levels if lv.shape[lv.axes.index("X")] >= DEFAULT_TARGET_PX]
+    return min(wide, key=lambda lv: lv.shape[lv.axes.index("X")]) if wide else levels[0]
 
 
 def not_an_image(name: str) -> str:

@@ -2,8 +2,8 @@
 
 Writes a 250 × 2000 × 2000 uint16 stack (2.0 GB decoded) as an OME-Zarr folder and as an OME-TIFF
 (one page per slice), then converts each with `tamp-os convert` in a child process (default
-settings: a maximum-intensity projection over Z) and reads the child's peak resident memory
-(`resource.getrusage(RUSAGE_CHILDREN).ru_maxrss`). One child per conversion, so each peak is its own.
+settings: a maximum-intensity projection over Z); the child reports its own peak resident memory
+(`resource.getrusage(RUSAGE_SELF).ru_maxrss`), so each peak is that conversion's alone.
 
     PYTHONPATH=src .venv/bin/python benchmarks/bench_vendor_memory.py [SLICES]
 """
@@ -11,7 +11,6 @@ settings: a maximum-intensity projection over Z) and reads the child's peak resi
 from __future__ import annotations
 
 import os
-import resource
 import subprocess
 import sys
 import tempfile
@@ -59,7 +58,6 @@ def write_ome_tiff(path: Path, slices: int) -> None:
 
 def convert(path: Path, out: Path) -> tuple[float, float, str]:
     """(wall s, this child's peak RSS in MB, last line of its output)."""
-    before = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
     start = time.perf_counter()
     code = ("import resource, sys; from tamp_os.cli import main; rc = main(sys.argv[1:]); "
             "print('peak_kb', resource.getrusage(resource.RUSAGE_SELF).ru_maxrss); sys.exit(rc)")
@@ -69,7 +67,6 @@ def convert(path: Path, out: Path) -> tuple[float, float, str]:
     if done.returncode != 0:
         raise SystemExit(f"{path.name}: conversion failed:\n{done.stdout}\n{done.stderr}")
     peak_kb = int(next(line.split()[1] for line in done.stdout.splitlines() if line.startswith("peak_kb")))
-    del before
     summary = next((line for line in done.stdout.splitlines() if "wrote" in line), "")
     return wall, peak_kb / 1024, summary
 

@@ -10,7 +10,7 @@ import sys
 import numpy as np
 import pytest
 
-from conftest import ROOT, need, need_module, run_cli
+from conftest import ROOT, need_module, run_cli
 from tamp_os.errors import InputError, ParameterError
 from tamp_os.read import read_image
 
@@ -514,16 +514,16 @@ def test_help_imports_no_vendor_reader():
 @pytest.mark.parametrize("axes, shape", [("ZYX", (5, 40, 50)), ("TZCYX", (2, 3, 2, 20, 30)), ("CZYX", (3, 4, 16, 18))])
 def test_tiff_stack_reduced_page_by_page_equals_the_whole_read(tmp_path, monkeypatch, axes, shape):
     tifffile = need_module("tifffile")
-    import tamp_os.read as read
+    import tamp_os.read_stacks as read_stacks
 
     data = np.random.default_rng(len(shape)).integers(0, 60000, size=shape, dtype=np.uint16)
     path = tmp_path / "stack.ome.tif"
     tifffile.imwrite(path, data, ome=True, metadata={"axes": axes})
     choices = [{}, {"z_slice": 1}] + ([{"channel": "1"}] if "C" in axes else []) + ([{"page": 1}] if "T" in axes else [])
     for kw in choices:
-        monkeypatch.setattr(read, "STREAM_BYTES", 1e12)
+        monkeypatch.setattr(read_stacks, "STREAM_BYTES", 1e12)
         whole = read_image(path, **kw)
-        monkeypatch.setattr(read, "STREAM_BYTES", 0)
+        monkeypatch.setattr(read_stacks, "STREAM_BYTES", 0)
         monkeypatch.setattr(tifffile.TiffPageSeries, "asarray", lambda *a, **k: pytest.fail("the whole series was decoded"))
         paged = read_image(path, **kw)
         monkeypatch.undo()

@@ -117,7 +117,9 @@ def read_image(
     limits = _Limits(max_megapixels, max_decoded_gb)
     path = Path(path)
     if path.is_dir() and _vendor_kind(path):  # an OME-Zarr folder
-        return _read_vendor(path, _vendor_kind(path), page, channel, limits, z_slice, time, scene, target_px)
+        from .vendor_read.picture import read_vendor
+
+        return read_vendor(path, _vendor_kind(path), page, channel, limits, z_slice, time, scene, target_px)
     _refuse_special(path)
     try:
         with path.open("rb") as fh:
@@ -128,7 +130,9 @@ def read_image(
         raise InputError(f"{path}: the file is empty (0 bytes); it is not an image. Export it again.")
     kind = None if head[:4] in TIFF_MAGIC or head[:4] in DM_MAGIC else _vendor_kind(path)
     if kind:
-        return _read_vendor(path, kind, page, channel, limits, z_slice, time, scene, target_px)
+        from .vendor_read.picture import read_vendor
+
+        return read_vendor(path, kind, page, channel, limits, z_slice, time, scene, target_px)
     for name, value in (("time", time), ("scene", scene)):
         if value:
             raise ParameterError(f"{path}: {name} {value} asked for, but this file has no {name} axis; leave {name} out (TIFF series: page).")
@@ -174,35 +178,6 @@ def _sha256_of(path: Path) -> str:
             for chunk in iter(lambda: fh.read(1 << 20), b""):
                 digest.update(chunk)
     return digest.hexdigest()
-
-
-def _read_vendor(path: Path, kind, page, channel, limits, z_slice, time, scene, target_px) -> Picture:
-    """A vendor file (CZI, LIF, ND2, OME-Zarr, TIA, EMD, MRC, JEOL, ELID, HyperSpy, OIB): one plane."""
-    from .vendor_read import read_planes
-    from .vendor_read.plan import Request
-
-    notes = []
-    if page is not None and scene is None:
-        scene = page
-        notes.append(f"page {page} chooses scene {page} in this {kind.upper()} file.")
-    picked = channel if channel not in CHANNEL_NAMES else "luminance"
-    planes = read_planes(path, kind, Request(scene, time, z_slice, picked), limits, target_px=target_px or DEFAULT_TARGET_PX)
-    stack, chosen = planes.stack, planes.chosen
-    facts = planes.facts()
-    channels = stack.channel_list()
-    named = any(not c.name.startswith("channel ") for c in channels)
-    decoded = _Decoded(stack.format, chosen.arrays[0], {"vendor": facts}, max(stack.scenes, 1), notes=notes + planes.notes,
-                       channel_chosen=picked != "luminance" or stack.size("C") > 1 or stack.samples == 1)
-    decoded.facts = {
-        "axes": facts["axes"], "channel_count": max(stack.size("C"), 1) if stack.samples == 1 else stack.samples,
-        "channel_names": [c.name for c in channels] if named else None, "wavelengths_nm": [c.wavelength_nm for c in channels],
-        "z_step_m": stack.z_step_m, "reader": stack.reader,
-    }
-    if channel in CHANNEL_NAMES and stack.samples > 1:
-        decoded.channel_chosen = False  # red/green/blue of a colour plane: _grayscale picks it
-    elif channel in CHANNEL_NAMES:
-        raise ParameterError(f"{path}: channel {channel!r} names a colour, but this file's planes are grey; give a channel number or name.")
-    return _to_picture(decoded, "luminance" if decoded.channel_chosen else channel, name=path.name, sha=_sha256_of(path), path=str(path))
 
 
 def _refuse_special(path: Path) -> None:
@@ -279,7 +254,9 @@ def _vendor_blocks(tif, data_page: int = 0) -> dict:
     `data_page` (tifffile's `sis_metadata` looks at page 0 only), falling back to page 0.
     """
     meta = {}
-    sis = _sis_of_page(tif, data_page) if data_page else None
+    from .read_stacks import sis_of_page
+
+    sis = sis_of_page(tif, data_page) if data_page else None
     if sis:
         meta["sis_metadata"] = sis
     for attr in ("fei_metadata", "sem_metadata", "sis_metadata", "tvips_metadata", "imagej_metadata", "ome_metadata"):
@@ -301,22 +278,6 @@ def _vendor_blocks(tif, data_page: int = 0) -> dict:
     return meta
 
 
-def _sis_of_page(tif, index: int) -> dict | None:
-    """Olympus SIS blocks (tags 33471 and 33560) of one page, as tifffile parses them."""
-    try:
-        tags = tif.pages[index].tags
-        result = {}
-        ini = tags.valueof(33471)
-        if isinstance(ini, dict):
-            result.update(ini)
-        sis = tags.valueof(33560)
-        if isinstance(sis, dict):
-            result.update(sis)
-        return result or None
-    except Exception:  # a broken vendor block must not stop the image from loading
-        return None
-
-
 def _read_tiff(path, page, limits: _Limits, z_slice=None, channel="luminance", target_px=DEFAULT_TARGET_PX) -> _Decoded:
     """One 2-D plane (or Y X S colour plane) from a TIFF series, or from the data page beside a preview.
 
@@ -328,8 +289,10 @@ def _read_tiff(path, page, limits: _Limits, z_slice=None, channel="luminance", t
 
     try:
         with tifffile.TiffFile(path) as tif:
+            from .read_stacks import pyramid_level, reduce_by_pages, tiff_z_step_m
+
             source = _tiff_source(path, tif, page)
-            level_notes, level_meta = _pyramid_level(source, target_px)
+            level_notes, level_meta = pyramid_level(source, target_px)
             chosen, axes, shape = source.chosen, source.chosen.axes, source.chosen.shape
             if "Y" not in axes or "X" not in axes:
                 raise InputError(f"{path}: TIFF series with axes {axes!r} has no 2-D image plane.")
@@ -338,8 +301,7 @@ def _read_tiff(path, page, limits: _Limits, z_slice=None, channel="luminance", t
             meta = {"tiff_series_axes": axes, "tiff_series": source.series, **_vendor_blocks(tif, source.tag_page), **level_meta}
             tags = {tag.code: tag.value for tag in tif.pages[0].tags}
             tags.update({tag.code: tag.value for tag in tif.pages[source.tag_page].tags} if source.tag_page else {})
-            big = int(np.prod([int(n) for n in shape])) * np.dtype(chosen.dtype).itemsize > STREAM_BYTES
-            plane = _reduce_by_pages(path, chosen, axes, shape, source.page, z_slice, channel, meta) if big else None
+            plane = reduce_by_pages(path, chosen, axes, shape, source.page, z_slice, channel, meta)
             if plane is None:
                 plane = _reduce_axes(path, chosen.asarray(), axes, source.page, z_slice, channel, meta)
             if chosen.keyframe.photometric == tifffile.PHOTOMETRIC.SEPARATED and plane.array.ndim == 3:
@@ -351,7 +313,7 @@ def _read_tiff(path, page, limits: _Limits, z_slice=None, channel="luminance", t
                 names = _channel_names(meta)
                 facts.update(channel_count=int(shape[axes.index("C")]), channel_names=names or None)
             if "Z" in axes:
-                facts["z_step_m"] = _tiff_z_step_m(meta)
+                facts["z_step_m"] = tiff_z_step_m(meta)
             decoded = _Decoded("TIFF", plane.array, meta, max(source.count, plane.planes), tags, notes, plane.channel_chosen)
             decoded.facts = facts
             return decoded
@@ -361,49 +323,6 @@ def _read_tiff(path, page, limits: _Limits, z_slice=None, channel="luminance", t
         raise InputError(f"{path}: not enough memory to read this TIFF; try a smaller image.") from None
     except Exception as exc:
         raise InputError(f"{path}: a damaged or unsupported TIFF ({exc}); re-export it from the microscope software.") from None
-
-
-def _pyramid_level(source, target_px: int) -> tuple[list[str], dict]:
-    """Of a pyramidal series (SVS, OME-TIFF pyramid), switch `source` to the smallest level at least
-    `target_px` wide, so a whole slide's full resolution is never decoded for a print."""
-    levels = getattr(source.chosen, "levels", None) or []
-    if len(levels) < 2:
-        return [], {}
-    xi = source.chosen.axes.index("X")
-    widths = [int(lv.shape[lv.axes.index("X")]) for lv in levels]
-    wide = [i for i, w in enumerate(widths) if w >= target_px]
-    index = min(wide, key=lambda i: widths[i]) if wide else 0
-    if index == 0:
-        return [], {}
-    full = int(source.chosen.shape[xi])
-    source.chosen = levels[index]
-    note = (f"pyramidal TIFF: read level {index} ({widths[index]} px wide, {full / widths[index]:.3g}× smaller than the "
-            f"full {full} px), enough for the print.")
-    return [note], {"pyramid_level": index, "pyramid_downsample": full / widths[index]}
-
-
-def _tiff_z_step_m(meta) -> float | None:
-    """The z step of an ImageJ (spacing + unit) or OME (PhysicalSizeZ) stack, in metres."""
-    import re
-
-    from .units import unit_factor_m
-
-    ij = meta.get("imagej_metadata") or {}
-    if "spacing" in ij:
-        factor = unit_factor_m(str(ij.get("unit", "")).replace("\\u00B5", "µ"))
-        try:
-            return float(ij["spacing"]) * factor if factor else None
-        except (TypeError, ValueError):
-            return None
-    match = re.search(r'PhysicalSizeZ="([^"]+)"', meta.get("ome_metadata") or "")
-    if match:
-        unit = re.search(r'PhysicalSizeZUnit="([^"]+)"', meta["ome_metadata"])
-        factor = unit_factor_m(unit.group(1) if unit else "µm")
-        try:
-            return float(match.group(1)) * factor if factor else None
-        except ValueError:
-            return None
-    return None
 
 
 @dataclass
@@ -503,53 +422,6 @@ def _channel_choice(path, n: int, channel, meta, notes) -> int:
     if not 0 <= index < n:
         raise ParameterError(f"{path}: channel must be 0–{n - 1}; got {index}.")
     return index
-
-
-STREAM_BYTES = 64e6  # series larger than this are reduced page by page, never decoded whole
-
-
-def _reduce_by_pages(path, series, axes, shape, page, z_slice, channel, meta) -> _Plane | None:
-    """Like _reduce_axes, but decoding one page at a time (a running maximum over Z), for a series
-    stored one plane per page with its other axes first; None when the series is not laid out so."""
-    lead = [(a, int(n)) for a, n in zip(axes, shape) if a not in "YXS"]
-    names, dims = [a for a, _ in lead], [n for _, n in lead]
-    pages = list(getattr(series, "pages", []) or [])
-    count = int(np.prod(dims)) if dims else 1
-    if count < 2 or len(pages) != count or any(p is None for p in pages) or "".join(names) != axes[: len(names)]:
-        return None
-    notes: list[str] = []
-    fixed = {}
-    if "C" in names:
-        fixed["C"] = _channel_choice(path, dims[names.index("C")], channel, meta, notes)
-    zs = [0]
-    if "Z" in names:
-        nz = dims[names.index("Z")]
-        if z_slice is None:
-            zs = list(range(nz))
-            if nz > 1:
-                notes.append(f"z-stack of {nz} slices: maximum-intensity projection (choose one slice with z_slice).")
-        elif not 0 <= z_slice < nz:
-            raise ParameterError(f"{path}: z_slice must be 0–{nz - 1} (slices in this stack); got {z_slice}.")
-        else:
-            zs = [z_slice]
-    others = [a for a in names if a not in "CZ"]
-    planes = int(np.prod([dims[names.index(a)] for a in others])) if others else 1
-    page = page or 0
-    if not others and page:
-        raise ParameterError(f"{path}: page {page} asked for, but the file has a single image plane.")
-    if page >= planes:
-        raise ParameterError(f"{path}: page must be 0–{planes - 1} (planes in this file); got {page}.")
-    fixed.update(zip(others, np.unravel_index(page, [dims[names.index(a)] for a in others]) if others else []))
-    out = None
-    for z in zs:
-        where = {**fixed, "Z": z}
-        flat = int(np.ravel_multi_index([int(where.get(a, 0)) for a in names], dims))
-        plane = pages[flat].asarray()
-        out = plane if out is None else np.maximum(out, plane, out=out)
-    rest = axes[len(names):]
-    if "S" in rest and rest.index("S") < rest.index("Y"):
-        out = np.moveaxis(out, 0, -1)
-    return _Plane(out, planes, notes, "C" in names)
 
 
 def _pick_z(path, array, axes, z_slice, notes):

@@ -17,7 +17,6 @@ from pathlib import Path
 
 import numpy as np
 
-from ..clean.vendor import number
 from .model import Channel, Stack
 
 KIND = "czi"
@@ -80,6 +79,15 @@ def open_czi(path, scene: int | None) -> Stack:
         z_key="Scaling/Items/Distance[@Id='Z']/Value" if z_step else "", samples=samples,
         metadata={"czi_document_name": _text(root, ".//Information/Document/Name")}, close=czi.close,
     )
+
+
+def number(text) -> float | None:
+    """A finite float from the XML text, else None (read comes before clean: no import from there)."""
+    try:
+        value = float(str(text).strip())
+    except (TypeError, ValueError):
+        return None
+    return value if np.isfinite(value) else None
 
 
 SEGMENT_HEADER = 32  # 16-byte id, then allocated and used sizes (int64 each)

@@ -31,6 +31,20 @@ from .params import LithoParams, parse_field
 log = logging.getLogger(__name__)
 
 IMAGE_PATTERNS = ("*.png", "*.jpg", "*.jpeg", "*.tif", "*.tiff", "*.bmp", "*.gif", "*.webp", "*.dm3", "*.dm4")
+# Microscope vendors' formats (vendor_read/): OME-Zarr is a folder; a TIA .ser beside its .emi is one image.
+VENDOR_PATTERNS = ("*.czi", "*.lif", "*.nd2", "*.zarr", "*.emi", "*.ser", "*.emd", "*.hspy", "*.mrc", "*.map", "*.img",
+                   "*.elid", "*.svs", "*.oib", "*.oif")
+IMAGE_PATTERNS = IMAGE_PATTERNS + VENDOR_PATTERNS
+FOLDER_FORMATS = (".zarr",)
+
+
+def _tia_ser_of_emi(path: Path) -> bool:
+    """A TIA 'name_1.ser' whose 'name.emi' is beside it: the .emi is converted, the .ser is its data."""
+    import re
+
+    match = re.fullmatch(r"(.+)_\d+", path.stem)
+    return path.suffix.lower() == ".ser" and match is not None and any(
+        (path.parent / (match.group(1) + ext)).exists() for ext in (".emi", ".EMI"))
 REPORT_NAME = "batch-report"
 
 
@@ -72,7 +86,7 @@ def collect_inputs(items, recursive: bool = False, include: tuple[str, ...] | No
     patterns = tuple(p.lower() for p in (include or IMAGE_PATTERNS))
     found = []
     for item in map(Path, items):
-        if item.is_dir():
+        if item.is_dir() and item.suffix.lower() not in FOLDER_FORMATS:
             walker = item.rglob("*") if recursive else item.glob("*")
             excluded = os.path.realpath(exclude_dir) if exclude_dir else None
             for path in sorted(walker):
@@ -81,7 +95,10 @@ def collect_inputs(items, recursive: bool = False, include: tuple[str, ...] | No
                 # Regular files, and anything else with an image's name (a FIFO, a broken or looping
                 # link): those are reported as failed by the reader, never allowed to stop the batch.
                 wanted = any(fnmatch.fnmatch(path.name.lower(), p) for p in patterns)
-                if wanted and (path.is_file() or not path.is_dir()):
+                folder_image = path.is_dir() and path.suffix.lower() in FOLDER_FORMATS
+                if any(parent.suffix.lower() in FOLDER_FORMATS for parent in path.relative_to(item).parents):
+                    continue  # inside an OME-Zarr folder: its chunks, not images
+                if wanted and (path.is_file() or not path.is_dir() or folder_image) and not _tia_ser_of_emi(path):
                     found.append((path, path.relative_to(item)))
         else:
             found.append((item, Path(item.name)))  # named explicitly: converted (or reported) as is

@@ -188,6 +188,8 @@ def _add_info(sub) -> None:
     info.add_argument("--slice", type=int, default=None, help="z-stack slice (default: maximum-intensity projection)")
     info.add_argument("--channel", default="luminance", help="channel number or name (default: luminance / first)")
     info.add_argument("--pixel-size", default=None, help="physical pixel size to use, e.g. 4.2nm")
+    info.add_argument("--time", type=int, default=None, help="time point of a time series (default: the first)")
+    info.add_argument("--scene", type=int, default=None, help="scene, series or image of a multi-scene file (default: the first)")
 
 
 def _values_may_start_with_a_dash(argv: list[str], parser: argparse.ArgumentParser) -> list[str]:
@@ -592,6 +594,35 @@ def cmd_braille_plate(args) -> int:
     return EXIT_OK
 
 
+def _pixel_xy(s, scale) -> list[float] | None:
+    """[x, y] pixel size in metres: the vendor reader's pair when the scale is the file's own, else x twice."""
+    if not scale.metres:
+        return None
+    pair = (s.metadata.get("vendor") or {}).get("pixel_size_m")
+    if pair and abs(pair[0] - scale.metres) <= 1e-6 * scale.metres:
+        return [float(pair[0]), float(pair[1])]
+    return [scale.metres, scale.metres]
+
+
+def _file_axes_lines(s) -> list[str]:
+    """'axes: 3 scenes, T 20, C 2, Z 128', 'channel names: DAPI (450 nm), GFP', 'z step: 6 µm', 'read by: nd2 0.12.0'."""
+    from .units import format_length
+
+    lines = []
+    if s.axes:
+        words = {"scenes": "scenes", "T": "time points", "C": "channels", "Z": "z slices"}
+        lines.append("axes: " + ", ".join(f"{n} {words.get(a, a)}" for a, n in s.axes.items()))
+    if s.channel_names:
+        waves = s.wavelengths_nm or [None] * len(s.channel_names)
+        lines.append("channel names: " + ", ".join(
+            f"{name} ({w:g} nm)" if w else name for name, w in zip(s.channel_names, list(waves) + [None] * len(s.channel_names))))
+    if s.z_step_m:
+        lines.append(f"z step: {format_length(s.z_step_m)}")
+    if s.reader:
+        lines.append(f"read by: {s.reader}")
+    return lines
+
+
 def cmd_info(args) -> int:
     from .clean.stage import clean_picture
     from .read import read_image
@@ -599,7 +630,8 @@ def cmd_info(args) -> int:
     from .units import format_length, parse_length_m
 
     pixel_size_m = parse_length_m(args.pixel_size, "pixel_size") if args.pixel_size else None
-    picture = read_image(args.image, page=args.page, z_slice=args.slice, channel=args.channel)  # the same size guard as convert
+    picture = read_image(args.image, page=args.page, z_slice=args.slice, channel=args.channel, time=args.time,
+                         scene=args.scene)  # the same size guard as convert
     s = picture.file
     cleaned = clean_picture(picture, pixel_size_m=pixel_size_m, remove_annotations=True)
     scale, crop, found = cleaned.pixel_size, cleaned.band.as_dict(), cleaned.annotations
@@ -611,12 +643,21 @@ def cmd_info(args) -> int:
         "height_px": s.height,
         "dtype": s.dtype,
         "bit_depth": s.bit_depth,
-        "channels": s.channels,
+        "channels": s.channel_count,
+        "samples_per_pixel": s.channels,
+        "channel_names": s.channel_names,
+        "wavelengths_nm": s.wavelengths_nm,
+        "axes": s.axes,
+        "z_step_m": s.z_step_m,
+        "reader": s.reader,
         "pages": s.pages,
         "sha256": s.sha256,
         "metadata_found": meta_found,
         "pixel_size_m": scale.metres,
+        "pixel_size_xy_m": _pixel_xy(s, scale),
         "pixel_size_source": scale.provenance,
+        "chosen": {k: s.metadata["vendor"].get(k) for k in ("scene", "scene_name", "time", "z", "channels_used")} if "vendor" in s.metadata else None,
+        "vendor": s.metadata.get("vendor"),  # the reader's facts with the keys they were read from
         "crop": crop,
         "annotations": [a.describe() for a in found],
         "nonfinite_pixels": s.nonfinite_pixels,
@@ -628,10 +669,14 @@ def cmd_info(args) -> int:
         print(json.dumps(facts, indent=2, ensure_ascii=False))
         return EXIT_OK
     print(f"{Path(args.image).name}: {s.format}, {s.width} × {s.height} pixels, {s.bit_depth}-bit {s.dtype}, "
-          f"{s.channels} channel{'s' if s.channels != 1 else ''}, {s.pages} page{'s' if s.pages != 1 else ''}")
+          f"{s.channel_count} channel{'s' if s.channel_count != 1 else ''}, {s.pages} page{'s' if s.pages != 1 else ''}")
+    for line in _file_axes_lines(s):
+        print(line)
     print(f"metadata found: {', '.join(meta_found) if meta_found else 'none'}")
     if scale.metres:
-        print(f"pixel size: {format_length(scale.metres)}, from {scale.provenance}")
+        xy = facts["pixel_size_xy_m"]
+        across = f" × {format_length(xy[1])} (x × y)" if xy and abs(xy[1] / xy[0] - 1) > 0.005 else ""
+        print(f"pixel size: {format_length(scale.metres)}{across}, from {scale.provenance}")
     else:
         print("pixel size: not known (give it with --pixel-size, for example --pixel-size 4.2nm)")
     removed = [f"{crop['top_rows']} rows at the top"] if crop["top_rows"] else []

@@ -164,7 +164,11 @@ def dependency_versions() -> dict[str, str]:
 
 
 def file_sha256(path: Path) -> str:
-    """SHA-256 of a file, read in blocks."""
+    """SHA-256 of a file, read in blocks (of an OME-Zarr folder: its files, as read.py hashes it)."""
+    if Path(path).is_dir():
+        from .read import _sha256_of
+
+        return _sha256_of(Path(path))
     digest = hashlib.sha256()
     with open(path, "rb") as fh:
         for block in iter(lambda: fh.read(1 << 20), b""):

@@ -66,6 +66,8 @@ class LithoParams:
     channel: str = _f("luminance", "luminance, or a channel: a number from 0 or red/green/blue/alpha")
     page: int | None = _f(None, "TIFF page or series to read (default: the first, or the data page beside a preview)", "", 0, 100000)
     z_slice: int | None = _f(None, "z-stack slice to use (default: maximum-intensity projection)", "", 0, 100000)
+    time: int | None = _f(None, "time point of a time series to use, from 0 (default: the first)", "", 0, 1000000)
+    scene: int | None = _f(None, "scene, series, image or position of a multi-scene file (CZI, LIF, ND2, EMD, ...), from 0 (default: the first)", "", 0, 100000)
     pixel_size: str | float | None = _f(None, "physical pixel size, overriding the file's: a length such as 4.2nm, 0.5um, 3 micron, 0.01mm, or a number in metres (4.2e-9)")
     keep_annotations: bool = _f(False, "keep burned-in scale bars, labels and data bands (default: remove them)")
     save_masks: bool = _f(False, "write NAME.annotations.png showing what was removed")

@@ -193,11 +193,17 @@ def _read(source, params: LithoParams) -> Picture:
         return source
     if isinstance(source, (str, Path)):
         return read_image(source, page=params.page, channel=params.channel, max_megapixels=params.max_megapixels,
-                          z_slice=params.z_slice, max_decoded_gb=params.max_decoded_gb)
+                          z_slice=params.z_slice, max_decoded_gb=params.max_decoded_gb, time=params.time, scene=params.scene,
+                          target_px=_pyramid_target_px(params))
     return read_array(source, channel=params.channel)
 
 
 make_lithograph.__doc__ += "\n    Parameters (in `params` or as keyword changes):\n" + field_table().replace("\n    ", "\n        ")
+
+
+def _pyramid_target_px(params: LithoParams) -> int:
+    """Of a pyramid, the level to read: at least 4 source pixels per grid point, and at least 2048 px."""
+    return max(2048, 4 * (params.resolution_px or 0))
 
 
 def _check_grid(layout: Layout, mesher: str) -> None:

@@ -50,6 +50,13 @@ class ImageFile:
     nonfinite_pixels: int = 0
     transparent_pixels: int = 0
     notes: list[str] = field(default_factory=list)
+    # What the file holds beyond the plane read (vendor files, OME/ImageJ stacks); see vendor_read.
+    axes: dict[str, int] = field(default_factory=dict)  # axes present and their lengths: scenes, T, C, Z
+    channel_count: int = 0  # channels in the file (C axis, else colour samples); 0: as `channels`
+    channel_names: list[str] | None = None  # None where the format names no channels
+    wavelengths_nm: list[float | None] = field(default_factory=list)  # per channel: emission, else excitation
+    z_step_m: float | None = None
+    reader: str = ""  # the library (and version) that decoded the pixels, for provenance
 
 
 @dataclass
@@ -77,6 +84,7 @@ class _Decoded:
     tiff_tags: dict[int, object] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
     channel_chosen: bool = False  # a channel was already picked among the file's planes
+    facts: dict = field(default_factory=dict)  # ImageFile fields the reader knows (axes, channel_names, ...)
 
 
 MAX_DECODED_GB = 2.0  # default decoded-bytes guard: pixels × samples × bytes per sample, before decoding
@@ -84,7 +92,8 @@ MAX_DECODED_GB = 2.0  # default decoded-bytes guard: pixels × samples × bytes 
 
 def read_image(
     path, *, page: int | None = None, channel: str = "luminance", max_megapixels: float = 400.0, z_slice: int | None = None,
-    max_decoded_gb: float = MAX_DECODED_GB,
+    max_decoded_gb: float = MAX_DECODED_GB, time: int | None = None, scene: int | None = None,
+    target_px: int | None = None,
 ) -> Picture:
     """Read an image file by its content into a Picture.
 
@@ -99,29 +108,76 @@ def read_image(
     max_decoded_gb : refuse files whose decoded pixels (every plane read, all samples, at their
         own bit depth) would exceed this many GB (1e9 bytes), checked from the header before decoding.
         Peak memory while reading is about 2–3× this (the float32 working copies).
+    time : the time point of a time series (0-based); None: the first, with a note.
+    scene : the scene, series, image or position of a multi-scene file (CZI, LIF, ND2, EMD...);
+        None: the first, with a note. TIFF files choose their series with `page`.
+    target_px : of a pyramid (SVS, pyramidal TIFF, OME-Zarr), read the smallest level at least this
+        wide (default 2048), never the full-resolution slide when a smaller level fits the print.
     """
     limits = _Limits(max_megapixels, max_decoded_gb)
     path = Path(path)
+    if path.is_dir() and _vendor_kind(path):  # an OME-Zarr folder
+        from .vendor_read.picture import read_vendor
+
+        return read_vendor(path, _vendor_kind(path), page, channel, limits, z_slice, time, scene, target_px)
     _refuse_special(path)
     try:
-        data = path.read_bytes()
-    except FileNotFoundError:
-        raise InputError(f"{path}: no such file; check the name and folder.") from None
+        with path.open("rb") as fh:
+            head = fh.read(1024)
     except OSError as exc:
         raise InputError(f"{path}: cannot be read ({exc.strerror}); check its permissions.") from None
-    if not data:
+    if not head:
         raise InputError(f"{path}: the file is empty (0 bytes); it is not an image. Export it again.")
-    sha = hashlib.sha256(data).hexdigest()
-    head = data[:8]
+    kind = None if head[:4] in TIFF_MAGIC or head[:4] in DM_MAGIC else _vendor_kind(path)
+    if kind:
+        from .vendor_read.picture import read_vendor
+
+        return read_vendor(path, kind, page, channel, limits, z_slice, time, scene, target_px)
+    for name, value in (("time", time), ("scene", scene)):
+        if value:
+            raise ParameterError(f"{path}: {name} {value} asked for, but this file has no {name} axis; leave {name} out (TIFF series: page).")
+    try:
+        if head[:4] in TIFF_MAGIC or head[:4] in DM_MAGIC:  # hashed in pieces: a large stack never sits in memory whole
+            sha, data = _sha256_of(path), None
+        else:
+            data = path.read_bytes()
+            sha = hashlib.sha256(data).hexdigest()
+    except OSError as exc:
+        raise InputError(f"{path}: cannot be read ({exc.strerror}); check its permissions.") from None
     if head[:4] in TIFF_MAGIC:
-        decoded = _read_tiff(path, page, limits, z_slice, channel)
+        decoded = _read_tiff(path, page, limits, z_slice, channel, target_px or DEFAULT_TARGET_PX)
     elif head[:4] in DM_MAGIC:
-        decoded = _read_dm(path, limits, len(data))
+        decoded = _read_dm(path, limits, path.stat().st_size)
     else:
         decoded = _read_pillow(path, data, page, limits)
     if decoded.channel_chosen:
         channel = "luminance"  # the channel was chosen among the TIFF's planes
     return _to_picture(decoded, channel, name=path.name, sha=sha, path=str(path))
+
+
+DEFAULT_TARGET_PX = 2048  # pyramid level: the smallest at least this wide (prints use at most ~1000 grid points)
+
+
+def _vendor_kind(path: Path) -> str | None:
+    from .vendor_read import detect
+
+    try:
+        return detect(path)
+    except OSError:
+        return None  # the regular path reports it
+
+
+def _sha256_of(path: Path) -> str:
+    """SHA-256 of a file read in 1 MB pieces, or of a folder's files (name and bytes, sorted)."""
+    digest = hashlib.sha256()
+    files = sorted(p for p in path.rglob("*") if p.is_file()) if path.is_dir() else [path]
+    for file in files:
+        if path.is_dir():
+            digest.update(file.relative_to(path).as_posix().encode() + b"\0")
+        with file.open("rb") as fh:
+            for chunk in iter(lambda: fh.read(1 << 20), b""):
+                digest.update(chunk)
+    return digest.hexdigest()
 
 
 def _refuse_special(path: Path) -> None:
@@ -192,20 +248,38 @@ def _check_size(path, shape, limits: _Limits) -> None:
         )
 
 
-def _vendor_blocks(tif) -> dict:
-    """The metadata blocks tifffile decodes for microscope vendors and ImageJ/OME."""
+def _vendor_blocks(tif, data_page: int = 0) -> dict:
+    """The metadata blocks tifffile decodes for microscope vendors and ImageJ/OME.
+
+    Olympus SIS keeps its tags on the data page behind the JPEG preview: those are read from
+    `data_page` (tifffile's `sis_metadata` looks at page 0 only), falling back to page 0.
+    """
     meta = {}
-    for attr in ("fei_metadata", "sem_metadata", "sis_metadata", "imagej_metadata", "ome_metadata"):
+    from .read_stacks import sis_of_page
+
+    sis = sis_of_page(tif, data_page) if data_page else None
+    if sis:
+        meta["sis_metadata"] = sis
+    for attr in ("fei_metadata", "sem_metadata", "sis_metadata", "tvips_metadata", "imagej_metadata", "ome_metadata"):
+        if attr in meta:
+            continue
         try:
             value = getattr(tif, attr, None)
         except Exception:  # a broken vendor block must not stop the image from loading
             value = None
         if value:
             meta[attr] = value
+    if getattr(tif, "is_svs", False):
+        try:
+            from tifffile.tifffile import svs_description_metadata
+
+            meta["svs_metadata"] = svs_description_metadata(tif.pages[0].description)
+        except Exception:  # a broken description only loses the scale
+            pass
     return meta
 
 
-def _read_tiff(path, page, limits: _Limits, z_slice=None, channel="luminance") -> _Decoded:
+def _read_tiff(path, page, limits: _Limits, z_slice=None, channel="luminance", target_px=DEFAULT_TARGET_PX) -> _Decoded:
     """One 2-D plane (or Y X S colour plane) from a TIFF series, or from the data page beside a preview.
 
     Axes other than Y, X and S (colour samples) are reduced: Z by a maximum-intensity projection
@@ -216,21 +290,34 @@ def _read_tiff(path, page, limits: _Limits, z_slice=None, channel="luminance") -
 
     try:
         with tifffile.TiffFile(path) as tif:
+            from .read_stacks import pyramid_level, reduce_by_pages, tiff_z_step_m
+
             source = _tiff_source(path, tif, page)
+            level_notes, level_meta = pyramid_level(source, target_px)
             chosen, axes, shape = source.chosen, source.chosen.axes, source.chosen.shape
             if "Y" not in axes or "X" not in axes:
                 raise InputError(f"{path}: TIFF series with axes {axes!r} has no 2-D image plane.")
             _check_size(path, (shape[axes.index("Y")], shape[axes.index("X")]), limits)
             _check_bytes(path, shape, chosen.dtype, limits, f"TIFF series ({axes})")
-            meta = {"tiff_series_axes": axes, "tiff_series": source.series, **_vendor_blocks(tif)}
+            meta = {"tiff_series_axes": axes, "tiff_series": source.series, **_vendor_blocks(tif, source.tag_page), **level_meta}
             tags = {tag.code: tag.value for tag in tif.pages[0].tags}
             tags.update({tag.code: tag.value for tag in tif.pages[source.tag_page].tags} if source.tag_page else {})
-            plane = _reduce_axes(path, chosen.asarray(), axes, source.page, z_slice, channel, meta)
+            plane = reduce_by_pages(path, chosen, axes, shape, source.page, z_slice, channel, meta)
+            if plane is None:
+                plane = _reduce_axes(path, chosen.asarray(), axes, source.page, z_slice, channel, meta)
             if chosen.keyframe.photometric == tifffile.PHOTOMETRIC.SEPARATED and plane.array.ndim == 3:
                 plane.array = _cmyk_to_rgb(plane.array)
                 plane.notes.append("CMYK (separated) TIFF: converted to RGB, then to luminance.")
-            notes = source.notes + plane.notes
-            return _Decoded("TIFF", plane.array, meta, max(source.count, plane.planes), tags, notes, plane.channel_chosen)
+            notes = source.notes + level_notes + plane.notes
+            facts = {"axes": {a: int(n) for a, n in zip(axes, shape) if a not in "YXS" and n > 1}}
+            if "C" in axes:
+                names = _channel_names(meta)
+                facts.update(channel_count=int(shape[axes.index("C")]), channel_names=names or None)
+            if "Z" in axes:
+                facts["z_step_m"] = tiff_z_step_m(meta)
+            decoded = _Decoded("TIFF", plane.array, meta, max(source.count, plane.planes), tags, notes, plane.channel_chosen)
+            decoded.facts = facts
+            return decoded
     except (InputError, ParameterError):
         raise
     except MemoryError:
@@ -315,7 +402,12 @@ def _reduce_axes(path, array, axes, page, z_slice, channel, meta) -> _Plane:
 
 
 def _pick_channel(path, array, axes, channel, meta, notes):
-    n = array.shape[axes.index("C")]
+    index = _channel_choice(path, array.shape[axes.index("C")], channel, meta, notes)
+    return np.take(array, index, axis=axes.index("C")), axes.replace("C", "")
+
+
+def _channel_choice(path, n: int, channel, meta, notes) -> int:
+    """The C index `channel` names among `n` (a number, an OME/ImageJ name, or luminance: 0 with a note)."""
     names = _channel_names(meta)
     if channel.isdigit():
         index = int(channel)
@@ -330,7 +422,7 @@ def _pick_channel(path, array, axes, channel, meta, notes):
         raise ParameterError(f"{path}: channel {channel!r} is not one of 0–{n - 1}{' or ' + ', '.join(names) if names else ''}.")
     if not 0 <= index < n:
         raise ParameterError(f"{path}: `channel` must be 0–{n - 1}; got {index}.")
-    return np.take(array, index, axis=axes.index("C")), axes.replace("C", "")
+    return index
 
 
 def _pick_z(path, array, axes, z_slice, notes):
@@ -514,7 +606,9 @@ def _to_picture(decoded: _Decoded, channel, *, name, sha, path) -> Picture:
         metadata=decoded.metadata,
         tiff_tags=decoded.tiff_tags,
         notes=list(decoded.notes),
+        **decoded.facts,
     )
+    file.channel_count = file.channel_count or file.channels
     values, alpha = _grayscale(array, channel, name)
     values, alpha = _weigh_unknown(file, values, alpha)
     if file.nonfinite_pixels == h * w:

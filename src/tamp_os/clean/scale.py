@@ -73,6 +73,34 @@ def _sis(inp: _Inputs, warnings: list[str]) -> Found:
     return number(sis["pixelsizex"]), "Olympus SIS pixelsizex"
 
 
+def _vendor(inp: _Inputs, warnings: list[str]) -> Found:
+    """Vendor formats (CZI, LIF, ND2, OME-Zarr, MRC, TIA, EMD...): what their reader found, with its key."""
+    facts = inp.metadata.get("vendor")
+    if not facts or not facts.get("pixel_size_m"):
+        return None
+    return number(facts["pixel_size_m"][0]), f"{facts['format']} {facts['pixel_size_key']} (read by {facts['reader']})"
+
+
+def _tvips(inp: _Inputs, warnings: list[str]) -> Found:
+    """TVIPS EM-MENU (tag 37706): PixelSizeX in nm."""
+    tvips = inp.metadata.get("tvips_metadata")
+    if not tvips or "PixelSizeX" not in tvips:
+        return None
+    nm = number(tvips["PixelSizeX"])
+    return (nm * 1e-9 if nm is not None else None), "TVIPS tag 37706 PixelSizeX (nm)"
+
+
+def _svs(inp: _Inputs, warnings: list[str]) -> Found:
+    """Aperio SVS: MPP (µm per pixel of level 0) in the ImageDescription, times the level's downsampling."""
+    svs = inp.metadata.get("svs_metadata")
+    if not svs or "MPP" not in svs:
+        return None
+    mpp = number(svs["MPP"])
+    down = float(inp.metadata.get("pyramid_downsample", 1.0))
+    where = "Aperio SVS MPP" + (f" × {down:.3g} (pyramid level {inp.metadata.get('pyramid_level')})" if down != 1.0 else "")
+    return (mpp * 1e-6 * down if mpp is not None else None), where
+
+
 DM_SCALE_TAGS = (65009, 65010)  # DigitalMicrograph's TIFF: scale per pixel along x, then y
 DM_UNIT_TAGS = (65003, 65012)  # ... and the length unit, where versions put it
 
@@ -160,7 +188,9 @@ def _ome(inp: _Inputs, warnings: list[str]) -> Found:
         return None
     unit = unit_factor_m(pixels.attrib.get("PhysicalSizeXUnit", "µm"))
     value = number(pixels.attrib["PhysicalSizeX"])
-    return (value * unit if value is not None and unit else None), "OME PhysicalSizeX"
+    down = float(inp.metadata.get("pyramid_downsample", 1.0))  # PhysicalSizeX is level 0's
+    where = "OME PhysicalSizeX" + (f" × {down:.3g} (pyramid level {inp.metadata.get('pyramid_level')})" if down != 1.0 else "")
+    return (value * unit * down if value is not None and unit else None), where
 
 
 def _dm(inp: _Inputs, warnings: list[str]) -> Found:
@@ -176,7 +206,7 @@ def _dm(inp: _Inputs, warnings: list[str]) -> Found:
     return (value * unit if value is not None else None), "DigitalMicrograph calibration"
 
 
-READERS = (_fei, _zeiss, _sis, _dm_tiff_tags, _tescan, _sidecar_txt, _imagej, _ome, _dm)  # most specific first
+READERS = (_vendor, _fei, _zeiss, _sis, _tvips, _svs, _dm_tiff_tags, _tescan, _sidecar_txt, _imagej, _ome, _dm)  # most specific first
 
 
 def _plausible(value_m: float | None, provenance: str, warnings: list[str]) -> bool:

@@ -35,8 +35,12 @@ FIELDS = {f.name: f for f in (
     Field("detail_mm", "Finest shape (mm)", "Smaller detail becomes a low texture; leave empty for 2 mm.", "decimal"),
     Field("texture_mm", "Texture height (mm)", "Height of that fine texture; 0 for none.", "decimal"),
     Field("level_count", "Number of levels", "For the levels style: 2 to 5.", "numeric"),
+    Field("channel", "Channel", "luminance, or a channel's number (from 0) or name, as listed under the image."),
+    Field("z_slice", "Z slice", "Leave empty for a projection of the whole z-stack; else a slice number from 0.", "numeric"),
+    Field("time", "Time point", "Leave empty for the first time point; else a number from 0.", "numeric"),
+    Field("scene", "Scene or series", "Leave empty for the first scene of a multi-scene file; else a number from 0.", "numeric"),
 )}
-TEXT_FIELDS = ("caption", "pixel_size", "scale_bar")
+TEXT_FIELDS = ("caption", "pixel_size", "scale_bar", "channel")
 # The relief styles in the web app's words: what each is for.
 STYLE_CHOICES = (
     ("structure", "Shapes to feel (recommended)", "Large shapes a fingertip can follow; fine detail kept only as a low texture."),

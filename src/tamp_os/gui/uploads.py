@@ -32,6 +32,7 @@ class Upload:
     reason: str
     thumb: str = ""  # file name in the job's thumbs folder
     override: str = ""
+    contents: str = ""  # axes and channels of a microscope file, in words ("2 channels: DAPI, GFP")
 
 
 def decoded_bytes(path: Path) -> tuple[int, int, int] | None:
@@ -48,13 +49,17 @@ def decoded_bytes(path: Path) -> tuple[int, int, int] | None:
 
         try:
             with tifffile.TiffFile(path) as tif:
-                series = tif.series[0]
+                series = _level_read(tif.series[0])
                 x, y = series.shape[series.axes.index("X")], series.shape[series.axes.index("Y")]
                 return int(x), int(y), int(np.prod(series.shape)) * series.dtype.itemsize
         except Exception:
             raise InputError(f"{path.name} looks like a TIFF file but is damaged, so it cannot be read. Export it again.") from None
     if head[:4] == b"\x00\x00\x00\x04" or head[:4] == b"\x00\x00\x00\x03":
         return None  # Digital Micrograph
+    from ..read import _vendor_kind
+
+    if _vendor_kind(path):
+        return None  # a microscope vendor's file: its reader prices the planes it reads before decoding
     from PIL import Image, UnidentifiedImageError
 
     try:
@@ -70,9 +75,18 @@ def decoded_bytes(path: Path) -> tuple[int, int, int] | None:
         raise InputError(f"{path.name} is damaged or truncated, so it cannot be read. Export it again.") from None
 
 
+def _level_read(series):
+    """The pyramid level read.py reads (the smallest at least 2048 px wide): that is what is decoded."""
+    from ..read import DEFAULT_TARGET_PX
+
+    levels = getattr(series, "levels", None) or [series]
+    wide = [lv for lv in levels if lv.shape[lv.axes.index("X")] >= DEFAULT_TARGET_PX]
+    return min(wide, key=lambda lv: lv.shape[lv.axes.index("X")]) if wide else levels[0]
+
+
 def not_an_image(name: str) -> str:
     return (f"{name} is not an image TAMP-OS can read. Choose a PNG, JPEG, TIFF (also microscope TIFFs), "
-            "BMP, GIF, WebP or DM3/DM4 file.")
+            "BMP, GIF, WebP or DM3/DM4 file, or a microscope file (CZI, LIF, ND2, TIA .ser, EMD, HyperSpy, MRC, JEOL .img, Phenom .elid).")
 
 
 def check_size(path: Path, max_decoded_mb: float) -> None:
@@ -108,7 +122,7 @@ def inspect_upload(path: Path, name: str, thumbs: Path, index: int, max_decoded_
 
     check_size(path, max_decoded_mb)
     try:
-        picture = read_image(path, max_megapixels=max_decoded_mb)  # one byte per pixel at least
+        picture = read_image(path, max_megapixels=max_decoded_mb, max_decoded_gb=max_decoded_mb / 1000)  # one byte per pixel at least
     except TampError as exc:
         raise InputError(plain_error(exc, path, name)) from None
     standard = BUILTIN_PRINTERS["standard"]  # the printer is chosen later; judge at its width and nozzle
@@ -116,7 +130,19 @@ def inspect_upload(path: Path, name: str, thumbs: Path, index: int, max_decoded_
     preset, reason = suggestion.preset, suggestion.reason
     thumb = f"{index}.png"
     write_png(thumbs / thumb, thumbnail(picture.values))
-    return Upload(name, path, picture.file.width, picture.file.height, preset, reason, thumb)
+    return Upload(name, path, picture.file.width, picture.file.height, preset, reason, thumb, contents=contents_words(picture.file))
+
+
+def contents_words(file) -> str:
+    """'3 time points, 2 channels: ChA-T1 (579 nm), ChA-T2 (522 nm)': what a microscope file holds beyond one plane."""
+    words = {"scenes": "scenes", "T": "time points", "Z": "z slices"}
+    parts = [f"{n} {words[a]}" for a, n in file.axes.items() if a in words]
+    if file.channel_count > 1 or file.channel_names:
+        names = file.channel_names or []
+        waves = list(file.wavelengths_nm) + [None] * len(names)
+        named = ", ".join(f"{n} ({w:.0f} nm)" if w else n for n, w in zip(names, waves))
+        parts.append(f"{file.channel_count} channel{'s' if file.channel_count != 1 else ''}" + (f": {named}" if named else ""))
+    return ", ".join(parts)
 
 
 def thumbnail(values: np.ndarray, size_px: int = THUMB_PX) -> np.ndarray:

@@ -82,3 +82,24 @@ def test_help_shows_each_fields_unit_range_and_meaning():
     for needle in ("relief_mm", "height of the relief above the base", "mm", "> 0.0 and ≤ 50.0", "pixel_size"):
         assert needle in text, needle
     assert "relief_mm" in make.__doc__ and "> 0.0 and ≤ 50.0" in make.__doc__
+
+
+def test_the_report_is_typed_frozen_and_keeps_its_json_keys():
+    import dataclasses
+    import json
+
+    from tamp_os.report import Plate
+
+    litho = make_lithograph(np.pad(np.ones((30, 40)), 8), preset="low", pixel_size="1um", caption="A")
+    r = litho.report
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        r.triangles = 0
+    assert isinstance(r.tactile, Plate) and r.tactile.scale_bar_m > 0 and r.tactile.scale_bar_mm >= 8
+    assert r.tactile.scale_bar_label and r["tactile"]["scale_bar_label"] == r.tactile.scale_bar_label
+    d = r.as_dict()
+    json.dumps(d)  # plain JSON all the way down
+    for key in ("input", "print_mm", "tactile", "crop", "annotations", "warnings", "legibility", "instrument", "relief_style"):
+        assert key in d, key
+    assert d["legibility"]["verdicts"] == list(r.legibility.verdicts) and "levels_mm" in d["legibility"]
+    assert d["crop"] == {"top_rows": 0, "bottom_rows": 0, "left_columns": 0, "right_columns": 0, "source": None}
+    assert "print" not in d and r.get("print") is None

@@ -344,4 +344,6 @@ def _tactile_report(placed: Placed | None) -> Plate | None:
         braille_dots=placed.dots,
         scale_label_beside=placed.scale_label_beside,
         orientation="cut corner at the top right" if placed.corner_cut_mm else None,
+        scale_bar_m=placed.scale_bar_m,
+        scale_bar_mm=placed.scale_bar_mm,
     )

@@ -35,6 +35,8 @@ class Plate(Facts):
     braille_dots: int
     scale_label_beside: bool
     orientation: str | None  # "cut corner at the top right", or None
+    scale_bar_m: float | None = None  # the scale bar's chosen length in the sample, in metres
+    scale_bar_mm: float | None = None  # and on the print
 
 
 @dataclass(frozen=True)

@@ -8,6 +8,7 @@ own check (STEP's size limit) first, and raises ExportError instead of writing a
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from pathlib import Path
 from typing import BinaryIO, Callable, Iterable
@@ -33,10 +34,20 @@ class Exporter:
 
 
 def _registry() -> dict[str, Exporter]:
-    """The mesh formats of the format table (formats.py), with their writers and checks."""
-    from ..formats import TABLE
+    """Every mesh format of the format table (formats.py), with its writer and check."""
+    from ..formats import MESH_FORMATS
 
-    return {f.name: Exporter(f.write_function(), f.check_function() or _no_check) for f in TABLE if f.kind == "mesh"}
+    return {name: _exporter(name) for name in MESH_FORMATS}
+
+
+@functools.lru_cache(maxsize=None)
+def _exporter(name: str) -> Exporter:
+    """One format's writer and check, imported only when that format is written (STEP's writer
+    alone pulls in scipy.sparse)."""
+    from ..formats import BY_NAME
+
+    f = BY_NAME[name]
+    return Exporter(f.write_function(), f.check_function() or _no_check)
 
 
 def format_of(path: Path) -> str:
@@ -51,7 +62,7 @@ def format_of(path: Path) -> str:
 
 
 def exporter_for(path: Path) -> Writer:
-    return _registry()[format_of(path)].write
+    return _exporter(format_of(path)).write
 
 
 def check_export(mesh: Mesh, paths: Iterable) -> None:
@@ -62,7 +73,7 @@ def check_export(mesh: Mesh, paths: Iterable) -> None:
     from ..mesh.validate import check_as_written
 
     paths = [Path(p) for p in paths]
-    exporters = {format_of(p): _registry()[format_of(p)] for p in paths}
+    exporters = {format_of(p): _exporter(format_of(p)) for p in paths}
     check = check_as_written(mesh)
     if not check.ok:
         names = ", ".join(p.name for p in paths)

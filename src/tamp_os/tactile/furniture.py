@@ -84,6 +84,8 @@ class Placed:
     caption_box: Box | None = None
     scale_bar_box: Box | None = None
     scale_label: str | None = None
+    scale_bar_m: float | None = None  # the sample length the bar stands for
+    scale_bar_mm: float | None = None  # the bar's length on the print
     scale_label_braille: str | None = None
     scale_label_box: Box | None = None
     scale_label_beside: bool = True  # the label is right of the bar (else below it)
@@ -193,6 +195,7 @@ def _plan_scale_bar(plan: Plan, bar: ScaleBar, top_mm: float) -> float:
     placed = plan.placed
     placed.scale_bar_box = (x0, mid - TICK_LENGTH_MM / 2, x0 + bar.length_mm, mid + TICK_LENGTH_MM / 2)
     placed.scale_label = bar.label
+    placed.scale_bar_m, placed.scale_bar_mm = bar.value_m, round(bar.length_mm, 3)
     placed.scale_label_braille = "\u2800".join(bar.label_lines)
     placed.scale_label_box = (lx, ly - label_h, lx + label_w, ly)
     placed.scale_label_beside = bar.beside

@@ -160,7 +160,7 @@ def _add_presets_and_plate(sub) -> None:
     _param_options(presets)
 
     printers = sub.add_parser("printers", help="list printer profiles and PrusaSlicer's system printers for --printer")
-    printers.add_argument("--vendor", default=None, help="only this vendor's system printers (e.g. PrusaResearch, Creality)")
+    printers.add_argument("--vendor", default=None, help="only this vendor's printers (e.g. prusa, bambu, creality)")
 
     plate = sub.add_parser(
         "braille-test-plate", help="a plate of the same braille at several dot heights and diameters",
@@ -531,18 +531,27 @@ def cmd_presets(args) -> int:
 
 
 def cmd_printers(args) -> int:
+    from .printer_table import installed_preset, printers_of, vendor_name
     from .printers import all_printers
     from .prusa_presets import system_printers
 
     print("Profiles (G-code from these is for estimates only, not for a real printer):")
     for p in all_printers().values():
         print(f"{p.name}: nozzle {p.nozzle_mm:g} mm, layer {p.layer_mm:g} mm, width {p.width_mm:g} mm, {p.description}")
-    found = [p for p in system_printers() if not args.vendor or p.vendor.lower() == args.vendor.lower()]
+    table = printers_of(args.vendor)
+    print(f"Today's printers ({len(table)}; --printer takes the name or a short form such as mk4 or 'a1 mini'; "
+          "the 3MF carries their print settings):")
+    for model in table:
+        preset = installed_preset(model)
+        print(model.line() + (f"; G-code from PrusaSlicer's {preset!r}" if preset else "; no G-code here, print from the 3MF"))
+        print(f"  source: {model.source}")
+    wanted = vendor_name(args.vendor).replace(" ", "").lower() if args.vendor else None
+    found = [p for p in system_printers() if not wanted or p.vendor.lower() == wanted]
     print(f"PrusaSlicer system printers ({len(found)}; give the name in quotes to --printer for G-code you can print):")
     for p in found:
         print(p.line())
-    if not found:
-        print("none found: install PrusaSlicer (apt-get install prusa-slicer), or check the --vendor name.")
+    if not found and not table:
+        print(f"none found for vendor {args.vendor!r}: try prusa, bambu or creality, or install PrusaSlicer (apt-get install prusa-slicer).")
     return EXIT_OK
 
 

@@ -129,7 +129,7 @@ def make_lithograph(source, params: LithoParams | None = None, *, printer_profil
     sample_per_mm = cleaned.pixel_size.metres * prepared.fitted_width_px / layout.width_mm if cleaned.pixel_size.metres else None
     furniture = _furniture(params, sample_per_mm)
     with clock("tactile"):
-        tactile = _tactile(mesh, layout, params, furniture)
+        tactile = _tactile(mesh, layout, params, furniture, machine.bed_mm)
     later = flattening + list(tactile.placed.notes if tactile.placed else []) + list(relief.notes) + list(tactile.tiles.notes if tactile.tiles else [])
     report = _report(picture, cleaned, prepared, layout, params, machine, tactile.mesh, tactile.placed, max_error, timings, later)
     report.relief_style, report.relief_reason = relief.style, relief.reason
@@ -146,17 +146,20 @@ class _Tactile:
     tiles: Tiling | None  # tiles for a bed smaller than the plate (bed_mm)
 
 
-def _tactile(relief_mesh: Mesh, layout: Layout, params: LithoParams, furniture: Furniture) -> _Tactile:
-    """Furniture (plate, braille, scale bar, frame, cut corner), then two-colour parts or tiles."""
+def _tactile(relief_mesh: Mesh, layout: Layout, params: LithoParams, furniture: Furniture,
+             printer_bed_mm: tuple[float, float] | None = None) -> _Tactile:
+    """Furniture (plate, braille, scale bar, frame, cut corner), then two-colour parts or tiles: for
+    bed_mm, or else for the printer's own bed (printer_table.py) when the plate is larger than it."""
     mesh, placed = relief_mesh, None
     if furniture.wanted or furniture.corner_cut:
         mesh, placed = add_furniture(relief_mesh, layout.width_mm, layout.depth_mm, params.base_mm, furniture)
     parts = two_colour_parts(relief_mesh, layout.width_mm, layout.depth_mm, params.base_mm, furniture)[0] if params.multicolour else None
     tiles = None
-    if params.bed_mm:
+    bed = parse_bed_mm(params.bed_mm) if params.bed_mm else (printer_bed_mm if not params.multicolour else None)
+    if bed:
         (ox, oy), legs = (placed.relief_origin_mm, placed.corner_cut_mm) if placed else ((0.0, 0.0), 0.0)
         picture_box = (ox, oy, ox + layout.width_mm, oy + layout.depth_mm)
-        tiles = tiles_for(mesh, parse_bed_mm(params.bed_mm), params.base_mm, furniture.spec, picture_box, legs)
+        tiles = tiles_for(mesh, bed, params.base_mm, furniture.spec, picture_box, legs)
     return _Tactile(mesh, placed, parts, tiles)
 
 

@@ -45,8 +45,8 @@ class PrinterModel:
 
     def line(self) -> str:
         w, d, h = self.bed_mm
-        layers = ", ".join(f"{v:g}" for v in self.layers_mm)
-        return f"{self.model} ({self.vendor}): bed {w:g} × {d:g} × {h:g} mm, nozzle {self.nozzle_mm:g} mm, layers {layers} mm; {self.source}"
+        layers = f"{min(self.layers_mm):g}–{max(self.layers_mm):g}"
+        return f"{self.model} ({self.vendor}): bed {w:g} × {d:g} × {h:g} mm, nozzle {self.nozzle_mm:g} mm, layers {layers} mm"
 
 
 PRINTERS: tuple[PrinterModel, ...] = (

@@ -38,7 +38,8 @@ def metadata(litho) -> dict:
     settings = settings_for(litho.printer, litho.params.material)
     return {
         "title": f"Tactile lithograph of {litho.picture.file.name}",
-        "description": " ".join([describe(litho.report, litho.params, litho.picture.file.name), *multipart_sentences(litho)]),
+        "description": " ".join([describe(litho.report, litho.params, litho.picture.file.name), *multipart_sentences(litho),
+                                 settings.sentence()]),
         "designer": "TAMP-OS",
         "application": f"TAMP-OS {__version__}",
         "print_settings": settings,

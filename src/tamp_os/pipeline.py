@@ -29,6 +29,7 @@ from .report import Report
 from .tactile.furniture import Furniture, Placed, add_furniture
 from .tactile.parts import two_colour_parts
 from .tiles import Tiling, parse_bed_mm, tiles_for
+from .layout_words import find_layout
 from .units import parse_length_m
 
 log = logging.getLogger(__name__)
@@ -134,6 +135,8 @@ def make_lithograph(source, params: LithoParams | None = None, *, printer_profil
     report = _report(picture, cleaned, prepared, layout, params, machine, tactile.mesh, tactile.placed, max_error, timings, later)
     report.relief_style, report.relief_reason = relief.style, relief.reason
     report.legibility = _legibility_report(legibility, relief)
+    if not report.uniform:  # where the raised shapes are, for the description (layout_words.py)
+        report.layout = find_layout(heights, layout.mm_per_px, params.base_mm, params.relief_mm).as_dict()
     return Lithograph(mesh=tactile.mesh, heightmap=heights, params=params, printer=machine, layout=layout, picture=picture,
                       report=report, furniture=furniture, mask=cleaned.source_mask(), parts=tactile.parts, tiles=tactile.tiles)
 

@@ -87,7 +87,7 @@ PRINTERS: tuple[PrinterModel, ...] = (
                  "https://www.elegoo.com/products/elegoo-neptune-4-pro-fdm-3d-printer"),
 )
 
-# Vendor names as people type them (`--vendor prusa`), and PrusaSlicer's bundle ids.
+# Vendor names as people type them ("prusa"), and PrusaSlicer's bundle ids.
 VENDOR_ALIASES = {
     "prusa": "Prusa Research", "prusaresearch": "Prusa Research", "prusa research": "Prusa Research",
     "bambu": "Bambu Lab", "bambulab": "Bambu Lab", "bambu lab": "Bambu Lab", "bbl": "Bambu Lab",

@@ -43,6 +43,7 @@ class Report:
     relief_reason: str = ""  # why that style, or what it did, in one sentence
     legibility: dict | None = None  # relief.legibility.Legibility.as_dict(): figures and verdicts
     instrument: dict | None = None  # magnification, kv, detector, signal, source when the file records them
+    layout: dict | None = None  # layout_words.ReliefLayout.as_dict(): the raised pieces and where they are
 
     def as_dict(self) -> dict:
         """The report as a plain dict (JSON-ready), with the keys of the earlier untyped report
@@ -107,34 +108,87 @@ def _instrument_sentence(instrument: dict) -> str:
 
 
 def describe(report: Report, params: LithoParams, source_name: str) -> str:
-    """A plain-language description of the object for people who cannot see it."""
+    """A plain-language description of the object for people who cannot see it, written as alt text:
+    what the print shows, its layout (what is raised, how many, where), then scale, caption and
+    orientation, and the technical figures last."""
     w, d, h = report.print_mm
     rw, rd = report.relief_mm
-    parts = [
-        f"A tactile relief of the image {source_name}.",
-        f"The object is {w:g} mm wide, {d:g} mm deep and up to {h:g} mm high, on a {params.base_mm:g} mm base.",
-        f"The picture itself is {rw:g} by {rd:g} mm. The top edge of the image is the far edge of the print.",
-        _what_is_raised(report, params),
-        f"Scale: {report.scale}.",
-    ]
+    t = report.tactile or {}
+    parts = [_what_it_shows(report, params, source_name), _what_is_raised(report, params)]
+    layout = _layout_sentence(report)
+    if layout:
+        parts.append(layout)
+    if report.pixel_size_m:
+        parts.append(f"Scale: {report.scale}.")
+    if t.get("scale_bar_box_mm"):
+        parts.append(
+            f"Below the picture, at the left, a raised scale bar with end ticks stands for {t['scale_bar_label']} "
+            f"in the sample; its value is in braille {'to its right' if t['scale_label_beside'] else 'below it'}."
+        )
+    if t.get("caption_braille"):
+        parts.append(f"Along the bottom margin, a braille caption reads: {params.caption}.")
+    if t.get("frame_box_mm"):
+        parts.append(f"A raised frame {params.frame_mm:g} mm wide surrounds the picture.")
+    if t.get("orientation"):
+        parts.append("The top right corner of the plate is cut off: hold the print with that corner at the top right, "
+                     "and the top of the image is the far edge.")
+    else:
+        parts.append("The top edge of the image is the far edge of the print.")
+    parts.append(f"The print is {_mm(w)} mm wide, {_mm(d)} mm deep and up to {_mm(h)} mm high, on a {params.base_mm:g} mm base; "
+                 f"the picture on it is {_mm(rw)} by {_mm(rd)} mm.")
+    if not report.pixel_size_m:
+        parts.append("No physical scale is known for the image.")
     if not report.uniform and touch_notes(report):
-        parts.append("What a finger will find: " + " ".join(touch_notes(report)))
+        parts.append("For the maker: " + " ".join(touch_notes(report)))
     if report.instrument:
         parts.append(_instrument_sentence(report.instrument))
-    t = report.tactile
-    if t:
-        if t["orientation"]:
-            parts.append("The top right corner of the plate is cut off at 45 degrees: hold the print with that corner at the top right.")
-        if t["frame_box_mm"]:
-            parts.append(f"A raised frame {params.frame_mm:g} mm wide surrounds the picture.")
-        if t["scale_bar_box_mm"]:
-            parts.append(
-                f"Below the picture, at the left, a raised scale bar with end ticks stands for {t['scale_bar_label']} "
-                f"in the sample; its value is in braille {'to its right' if t['scale_label_beside'] else 'below it'}."
-            )
-        if t["caption_braille"]:
-            parts.append(f"Along the bottom margin, a braille caption reads: {params.caption}.")
     return " ".join(parts)
+
+
+def _mm(value: float) -> str:
+    """A length as read aloud: to 0.1 mm (a finger's resolution is 1 mm)."""
+    return f"{round(value, 1):g}"
+
+
+_SEM_SOURCES = ("SEM", "FEI", "THERMO", "TESCAN", "HITACHI", "ZEISS", "JEOL")
+
+
+def _modality(instrument: dict | None) -> str | None:
+    """'a scanning electron microscope (SEM) image' and the like, from what the file records."""
+    if not instrument:
+        return None
+    signal = instrument.get("signal")
+    if signal == "STEM":
+        return "a scanning transmission electron microscope (STEM) image"
+    electrons = {"SE": " made with secondary electrons", "BSE": " made with backscattered electrons"}.get(signal or "", "")
+    if electrons or any(word in str(instrument.get("source", "")).upper() for word in _SEM_SOURCES):
+        return f"a scanning electron microscope (SEM) image{electrons}"
+    return None
+
+
+def _what_it_shows(report: Report, params: LithoParams, source_name: str) -> str:
+    """The first sentence: the subject the user gave, and the kind of image when the file says it."""
+    subject = (getattr(params, "subject", None) or "").strip().rstrip(".")
+    kind = _modality(report.instrument)
+    if subject and kind:
+        return f"A tactile print of {subject}, from {kind}."
+    if subject:
+        return f"A tactile print of {subject}."
+    if kind:
+        return f"A tactile print of {kind} ({source_name})."
+    return f"A tactile print of the image {source_name}."
+
+
+def _layout_sentence(report: Report) -> str | None:
+    """Where the raised shapes are (layout_words.py), or None for a flat plate or no layout."""
+    if report.uniform or not report.layout:
+        return None
+    from .layout_words import ReliefLayout, layout_sentence
+
+    layout = ReliefLayout.from_dict(report.layout)
+    noun = {"objects": "dome", "levels": "raised area"}.get(report.relief_style, "raised shape")
+    counted = report.relief_style == "objects" and (report.legibility or {}).get("object_count") == len(layout.pieces)
+    return layout_sentence(layout, noun, counted=counted)
 
 
 def _what_is_raised(report: Report, params: LithoParams) -> str:
@@ -150,8 +204,10 @@ def _what_is_raised(report: Report, params: LithoParams) -> str:
                 f"{lowered} parts of the image lowest, {raised} parts highest.")
     if report.relief_style == "objects":
         n = (report.legibility or {}).get("object_count", 0)
-        return (f"{n} object{'s' if n != 1 else ''} found in the picture stand{'s' if n == 1 else ''} up as rounded domes, "
-                f"up to {up} above the base, over a flat, lightly textured background.")
+        from .layout_words import count_words
+
+        return (f"{count_words(n, 'object').capitalize()} found in the picture {'stands' if n == 1 else 'stand'} up as "
+                f"rounded domes, up to {up} above the base, over a flat, lightly textured background.")
     if report.relief_style == "structure":
         return (f"The {raised} parts of the image are raised, up to {up} above the base, simplified to shapes a "
                 f"fingertip can follow; finer detail is kept only as a low texture.")

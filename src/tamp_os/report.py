@@ -139,7 +139,7 @@ def describe(report: Report, params: LithoParams, source_name: str) -> str:
     if not report.pixel_size_m:
         parts.append("No physical scale is known for the image.")
     if not report.uniform and touch_notes(report):
-        parts.append("For the maker: " + " ".join(touch_notes(report)))
+        parts.append("What a finger will find: " + " ".join(touch_notes(report)))
     if report.instrument:
         parts.append(_instrument_sentence(report.instrument))
     return " ".join(parts)

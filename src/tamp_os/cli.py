@@ -96,6 +96,7 @@ def _add_convert_and_batch(sub) -> None:
     convert.add_argument("images", nargs="*", metavar="IMAGE", help="image files (read by content, any extension)")
     convert.add_argument("-o", "--output", default=".", metavar="DIR", help="output folder (default: current folder)")
     convert.add_argument("--recipe", metavar="FILE", help="rebuild exactly from a NAME.tamp.json recipe")
+    convert.add_argument("--verbose", action="store_true", help="after each result line, the mesh, printer, scale and every file written")
     _param_options(convert)
 
     batch = sub.add_parser("batch", help="convert many images; resumes where it stopped", description=(
@@ -115,7 +116,7 @@ def _add_sweep_and_render(sub) -> None:
     sweep = sub.add_parser("sweep", help="one image with parameters varied, and a contact sheet")
     sweep.add_argument("image", metavar="IMAGE")
     sweep.add_argument("--vary", action="append", required=True, metavar="NAME=V1,V2",
-                       help="a parameter and its values, e.g. resolution=64,128,256 (repeat for a grid)")
+                       help="an option and its values, e.g. resolution=64,128,256 or relief-style=structure,levels (repeat for a grid)")
     sweep.add_argument("-o", "--output", default="sweep-output", metavar="DIR", help="output folder (default sweep-output)")
     sweep.add_argument("--no-render", action="store_true", help="skip the sheet of rendered previews")
     _param_options(sweep)
@@ -293,8 +294,10 @@ def cmd_convert(args) -> int:
 
     def convert(job_and_stem):
         (image, job_params, printer), stem = job_and_stem
-        litho = make_lithograph(image, job_params, printer_profile=printer)
-        lines = _save_and_say(litho, Path(args.output), stem)
+        with _WorkingLine(Path(image).name):  # its line is cleared before the warnings and results are printed
+            litho = make_lithograph(image, job_params, printer_profile=printer)
+            lines = _save_and_say(litho, Path(args.output), stem, verbose=args.verbose, warn=False)
+        _print_warnings(litho)
         if stem != (image.stem or "lithograph"):
             lines.append(f"  note: named {stem} because another input of this run has the same name")
         return lines
@@ -302,21 +305,27 @@ def cmd_convert(args) -> int:
     return _run_each(list(zip(jobs, stems)), convert, args.debug)
 
 
-def _save_and_say(litho, out: Path, stem: str | None = None) -> list[str]:
-    """Save (and slice, when asked) one lithograph; its warnings to stderr, its lines returned."""
-    from .report import removed_notes, summary_line
+def _print_warnings(litho) -> None:
+    for warning in litho.report.warnings:
+        print(f"warning: {in_cli_words(warning)}", file=sys.stderr)
+
+
+def _save_and_say(litho, out: Path, stem: str | None = None, verbose: bool = False, warn: bool = True) -> list[str]:
+    """Save (and slice, when asked) one lithograph; its warnings to stderr (unless `warn` is False), its lines returned."""
+    from .report import detail_lines, removed_notes, summary_line
 
     written = litho.save(out, stem=stem)
     if litho.params.gcode:
         from .slicer import slice_outputs
 
         written = slice_outputs(litho, written)
-    for warning in litho.report.warnings:
-        print(f"warning: {in_cli_words(warning)}", file=sys.stderr)
-    lines = [summary_line(litho.report, [p.name for p in written])] + [f"  note: {n}" for n in removed_notes(litho.report)]
+    if warn:
+        _print_warnings(litho)
+    names = [p.name for p in written]
+    lines = [summary_line(litho.report, names)] + [f"  note: {in_cli_words(n)}" for n in removed_notes(litho.report)]
     if litho.report.print:
-        lines.append(f"  print: {litho.report.print['summary']}")
-    return lines
+        lines.append(f"  print: {in_cli_words(litho.report.print['summary'])}")
+    return lines + (detail_lines(litho.report, names) if verbose else [])
 
 
 def cmd_batch(args) -> int:
@@ -367,6 +376,51 @@ def _dask_client(address: str):
         ) from None
 
 
+class _WorkingLine:
+    """On a terminal, one line on stderr once a single conversion has run PROGRESS_AFTER_S seconds,
+    rewritten each second with the time so far and cleared at the end; nothing when not a terminal
+    (a pipe, a log file or a screen reader's transcript gets only the result lines)."""
+
+    PROGRESS_AFTER_S = 2.0
+
+    def __init__(self, name: str, stream=None):
+        self.name, self.stream = name, stream or sys.stderr
+        self.shown = False
+        self._stop = None
+
+    def __enter__(self):
+        import threading
+        import time
+
+        if not self.stream.isatty():
+            return self
+        self._stop = threading.Event()
+        start = time.monotonic()
+
+        def tick():
+            if self._stop.wait(self.PROGRESS_AFTER_S):
+                return
+            while True:
+                self.stream.write(f"\r{self.name}: working, {time.monotonic() - start:.0f} s so far…")
+                self.stream.flush()
+                self.shown = True
+                if self._stop.wait(1.0):
+                    return
+
+        self._thread = threading.Thread(target=tick, daemon=True)
+        self._thread.start()
+        return self
+
+    def __exit__(self, *exc):
+        if self._stop is not None:
+            self._stop.set()
+            self._thread.join()
+            if self.shown:
+                self.stream.write("\r\x1b[K")
+                self.stream.flush()
+        return False
+
+
 class _BatchProgress:
     """A progress bar on a terminal; otherwise one plain line per finished input."""
 
@@ -392,11 +446,23 @@ class _BatchProgress:
             self.bar.close()
 
 
+def _vary_in_field_names(specs: list[str]) -> list[str]:
+    """--vary in this command's spellings (relief-style=…, --slice=…, height-mm=…) as the library's names."""
+    by_option = {flag.lstrip("-"): name for name, flag in _flags().items()}
+    by_option.update({old.lstrip("-"): name for name, old in OLD_OPTION_NAMES.items()})
+    out = []
+    for spec in specs:
+        name, sep, values = spec.partition("=")
+        key = name.strip().lstrip("-")
+        out.append(f"{by_option.get(key, key)}{sep}{values}")
+    return out
+
+
 def cmd_sweep(args) -> int:
     from .sweep import parse_vary, run_sweep
 
     params = _params_from_args(args)
-    vary = parse_vary(args.vary)
+    vary = parse_vary(_vary_in_field_names(args.vary))
     result = run_sweep(Path(args.image), params, vary, Path(args.output), render=not args.no_render)
     from .report import summary_line
 
@@ -526,7 +592,7 @@ def cmd_presets(args) -> int:
             f"{about}{row['triangles']:,} triangles, estimated {sizes}"
         )
     if suggestion:
-        print(f"suggested for {Path(args.image).name}: {suggestion.preset.capitalize()}, because {suggestion.reason}.")
+        print(f"suggested for {Path(args.image).name}: {suggestion.preset.capitalize()}, because {in_cli_words(suggestion.reason)}.")
     return EXIT_OK
 
 
@@ -672,7 +738,7 @@ def cmd_info(args) -> int:
     if cleaned.instrument:
         print(f"instrument: {_instrument_words(facts['instrument'])}")
     for note in facts["notes"]:
-        print(f"note: {note}")
+        print(f"note: {in_cli_words(note)}")
     return EXIT_OK
 
 

@@ -5,6 +5,7 @@ print, and the web app's summary lines."""
 from __future__ import annotations
 
 import dataclasses
+import os
 from dataclasses import dataclass
 
 from .params import LithoParams
@@ -61,16 +62,63 @@ class Report:
         return self.as_dict().get(key, default)
 
 
+MAX_LINE_CHARS = 160  # a result line a screen reader reads in one go; details go to --verbose and the report
+
+
 def summary_line(report: Report, written_names: list[str]) -> str:
-    """One plain line per converted file, as `tamp-os convert` prints it."""
+    """One plain line per converted file, as `tamp-os convert` prints it: at most MAX_LINE_CHARS
+    characters (the grid, triangles, scale and every file name are in detail_lines)."""
     w, d, h = report.print_mm
-    scale = f"; {report.scale}" if report.pixel_size_m else ""
     levels = "a flat plate" if report.uniform else f"{report.height_levels} height levels"
-    return (
-        f"{report.input}: {w:g} × {d:g} × {h:g} mm, grid {report.grid[0]} × {report.grid[1]}, "
-        f"{report.triangles:,} triangles, {levels}, relief style {report.relief_style}{scale}; "
-        f"wrote {', '.join(written_names)}"
-    )
+    body = f"{w:g} × {d:g} × {h:g} mm, grid {report.grid[0]} × {report.grid[1]}, {levels}, relief style {report.relief_style}"
+    line = f"{report.input}: {body}; wrote {files_phrase(written_names)}"
+    if len(line) <= MAX_LINE_CHARS:
+        return line
+    for room in range(60, 11, -4):  # too long: long names are cut in the middle, the input's and the files' alike
+        line = f"{_shorten(report.input, room)}: {body}; wrote {files_phrase(written_names, stem_chars=room)}"
+        if len(line) <= MAX_LINE_CHARS:
+            break
+    return line
+
+
+def detail_lines(report: Report, written_names: list[str]) -> list[str]:
+    """What summary_line leaves out, one short line each (`tamp-os convert --verbose`)."""
+    mesh = f"{report.mesher} mesh within {report.max_error_mm:g} mm" if report.mesher == "adaptive" else "grid mesh"
+    lines = [f"  mesh: {report.triangles:,} triangles, {mesh}, {report.mm_per_px:g} mm per grid point",
+             f"  printer: {report.printer}, nozzle {report.nozzle_mm:g} mm, layer {report.layer_mm:g} mm",
+             f"  scale: {report.scale}"]
+    return lines + [f"  wrote: {name}" for name in written_names]
+
+
+def files_phrase(names: list[str], stem_chars: int | None = None) -> str:
+    """'ramp.{stl,3mf}, its description and recipe' for the files of one print; a count when they are many.
+    With `stem_chars`, the common name is cut in the middle to that many characters."""
+    extras = [n for n in names if n.endswith((".description.txt", ".tamp.json"))]
+    main = [n for n in names if n not in extras]
+    stem = os.path.commonprefix(main).rpartition(".")[0] if len(main) > 1 else ""
+    cut = (lambda t: _shorten(t, stem_chars)) if stem_chars is not None else (lambda t: t)
+    if len(main) == 1:
+        head, _, ext = main[0].rpartition(".")
+        text = f"{cut(head)}.{ext}" if head else main[0]
+    elif stem and all(n.count(".") == stem.count(".") + 1 for n in main):
+        text = f"{cut(stem)}.{{{','.join(n[len(stem) + 1:] for n in main)}}}"
+    elif main:
+        text = f"{len(main)} files ({cut(main[0])} … {cut(main[-1])})"
+    else:
+        text = ""
+    said = {".description.txt": "description", ".tamp.json": "recipe"}
+    extra = [word for suffix, word in said.items() if any(n.endswith(suffix) for n in extras)]
+    if text and extra:
+        return f"{text}, its {' and '.join(extra)}"
+    return text or " and ".join(extra)
+
+
+def _shorten(text: str, limit: int) -> str:
+    """`text` cut in the middle to `limit` characters (a long file name keeps its start and end)."""
+    if len(text) <= limit:
+        return text
+    keep = max(limit - 1, 2)
+    return text[: (keep + 1) // 2] + "…" + text[len(text) - keep // 2:]
 
 
 def touch_notes(report: Report) -> list[str]:

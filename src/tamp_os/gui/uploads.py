@@ -17,6 +17,7 @@ from ..errors import InputError, TampError
 from ..files import write_png
 
 THUMB_PX = 160
+Z_STACK = re.compile(r"z-stack of (\d+) slices")  # the reader's note on a stack it projected
 TIFF_MAGIC = (b"II*\x00", b"MM\x00*", b"II+\x00", b"MM\x00+")
 
 
@@ -32,6 +33,10 @@ class Upload:
     reason: str
     thumb: str = ""  # file name in the job's thumbs folder
     override: str = ""
+    channels: int = 1  # colour or fluorescence channels: a channel choice applies when more than one
+    z_slices: int = 1  # slices of a z-stack: a slice choice applies when more than one
+    caption: str = ""  # this image's braille caption (issue 24: one caption per image, not one for all)
+    subject: str = ""  # what this image shows, for its description
 
 
 def decoded_bytes(path: Path) -> tuple[int, int, int] | None:
@@ -113,7 +118,9 @@ def inspect_upload(path: Path, name: str, thumbs: Path, index: int, max_decoded_
     preset, reason = suggestion.preset, suggestion.reason
     thumb = f"{index}.png"
     write_png(thumbs / thumb, thumbnail(picture.values))
-    return Upload(name, path, picture.file.width, picture.file.height, preset, reason, thumb)
+    stack = next((int(m.group(1)) for m in map(Z_STACK.search, picture.file.notes) if m), 1)
+    return Upload(name, path, picture.file.width, picture.file.height, preset, reason, thumb,
+                  channels=int(picture.file.channels or 1), z_slices=stack)
 
 
 def thumbnail(values: np.ndarray, size_px: int = THUMB_PX) -> np.ndarray:

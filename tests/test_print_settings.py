@@ -181,5 +181,5 @@ def test_slicing_for_a_printer_without_an_installed_preset_says_so_in_one_senten
     stl = next(p for p in litho.save(tmp_path, stem="s") if p.suffix == ".stl")
     result = slice_mesh(stl, get_printer("a1"), material("PLA"), timeout_s=240)
     assert result.for_estimates_only
-    assert "no system preset for the Bambu Lab A1" in result.sentence() and "3MF" in result.sentence()
-    assert Path(result.gcode).read_text(encoding="utf-8").startswith("; TAMP-OS: the installed PrusaSlicer has no system preset")
+    assert "no PrusaSlicer preset for the Bambu Lab A1 here" in result.sentence() and "print from the 3MF" in result.sentence()
+    assert Path(result.gcode).read_text(encoding="utf-8").startswith("; TAMP-OS: no PrusaSlicer preset for the Bambu Lab A1")

@@ -323,8 +323,12 @@ def _save_and_say(litho, out: Path, stem: str | None = None, verbose: bool = Fal
         _print_warnings(litho)
     names = [p.name for p in written]
     lines = [summary_line(litho.report, names)] + [f"  note: {in_cli_words(n)}" for n in removed_notes(litho.report)]
-    if litho.report.print:
-        lines.append(f"  print: {in_cli_words(litho.report.print['summary'])}")
+    if litho.report.print:  # the why of "for estimates only" on its own line, so that each line stays short
+        sliced = litho.report.print
+        note = sliced.get("note") if sliced.get("for_estimates_only") else None
+        lines.append(f"  print: {in_cli_words(sliced['summary'].replace(f' ({note})', '') if note else sliced['summary'])}")
+        if note:
+            lines.append(f"  note: {in_cli_words(note)}")
     return lines + (detail_lines(litho.report, names) if verbose else [])
 
 

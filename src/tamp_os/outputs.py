@@ -39,7 +39,7 @@ def metadata(litho) -> dict:
     return {
         "title": f"Tactile lithograph of {litho.picture.file.name}",
         "description": " ".join([describe(litho.report, litho.params, litho.picture.file.name), *multipart_sentences(litho),
-                                 settings.sentence()]),
+                                 settings.sentence(in_3mf="3mf" in litho.params.formats)]),
         "designer": "TAMP-OS",
         "application": f"TAMP-OS {__version__}",
         "print_settings": settings,

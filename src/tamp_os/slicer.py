@@ -38,8 +38,8 @@ def estimates_note(printer: PrinterProfile) -> str:
     system preset the installed PrusaSlicer lacks (then the 3MF is what to print from)."""
     if printer.bed_mm is None:
         return GENERIC_NOTE
-    return (f"the installed PrusaSlicer has no system preset for the {printer.name}, so the G-code is for estimates only; "
-            f"open the 3MF in your slicer, it carries the {printer.layer_mm:g} mm print settings")
+    return (f"no PrusaSlicer preset for the {printer.name} here: G-code for estimates only; print from the 3MF, "
+            f"which carries the {printer.layer_mm:g} mm settings")
 
 
 class SlicerError(TampError):

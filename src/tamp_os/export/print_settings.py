@@ -108,13 +108,14 @@ class PrintSettings:
         data = {"from": "project", "name": "project_settings", "version": BAMBU_SETTINGS_VERSION, **self.bambu_options()}
         return (json.dumps(data, indent=4, sort_keys=True, ensure_ascii=False) + "\n").encode("utf-8")
 
-    def sentence(self) -> str:
-        """What the 3MF carries and who reads it, for the description and the README."""
-        return (
-            f"The 3MF file carries its print settings: {self.layer_mm:g} mm layers, a {self.first_layer_mm:g} mm first layer, "
-            f"{PERIMETERS} perimeters, {INFILL:.0%} infill and no supports; PrusaSlicer and OrcaSlicer apply them when they open it, "
-            f"in Bambu Studio choose the {self.layer_mm:g} mm layer height yourself."
-        )
+    def sentence(self, in_3mf: bool = True) -> str:
+        """How to print it: what the 3MF carries and who reads it, or the settings to choose by hand."""
+        settings = (f"{self.layer_mm:g} mm layers, a {self.first_layer_mm:g} mm first layer, {PERIMETERS} perimeters, "
+                    f"{INFILL:.0%} infill and no supports")
+        if not in_3mf:
+            return f"Print it with {settings}."
+        return (f"The 3MF file carries its print settings: {settings}; PrusaSlicer and OrcaSlicer apply them when they "
+                f"open it, in Bambu Studio choose the {self.layer_mm:g} mm layer height yourself.")
 
 
 def settings_for(profile, material: str = "PLA") -> PrintSettings:

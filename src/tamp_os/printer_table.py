@@ -103,7 +103,8 @@ def _key(text: str) -> str:
 
 
 def _names(p: PrinterModel) -> set[str]:
-    return {_key(p.model), *(_key(s) for s in p.short_names)}
+    """Every name the printer answers to: its model, its short forms and its PrusaSlicer preset names."""
+    return {_key(p.model), *(_key(s) for s in p.short_names), *(_key(s) for s in p.prusa_presets)}
 
 
 def find_printer(name: str) -> PrinterModel | None:

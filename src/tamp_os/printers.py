@@ -172,8 +172,8 @@ def get_printer(name: str) -> PrinterProfile:
                     raise
         hint = f" Did you mean {' or '.join(repr(c) for c in close)}?" if close else ""
         raise ParameterError(
-            f"printer: unknown printer {name!r}.{hint} Choose one of {', '.join(sorted(printers))}, a printer listed by "
-            f"'tamp-os printers', or add yours to {user_profiles_path()}."
+            f"printer: unknown printer {name!r}.{hint} Choose one of {', '.join(sorted(printers))} or a printer of the "
+            f"printers command, or add yours to {user_profiles_path()}."
         )
     return printers[name]
 

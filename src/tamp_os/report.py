@@ -67,17 +67,21 @@ MAX_LINE_CHARS = 160  # a result line a screen reader reads in one go; details g
 
 def summary_line(report: Report, written_names: list[str]) -> str:
     """One plain line per converted file, as `tamp-os convert` prints it: at most MAX_LINE_CHARS
-    characters (the grid, triangles, scale and every file name are in detail_lines)."""
+    characters (the mesh, printer, scale and every file name are in detail_lines)."""
     w, d, h = report.print_mm
     levels = "a flat plate" if report.uniform else f"{report.height_levels} height levels"
-    body = f"{w:g} × {d:g} × {h:g} mm, grid {report.grid[0]} × {report.grid[1]}, {levels}, relief style {report.relief_style}"
-    line = f"{report.input}: {body}; wrote {files_phrase(written_names)}"
+    size = f"{w:g} × {d:g} × {h:g} mm"
+    full = f"{size}, grid {report.grid[0]} × {report.grid[1]}, {report.triangles:,} triangles, {levels}, relief style {report.relief_style}"
+    line = f"{report.input}: {full}; wrote {files_phrase(written_names)}"
     if len(line) <= MAX_LINE_CHARS:
         return line
-    for room in range(60, 11, -4):  # too long: long names are cut in the middle, the input's and the files' alike
-        line = f"{_shorten(report.input, room)}: {body}; wrote {files_phrase(written_names, stem_chars=room)}"
-        if len(line) <= MAX_LINE_CHARS:
-            break
+    # Too long: long names are cut in the middle (the input's and the files' alike), then the grid and
+    # triangles are left to --verbose.
+    for body, shortest in ((full, 24), (f"{size}, {levels}, relief style {report.relief_style}", 8)):
+        for room in range(60, shortest - 1, -4):
+            line = f"{_shorten(report.input, room)}: {body}; wrote {files_phrase(written_names, stem_chars=room)}"
+            if len(line) <= MAX_LINE_CHARS:
+                return line
     return line
 
 

@@ -40,7 +40,7 @@ def test_convert_returns_the_files_and_the_report_it_wrote(tmp_path):
     done = convert(image, None, tmp_path / "out", formats=("stl", "3mf"))
     assert done.names == ["spot.stl", "spot.3mf", "spot.description.txt", "spot.tamp.json"]
     assert all(p.is_file() for p in done.written) and done.report.print is None and done.printing == ""
-    assert done.summary().startswith("spot.png: ") and "wrote spot.stl, spot.3mf" in done.summary()
+    assert done.summary().startswith("spot.png: ") and "wrote spot.{stl,3mf}, its description and recipe" in done.summary()
     recipe = json.loads((tmp_path / "out" / "spot.tamp.json").read_text(encoding="utf-8"))
     assert recipe["outputs"] == done.names[:-1] and recipe["print"] is None
 

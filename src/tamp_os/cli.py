@@ -91,6 +91,7 @@ def _add_convert_and_batch(sub) -> None:
     convert.add_argument("images", nargs="*", metavar="IMAGE", help="image files (read by content, any extension)")
     convert.add_argument("-o", "--output", default=".", metavar="DIR", help="output folder (default: current folder)")
     convert.add_argument("--recipe", metavar="FILE", help="rebuild exactly from a NAME.tamp.json recipe")
+    convert.add_argument("--verbose", action="store_true", help="after each result line, the mesh, printer, scale and every file written")
     _param_options(convert)
 
     batch = sub.add_parser("batch", help="convert many images; resumes where it stopped", description=(
@@ -110,7 +111,7 @@ def _add_sweep_and_render(sub) -> None:
     sweep = sub.add_parser("sweep", help="one image with parameters varied, and a contact sheet")
     sweep.add_argument("image", metavar="IMAGE")
     sweep.add_argument("--vary", action="append", required=True, metavar="NAME=V1,V2",
-                       help="a parameter and its values, e.g. resolution=64,128,256 (repeat for a grid)")
+                       help="an option and its values, e.g. resolution=64,128,256 or relief-style=structure,levels (repeat for a grid)")
     sweep.add_argument("-o", "--output", default="sweep-output", metavar="DIR", help="output folder (default sweep-output)")
     sweep.add_argument("--no-render", action="store_true", help="skip the sheet of rendered previews")
     _param_options(sweep)
@@ -155,7 +156,7 @@ def _add_presets_and_plate(sub) -> None:
     _param_options(presets)
 
     printers = sub.add_parser("printers", help="list printer profiles and PrusaSlicer's system printers for --printer")
-    printers.add_argument("--vendor", default=None, help="only this vendor's system printers (e.g. PrusaResearch, Creality)")
+    printers.add_argument("--vendor", default=None, help="only this vendor's printers (e.g. prusa, bambu, creality)")
 
     plate = sub.add_parser(
         "braille-test-plate", help="a plate of the same braille at several dot heights and diameters",
@@ -293,7 +294,9 @@ def cmd_convert(args) -> int:
 
     def convert_job(job_and_stem):
         (image, job_params, printer), stem = job_and_stem
-        lines = _say(convert(image, job_params, Path(args.output), stem=stem, printer_profile=printer))
+        with _WorkingLine(Path(image).name):  # its line is cleared before the warnings and results are printed
+            conversion = convert(image, job_params, Path(args.output), stem=stem, printer_profile=printer)
+        lines = _say(conversion, verbose=args.verbose)
         if stem != (image.stem or "lithograph"):
             lines.append(f"  note: named {stem} because another input of this run has the same name")
         return lines
@@ -301,14 +304,21 @@ def cmd_convert(args) -> int:
     return _run_each(list(zip(jobs, stems)), convert_job, args.debug)
 
 
-def _say(conversion) -> list[str]:
-    """One conversion's warnings to stderr; its lines (summary, notes, printing) returned."""
+def _say(conversion, verbose: bool = False) -> list[str]:
+    """One conversion's warnings to stderr; its lines (summary, notes, printing, and with `verbose`
+    the details) returned."""
+    from .report import detail_lines
+
     for warning in conversion.report.warnings:
         print(f"warning: {cli_words(warning)}", file=sys.stderr)
-    lines = [conversion.summary()] + [f"  note: {n}" for n in conversion.notes()]
-    if conversion.printing:
-        lines.append(f"  print: {conversion.printing}")
-    return lines
+    lines = [conversion.summary()] + [f"  note: {cli_words(n)}" for n in conversion.notes()]
+    printing = conversion.report.print
+    if printing:  # the why of "for estimates only" on its own line, so that each line stays short
+        note = printing.result.note if printing.result.for_estimates_only else None
+        lines.append(f"  print: {cli_words(printing.summary.replace(f' ({note})', '') if note else printing.summary)}")
+        if note:
+            lines.append(f"  note: {cli_words(note)}")
+    return lines + (detail_lines(conversion.report, conversion.names) if verbose else [])
 
 
 def cmd_batch(args) -> int:
@@ -359,6 +369,51 @@ def _dask_client(address: str):
         ) from None
 
 
+class _WorkingLine:
+    """On a terminal, one line on stderr once a single conversion has run PROGRESS_AFTER_S seconds,
+    rewritten each second with the time so far and cleared at the end; nothing when not a terminal
+    (a pipe, a log file or a screen reader's transcript gets only the result lines)."""
+
+    PROGRESS_AFTER_S = 2.0
+
+    def __init__(self, name: str, stream=None):
+        self.name, self.stream = name, stream or sys.stderr
+        self.shown = False
+        self._stop = None
+
+    def __enter__(self):
+        import threading
+        import time
+
+        if not self.stream.isatty():
+            return self
+        self._stop = threading.Event()
+        start = time.monotonic()
+
+        def tick():
+            if self._stop.wait(self.PROGRESS_AFTER_S):
+                return
+            while True:
+                self.stream.write(f"\r{self.name}: working, {time.monotonic() - start:.0f} s so far…")
+                self.stream.flush()
+                self.shown = True
+                if self._stop.wait(1.0):
+                    return
+
+        self._thread = threading.Thread(target=tick, daemon=True)
+        self._thread.start()
+        return self
+
+    def __exit__(self, *exc):
+        if self._stop is not None:
+            self._stop.set()
+            self._thread.join()
+            if self.shown:
+                self.stream.write("\r\x1b[K")
+                self.stream.flush()
+        return False
+
+
 class _BatchProgress:
     """A progress bar on a terminal; otherwise one plain line per finished input."""
 
@@ -384,11 +439,23 @@ class _BatchProgress:
             self.bar.close()
 
 
+def _vary_in_field_names(specs: list[str]) -> list[str]:
+    """--vary in this command's spellings (relief-style=…, --slice=…, height-mm=…) as the library's names."""
+    by_option = {flag.lstrip("-"): name for name, flag in _flags().items()}
+    by_option.update({old.lstrip("-"): name for name, old in OLD_OPTION_NAMES.items()})
+    out = []
+    for spec in specs:
+        name, sep, values = spec.partition("=")
+        key = name.strip().lstrip("-")
+        out.append(f"{by_option.get(key, key)}{sep}{values}")
+    return out
+
+
 def cmd_sweep(args) -> int:
     from .sweep import parse_vary, run_sweep
 
     params = _params_from_args(args)
-    vary = parse_vary(args.vary)
+    vary = parse_vary(_vary_in_field_names(args.vary))
     result = run_sweep(Path(args.image), params, vary, Path(args.output), render=not args.no_render)
     for conversion in result.conversions:
         for line in _say(conversion):
@@ -518,23 +585,32 @@ def cmd_presets(args) -> int:
             f"{about}{row['triangles']:,} triangles, estimated {sizes}"
         )
     if suggestion:
-        print(f"suggested for {Path(args.image).name}: {suggestion.preset.capitalize()}, because {suggestion.reason}.")
+        print(f"suggested for {Path(args.image).name}: {suggestion.preset.capitalize()}, because {cli_words(suggestion.reason)}.")
     return EXIT_OK
 
 
 def cmd_printers(args) -> int:
+    from .printer_table import installed_preset, printers_of, vendor_name
     from .printers import all_printers
     from .prusa_presets import system_printers
 
     print("Profiles (G-code from these is for estimates only, not for a real printer):")
     for p in all_printers().values():
         print(f"{p.name}: nozzle {p.nozzle_mm:g} mm, layer {p.layer_mm:g} mm, width {p.width_mm:g} mm, {p.description}")
-    found = [p for p in system_printers() if not args.vendor or p.vendor.lower() == args.vendor.lower()]
+    table = printers_of(args.vendor)
+    print(f"Today's printers ({len(table)}; --printer takes the name or a short form such as mk4 or 'a1 mini'; "
+          "the 3MF carries their print settings):")
+    for model in table:
+        preset = installed_preset(model)
+        print(model.line() + (f"; G-code from PrusaSlicer's {preset!r}" if preset else "; no G-code here, print from the 3MF"))
+        print(f"  source: {model.source}")
+    wanted = vendor_name(args.vendor).replace(" ", "").lower() if args.vendor else None
+    found = [p for p in system_printers() if not wanted or p.vendor.lower() == wanted]
     print(f"PrusaSlicer system printers ({len(found)}; give the name in quotes to --printer for G-code you can print):")
     for p in found:
         print(p.line())
-    if not found:
-        print("none found: install PrusaSlicer (apt-get install prusa-slicer), or check the --vendor name.")
+    if not found and not table:
+        print(f"none found for vendor {args.vendor!r}: try prusa, bambu or creality, or install PrusaSlicer (apt-get install prusa-slicer).")
     return EXIT_OK
 
 

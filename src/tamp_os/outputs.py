@@ -32,12 +32,18 @@ PARALLEL_WRITE_TRIANGLES = 100_000
 
 
 def metadata(litho) -> dict:
-    """Title, description, designer and application, for formats that carry them (3MF, GLB)."""
+    """Title, description, designer and application, for formats that carry them (3MF, GLB), and the
+    print settings the 3MF carries for the slicer (export/print_settings.py)."""
+    from .export.print_settings import settings_for
+
+    settings = settings_for(litho.printer, litho.params.material)
     return {
         "title": f"Tactile lithograph of {litho.picture.file.name}",
-        "description": " ".join([describe(litho.report, litho.params, litho.picture.file.name), *multipart_sentences(litho)]),
+        "description": " ".join([describe(litho.report, litho.params, litho.picture.file.name), *multipart_sentences(litho),
+                                 settings.sentence(in_3mf="3mf" in litho.params.formats)]),
         "designer": "TAMP-OS",
         "application": f"TAMP-OS {__version__}",
+        "print_settings": settings,
     }
 
 

@@ -74,6 +74,7 @@ class LithoParams:
     max_megapixels: float = _f(400.0, "refuse larger images (decompression-bomb guard)", "Mpx", 0.0, 1e6, lo_open=True)
     max_decoded_gb: float = _f(2.0, "refuse images whose decoded pixels would take more memory (checked before decoding)", "GB", 0.0, 1024.0, lo_open=True)
     caption: str | None = _f(None, "braille caption along the bottom margin (text, or Unicode braille as is)")
+    subject: str | None = _f(None, "what the picture shows, for the description read aloud (e.g. 'FePt nanoparticles on carbon')")
     braille_table: str = _f(DEFAULT_TABLE, "liblouis table for braille (en-ueb-g1.ctb for grade 1, or any other)")
     scale_bar: str | float = _f("auto", "auto (when the pixel size is known), off, or a length such as 5um (a number: metres)")
     orientation_corner: str = _f("cut", "orientation mark: cut (top right corner cut off, as on braille cards) or none", choices=("cut", "none"))

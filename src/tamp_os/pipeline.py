@@ -30,6 +30,7 @@ from .report import Plate, Report
 from .tactile.furniture import Furniture, Placed, add_furniture
 from .tactile.parts import two_colour_parts
 from .tactile.tiles import Tiling, tiles_for
+from .layout_words import ReliefLayout, find_layout
 
 log = logging.getLogger(__name__)
 
@@ -140,11 +141,12 @@ def make_lithograph(source, params: LithoParams | None = None, *, printer_profil
     sample_per_mm = metres * prepared.fitted_width_px / layout.width_mm if metres else None
     furniture = _furniture(params, sample_per_mm)
     with clock("tactile"):
-        tactile = _tactile(mesh, layout, params, furniture)
+        tactile = _tactile(mesh, layout, params, furniture, machine.bed_mm)
     later = flattening + list(tactile.placed.notes if tactile.placed else []) + list(relief.notes) + list(tactile.tiles.notes if tactile.tiles else [])
     legibility = dataclasses.replace(legibility, levels_mm=tuple(round(v, 3) for v in relief.levels_mm))
     report = _report(picture, cleaned, prepared, layout, params, machine, tactile.mesh, tactile.placed, max_error, timings, later,
-                     relief, legibility)
+                     relief, legibility,
+                     find_layout(heights, layout.mm_per_px, params.base_mm, params.relief_mm) if not prepared.uniform else None)
     return Lithograph(mesh=tactile.mesh, heightmap=heights, params=params, printer=machine, layout=layout, picture=picture,
                       report=report, furniture=furniture, mask=cleaned.source_mask(), parts=tactile.parts, tiles=tactile.tiles)
 
@@ -157,17 +159,20 @@ class _Tactile:
     tiles: Tiling | None  # tiles for a bed smaller than the plate (bed_mm)
 
 
-def _tactile(relief_mesh: Mesh, layout: Layout, params: LithoParams, furniture: Furniture) -> _Tactile:
-    """Furniture (plate, braille, scale bar, frame, cut corner), then two-colour parts or tiles."""
+def _tactile(relief_mesh: Mesh, layout: Layout, params: LithoParams, furniture: Furniture,
+             printer_bed_mm: tuple[float, float] | None = None) -> _Tactile:
+    """Furniture (plate, braille, scale bar, frame, cut corner), then two-colour parts or tiles: for
+    bed_mm, or else for the printer's own bed (printer_table.py) when the plate is larger than it."""
     mesh, placed = relief_mesh, None
     if furniture.wanted or furniture.corner_cut:
         mesh, placed = add_furniture(relief_mesh, layout.width_mm, layout.depth_mm, params.base_mm, furniture)
     parts = two_colour_parts(relief_mesh, layout.width_mm, layout.depth_mm, params.base_mm, furniture)[0] if params.multicolour else None
     tiles = None
-    if params.bed_mm:
+    bed = params.bed_size_mm if params.bed_mm else (printer_bed_mm if not params.multicolour else None)
+    if bed:
         (ox, oy), legs = (placed.relief_origin_mm, placed.corner_cut_mm) if placed else ((0.0, 0.0), 0.0)
         picture_box = (ox, oy, ox + layout.width_mm, oy + layout.depth_mm)
-        tiles = tiles_for(mesh, params.bed_size_mm, params.base_mm, furniture.spec, picture_box, legs)
+        tiles = tiles_for(mesh, bed, params.base_mm, furniture.spec, picture_box, legs)
     return _Tactile(mesh, placed, parts, tiles)
 
 
@@ -293,7 +298,7 @@ def _warnings(picture: Picture, cleaned: Cleaned, prepared: Prepared, layout: La
 
 
 def _report(picture, cleaned, prepared, layout, params, machine, mesh, placed, max_error, timings, later,
-            relief: ReliefResult, legibility: Legibility) -> Report:
+            relief: ReliefResult, legibility: Legibility, relief_layout: ReliefLayout | None) -> Report:
     scale = cleaned.pixel_size
     source_px_per_print_mm = prepared.fitted_width_px / layout.width_mm
     return Report(
@@ -325,6 +330,7 @@ def _report(picture, cleaned, prepared, layout, params, machine, mesh, placed, m
         legibility=legibility,
         instrument=cleaned.instrument,
         source_px=(picture.file.width, picture.file.height),
+        layout=relief_layout,
     )
 
 

@@ -25,6 +25,8 @@ class PrinterProfile:
     width_mm: float
     description: str = ""
     prusa_preset: str | None = None  # a PrusaSlicer system printer preset: slice with its bed and firmware
+    bed_mm: tuple[float, float] | None = None  # the bed (width, depth), when known: print width and tiles fit it
+    bambu_model: str | None = None  # Bambu Studio's printer_model, for the 3MF's project settings
 
     def with_overrides(self, nozzle_mm: float | None = None, layer_mm: float | None = None) -> "PrinterProfile":
         """This profile with the user's nozzle and layer, where given: the numbers a print uses."""
@@ -94,6 +96,8 @@ def _profile_from_table(name: str, table, where) -> PrinterProfile:
             width_mm=float(table.get("width_mm", 100.0)),
             description=str(table.get("description", "user profile")),
             prusa_preset=str(table["prusa_preset"]) if table.get("prusa_preset") else None,
+            bed_mm=_bed(table.get("bed_mm")),
+            bambu_model=str(table["bambu_model"]) if table.get("bambu_model") else None,
         )
     except (KeyError, TypeError, ValueError) as exc:
         raise ParameterError(
@@ -105,6 +109,34 @@ def _profile_from_table(name: str, table, where) -> PrinterProfile:
             f"got {profile.nozzle_mm}, {profile.layer_mm}, {profile.width_mm}."
         )
     return profile
+
+
+def _bed(value) -> tuple[float, float] | None:
+    """bed_mm from a profile table or recipe: [width, depth] in mm, or absent."""
+    if value is None:
+        return None
+    width, depth = (float(v) for v in value)  # TypeError/ValueError: reported by the caller
+    if not (0 < width <= 2000 and 0 < depth <= 2000):
+        raise ValueError(f"bed_mm must be two sizes of 0–2000 mm; got {value!r}")
+    return width, depth
+
+
+def table_profile(name: str) -> PrinterProfile | None:
+    """A profile for a printer of the printer table (printer_table.py), by any of its names, or None.
+
+    Its layer is the one the reliefs are designed for (0.12 mm) where the printer's usual range holds
+    it; its print width fits the bed; its PrusaSlicer preset is set only when the installed
+    PrusaSlicer has one (then G-code is for that printer)."""
+    from .printer_table import design_layer_mm, find_printer, installed_preset
+
+    model = find_printer(name)
+    if model is None:
+        return None
+    preset = installed_preset(model)
+    where = f"PrusaSlicer system preset {preset!r}" if preset else "no PrusaSlicer preset installed here: G-code for estimates only"
+    return PrinterProfile(model.model, model.nozzle_mm, design_layer_mm(model), model.width_mm(),
+                          f"{model.vendor}, bed {model.bed_mm[0]:g} × {model.bed_mm[1]:g} mm ({where})", preset,
+                          (float(model.bed_mm[0]), float(model.bed_mm[1])), model.bambu_model)
 
 
 def all_printers() -> dict[str, PrinterProfile]:
@@ -125,13 +157,23 @@ def _user_profiles_cached(path: Path, stamp: int | None) -> dict[str, PrinterPro
 def get_printer(name: str) -> PrinterProfile:
     printers = all_printers()
     if name not in printers:
+        from .printer_table import close_names
         from .prusa_presets import bundles, system_printer_profile
 
-        if bundles():  # a PrusaSlicer system preset; its error lists close names
-            return system_printer_profile(name)
+        table = table_profile(name)
+        if table is not None:
+            return table
+        close = close_names(name)
+        if bundles():  # a PrusaSlicer system preset; its error lists close names unless the table has some
+            try:
+                return system_printer_profile(name)
+            except ParameterError:
+                if not close:
+                    raise
+        hint = f" Did you mean {' or '.join(repr(c) for c in close)}?" if close else ""
         raise ParameterError(
-            f"`printer`: unknown profile {name!r}; choose one of {', '.join(sorted(printers))}, "
-            f"or add it to {user_profiles_path()}."
+            f"`printer`: unknown printer {name!r}.{hint} Choose one of {', '.join(sorted(printers))} or a printer of the "
+            f"printers command, or add yours to {user_profiles_path()}."
         )
     return printers[name]
 

@@ -197,4 +197,5 @@ def system_printer_profile(name: str):
     print_options = resolve(sections, "print", print_name) if f"print:{print_name}" in sections else {}
     layer = float(print_options.get("layer_height", printer.nozzle_mm / 2))
     width = min(100.0, max(10.0, min(printer.bed_mm) - 20.0))
-    return PrinterProfile(printer.name, printer.nozzle_mm, layer, width, f"PrusaSlicer system preset ({printer.vendor})", printer.name)
+    return PrinterProfile(printer.name, printer.nozzle_mm, layer, width, f"PrusaSlicer system preset ({printer.vendor})", printer.name,
+                          printer.bed_mm)

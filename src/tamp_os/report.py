@@ -5,6 +5,7 @@ print, and the web app's summary lines."""
 from __future__ import annotations
 
 import dataclasses
+import os
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -12,6 +13,7 @@ from .clean.annotations import Annotation
 from .clean.band import Band
 from .clean.instrument import Instrument
 from .facts import Facts
+from .layout_words import ReliefLayout
 from .params import LithoParams
 from .relief.legibility import Legibility
 
@@ -90,6 +92,7 @@ class Report:
     legibility: Legibility | None = None  # figures and verdicts
     instrument: Instrument | None = None  # magnification, kv, detector, signal, source when the file records them
     source_px: tuple[int, int] = (0, 0)  # the source image's width and height (where annotations were)
+    layout: "ReliefLayout | None" = None  # where the raised pieces are (layout_words.py), for the description
 
     def as_dict(self) -> dict:
         """The report as a plain dict (JSON-ready), with the keys of the earlier untyped report
@@ -102,6 +105,7 @@ class Report:
         d["legibility"] = self.legibility.as_dict() if self.legibility else None
         d["instrument"] = self.instrument.as_dict() if self.instrument else None
         d["timings_s"] = dict(self.timings_s)
+        d["layout"] = self.layout.as_dict() if self.layout else None
         for key in ("print_mm", "relief_mm", "grid"):
             d[key] = list(d[key])
         if self.print is None:
@@ -122,16 +126,67 @@ class Report:
         return self.as_dict().get(key, default)
 
 
+MAX_LINE_CHARS = 160  # a result line a screen reader reads in one go; details go to the verbose lines and the report
+
+
 def summary_line(report: Report, written_names: list[str]) -> str:
-    """One plain line per converted file, as `tamp-os convert` prints it."""
+    """One plain line per converted file, as `tamp-os convert` prints it: at most MAX_LINE_CHARS
+    characters (the mesh, printer, scale and every file name are in detail_lines)."""
     w, d, h = report.print_mm
-    scale = f"; {report.scale}" if report.pixel_size_m else ""
     levels = "a flat plate" if report.uniform else f"{report.height_levels} height levels"
-    return (
-        f"{report.input}: {w:g} × {d:g} × {h:g} mm, grid {report.grid[0]} × {report.grid[1]}, "
-        f"{report.triangles:,} triangles, {levels}, relief style {report.relief_style}{scale}; "
-        f"wrote {', '.join(written_names)}"
-    )
+    size = f"{w:g} × {d:g} × {h:g} mm"
+    full = f"{size}, grid {report.grid[0]} × {report.grid[1]}, {report.triangles:,} triangles, {levels}, relief style {report.relief_style}"
+    line = f"{report.input}: {full}; wrote {files_phrase(written_names)}"
+    if len(line) <= MAX_LINE_CHARS:
+        return line
+    # Too long: long names are cut in the middle (the input's and the files' alike), then the grid and
+    # triangles are left to the verbose lines.
+    for body, shortest in ((full, 24), (f"{size}, {levels}, relief style {report.relief_style}", 8)):
+        for room in range(60, shortest - 1, -4):
+            line = f"{_shorten(report.input, room)}: {body}; wrote {files_phrase(written_names, stem_chars=room)}"
+            if len(line) <= MAX_LINE_CHARS:
+                return line
+    return line
+
+
+def detail_lines(report: Report, written_names: list[str]) -> list[str]:
+    """What summary_line leaves out, one short line each (the verbose option of `tamp-os convert`)."""
+    mesh = f"{report.mesher} mesh within {report.max_error_mm:g} mm" if report.mesher == "adaptive" else "grid mesh"
+    lines = [f"  mesh: {report.triangles:,} triangles, {mesh}, {report.mm_per_px:g} mm per grid point",
+             f"  printer: {report.printer}, nozzle {report.nozzle_mm:g} mm, layer {report.layer_mm:g} mm",
+             f"  scale: {report.scale}"]
+    return lines + [f"  wrote: {name}" for name in written_names]
+
+
+def files_phrase(names: list[str], stem_chars: int | None = None) -> str:
+    """'ramp.{stl,3mf}, its description and recipe' for the files of one print; a count when they are many.
+    With `stem_chars`, the common name is cut in the middle to that many characters."""
+    extras = [n for n in names if n.endswith((".description.txt", ".tamp.json"))]
+    main = [n for n in names if n not in extras]
+    stem = os.path.commonprefix(main).rpartition(".")[0] if len(main) > 1 else ""
+    cut = (lambda t: _shorten(t, stem_chars)) if stem_chars is not None else (lambda t: t)
+    if len(main) == 1:
+        head, _, ext = main[0].rpartition(".")
+        text = f"{cut(head)}.{ext}" if head else main[0]
+    elif stem and all(n.count(".") == stem.count(".") + 1 for n in main):
+        text = f"{cut(stem)}.{{{','.join(n[len(stem) + 1:] for n in main)}}}"
+    elif main:
+        text = f"{len(main)} files ({cut(main[0])} … {cut(main[-1])})"
+    else:
+        text = ""
+    said = {".description.txt": "description", ".tamp.json": "recipe"}
+    extra = [word for suffix, word in said.items() if any(n.endswith(suffix) for n in extras)]
+    if text and extra:
+        return f"{text}, its {' and '.join(extra)}"
+    return text or " and ".join(extra)
+
+
+def _shorten(text: str, limit: int) -> str:
+    """`text` cut in the middle to `limit` characters (a long file name keeps its start and end)."""
+    if len(text) <= limit:
+        return text
+    keep = max(limit - 1, 2)
+    return text[: (keep + 1) // 2] + "…" + text[len(text) - keep // 2:]
 
 
 def touch_notes(report: Report) -> list[str]:
@@ -218,34 +273,87 @@ def _instrument_sentence(instrument: Instrument) -> str:
 
 
 def describe(report: Report, params: LithoParams, source_name: str) -> str:
-    """A plain-language description of the object for people who cannot see it."""
+    """A plain-language description of the object for people who cannot see it, written as alt text:
+    what the print shows, its layout (what is raised, how many, where), then scale, caption and
+    orientation, and the technical figures last."""
     w, d, h = report.print_mm
     rw, rd = report.relief_mm
-    parts = [
-        f"A tactile relief of the image {source_name}.",
-        f"The object is {w:g} mm wide, {d:g} mm deep and up to {h:g} mm high, on a {params.base_mm:g} mm base.",
-        f"The picture itself is {rw:g} by {rd:g} mm. The top edge of the image is the far edge of the print.",
-        _what_is_raised(report, params),
-        f"Scale: {report.scale}.",
-    ]
+    t = report.tactile
+    parts = [_what_it_shows(report, params, source_name), _what_is_raised(report, params)]
+    layout = _layout_sentence(report)
+    if layout:
+        parts.append(layout)
+    if report.pixel_size_m:
+        parts.append(f"Scale: {report.scale}.")
+    if t and t.scale_bar_box_mm:
+        parts.append(
+            f"Below the picture, at the left, a raised scale bar with end ticks stands for {t.scale_bar_label} "
+            f"in the sample; its value is in braille {'to its right' if t.scale_label_beside else 'below it'}."
+        )
+    if t and t.caption_braille:
+        parts.append(f"Along the bottom margin, a braille caption reads: {params.caption}.")
+    if t and t.frame_box_mm:
+        parts.append(f"A raised frame {params.frame_mm:g} mm wide surrounds the picture.")
+    if t and t.orientation:
+        parts.append("The top right corner of the plate is cut off: hold the print with that corner at the top right, "
+                     "and the top of the image is the far edge.")
+    else:
+        parts.append("The top edge of the image is the far edge of the print.")
+    parts.append(f"The print is {_mm(w)} mm wide, {_mm(d)} mm deep and up to {_mm(h)} mm high, on a {params.base_mm:g} mm base; "
+                 f"the picture on it is {_mm(rw)} by {_mm(rd)} mm.")
+    if not report.pixel_size_m:
+        parts.append("No physical scale is known for the image.")
     if not report.uniform and touch_notes(report):
         parts.append("What a finger will find: " + " ".join(touch_notes(report)))
     if report.instrument:
         parts.append(_instrument_sentence(report.instrument))
-    t = report.tactile
-    if t:
-        if t.orientation:
-            parts.append("The top right corner of the plate is cut off at 45 degrees: hold the print with that corner at the top right.")
-        if t.frame_box_mm:
-            parts.append(f"A raised frame {params.frame_mm:g} mm wide surrounds the picture.")
-        if t.scale_bar_box_mm:
-            parts.append(
-                f"Below the picture, at the left, a raised scale bar with end ticks stands for {t.scale_bar_label} "
-                f"in the sample; its value is in braille {'to its right' if t.scale_label_beside else 'below it'}."
-            )
-        if t.caption_braille:
-            parts.append(f"Along the bottom margin, a braille caption reads: {params.caption}.")
     return " ".join(parts)
+
+
+def _mm(value: float) -> str:
+    """A length as read aloud: to 0.1 mm (a finger's resolution is 1 mm)."""
+    return f"{round(value, 1):g}"
+
+
+_SEM_SOURCES = ("SEM", "FEI", "THERMO", "TESCAN", "HITACHI", "ZEISS", "JEOL")
+
+
+def _modality(instrument: Instrument | None) -> str | None:
+    """'a scanning electron microscope (SEM) image' and the like, from what the file records."""
+    if not instrument:
+        return None
+    signal = instrument.signal
+    if signal == "STEM":
+        return "a scanning transmission electron microscope (STEM) image"
+    electrons = {"SE": " made with secondary electrons", "BSE": " made with backscattered electrons"}.get(signal or "", "")
+    if electrons or any(word in str(instrument.source or "").upper() for word in _SEM_SOURCES):
+        return f"a scanning electron microscope (SEM) image{electrons}"
+    return None
+
+
+def _what_it_shows(report: Report, params: LithoParams, source_name: str) -> str:
+    """The first sentence: the subject the user gave, and the kind of image when the file says it."""
+    subject = (getattr(params, "subject", None) or "").strip().rstrip(".")
+    kind = _modality(report.instrument)
+    if subject and kind:
+        return f"A tactile print of {subject}, from {kind}."
+    if subject:
+        return f"A tactile print of {subject}."
+    if kind:
+        return f"A tactile print of {kind} ({source_name})."
+    return f"A tactile print of the image {source_name}."
+
+
+def _layout_sentence(report: Report) -> str | None:
+    """Where the raised shapes are (layout_words.py), or None for a flat plate or no layout."""
+    if report.uniform or not report.layout:
+        return None
+    from .layout_words import layout_sentence
+
+    layout = report.layout
+    noun = {"objects": "dome", "levels": "raised area"}.get(report.relief_style, "raised shape")
+    counted = report.relief_style == "objects" and report.legibility is not None and report.legibility.object_count == len(layout.pieces)
+    return layout_sentence(layout, noun, counted=counted)
 
 
 def _what_is_raised(report: Report, params: LithoParams) -> str:
@@ -261,8 +369,10 @@ def _what_is_raised(report: Report, params: LithoParams) -> str:
                 f"{lowered} parts of the image lowest, {raised} parts highest.")
     if report.relief_style == "objects":
         n = report.legibility.object_count if report.legibility else 0
-        return (f"{n} object{'s' if n != 1 else ''} found in the picture stand{'s' if n == 1 else ''} up as rounded domes, "
-                f"up to {up} above the base, over a flat, lightly textured background.")
+        from .layout_words import count_words
+
+        return (f"{count_words(n, 'object').capitalize()} found in the picture {'stands' if n == 1 else 'stand'} up as "
+                f"rounded domes, up to {up} above the base, over a flat, lightly textured background.")
     if report.relief_style == "structure":
         return (f"The {raised} parts of the image are raised, up to {up} above the base, simplified to shapes a "
                 f"fingertip can follow; finer detail is kept only as a low texture.")

@@ -27,6 +27,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .errors import MissingDependencyError, ParameterError, TampError
+# The print settings the reliefs are designed for, the same as in the 3MF's settings.
+from .export.print_settings import BOTTOM_LAYERS, FIRST_LAYER_MM, INFILL, PERIMETERS, TOP_LAYERS, first_layer_mm
 
 if TYPE_CHECKING:
     from .report import Printing
@@ -34,11 +36,14 @@ from .printers import PrinterProfile
 
 GENERIC_NOTE = "generic printer profile: the G-code is for estimates only, not for sending to a printer"
 
-INFILL = 0.15
-PERIMETERS = 2
-TOP_LAYERS = 3
-BOTTOM_LAYERS = 3
-FIRST_LAYER_MM = 0.2
+
+def estimates_note(printer: PrinterProfile) -> str:
+    """Why the G-code is for estimates only: a generic profile, or a known printer whose PrusaSlicer
+    system preset the installed PrusaSlicer lacks (then the 3MF is what to print from)."""
+    if printer.bed_mm is None:
+        return GENERIC_NOTE
+    return (f"no PrusaSlicer preset for the {printer.name} here: G-code for estimates only; print from the 3MF, "
+            f"which carries the {printer.layer_mm:g} mm settings")
 
 
 class SlicerError(TampError):
@@ -81,6 +86,7 @@ class SliceResult:
     price_per_kg: float
     printer: str = "generic"
     for_estimates_only: bool = True
+    note: str = GENERIC_NOTE  # why the G-code is for estimates only (slicer.estimates_note)
 
     def as_dict(self) -> dict:
         return asdict(self)
@@ -89,7 +95,7 @@ class SliceResult:
         return (
             f"{_duration(self.print_time_s)} to print, {self.filament_g:.1f} g of {self.material} "
             f"({self.filament_mm / 1000:.2f} m of filament), costing {self.cost:.2f} at {self.price_per_kg:g} per kg"
-            + (f" ({GENERIC_NOTE})" if self.for_estimates_only else f", sliced for {self.printer}")
+            + (f" ({self.note})" if self.for_estimates_only else f", sliced for {self.printer}")
         )
 
 
@@ -112,7 +118,7 @@ def print_args(layer: float, nozzle: float, mat: Material) -> list[str]:
     """Our print settings (the reference's: 15 % gyroid, no supports) and the material's density and price."""
     return [
         "--layer-height", f"{layer:g}",
-        "--first-layer-height", f"{max(layer, min(FIRST_LAYER_MM, 0.75 * nozzle)):g}",
+        "--first-layer-height", f"{first_layer_mm(layer, nozzle):g}",
         "--fill-density", f"{INFILL * 100:g}%",
         "--fill-pattern", "gyroid",
         "--perimeters", str(PERIMETERS),
@@ -176,13 +182,14 @@ def slice_mesh(mesh_path, printer: PrinterProfile, mat: Material, *, timeout_s: 
             text = partial.read_text(encoding="utf-8", errors="replace")
             result = parse_gcode(text, mat)
             if not printer.prusa_preset:  # say it in the file too, where a printer's user will look
-                partial.write_text(f"; TAMP-OS: {GENERIC_NOTE}.\n{text}", encoding="utf-8")
+                partial.write_text(f"; TAMP-OS: {estimates_note(printer)}.\n{text}", encoding="utf-8")
             os.replace(partial, gcode)
         finally:
             partial.unlink(missing_ok=True)
     result.gcode = str(gcode)
     result.printer = printer.prusa_preset or "generic"
     result.for_estimates_only = not printer.prusa_preset
+    result.note = estimates_note(printer)
     return result
 
 

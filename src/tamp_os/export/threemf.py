@@ -67,7 +67,8 @@ def _write_3mf(mesh, fh, metadata: dict) -> None:
     item = model.AddBuildItem(obj, wrapper.GetIdentityTransform())
     item.SetUUID(str(uuid.uuid5(seed, "item")))
     model.SetBuildUUID(str(uuid.uuid5(seed, "build")))
-    _finish(model, fh, metadata)
+    settings = _add_print_settings(model, metadata)
+    _finish(model, fh, metadata, unlinked_attachments=settings)
 
 
 def _set_geometry(obj, vertices, faces) -> uuid.UUID:
@@ -119,6 +120,9 @@ def _set_triangle_materials(obj, group_id: int, material_per_face: np.ndarray) -
 SLIC3R_MODEL_CONFIG = "/Metadata/Slic3r_PE_model.config"
 SLIC3R_RELATIONSHIP = "http://schemas.slic3r.org/3mf/2017/06"
 MODEL_RELATIONSHIPS = "3D/_rels/3dmodel.model.rels"
+# The three .config parts are text (PrusaSlicer's model config XML, its print config lines, Bambu's JSON);
+# OPC gives a content type per extension, so one that is true of all three.
+CONFIG_CONTENT_TYPE = "text/plain"
 # Contains "PrusaSlicer" (what Bambu Studio and OrcaSlicer look for) without starting with
 # "PrusaSlicer-", which PrusaSlicer would read as the version of the PrusaSlicer that wrote it.
 PRUSA_LAYOUT = "volumes in PrusaSlicer 3MF layout"
@@ -171,10 +175,29 @@ def _write_parts(parts, fh, metadata: dict) -> None:
     item.SetUUID(str(uuid.uuid5(seed, "item")))
     model.SetBuildUUID(str(uuid.uuid5(seed, "build")))
     config = slic3r_model_config(obj.GetModelResourceID(), title, [p.label for p in parts], face_counts)
-    model.AddCustomContentType("config", "application/xml")  # every package part needs a content type (OPC)
+    model.AddCustomContentType("config", CONFIG_CONTENT_TYPE)  # every package part needs a content type (OPC)
     model.AddAttachment(SLIC3R_MODEL_CONFIG, SLIC3R_RELATIONSHIP).ReadFromBuffer(list(config))
+    _add_print_settings(model, metadata, content_type_added=True)
     application = f"{metadata.get('application', 'TAMP-OS')} ({PRUSA_LAYOUT})"
     _finish(model, fh, {**metadata, "application": application}, unlinked_attachments=True)
+
+
+def _add_print_settings(model, metadata: dict, content_type_added: bool = False) -> bool:
+    """Attach the print settings (metadata["print_settings"], an export.print_settings.PrintSettings) as
+    PrusaSlicer's Metadata/Slic3r_PE.config and Bambu Studio / OrcaSlicer's Metadata/project_settings.config.
+    Both slicers find them by name, so like the model config they go in without a relationship: a
+    relationship from the model would make Bambu Studio and OrcaSlicer look for model parts in them.
+    Returns whether anything was attached."""
+    from .print_settings import BAMBU_PROJECT_SETTINGS, PRUSA_CONFIG
+
+    settings = metadata.get("print_settings")
+    if settings is None:
+        return False
+    if not content_type_added:
+        model.AddCustomContentType("config", CONFIG_CONTENT_TYPE)
+    model.AddAttachment(PRUSA_CONFIG, SLIC3R_RELATIONSHIP).ReadFromBuffer(list(settings.prusa_config()))
+    model.AddAttachment(BAMBU_PROJECT_SETTINGS, SLIC3R_RELATIONSHIP).ReadFromBuffer(list(settings.bambu_project_settings()))
+    return True
 
 
 def slic3r_model_config(object_id: int, name: str, part_names: list[str], face_counts: list[int]) -> bytes:

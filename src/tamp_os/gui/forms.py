@@ -35,12 +35,14 @@ FIELDS = {f.name: f for f in (
     Field("detail_mm", "Finest shape (mm)", "Smaller detail becomes a low texture; leave empty for 2 mm.", "decimal"),
     Field("texture_mm", "Texture height (mm)", "Height of that fine texture; 0 for none.", "decimal"),
     Field("level_count", "Number of levels", "For the levels style: 2 to 5.", "numeric"),
+    Field("bed_mm", "Printer bed size (mm)", "A larger print comes as tiles that fit, such as 180 or 180x180; "
+          "leave empty for the printer's own bed.", "decimal"),
     Field("channel", "Channel", "luminance, or a channel's number (from 0) or name, as listed under the image."),
     Field("z_slice", "Z slice", "Leave empty for a projection of the whole z-stack; else a slice number from 0.", "numeric"),
     Field("time", "Time point", "Leave empty for the first time point; else a number from 0.", "numeric"),
     Field("scene", "Scene or series", "Leave empty for the first scene of a multi-scene file; else a number from 0.", "numeric"),
 )}
-TEXT_FIELDS = ("caption", "pixel_size", "scale_bar", "channel")
+TEXT_FIELDS = ("caption", "pixel_size", "scale_bar", "bed_mm", "channel")
 # The relief styles in the web app's words: what each is for.
 STYLE_CHOICES = (
     ("structure", "Shapes to feel (recommended)", "Large shapes a fingertip can follow; fine detail kept only as a low texture."),
@@ -50,10 +52,31 @@ STYLE_CHOICES = (
     ("reference", "Brightness as height", "Every brightness step becomes height, as the published workflow does."),
 )
 NUMBER_FIELDS = tuple(n for n in FIELDS if n not in TEXT_FIELDS)
-FLAGS = ("invert", "flip_x", "keep_annotations", "gcode")
+FLAGS = ("invert", "flip_x", "keep_annotations", "gcode", "multicolour")
 LABELS = {**{n: f.label for n, f in FIELDS.items()}, "printer": "Printer profile", "preset": "Level of detail",
           "relief_style": "Relief style",
-          "formats": "Output formats"}
+          "formats": "Output formats", "braille_table": "Braille code", "page_size": "Page size for PDF and SVG",
+          "multicolour": "Two colours", "subject": "What the image shows"}
+PAGE_SIZE_CHOICES = ("plate", "a4", "letter")
+
+
+def printer_choices() -> dict:
+    """The printers the form offers: the profiles (built-in and the user's), then today's printers of
+    the printer table, each as a PrinterProfile (name -> profile)."""
+    from ..printer_table import PRINTERS
+    from ..printers import all_printers, table_profile
+
+    return {**all_printers(), **{p.model: table_profile(p.model) for p in PRINTERS}}
+
+
+def braille_table_choices() -> list[tuple[str, str]]:
+    """(table file name, label) for every braille code liblouis has here, by its name ('French contracted
+    braille'), the default first; the default alone when no table folder is known."""
+    from ..tactile.braille import DEFAULT_TABLE
+    from ..tactile.braille_tables import installed_tables
+
+    tables = sorted(installed_tables(), key=lambda t: (t.name != DEFAULT_TABLE, t.display_name.lower()))
+    return [(t.name, f"{t.display_name} ({t.name})") for t in tables] or [(DEFAULT_TABLE, f"Unified English contracted braille ({DEFAULT_TABLE})")]
 
 
 @dataclass
@@ -85,6 +108,14 @@ def params_from_form(form) -> tuple[LithoParams | None, FormErrors]:
     changes["formats"] = tuple(f for f in form.getlist("formats")) or ("stl",)
     style = form.get("relief_style")
     changes["relief_style"] = style if style in dict((c[0], c) for c in STYLE_CHOICES) else "structure"
+    table = form.get("braille_table")
+    if table:
+        if table in dict(braille_table_choices()):
+            changes["braille_table"] = table
+        else:
+            errors["braille_table"] = "Braille code: choose one of the codes in the list."
+    if form.get("page_size") in PAGE_SIZE_CHOICES:
+        changes["page_size"] = form.get("page_size")
     try:
         get_printer(changes["printer"])
     except ParameterError:

@@ -85,6 +85,7 @@ class WebJob:
     params: LithoParams = field(default_factory=LithoParams)
     results: list[Result] = field(default_factory=list)
     delete_after: float | None = None
+    rejected: list[str] = field(default_factory=list)  # uploads that were not added, each with its reason
 
     @property
     def out(self) -> Path:
@@ -168,8 +169,10 @@ class JobStore:
     def zip_bytes(self, job: WebJob) -> bytes:
         buf = io.BytesIO()
         with zipfile.ZipFile(buf, "w", zipfile.ZIP_DEFLATED) as z:
-            for name in job.download_names():
+            names = job.download_names()
+            for name in names:
                 z.write(job.out / name, name)
+            z.writestr("README.txt", readme_text(names))
         job.delete_after = time.time() + self.grace_s
         return buf.getvalue()
 
@@ -184,11 +187,46 @@ def run_library(path: Path, params: LithoParams, out: Path, stem: str):
     return conversion
 
 
+# What each downloaded file is for, by the end of its name (longest first wins), in the zip's README.txt.
+FILE_PURPOSES = (
+    (".description.txt", "the print described in words: read it aloud, or use it as the alt text of the picture"),
+    (".tamp.json", "the recipe: 'tamp-os convert --recipe' rebuilds exactly this print from the same image"),
+    (".base.stl", "two-colour print, first colour: the plate and relief (load with .raised.stl as two parts)"),
+    (".raised.stl", "two-colour print, second colour: braille, scale bar and frame (load with .base.stl)"),
+    (".3mf", "for your slicer (PrusaSlicer, OrcaSlicer, Bambu Studio): the print with its print settings"),
+    (".stl", "for any slicer: the solid to print"),
+    (".gcode", "for the printer it was sliced for: send it to the printer (if it says 'for estimates only', slice the 3MF instead)"),
+    (".pdf", "for swell paper or a braille embosser: the flat tactile graphic, to print on paper"),
+    (".svg", "for swell paper or a braille embosser: the flat tactile graphic, to edit or print"),
+    (".glb", "a 3D view: opens in a web browser's 3D viewer or any glTF viewer"),
+    (".obj", "for 3D programs that read OBJ"),
+    (".ply", "for 3D programs that read PLY"),
+    (".step", "for CAD programs (STEP)"),
+)
+
+
+def readme_text(names: list[str]) -> str:
+    """README.txt for the zip: each file and what it is for (3MF to your slicer, PDF to swell paper, ...)."""
+    lines = ["Your tactile lithographs, made by TAMP-OS.", "", "What each file is for:", ""]
+    for name in names:
+        purpose = next((text for suffix, text in FILE_PURPOSES if name.endswith(suffix)), "an output of TAMP-OS")
+        tile = re.search(r"\.tile-(\d+)-(\d+)\.", name)
+        if tile:
+            purpose += f" (tile in row {tile.group(1)} from the far edge, column {tile.group(2)} from the left)"
+        lines.append(f"{name}: {purpose}.")
+    lines += ["", "A 3MF file tells PrusaSlicer and OrcaSlicer the layer height the relief was designed for; in Bambu Studio "
+              "choose it yourself (the description says which)."]
+    return "\n".join(lines) + "\n"
+
+
 def convert(job: WebJob, upload: Upload) -> Result:
     from ..report import web_summary_lines
     from .forms import label_of, web_words
 
     params = job.params.replace(preset=upload.override) if upload.override else job.params
+    texts = {key: value for key, value in (("caption", upload.caption), ("subject", upload.subject)) if value}
+    if texts:  # this image's own caption and subject, never another image's
+        params = params.replace(**texts)
     stem = Path(upload.name).stem
     try:
         made = run_library(upload.path, params, job.out, stem)

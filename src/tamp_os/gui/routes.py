@@ -12,11 +12,12 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 from ..errors import TampError
 from ..formats import GRAPHIC_FORMATS
 from ..params import FORMATS, LithoParams
-from ..printers import PRESETS, all_printers
+from ..printers import PRESETS
 from .forms import FIELDS, FLAGS, NUMBER_FIELDS, STYLE_CHOICES, TEXT_FIELDS, params_from_form
 from .jobs import WebJob, safe_name
 from .uploads import inspect_upload
 
+MAX_TEXT_CHARS = 200  # a caption or subject per image; braille captions are a line or two
 NO_TOKEN = ("Request refused", "This form is out of date or did not come from TAMP-OS. Reload the page and try again.")
 
 
@@ -44,9 +45,10 @@ def add_upload_routes(app: FastAPI, web) -> None:
                                           "Choose fewer and add the rest in another round."], 400)
         job = web.store.create()
         problems = await store_uploads(web, job, files)
-        if problems:
+        if problems and not job.uploads:
             web.store.remove(job.id)
             return upload_error(request, problems + ["Nothing was added; choose image files and try again."], 400)
+        job.rejected = problems  # the good files stay; the settings page lists the others with their reasons
         return RedirectResponse(f"{web.base}/jobs/{job.id}", status_code=303)
 
     def upload_error(request, messages: list[str], status: int):
@@ -99,12 +101,14 @@ def add_job_routes(app: FastAPI, web) -> None:
         for i, upload in enumerate(job.uploads):
             choice = form.get(f"override_{i}", "")
             upload.override = choice if choice in PRESETS else ""
+            upload.caption = (form.get(f"caption_{i}") or "").strip()[:MAX_TEXT_CHARS]
+            upload.subject = (form.get(f"subject_{i}") or "").strip()[:MAX_TEXT_CHARS]
         params, errors = params_from_form(form)
         if params is None:
             return settings_page(web, request, job, 400, form_values(job.params, form), errors.by_field)
         if form.get("action") == "update":
-            job.params = params
-            return settings_page(web, request, job, values=form_values(params, form))
+            job.params = params  # the page comes back with focus on the control that was used
+            return settings_page(web, request, job, values=form_values(params, form), focus="update")
         web.store.start(job, params)
         return RedirectResponse(f"{web.base}/jobs/{job.id}", status_code=303)
 
@@ -124,29 +128,40 @@ def add_job_routes(app: FastAPI, web) -> None:
         return RedirectResponse(f"{web.base}/?message=Your+files+were+deleted.", status_code=303)
 
 
+CHOICE_FIELDS = ("braille_table", "page_size")  # chosen from a list (forms.py checks the value)
+
+
 def form_values(params: LithoParams, form=None) -> dict:
     """The settings form's values: from the parameters, or as the user typed them."""
     values = {name: "" if getattr(params, name) is None else getattr(params, name) for name in (*TEXT_FIELDS, *NUMBER_FIELDS)}
     values.update({name: getattr(params, name) for name in FLAGS})
     values["printer"], values["preset"], values["formats"] = params.printer, params.preset, list(params.formats)
     values["relief_style"] = params.relief_style
+    values.update({name: getattr(params, name) for name in CHOICE_FIELDS})
     if form is not None:
-        for key in (*TEXT_FIELDS, *NUMBER_FIELDS, "printer", "preset", "relief_style"):
+        for key in (*TEXT_FIELDS, *NUMBER_FIELDS, *CHOICE_FIELDS, "printer", "preset", "relief_style"):
             values[key] = form.get(key, "")
         values.update({key: form.get(key) == "on" for key in FLAGS})
         values["formats"] = form.getlist("formats")
     return values
 
 
-def settings_page(web, request, job: WebJob, status: int = 200, values=None, errors=None):
+def settings_page(web, request, job: WebJob, status: int = 200, values=None, errors=None, focus: str = ""):
     from .cards import detail_cards
+    from .forms import braille_table_choices, printer_choices
 
     errors = errors or {}
     return web.page(
         request, "settings.html", status=status, job=job, step=2, values=values or form_values(job.params), errors=errors,
-        summary=list(errors.items()), cards=detail_cards(job, job.params), printers=all_printers(), presets=list(PRESETS),
+        summary=list(errors.items()), cards=detail_cards(job, job.params), printers=printer_choices(), presets=list(PRESETS),
         formats=FORMATS, graphic_formats=GRAPHIC_FORMATS, fields=FIELDS, styles=STYLE_CHOICES, customize_open=bool(set(errors) & set(FIELDS)) or request.query_params.get("customize") == "open",
+        braille_tables=braille_table_choices(), page_sizes=PAGE_SIZES, focus=focus,
+        multi_channel=any(u.channels > 1 for u in job.uploads), z_stack=any(u.z_slices > 1 for u in job.uploads),
+        time_series=any(u.time_points > 1 for u in job.uploads), scenes=any(u.scenes > 1 for u in job.uploads),
     )
+
+
+PAGE_SIZES = (("plate", "The plate's own size"), ("a4", "A4, centred"), ("letter", "US Letter, centred"))
 
 
 def add_file_routes(app: FastAPI, web) -> None:

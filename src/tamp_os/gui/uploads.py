@@ -33,6 +33,12 @@ class Upload:
     thumb: str = ""  # file name in the job's thumbs folder
     override: str = ""
     contents: str = ""  # axes and channels of a microscope file, in words ("2 channels: DAPI, GFP")
+    channels: int = 1  # colour or fluorescence channels: a channel choice applies when more than one
+    z_slices: int = 1  # slices of a z-stack: a slice choice applies when more than one
+    caption: str = ""  # this image's braille caption (issue 24: one caption per image, not one for all)
+    subject: str = ""  # what this image shows, for its description
+    time_points: int = 1  # time points of a series: a time choice applies when more than one
+    scenes: int = 1  # scenes or series of a multi-scene file
 
 
 def decoded_bytes(path: Path) -> tuple[int, int, int] | None:
@@ -130,7 +136,10 @@ def inspect_upload(path: Path, name: str, thumbs: Path, index: int, max_decoded_
     preset, reason = suggestion.preset, suggestion.reason
     thumb = f"{index}.png"
     write_png(thumbs / thumb, thumbnail(picture.values))
-    return Upload(name, path, picture.file.width, picture.file.height, preset, reason, thumb, contents=contents_words(picture.file))
+    axes = picture.file.axes or {}
+    return Upload(name, path, picture.file.width, picture.file.height, preset, reason, thumb, contents=contents_words(picture.file),
+                  channels=max(int(picture.file.channel_count or 1), int(picture.file.channels or 1)),
+                  z_slices=int(axes.get("Z", 1)), time_points=int(axes.get("T", 1)), scenes=int(axes.get("scenes", 1)))
 
 
 def contents_words(file) -> str:

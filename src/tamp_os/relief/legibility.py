@@ -202,11 +202,13 @@ def verdicts(f: dict, nozzle_mm: float, style: str | None = None) -> tuple[str, 
         n = f["object_count"]
         if lift < LIFT_MM:
             out.append(Text(
-                f"The {n} object{'s' * (n != 1)} stand only {lift:.2g} mm (median) above the ground around them; "
-                f"a finger may not find them; "
+                f"The {n} object{'s' * (n != 1)} stand{'s' * (n == 1)} only {lift:.2g} mm (median) above the ground around "
+                f"{'it' if n == 1 else 'them'}; "
+                f"a finger may not find {'it' if n == 1 else 'them'}; "
                 + ("try a taller `relief_mm`." if style == "objects" else "try `relief_style` objects.")
             ))
         else:
-            out.append(f"{n} object{'s' * (n != 1)} stand {lift:.2g} mm (median; lowest {low:.2g} mm) above the ground around them.")
+            out.append(f"{n} object{'s' * (n != 1)} stand{'s' * (n == 1)} {lift:.2g} mm (median; lowest {low:.2g} mm) above the "
+                       f"ground around {'it' if n == 1 else 'them'}.")
     out.append(f"The steepest slope is {f['steepest_slope_deg']:.0f} degrees.")
     return tuple(out)

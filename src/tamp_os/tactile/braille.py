@@ -130,6 +130,7 @@ def to_braille(text: str, table: str = DEFAULT_TABLE, translator: Liblouis | Non
     if is_unicode_braille(text):
         return text.replace(" ", BLANK)
     translator = translator or Liblouis.system()
+    check_table_name(table)
     cells = translator.translate(text, table)
     if _has_escape(cells):
         bad = [ch for ch in sorted(set(text)) if not ch.isspace() and _has_escape(translator.translate(ch, table))]
@@ -138,6 +139,18 @@ def to_braille(text: str, table: str = DEFAULT_TABLE, translator: Liblouis | Non
             f"(liblouis would emboss escape codes); remove them, choose another `braille_table`, or give the text as Unicode braille."
         )
     return cells.replace(" ", BLANK)
+
+
+def check_table_name(table: str) -> None:
+    """ParameterError naming the closest real tables when liblouis has no table called `table`
+    (checked on the table folders before liblouis is asked, which would only print its internals)."""
+    from .braille_tables import closest_tables, table_exists
+
+    if table_exists(table) is False:
+        close = closest_tables(table)
+        hint = f" The closest are: {'; '.join(t.line() for t in close)}." if close else ""
+        raise ParameterError(f"`braille_table`: liblouis has no table called {table!r}.{hint} "
+                             f"Give a table's file name, such as {DEFAULT_TABLE}.")
 
 
 def _fold(ch: str) -> str:

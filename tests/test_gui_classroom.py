@@ -1,0 +1,122 @@
+"""Issue 24.3, the web app a teacher finishes: a mixed upload keeps the good files, each image has its
+own caption and subject, braille code by language, page size, two colours and bed size, today's
+printers, focus stays on Update, and the zip says what each file is for. Served for real; the
+keyboard flow in headless Chromium with axe."""
+
+from __future__ import annotations
+
+import io
+import re
+import zipfile
+
+import httpx
+import pytest
+
+from gui_support import audit, browser, form_token, png_bytes, start_server, stop_server  # noqa: F401 (fixture)
+
+
+@pytest.fixture(scope="module")
+def server(tmp_path_factory):
+    proc, url = start_server(tmp_path_factory.mktemp("gui-classroom"), slow_s=0.0)
+    yield url
+    stop_server(proc)
+
+
+def _upload(client, files):
+    token = form_token(client)
+    return client.post("/jobs", data={"token": token}, files=[("images", (n, b, "image/png")) for n, b in files])
+
+
+def _generate(client, job, **fields):
+    import time
+
+    token = form_token(client, f"/jobs/{job}")
+    r = client.post(f"/jobs/{job}/generate", data={"token": token, "preset": "low", **fields})
+    assert r.status_code == 303, r.text
+    deadline = time.monotonic() + 180
+    while client.get(f"/jobs/{job}/status").json()["state"] != "done":
+        assert time.monotonic() < deadline
+        time.sleep(0.2)
+
+
+@pytest.mark.timeout(120)
+def test_a_mixed_upload_keeps_the_good_files_and_lists_the_bad_ones(server):
+    with httpx.Client(base_url=server, timeout=60) as client:
+        r = _upload(client, [("good.png", png_bytes((30, 40), 1)), ("notes.png", b"my notes, not an image"),
+                             ("also-good.png", png_bytes((30, 40), 2))])
+        assert r.status_code == 303
+        page = client.get(r.headers["location"]).text
+        uploads = page.split('class="uploads"')[1].split("</ul>")[0]
+        assert "good.png" in uploads and "also-good.png" in uploads and "notes.png" not in uploads
+        not_added = page.split('id="not-added"')[1].split("</section>")[0]
+        assert "One file was not added" in not_added and "notes.png is not an image TAMP-OS can read" in not_added
+
+
+@pytest.mark.timeout(300)
+def test_each_image_has_its_own_caption_and_subject_and_the_zip_says_what_each_file_is_for(server):
+    with httpx.Client(base_url=server, timeout=120) as client:
+        r = _upload(client, [("sem.png", png_bytes((30, 40), 3)), ("diagram.png", png_bytes((30, 40), 4))])
+        job = r.headers["location"].rsplit("/", 1)[1]
+        _generate(client, job, formats=["stl", "3mf", "pdf"], subject_0="gold particles", caption_0="gold",
+                  subject_1="a cell diagram", caption_1="cell", page_size="a4", braille_table="en-ueb-g1.ctb")
+        z = zipfile.ZipFile(io.BytesIO(client.get(f"/jobs/{job}/download.zip").content))
+        sem = z.read("sem.description.txt").decode()
+        diagram = z.read("diagram.description.txt").decode()
+        assert sem.startswith("A tactile print of gold particles.") and "caption reads: gold." in sem and "cell" not in sem
+        assert diagram.startswith("A tactile print of a cell diagram.") and "caption reads: cell." in diagram
+        import json
+
+        recipe = json.loads(z.read("sem.tamp.json"))
+        assert recipe["params"]["page_size"] == "a4" and recipe["params"]["braille_table"] == "en-ueb-g1.ctb"
+        readme = z.read("README.txt").decode()
+        for name in z.namelist():
+            if name != "README.txt":
+                assert re.search(rf"^{re.escape(name)}: ", readme, re.M), name
+        assert re.search(r"^sem\.3mf: for your slicer", readme, re.M)
+        assert re.search(r"^sem\.pdf: for swell paper or a braille embosser", readme, re.M)
+        assert re.search(r"^sem\.stl: for any slicer", readme, re.M)
+
+
+@pytest.mark.timeout(120)
+def test_settings_offer_todays_printers_braille_codes_page_size_two_colours_and_bed(server):
+    with httpx.Client(base_url=server, timeout=60) as client:
+        r = _upload(client, [("x.png", png_bytes((30, 40), 5))])
+        page = client.get(r.headers["location"]).text
+        printers = page.split('id="printer"')[1].split("</select>")[0]
+        for name in ("Original Prusa MK4", "Bambu Lab A1", "Bambu Lab A1 mini", "Prusa CORE One", "standard"):
+            assert f'value="{name}"' in printers, name
+        tables = page.split('id="braille_table"')[1].split("</select>")[0]
+        assert "French contracted braille (fr-bfu-g2.ctb)" in tables and "selected>Unified English contracted braille" in tables
+        assert 'id="page_size"' in page and 'id="multicolour"' in page and 'id="bed_mm"' in page
+        assert 'id="channel"' not in page and 'id="z_slice"' not in page  # one grey plane: no channel or slice to choose
+        job = r.headers["location"].rsplit("/", 1)[1]
+        _generate(client, job, printer="Bambu Lab A1 mini", formats=["3mf"], multicolour="on")
+        z = zipfile.ZipFile(io.BytesIO(client.get(f"/jobs/{job}/download.zip").content))
+        settings = z.read("x.3mf")
+        with zipfile.ZipFile(io.BytesIO(settings)) as model:
+            assert '"printer_model": "Bambu Lab A1 mini"' in model.read("Metadata/project_settings.config").decode()
+            assert "Metadata/Slic3r_PE_model.config" in model.namelist()  # two parts
+
+
+@pytest.mark.timeout(180)
+def test_focus_stays_on_update_and_the_page_passes_axe(server, browser):
+    page = browser.new_context().new_page()
+    page.goto(server)
+    path = "/tmp/tamp-classroom-x.png"
+    with open(path, "wb") as fh:
+        fh.write(png_bytes((30, 40), 6))
+    page.set_input_files("#images", path)
+    page.get_by_role("button", name="Add images").click()
+    page.wait_for_selector("h1:has-text('Step 2 of 3')", timeout=60000)
+    page.focus("#printer")
+    page.select_option("#printer", "Bambu Lab A1 mini")
+    page.keyboard.press("Tab")
+    assert page.evaluate("document.activeElement.id") == "update"
+    with page.expect_navigation():
+        page.keyboard.press("Enter")
+    page.wait_for_load_state()
+    assert page.evaluate("document.activeElement.id") == "update"  # not the page body
+    assert page.locator("#printer").input_value() == "Bambu Lab A1 mini"
+    assert "25 height levels" in page.locator("#preset-medium-facts").inner_text()  # the A1 mini's 0.12 mm design layer
+    audit(page, "settings with the classroom controls")
+    page.context.close()

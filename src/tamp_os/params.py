@@ -23,7 +23,7 @@ GRAPHIC_FORMATS = ("pdf", "svg")  # 2-D tactile graphics for swell paper and emb
 FITS = ("pad", "crop", "stretch")
 MESHERS = ("adaptive", "grid")
 # The relief styles (relief/styles.py implements them; a test keeps the two lists equal).
-RELIEF_STYLES = ("reference", "structure", "levels", "objects", "auto")
+RELIEF_STYLES = ("reference", "structure", "levels", "objects", "content", "auto")
 
 
 def _f(default, help, unit="", lo=None, hi=None, choices=None, lo_open=False):

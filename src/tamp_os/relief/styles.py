@@ -13,6 +13,8 @@ work with every style, upstream of it.
   under a fingertip's area are merged into their neighbours; outlines smoothed at nozzle scale.
 - objects: objects found (enclosed by edges, else bright blobs) raised as domes or rounded
   plateaus over a flat background carrying only the `texture_mm` texture.
+- content: translates what the picture shows (content.py): members of a population raised by
+  one lift, line networks as raised lines on a flat ground, weak contrast equalised locally.
 - auto: picks one of the above from the picture and says why.
 """
 
@@ -29,7 +31,7 @@ from .heightmap import heights_mm
 from .objects import ObjectMap, dome_profile, find_objects
 from .scales import WorkGrid, coarse_gaussian_mm, gaussian_mm, guided_smooth, robust_unit
 
-STYLES = ("reference", "structure", "levels", "objects", "auto")
+STYLES = ("reference", "structure", "levels", "objects", "content", "auto")
 LEVEL_RANGE = (2, 5)
 MIN_STEP_MM = 0.5  # height step fingers tell apart reliably
 DOME_ROUND_DETAILS = 5  # domes up to 2 × 5 × detail_mm across; wider objects get rounded plateaus
@@ -107,6 +109,7 @@ def make_relief(
     layer_mm: float | None = None,
     options: StyleOptions = StyleOptions(),
     uniform: bool = False,
+    hints: str = "",
 ) -> ReliefResult:
     """Heights in mm from the prepared image, in the given relief style.
 
@@ -119,6 +122,7 @@ def make_relief(
     layer_mm : when given, heights are rounded to whole layers (as `heights_mm` does).
     options : StyleOptions.
     uniform : the picture is uniform (prepare's info['uniform']): every style gives a flat plate.
+    hints : file metadata that may inform the content style's choice (detector, modality), said in its reason.
 
     Returns
     -------
@@ -138,6 +142,9 @@ def make_relief(
         style, reason = choose_style(work, pitch_mm=grid.pitch_mm, options=options, found=found)
     else:
         reason = ""
+    if style == "content":
+        return _content(image01, grid, work, found, mm_per_px=mm_per_px, base_mm=base_mm, relief_mm=relief_mm,
+                        layer_mm=layer_mm, options=options, hints=hints, why=reason)
     made = _STYLE_FUNCS[style](work, grid.pitch_mm, relief_mm, options, found)
     relief01 = _full_span(np.clip(grid.up(made.relief01, nearest=style == "levels"), 0.0, 1.0))
     labels = None
@@ -149,6 +156,31 @@ def make_relief(
         plateaus = np.unique(np.clip(made.relief01, 0.0, 1.0).astype(np.float32))
         levels = tuple(float(h) for h in heights_mm(plateaus, base_mm=base_mm, relief_mm=relief_mm, layer_mm=layer_mm) - base_mm)
     return ReliefResult(heights, style, reason or made.summary, labels, levels, made.notes)
+
+
+def _content(image01, grid, work, found, *, mm_per_px, base_mm, relief_mm, layer_mm, options, hints, why) -> ReliefResult:
+    """The content style (content.py) brought back to the output grid. Members reach the full
+    relief; lines stop at LINE_HEIGHT_MM (a tactile line's height), so they are not stretched."""
+    from .content import check_sentences, make_content
+
+    width_mm = (image01.shape[1] - 1) * mm_per_px
+    made = make_content(work, pitch_mm=grid.pitch_mm, relief_mm=relief_mm, width_mm=width_mm, found=found,
+                        min_area_mm2=options.min_area_mm2, hints=hints)
+    relief01 = np.clip(grid.up(made.relief01), 0.0, 1.0)
+    relief01 = relief01 - float(relief01.min())
+    if made.kind in ("members", "shape"):
+        relief01 = _full_span(relief01)
+    heights = heights_mm(relief01, base_mm=base_mm, relief_mm=relief_mm, layer_mm=layer_mm)
+    labels = None
+    if made.labels is not None and made.labels.max():
+        labels = grid.up(made.labels.astype(np.float32), nearest=True).astype(np.int32)
+    lines = None if made.line_mask is None else grid.up(made.line_mask.astype(np.float32), nearest=True) > 0.5
+    from .content import ContentMade
+
+    full = ContentMade(made.relief01, made.kind, labels, made.reason, made.notes, lines)
+    checks = check_sentences(heights, full, mm_per_px, base_mm)
+    reason = (why + "; " if why else "") + made.reason
+    return ReliefResult(heights, "content", reason, labels, (), made.notes + checks)
 
 
 def _full_span(relief01: np.ndarray) -> np.ndarray:

@@ -1,0 +1,309 @@
+"""The `content` relief style: translate what the picture shows, not its brightness (issue 26).
+
+Tactile graphics encode a picture: points and particles as domes, outlines as raised lines,
+empty space as the ground. This style reads the picture on the working grid and decides:
+
+1. polarity: the ground is the most common brightness (the histogram's mode at fingertip scale);
+   whichever side of it holds more of the picture's deviation is the content (bright beads on
+   black fluorescence, dark strokes on white paper); the ground goes to the base.
+2. a line network (ridge filter, skeleton) that encloses at least NETWORK_CELLS regions: raised
+   lines LINE_WIDTH_MM wide and LINE_HEIGHT_MM high on a flat ground (lines.py);
+3. else a population (local-contrast members, population.py, or the edge-enclosed objects the
+   other styles find when they are too large for a local background): every member a dome of
+   the same full lift, touching members apart by a groove, small ones drawn at a feelable size
+   when few;
+4. else weak contrast: the specimen is found against an empty mount, its contrast is equalised
+   locally (CLAHE over a tenth of the field) and its grains are outlined by raised lines when
+   their boundaries form a network; anything else gets the structure style's shape.
+
+A lattice or grating is recognised by its spectrum's peak and named with its pitch on the print.
+Every decision is written into the reason with the measured facts, and `check_sentences` compares
+the print with what was found ("found 10 members, all raised at least 1.0 mm").
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import ndimage
+from skimage import exposure, filters, segmentation
+
+from .lines import LINE_HEIGHT_MM, LINE_WIDTH_MM, MIN_GAP_MM, Lines, draw_lines, find_lines
+from .objects import ObjectMap, dome_profile
+from .population import BACKGROUND_MM, Members, find_members
+
+NETWORK_CELLS = 3  # a line network encloses at least this many fingertip-sized regions
+MAX_LINE_COVER = 0.45  # drawn lines covering more than this are no network but a texture
+MIN_MEMBERS = 2
+MIN_FELT_MM = 2.0  # members narrower than this are drawn this wide when few
+FEW_MEMBERS = 60
+MIN_PITCH_MM = 2.5  # a lattice finer than this on the print is felt as roughness
+MEMBER_ROUND_MM = 2.5  # dome shoulders; wider members get rounded plateaus
+EMPTY_GROUND_SHARE = 0.5  # a bright ground this share of the picture lies within 0.06 of is empty (paper, brightfield)
+WEAK_SPREAD = 0.3  # a specimen whose 1st-99th percentiles span less than this (beside a mount) has weak contrast
+EMPTY_MOUNT_SHARE = 0.05  # a dark, featureless area covering at least this share is the mount
+
+
+@dataclass(frozen=True)
+class Polarity:
+    bright: bool  # content brighter than the ground
+    ground: float  # the ground's brightness, 0..1
+    reason: str
+
+
+@dataclass(frozen=True)
+class Period:
+    pitch_mm: float  # period on the print
+    share: float  # share of the detail's power in the spectrum's peak
+
+
+@dataclass(frozen=True)
+class ContentMade:
+    """What the content style made: relief01 on the working grid (0..1 of the relief; lines stop
+    at LINE_HEIGHT_MM / relief), the kind ('lines', 'members', 'grains', 'shape'), labels of the
+    members (or None), the reason (facts), and check sentences."""
+
+    relief01: np.ndarray
+    kind: str
+    labels: np.ndarray | None
+    reason: str
+    notes: tuple[str, ...]
+    line_mask: np.ndarray | None = None
+
+
+def content_polarity(work: np.ndarray, pitch_mm: float, within: np.ndarray | None = None) -> Polarity:
+    """Which side of the ground carries the content (see the module's note 1).
+
+    Dark ground is the rule for SEM, dark field and fluorescence; a bright ground must be empty
+    (brightfield, paper): the mode is bright and at least EMPTY_GROUND_SHARE of the picture lies
+    within 0.06 of it. A particle field whose particles cover most of it has a bright mode too,
+    but a broad one. Between the two, the side holding more deviation from the mode wins.
+    """
+    smooth = ndimage.gaussian_filter(work.astype(np.float32), max(0.5, 0.5 / pitch_mm), mode="nearest")
+    values = smooth[within] if within is not None and within.any() else smooth.ravel()
+    counts, edges = np.histogram(values, bins=64, range=(0.0, 1.0))
+    counts = np.convolve(counts, np.ones(3) / 3, mode="same")
+    mode = float((edges[:-1] + edges[1:])[int(np.argmax(counts))] / 2)
+    near = float(np.mean(np.abs(values - mode) < 0.06))
+    up = float(np.mean(np.clip(values - mode, 0, None)))
+    down = float(np.mean(np.clip(mode - values, 0, None)))
+    if mode >= 0.6:
+        bright = near < EMPTY_GROUND_SHARE
+        why = (f"an empty bright ground ({near:.0%} of the picture within 0.06 of it)" if not bright
+               else f"bright but not empty (only {near:.0%} of the picture within 0.06 of it: a field of bright members)")
+    elif mode <= 0.4:
+        bright, why = True, "dark"
+    else:
+        bright = up >= down
+        why = f"mid-grey, with more of the picture {'above' if bright else 'below'} it ({max(up, down):.3f} against {min(up, down):.3f})"
+    reason = (f"the ground is the most common brightness ({mode:.2f} of the range: {why}), so the "
+              f"{'bright' if bright else 'dark'} parts are raised and the ground sits at the base")
+    return Polarity(bright, mode, reason)
+
+
+def lattice_period(work: np.ndarray, pitch_mm: float) -> Period | None:
+    """The strongest period of the picture's detail (spectrum peak beyond 12 mm wavelengths), if
+    its peak holds a clear share of the detail's power; else None."""
+    rows, cols = work.shape
+    detail = work - ndimage.gaussian_filter(work, 4.0 / pitch_mm, mode="nearest")
+    window = np.outer(np.hanning(rows), np.hanning(cols)).astype(np.float32)
+    power = np.abs(np.fft.rfft2(detail * window)) ** 2
+    fy = np.fft.fftfreq(rows)[:, None]
+    fx = np.fft.rfftfreq(cols)[None, :]
+    freq = np.hypot(fy, fx) / pitch_mm  # cycles per mm
+    band = (freq > 1 / 12.0) & (freq < 0.5 / pitch_mm)
+    total = float(power[band].sum())
+    if total <= 0:
+        return None
+    at = np.unravel_index(np.argmax(np.where(band, power, 0)), power.shape)
+    near = band & (np.abs(freq - freq[at]) <= 0.08 * freq[at])  # the ring of that frequency (all orientations)
+    share = float(power[near].sum() / total)
+    if share < 0.35:
+        return None
+    return Period(float(1.0 / freq[at]), share)
+
+
+def make_content(work: np.ndarray, *, pitch_mm: float, relief_mm: float, width_mm: float, found: ObjectMap,
+                 min_area_mm2: float, hints: str = "") -> ContentMade:
+    """The content relief on the working grid (see the module's notes). `hints`: file metadata
+    that helps the choice (detector, modality, channel), said in the reason."""
+    specimen = find_specimen(work, pitch_mm)
+    polarity = content_polarity(work, pitch_mm, None if specimen.all() else specimen)
+    x = work if polarity.bright else 1.0 - work
+    period = lattice_period(work, pitch_mm)
+    meta = f"; file metadata: {hints}" if hints else ""
+    lattice = _lattice_words(period, width_mm)
+    if not specimen.all():
+        lo, hi = np.percentile(work[specimen], [1, 99])
+        if hi - lo < WEAK_SPREAD:
+            return _weak_contrast(work, x, pitch_mm, relief_mm, width_mm, min_area_mm2, polarity, lattice + meta, specimen)
+    lines = find_lines(x, pitch_mm=pitch_mm, min_area_mm2=min_area_mm2)
+    members = find_members(x, pitch_mm=pitch_mm)
+    network = lines.cell_count >= NETWORK_CELLS and lines.cover <= MAX_LINE_COVER and not _members_explain(members, lines, pitch_mm)
+    if network:
+        return _as_lines(lines, pitch_mm, relief_mm, width_mm, polarity, lattice + meta, "lines")
+    big = _large_edge_objects(found, pitch_mm)
+    if big is not None:
+        return _as_members(big, pitch_mm, relief_mm, polarity, lattice + meta,
+                           f"{int(big.max())} objects outlined by edges, wider than the {BACKGROUND_MM:g} mm local ground")
+    if members.count >= MIN_MEMBERS:
+        return _as_members(members.labels, pitch_mm, relief_mm, polarity, lattice + meta,
+                           f"{members.count} members found by local contrast (each against the ground around it, cut at half its own peak; "
+                           f"dimmest {np.min(members.contrast):.2f}, brightest {np.max(members.contrast):.2f} of the range)")
+    return _weak_contrast(work, x, pitch_mm, relief_mm, width_mm, min_area_mm2, polarity, lattice + meta)
+
+
+def _members_explain(members: Members, lines: Lines, pitch_mm: float) -> bool:
+    """A dense population looks like a network of the gaps between members: the members explain
+    the picture when they cover more than the lines do and most cells hold one member."""
+    return members.count >= NETWORK_CELLS and members.cover > 1.5 * lines.cover
+
+
+def _large_edge_objects(found: ObjectMap, pitch_mm: float) -> np.ndarray | None:
+    """Objects the edge finder outlined that are too wide for the local ground (the FePt spheres)."""
+    if found.method != "edges" or found.count == 0:
+        return None
+    area = np.bincount(found.labels.ravel())[1:]
+    diameters = 2 * np.sqrt(area / np.pi) * pitch_mm
+    return found.labels if float(np.median(diameters)) > BACKGROUND_MM else None
+
+
+def _lattice_words(period: Period | None, width_mm: float) -> str:
+    if period is None:
+        return ""
+    if period.pitch_mm >= MIN_PITCH_MM:
+        return f"; a lattice of {period.pitch_mm:.1f} mm pitch on the print, kept (feelable, not roughness)"
+    return (f"; a lattice of {period.pitch_mm:.1f} mm pitch on the print, too fine to feel: it becomes feelable "
+            f"at a print width of {width_mm * MIN_PITCH_MM / period.pitch_mm:.0f} mm")
+
+
+def _as_members(labels: np.ndarray, pitch_mm, relief_mm, polarity, extra, what) -> ContentMade:
+    count = int(labels.max())
+    area = np.bincount(labels.ravel(), minlength=count + 1)[1:]
+    diam = 2 * np.sqrt(area / np.pi) * pitch_mm
+    notes = []
+    small = diam < MIN_FELT_MM
+    if small.any() and count <= FEW_MEMBERS:
+        # Few members under a fingertip: draw each at least MIN_FELT_MM across (into free ground only).
+        grown = segmentation.expand_labels(labels, distance=max(1.0, (MIN_FELT_MM - float(diam[small].min())) / 2 / pitch_mm))
+        keep_small = np.concatenate([[False], small])
+        labels = np.where((labels == 0) & keep_small[grown] & (_dist_to(grown == 0) >= 0), grown, labels)
+        notes.append(f"content: {int(small.sum())} members narrower than {MIN_FELT_MM:g} mm were drawn {MIN_FELT_MM:g} mm wide, so a finger finds them.")
+    elif small.any():
+        notes.append(f"content: {int(small.sum())} of {count} members are narrower than {MIN_FELT_MM:g} mm; with so many they read as a texture of small domes.")
+    labels = _with_interior(labels)
+    domes = dome_profile(labels, pitch_mm=pitch_mm, round_mm=MEMBER_ROUND_MM)
+    reason = f"content: {what}; each raised as a dome by the same lift, touching ones apart by a groove; {polarity.reason}{extra}"
+    return ContentMade(domes, "members", labels, reason, tuple(notes))
+
+
+def _with_interior(labels: np.ndarray) -> np.ndarray:
+    """Drop members that are all outline (a pixel-wide sliver has no dome to feel), renumbered."""
+    from .objects import inner_outline
+
+    n = int(labels.max())
+    has = np.zeros(n + 1, bool)
+    has[labels[(labels > 0) & ~inner_outline(labels)]] = True
+    out = np.where(has[labels], labels, 0)
+    return segmentation.relabel_sequential(out)[0].astype(np.int32)
+
+
+def _dist_to(mask):
+    return ndimage.distance_transform_edt(~mask) if mask.any() else np.zeros(mask.shape)
+
+
+def _as_lines(lines: Lines, pitch_mm, relief_mm, width_mm, polarity, extra, kind, what: str = "") -> ContentMade:
+    height = min(LINE_HEIGHT_MM, relief_mm)
+    profile = draw_lines(lines, pitch_mm) * (height / relief_mm if relief_mm > 0 else 0.0)
+    notes = []
+    if lines.merged.any():
+        share = float(lines.merged.mean())
+        notes.append(
+            f"content: some lines run closer than {MIN_GAP_MM:g} mm, which a finger cannot separate; the space between them "
+            f"({share:.0%} of the picture) was filled so they read as one band; at a print width of about "
+            f"{width_mm * lines.separate_at:.0f} mm nine in ten of the regions they enclose would be felt apart."
+        )
+    what = what or f"a network of lines enclosing {lines.cell_count} regions ({lines.length_mm:.0f} mm of line, ridge strength {lines.strength:.0f} × noise)"
+    reason = (f"content: {what}, raised as lines {LINE_WIDTH_MM:g} mm wide and {height:.1f} mm high on a flat ground; "
+              f"{polarity.reason}{extra}")
+    return ContentMade(profile.astype(np.float32), kind, None, reason, tuple(notes), lines.skeleton)
+
+
+def find_specimen(work: np.ndarray, pitch_mm: float) -> np.ndarray:
+    """The specimen (bool) against an empty mount: a dark, featureless area (Otsu of the picture at
+    fingertip scale, the darker side with almost no detail) of at least EMPTY_MOUNT_SHARE; else all."""
+    smooth = ndimage.gaussian_filter(work, 1.0 / pitch_mm, mode="nearest")
+    if np.ptp(smooth) < 0.05:
+        return np.ones(work.shape, bool)
+    dark = smooth < filters.threshold_otsu(smooth)
+    if dark.mean() < EMPTY_MOUNT_SHARE or dark.mean() > 0.8:
+        return np.ones(work.shape, bool)
+    detail = np.abs(work - smooth)
+    if np.median(detail[dark]) > 0.5 * np.median(detail[~dark]) + 0.01 or np.median(work[dark]) > 0.25:
+        return np.ones(work.shape, bool)
+    return ndimage.binary_opening(~dark, iterations=2)
+
+
+def _weak_contrast(work, x, pitch_mm, relief_mm, width_mm, min_area_mm2, polarity, extra, specimen=None) -> ContentMade:
+    from .styles import StyleOptions, large_shape
+
+    specimen = find_specimen(work, pitch_mm) if specimen is None else specimen
+    inside = work[specimen]
+    lo, hi = (np.percentile(inside, [1, 99]) if inside.size else (0.0, 1.0))
+    spread = max(float(hi - lo), 1e-6)
+    local = np.clip((work - lo) / spread, 0, 1)
+    # CLAHE over about a tenth of the field: grains a few percent apart become distinct.
+    kernel = max(8, int(min(work.shape) / 10))
+    equal = exposure.equalize_adapthist(np.where(specimen, local, float(np.median(local[specimen]) if specimen.any() else 0)),
+                                        kernel_size=kernel, clip_limit=0.02).astype(np.float32)
+    edges = filters.sobel(ndimage.gaussian_filter(equal, 0.7))
+    edges = np.where(ndimage.binary_erosion(specimen, iterations=2), edges, 0)
+    lines = find_lines(edges / max(float(edges.max()), 1e-6), pitch_mm=pitch_mm, min_area_mm2=min_area_mm2)
+    where = ("the specimen was found against an empty mount (kept at the base)" if not specimen.all()
+             else "no empty mount")
+    if lines.cell_count >= NETWORK_CELLS and lines.cover <= MAX_LINE_COVER:
+        made = _as_lines(lines, pitch_mm, relief_mm, width_mm, polarity, extra, "grains",
+                         what=(f"weak contrast (the specimen spans {spread:.2f} of the range; {where}): after local equalisation "
+                               f"its boundaries outline {lines.cell_count} grains"))
+        profile = np.where(specimen, made.relief01, 0.0)
+        return ContentMade(profile.astype(np.float32), "grains", None, made.reason, made.notes, lines.skeleton)
+    shape = large_shape(equal, pitch_mm, StyleOptions())
+    shape = np.where(specimen, shape, 0.0).astype(np.float32)
+    reason = (f"content: no population and no line network; weak contrast equalised locally ({where}) and its "
+              f"fingertip-scale shape raised; {polarity.reason}{extra}")
+    return ContentMade(shape, "shape", None, reason, ())
+
+
+def check_sentences(heights_mm: np.ndarray, made: ContentMade, mm_per_px: float, base_mm: float) -> tuple[str, ...]:
+    """Compare the print with what was found: how many members and how high the lowest stands
+    above the ground around it; the lines' height over what they enclose."""
+    if made.kind == "members" and made.labels is not None and made.labels.max():
+        lifts = member_tops(heights_mm, made.labels, mm_per_px)
+        n = lifts.size
+        felt = int((lifts >= 0.5).sum())
+        if felt == n:
+            return (f"Found {n} member{'s' * (n != 1)}, all raised at least {lifts.min():.1f} mm above the ground around them.",)
+        return (f"Found {n} members; {felt} stand at least 0.5 mm above the ground around them, {n - felt} do not "
+                f"(lowest {lifts.min():.1f} mm).",)
+    if made.line_mask is not None and made.line_mask.any():
+        on = heights_mm[made.line_mask]
+        off = heights_mm[~ndimage.binary_dilation(made.line_mask, iterations=3)]
+        rise = float(np.median(on) - (np.median(off) if off.size else base_mm))
+        what = "grain outlines" if made.kind == "grains" else "a network of lines"
+        return (f"{what[0].upper() + what[1:]}, raised {rise:.1f} mm over the areas they enclose.",)
+    return ()
+
+
+def member_tops(heights_mm: np.ndarray, labels: np.ndarray, mm_per_px: float, ring_mm: float = 1.5) -> np.ndarray:
+    """Per member: its top (95th percentile of its heights) minus the median of a ring ring_mm wide
+    around it (ring pixels belong to their nearest member)."""
+    n = int(labels.max())
+    mask = labels > 0
+    dist, (iy, ix) = ndimage.distance_transform_edt(~mask, return_indices=True)
+    owner = np.where((~mask) & (dist * mm_per_px <= ring_mm), labels[iy, ix], 0)
+    index = np.arange(1, n + 1)
+    top = np.asarray(ndimage.labeled_comprehension(heights_mm, labels, index, lambda v: np.percentile(v, 95), float, np.nan))
+    ring = np.asarray(ndimage.median(heights_mm, owner, index), dtype=np.float64)
+    ring = np.where(np.isfinite(ring), ring, float(np.median(heights_mm[~mask])) if (~mask).any() else 0.0)
+    return top - ring

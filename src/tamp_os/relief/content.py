@@ -30,7 +30,7 @@ from scipy import ndimage
 from skimage import exposure, filters, segmentation
 
 from .lines import LINE_HEIGHT_MM, LINE_WIDTH_MM, MIN_GAP_MM, Lines, draw_lines, find_lines
-from .objects import ObjectMap, dome_profile
+from .objects import ObjectMap, dome_profile, label_median
 from .population import BACKGROUND_MM, Members, find_members
 
 NETWORK_CELLS = 3  # a line network encloses at least this many fingertip-sized regions
@@ -39,7 +39,7 @@ MIN_MEMBERS = 2
 MIN_FELT_MM = 2.0  # members narrower than this are drawn this wide when few
 FEW_MEMBERS = 60
 MIN_PITCH_MM = 2.5  # a lattice finer than this on the print is felt as roughness
-MEMBER_ROUND_MM = 2.5  # dome shoulders; wider members get rounded plateaus
+MEMBER_ROUND_MM = 10.0  # dome shoulders (as the objects style); wider members get rounded plateaus
 EMPTY_GROUND_SHARE = 0.5  # a bright ground this share of the picture lies within 0.06 of is empty (paper, brightfield)
 WEAK_SPREAD = 0.3  # a specimen whose 1st-99th percentiles span less than this (beside a mount) has weak contrast
 EMPTY_MOUNT_SHARE = 0.05  # a dark, featureless area covering at least this share is the mount
@@ -124,10 +124,11 @@ def lattice_period(work: np.ndarray, pitch_mm: float) -> Period | None:
     return Period(float(1.0 / freq[at]), share)
 
 
-def make_content(work: np.ndarray, *, pitch_mm: float, relief_mm: float, width_mm: float, found: ObjectMap,
+def make_content(work: np.ndarray, *, pitch_mm: float, relief_mm: float, width_mm: float, found,
                  min_area_mm2: float, hints: str = "") -> ContentMade:
-    """The content relief on the working grid (see the module's notes). `hints`: file metadata
-    that helps the choice (detector, modality, channel), said in the reason."""
+    """The content relief on the working grid (see the module's notes). `found`: the edge-enclosed
+    objects (an ObjectMap, or a function that finds them: only asked for when needed). `hints`:
+    file metadata that helps the choice (detector, modality, channel), said in the reason."""
     specimen = find_specimen(work, pitch_mm)
     polarity = content_polarity(work, pitch_mm, None if specimen.all() else specimen)
     x = work if polarity.bright else 1.0 - work
@@ -143,7 +144,7 @@ def make_content(work: np.ndarray, *, pitch_mm: float, relief_mm: float, width_m
     network = lines.cell_count >= NETWORK_CELLS and lines.cover <= MAX_LINE_COVER and not _members_explain(members, lines, pitch_mm)
     if network:
         return _as_lines(lines, pitch_mm, relief_mm, width_mm, polarity, lattice + meta, "lines")
-    big = _large_edge_objects(found, pitch_mm)
+    big = _large_edge_objects(found() if callable(found) else found, pitch_mm)
     if big is not None:
         return _as_members(big, pitch_mm, relief_mm, polarity, lattice + meta,
                            f"{int(big.max())} objects outlined by edges, wider than the {BACKGROUND_MM:g} mm local ground")
@@ -296,14 +297,16 @@ def check_sentences(heights_mm: np.ndarray, made: ContentMade, mm_per_px: float,
 
 
 def member_tops(heights_mm: np.ndarray, labels: np.ndarray, mm_per_px: float, ring_mm: float = 1.5) -> np.ndarray:
-    """Per member: its top (95th percentile of its heights) minus the median of a ring ring_mm wide
-    around it (ring pixels belong to their nearest member)."""
+    """Per member: its top (highest point: what a finger finds) minus the median of a ring ring_mm
+    wide around it (ring pixels belong to their nearest member)."""
     n = int(labels.max())
     mask = labels > 0
     dist, (iy, ix) = ndimage.distance_transform_edt(~mask, return_indices=True)
     owner = np.where((~mask) & (dist * mm_per_px <= ring_mm), labels[iy, ix], 0)
     index = np.arange(1, n + 1)
-    top = np.asarray(ndimage.labeled_comprehension(heights_mm, labels, index, lambda v: np.percentile(v, 95), float, np.nan))
-    ring = np.asarray(ndimage.median(heights_mm, owner, index), dtype=np.float64)
+    top = np.full(n + 1, -np.inf)
+    np.maximum.at(top, labels.ravel(), heights_mm.ravel())
+    top = top[1:]
+    ring = label_median(heights_mm, owner, n)
     ring = np.where(np.isfinite(ring), ring, float(np.median(heights_mm[~mask])) if (~mask).any() else 0.0)
     return top - ring

@@ -30,7 +30,8 @@ LINE_HEIGHT_MM = 1.0  # raised line height (0.8–1.2 mm)
 MIN_GAP_MM = 2.5  # lines closer than this (edge to edge) merge under a fingertip
 MIN_PIECE_MM = 4.0  # loose line pieces shorter than this are noise or texture
 RIDGE_SIGMAS_MM = (0.4, 0.8)
-RIDGE_METHODS = ("sato", "meijering", "tophat")
+RIDGE_SIGMA_MM = 0.5  # the one scale of the default ridge measure (lines 0.5–2 mm wide on the print)
+RIDGE_METHODS = ("hessian", "sato", "meijering", "tophat")
 
 
 @dataclass(frozen=True)
@@ -51,9 +52,19 @@ class Lines:
     strength: float  # median ridge response on the skeleton over the response's noise (MAD)
 
 
-def ridge_response(bright01: np.ndarray, pitch_mm: float, method: str = "sato") -> np.ndarray:
+def ridge_response(bright01: np.ndarray, pitch_mm: float, method: str = "hessian") -> np.ndarray:
     """Ridge strength of lines brighter than both sides, 0 where there is none."""
     sigmas = [max(0.5, s / pitch_mm) for s in RIDGE_SIGMAS_MM]
+    if method == "hessian":
+        # Sato's measure at one scale: the Hessian's most negative eigenvalue (a bright line's
+        # curvature across it), from three Gaussian derivative filters in float32.
+        sigma = max(0.7, RIDGE_SIGMA_MM / pitch_mm)
+        img = bright01.astype(np.float32)
+        hyy = ndimage.gaussian_filter(img, sigma, order=(2, 0), mode="reflect")
+        hxx = ndimage.gaussian_filter(img, sigma, order=(0, 2), mode="reflect")
+        hxy = ndimage.gaussian_filter(img, sigma, order=(1, 1), mode="reflect")
+        low = (hyy + hxx) / 2 - np.sqrt(((hyy - hxx) / 2) ** 2 + hxy * hxy)
+        return np.maximum(-low, 0.0) * sigma * sigma
     if method == "sato":
         return filters.sato(bright01, sigmas=sigmas, black_ridges=False, mode="reflect")
     if method == "meijering":
@@ -64,14 +75,16 @@ def ridge_response(bright01: np.ndarray, pitch_mm: float, method: str = "sato") 
     raise ValueError(method)
 
 
-def find_lines(bright01: np.ndarray, *, pitch_mm: float, min_area_mm2: float = 6.0, method: str = "sato") -> Lines:
+def find_lines(bright01: np.ndarray, *, pitch_mm: float, min_area_mm2: float = 6.0, method: str = "hessian") -> Lines:
     """The line network of a 0..1 picture whose lines are bright (the working grid)."""
     image = bright01.astype(np.float32)
     response = ridge_response(image, pitch_mm, method)
     med = float(np.median(response))
     mad = float(np.median(np.abs(response - med))) * 1.4826 + 1e-9
     thresh = max(filters.threshold_otsu(response) if np.ptp(response) > 0 else np.inf, med + 3 * mad)
-    # And above the picture's own noise: a ridge filter answers on pure noise too.
+    # And above the picture's own noise: a ridge filter answers on pure noise too. (A hysteresis
+    # threshold down to median + 3-20 MADs was measured too: it lifts the Al2O3 boundaries'
+    # recall only from 0.14 to 0.20 and halves the membranes' precision, so a plain threshold.)
     thresh = max(thresh, 3 * noise_level(image))
     mask = response > thresh
     skeleton = morphology.skeletonize(mask)

@@ -136,8 +136,11 @@ def make_relief(
     # Shape and objects are read at fingertip scale: a grid at the nozzle's pitch carries all of it.
     grid = WorkGrid.plan(image01.shape, mm_per_px, options.nozzle_mm)
     work = grid.down(image01)
-    # Every style (and auto's choice) reads the same objects: find them once.
-    found = find_objects(work, pitch_mm=grid.pitch_mm, min_area_mm2=options.min_area_mm2, nozzle_mm=options.nozzle_mm)
+    # Every style (and auto's choice) reads the same objects: find them once (content asks only if it needs them).
+    def objects_found() -> ObjectMap:
+        return find_objects(work, pitch_mm=grid.pitch_mm, min_area_mm2=options.min_area_mm2, nozzle_mm=options.nozzle_mm)
+
+    found = objects_found if style == "content" else objects_found()
     if style == "auto":
         style, reason = choose_style(work, pitch_mm=grid.pitch_mm, options=options, found=found)
     else:

@@ -34,15 +34,39 @@ from .objects import ObjectMap, dome_profile, label_median
 from .population import BACKGROUND_MM, Members, find_members
 
 NETWORK_CELLS = 3  # a line network encloses at least this many fingertip-sized regions
+NETWORK_STRENGTH = 20.0  # median ridge response on the lines over its MAD: measured 45-240 on networks, 7 on SEM sphere rims
 MAX_LINE_COVER = 0.45  # drawn lines covering more than this are no network but a texture
 MIN_MEMBERS = 2
+POPULATION_ENERGY = 0.55
+POPULATION_SPREAD = 2.5
 MIN_FELT_MM = 2.0  # members narrower than this are drawn this wide when few
 FEW_MEMBERS = 60
 MIN_PITCH_MM = 2.5  # a lattice finer than this on the print is felt as roughness
 MEMBER_ROUND_MM = 10.0  # dome shoulders (as the objects style); wider members get rounded plateaus
 EMPTY_GROUND_SHARE = 0.5  # a bright ground this share of the picture lies within 0.06 of is empty (paper, brightfield)
+ELECTRON_EMPTY_SHARE = 0.8  # with an electron signal, only a bright ground this empty is the ground
 WEAK_SPREAD = 0.3  # a specimen whose 1st-99th percentiles span less than this (beside a mount) has weak contrast
 EMPTY_MOUNT_SHARE = 0.05  # a dark, featureless area covering at least this share is the mount
+
+
+@dataclass(frozen=True)
+class ContentHints:
+    """File metadata that informs the translation (each None when the file does not say).
+
+    detector : the detector's name as the file gives it ("HE-SE2", "ETD", "HAADF").
+    signal : "SE", "BSE" or "STEM": electron images, whose ground is dark unless it is empty and bright.
+    """
+
+    detector: str | None = None
+    signal: str | None = None
+
+    def words(self) -> str:
+        parts = []
+        if self.detector:
+            parts.append(f"detector {self.detector}")
+        if self.signal:
+            parts.append(f"{self.signal} signal")
+        return ", ".join(parts)
 
 
 @dataclass(frozen=True)
@@ -50,6 +74,12 @@ class Polarity:
     bright: bool  # content brighter than the ground
     ground: float  # the ground's brightness, 0..1
     reason: str
+    undecided: bool = False  # a mid-grey ground: the members' evidence may turn it over
+
+    def flipped(self, why: str) -> "Polarity":
+        side = "bright" if not self.bright else "dark"
+        return Polarity(not self.bright, self.ground,
+                        f"the ground is mid-grey ({self.ground:.2f} of the range) and {why}, so the {side} parts are raised")
 
 
 @dataclass(frozen=True)
@@ -72,13 +102,15 @@ class ContentMade:
     line_mask: np.ndarray | None = None
 
 
-def content_polarity(work: np.ndarray, pitch_mm: float, within: np.ndarray | None = None) -> Polarity:
+def content_polarity(work: np.ndarray, pitch_mm: float, within: np.ndarray | None = None, signal: str | None = None) -> Polarity:
     """Which side of the ground carries the content (see the module's note 1).
 
     Dark ground is the rule for SEM, dark field and fluorescence; a bright ground must be empty
     (brightfield, paper): the mode is bright and at least EMPTY_GROUND_SHARE of the picture lies
     within 0.06 of it. A particle field whose particles cover most of it has a bright mode too,
-    but a broad one. Between the two, the side holding more deviation from the mode wins.
+    but a broad one. Between the two, the side holding more deviation from the mode wins. With an
+    electron signal (SE, BSE, STEM) from the file, the ground is dark unless it is plainly empty
+    and bright (ELECTRON_EMPTY_SHARE within 0.06 of a bright mode, as a bright-field image).
     """
     smooth = ndimage.gaussian_filter(work.astype(np.float32), max(0.5, 0.5 / pitch_mm), mode="nearest")
     values = smooth[within] if within is not None and within.any() else smooth.ravel()
@@ -88,7 +120,9 @@ def content_polarity(work: np.ndarray, pitch_mm: float, within: np.ndarray | Non
     near = float(np.mean(np.abs(values - mode) < 0.06))
     up = float(np.mean(np.clip(values - mode, 0, None)))
     down = float(np.mean(np.clip(mode - values, 0, None)))
-    if mode >= 0.6:
+    if signal in ("SE", "BSE", "STEM") and not (mode >= 0.6 and near >= ELECTRON_EMPTY_SHARE):
+        bright, why = True, f"the file's {signal} signal: electron images have a dark ground"
+    elif mode >= 0.6:
         bright = near < EMPTY_GROUND_SHARE
         why = (f"an empty bright ground ({near:.0%} of the picture within 0.06 of it)" if not bright
                else f"bright but not empty (only {near:.0%} of the picture within 0.06 of it: a field of bright members)")
@@ -97,6 +131,9 @@ def content_polarity(work: np.ndarray, pitch_mm: float, within: np.ndarray | Non
     else:
         bright = up >= down
         why = f"mid-grey, with more of the picture {'above' if bright else 'below'} it ({max(up, down):.3f} against {min(up, down):.3f})"
+        reason = (f"the ground is the most common brightness ({mode:.2f} of the range: {why}), so the "
+                  f"{'bright' if bright else 'dark'} parts are raised and the ground sits at the base")
+        return Polarity(bright, mode, reason, undecided=True)
     reason = (f"the ground is the most common brightness ({mode:.2f} of the range: {why}), so the "
               f"{'bright' if bright else 'dark'} parts are raised and the ground sits at the base")
     return Polarity(bright, mode, reason)
@@ -125,15 +162,16 @@ def lattice_period(work: np.ndarray, pitch_mm: float) -> Period | None:
 
 
 def make_content(work: np.ndarray, *, pitch_mm: float, relief_mm: float, width_mm: float, found,
-                 min_area_mm2: float, hints: str = "") -> ContentMade:
+                 min_area_mm2: float, hints: ContentHints | None = None) -> ContentMade:
     """The content relief on the working grid (see the module's notes). `found`: the edge-enclosed
     objects (an ObjectMap, or a function that finds them: only asked for when needed). `hints`:
     file metadata that helps the choice (detector, modality, channel), said in the reason."""
     specimen = find_specimen(work, pitch_mm)
-    polarity = content_polarity(work, pitch_mm, None if specimen.all() else specimen)
+    hints = hints or ContentHints()
+    polarity = content_polarity(work, pitch_mm, None if specimen.all() else specimen, hints.signal)
     x = work if polarity.bright else 1.0 - work
     period = lattice_period(work, pitch_mm)
-    meta = f"; file metadata: {hints}" if hints else ""
+    meta = f"; file metadata: {hints.words()}" if hints.words() else ""
     lattice = _lattice_words(period, width_mm)
     if not specimen.all():
         lo, hi = np.percentile(work[specimen], [1, 99])
@@ -141,18 +179,39 @@ def make_content(work: np.ndarray, *, pitch_mm: float, relief_mm: float, width_m
             return _weak_contrast(work, x, pitch_mm, relief_mm, width_mm, min_area_mm2, polarity, lattice + meta, specimen)
     lines = find_lines(x, pitch_mm=pitch_mm, min_area_mm2=min_area_mm2)
     members = find_members(x, pitch_mm=pitch_mm)
-    network = lines.cell_count >= NETWORK_CELLS and lines.cover <= MAX_LINE_COVER and not _members_explain(members, lines, pitch_mm)
+    if polarity.undecided:
+        # A mid-grey ground: the side whose members hold more of the detail is the content.
+        other = find_members(1.0 - x, pitch_mm=pitch_mm)
+        if other.energy > members.energy:
+            x, members = 1.0 - x, other
+            lines = find_lines(x, pitch_mm=pitch_mm, min_area_mm2=min_area_mm2)
+            polarity = polarity.flipped(f"members of the other side hold more of the detail ({other.energy:.0%} against {members.energy:.0%})")
+    network = (lines.cell_count >= NETWORK_CELLS and lines.cover <= MAX_LINE_COVER and lines.strength >= NETWORK_STRENGTH
+               and not _members_explain(members, lines, pitch_mm))
     if network:
         return _as_lines(lines, pitch_mm, relief_mm, width_mm, polarity, lattice + meta, "lines")
     big = _large_edge_objects(found() if callable(found) else found, pitch_mm)
     if big is not None:
         return _as_members(big, pitch_mm, relief_mm, polarity, lattice + meta,
                            f"{int(big.max())} objects outlined by edges, wider than the {BACKGROUND_MM:g} mm local ground")
-    if members.count >= MIN_MEMBERS:
+    if _is_population(members, pitch_mm):
         return _as_members(members.labels, pitch_mm, relief_mm, polarity, lattice + meta,
                            f"{members.count} members found by local contrast (each against the ground around it, cut at half its own peak; "
                            f"dimmest {np.min(members.contrast):.2f}, brightest {np.max(members.contrast):.2f} of the range)")
-    return _weak_contrast(work, x, pitch_mm, relief_mm, width_mm, min_area_mm2, polarity, lattice + meta)
+    return _weak_contrast(work, x, pitch_mm, relief_mm, width_mm, min_area_mm2, polarity, lattice + meta,
+                          None if specimen.all() else specimen, grains=False)
+
+
+def _is_population(members: Members, pitch_mm: float) -> bool:
+    """A population, not the peaks of a continuous picture: the members hold most of the detail
+    (POPULATION_ENERGY of the top-hat), or they are of similar size (POPULATION_SPREAD) and hold a
+    clear part of it (measured: a portrait 0.44, stained tissue 0.48, beads 0.51, SEM and STEM
+    particle fields 0.63-0.80; particles on a textured substrate 0.22, but within a factor 1.4)."""
+    if members.count < MIN_MEMBERS:
+        return False
+    if members.energy >= POPULATION_ENERGY:
+        return True
+    return members.spread(pitch_mm) <= POPULATION_SPREAD and members.energy >= 0.15
 
 
 def _members_explain(members: Members, lines: Lines, pitch_mm: float) -> bool:
@@ -163,11 +222,12 @@ def _members_explain(members: Members, lines: Lines, pitch_mm: float) -> bool:
 
 def _large_edge_objects(found: ObjectMap, pitch_mm: float) -> np.ndarray | None:
     """Objects the edge finder outlined that are too wide for the local ground (the FePt spheres)."""
-    if found.method != "edges" or found.count == 0:
+    if found.method != "edges" or found.count < 2:
         return None
     area = np.bincount(found.labels.ravel())[1:]
     diameters = 2 * np.sqrt(area / np.pi) * pitch_mm
-    return found.labels if float(np.median(diameters)) > BACKGROUND_MM else None
+    similar = np.percentile(diameters, 90) <= POPULATION_SPREAD * np.percentile(diameters, 10)
+    return found.labels if similar and float(np.median(diameters)) > BACKGROUND_MM else None
 
 
 def _lattice_words(period: Period | None, width_mm: float) -> str:
@@ -193,7 +253,10 @@ def _as_members(labels: np.ndarray, pitch_mm, relief_mm, polarity, extra, what) 
         notes.append(f"content: {int(small.sum())} members narrower than {MIN_FELT_MM:g} mm were drawn {MIN_FELT_MM:g} mm wide, so a finger finds them.")
     elif small.any():
         notes.append(f"content: {int(small.sum())} of {count} members are narrower than {MIN_FELT_MM:g} mm; with so many they read as a texture of small domes.")
+    before = int(labels.max())
     labels = _with_interior(labels)
+    if int(labels.max()) < before:
+        notes.append(f"content: {before - int(labels.max())} members too thin to carry a dome were left flat.")
     domes = dome_profile(labels, pitch_mm=pitch_mm, round_mm=MEMBER_ROUND_MM)
     reason = f"content: {what}; each raised as a dome by the same lift, touching ones apart by a groove; {polarity.reason}{extra}"
     return ContentMade(domes, "members", labels, reason, tuple(notes))
@@ -246,7 +309,9 @@ def find_specimen(work: np.ndarray, pitch_mm: float) -> np.ndarray:
     return ndimage.binary_opening(~dark, iterations=2)
 
 
-def _weak_contrast(work, x, pitch_mm, relief_mm, width_mm, min_area_mm2, polarity, extra, specimen=None) -> ContentMade:
+def _weak_contrast(work, x, pitch_mm, relief_mm, width_mm, min_area_mm2, polarity, extra, specimen=None, grains=True) -> ContentMade:
+    """Weak contrast: local equalisation inside the specimen, then its grains outlined as raised
+    lines (when `grains` and their boundaries form a network), else the fingertip-scale shape."""
     from .styles import StyleOptions, large_shape
 
     specimen = find_specimen(work, pitch_mm) if specimen is None else specimen
@@ -263,7 +328,7 @@ def _weak_contrast(work, x, pitch_mm, relief_mm, width_mm, min_area_mm2, polarit
     lines = find_lines(edges / max(float(edges.max()), 1e-6), pitch_mm=pitch_mm, min_area_mm2=min_area_mm2)
     where = ("the specimen was found against an empty mount (kept at the base)" if not specimen.all()
              else "no empty mount")
-    if lines.cell_count >= NETWORK_CELLS and lines.cover <= MAX_LINE_COVER:
+    if grains and lines.cell_count >= NETWORK_CELLS and lines.cover <= MAX_LINE_COVER:
         made = _as_lines(lines, pitch_mm, relief_mm, width_mm, polarity, extra, "grains",
                          what=(f"weak contrast (the specimen spans {spread:.2f} of the range; {where}): after local equalisation "
                                f"its boundaries outline {lines.cell_count} grains"))
@@ -271,7 +336,7 @@ def _weak_contrast(work, x, pitch_mm, relief_mm, width_mm, min_area_mm2, polarit
         return ContentMade(profile.astype(np.float32), "grains", None, made.reason, made.notes, lines.skeleton)
     shape = large_shape(equal, pitch_mm, StyleOptions())
     shape = np.where(specimen, shape, 0.0).astype(np.float32)
-    reason = (f"content: no population and no line network; weak contrast equalised locally ({where}) and its "
+    reason = (f"content: no population and no line network; contrast equalised locally ({where}) and its "
               f"fingertip-scale shape raised; {polarity.reason}{extra}")
     return ContentMade(shape, "shape", None, reason, ())
 

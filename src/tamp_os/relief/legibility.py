@@ -167,7 +167,14 @@ def verdicts(f: dict, nozzle_mm: float, style: str | None = None) -> tuple[str, 
         return ("This print is a flat plate: there is nothing raised to feel.",)
     out = []
     share = f["fine_share"]
-    if share > FINE_SHARE_WARN:
+    if share > FINE_SHARE_WARN and style == "content":
+        # The content style draws lines and members' edges on purpose: advice to smooth them
+        # away would erase the main content.
+        out.append(
+            f"{share:.0%} of this relief's height variation is finer than a fingertip resolves (about 1 mm): it is the "
+            f"edges of the drawn content (raised lines, members' outlines), kept on purpose; a wider print spreads it out."
+        )
+    elif share > FINE_SHARE_WARN:
         out.append(
             f"{share:.0%} of this relief's height variation is finer than a fingertip resolves (about 1 mm), so it is "
             f"felt as roughness, not as shape; "
@@ -197,7 +204,7 @@ def verdicts(f: dict, nozzle_mm: float, style: str | None = None) -> tuple[str, 
             out.append(
                 f"The {n} object{'s' * (n != 1)} stand only {lift:.2g} mm (median) above the ground around them; "
                 f"a finger may not find them; "
-                + ("try a taller relief_mm." if style == "objects" else "try relief_style objects.")
+                + ("try a taller relief_mm." if style in ("objects", "content") else "try relief_style objects.")
             )
         else:
             out.append(f"{n} object{'s' * (n != 1)} stand {lift:.2g} mm (median; lowest {low:.2g} mm) above the ground around them.")

@@ -22,7 +22,8 @@ import numpy as np
 from scipy import ndimage
 from skimage import filters, morphology
 
-from .population import noise_level
+from .objects import label_median
+from .population import _label_percentile, noise_level
 from .scales import disk
 
 LINE_WIDTH_MM = 1.2  # raised line width on the print (1.0–1.5 mm is the tactile standard)
@@ -31,6 +32,7 @@ MIN_GAP_MM = 2.5  # lines closer than this (edge to edge) merge under a fingerti
 MIN_PIECE_MM = 4.0  # loose line pieces shorter than this are noise or texture
 RIDGE_SIGMAS_MM = (0.4, 0.8)
 RIDGE_SIGMA_MM = 0.5  # the one scale of the default ridge measure (lines 0.5–2 mm wide on the print)
+STEP_MARGIN = 0.02  # a line stands at least this far (0..1 of the range) above the brighter side of its band
 RIDGE_METHODS = ("hessian", "sato", "meijering", "tophat")
 
 
@@ -89,6 +91,7 @@ def find_lines(bright01: np.ndarray, *, pitch_mm: float, min_area_mm2: float = 6
     mask = response > thresh
     skeleton = morphology.skeletonize(mask)
     skeleton = _drop_short(skeleton, MIN_PIECE_MM / pitch_mm)
+    skeleton = _brighter_than_both_sides(skeleton, image, pitch_mm)
     length_mm = float(skeleton.sum() * pitch_mm * 1.12)  # diagonal steps: ~1.12 px per pixel of skeleton
     half = LINE_WIDTH_MM / 2 / pitch_mm
     drawn = _dilate(skeleton, half)
@@ -123,6 +126,22 @@ def draw_lines(lines: Lines, pitch_mm: float) -> np.ndarray:
     t = np.clip((half + 0.5 - dist) / max(half, 1.0), 0.0, 1.0)
     profile = np.sqrt(1.0 - (1.0 - t) ** 2)
     return np.maximum(profile, lines.merged.astype(np.float32)).astype(np.float32)
+
+
+def _brighter_than_both_sides(skeleton: np.ndarray, image: np.ndarray, pitch_mm: float) -> np.ndarray:
+    """Keep skeleton pieces that are lines, not step edges: along a line the ground is darker on
+    both sides, so even the brighter side of the band 0.8–1.6 mm away (its 80th percentile) stays
+    below the line; beside a step edge one side is as bright as the edge itself."""
+    parts, n = ndimage.label(skeleton, structure=np.ones((3, 3)))
+    if n == 0:
+        return skeleton
+    dist, (iy, ix) = ndimage.distance_transform_edt(~skeleton, return_indices=True)
+    band = (dist * pitch_mm >= 0.8) & (dist * pitch_mm <= 1.6)
+    owner = np.where(band, parts[iy, ix], 0)
+    on = label_median(image, parts, n)
+    side = _label_percentile(image, owner, n, 80)
+    keep = np.concatenate([[False], ~(side >= on - STEP_MARGIN)])  # NaN side (no band): keep
+    return keep[parts]
 
 
 def _drop_short(skeleton: np.ndarray, min_px: float) -> np.ndarray:

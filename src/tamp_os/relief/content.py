@@ -186,8 +186,16 @@ def make_content(work: np.ndarray, *, pitch_mm: float, relief_mm: float, width_m
             x, members = 1.0 - x, other
             lines = find_lines(x, pitch_mm=pitch_mm, min_area_mm2=min_area_mm2)
             polarity = polarity.flipped(f"members of the other side hold more of the detail ({other.energy:.0%} against {members.energy:.0%})")
-    network = (lines.cell_count >= NETWORK_CELLS and lines.cover <= MAX_LINE_COVER and lines.strength >= NETWORK_STRENGTH
-               and not _members_explain(members, lines, pitch_mm))
+    network = _is_network(lines) and not _members_explain(members, lines, pitch_mm)
+    if not network:
+        # A network of the other polarity (dark lines between bright grains whose own brightness
+        # varies, so the ground did not look empty) is content too: lines read better than cells.
+        other = find_lines(1.0 - x, pitch_mm=pitch_mm, min_area_mm2=min_area_mm2)
+        if _is_network(other):
+            lines, network = other, True
+            polarity = Polarity(not polarity.bright, polarity.ground,
+                                f"{'dark' if polarity.bright else 'bright'} lines form a network ({other.cell_count} regions), so they are "
+                                f"raised and the regions they enclose sit at the base")
     if network:
         return _as_lines(lines, pitch_mm, relief_mm, width_mm, polarity, lattice + meta, "lines")
     big = _large_edge_objects(found() if callable(found) else found, pitch_mm)
@@ -200,6 +208,10 @@ def make_content(work: np.ndarray, *, pitch_mm: float, relief_mm: float, width_m
                            f"dimmest {np.min(members.contrast):.2f}, brightest {np.max(members.contrast):.2f} of the range)")
     return _weak_contrast(work, x, pitch_mm, relief_mm, width_mm, min_area_mm2, polarity, lattice + meta,
                           None if specimen.all() else specimen, grains=False)
+
+
+def _is_network(lines: Lines) -> bool:
+    return lines.cell_count >= NETWORK_CELLS and lines.cover <= MAX_LINE_COVER and lines.strength >= NETWORK_STRENGTH
 
 
 def _is_population(members: Members, pitch_mm: float) -> bool:

@@ -30,6 +30,7 @@ MIN_SOLIDITY = 0.75
 MIN_ROUNDNESS = 0.2  # minor / major axis: streaks and line pieces are not members
 RING_MAX = 0.7  # the ring around a member stays (median) below this share of its own contrast (swept: 0.5, 0.7, 0.9)
 SMALL_PX = 30
+SADDLE_SHARE = 0.9
 TEXTURE_RATIO = 3.0  # measured: keeps exactly the 14 particles of particles_on_texture, 5 of 313 TEM texture grains
 NECK_MM = 0.5  # members joined by a neck this much narrower than both are two members
 
@@ -95,7 +96,7 @@ def find_members(bright01: np.ndarray, *, pitch_mm: float) -> Members:
     np.maximum.at(peak, basins.ravel(), top.ravel())
     # Each member at half its own peak: dim and bright members get their true size.
     labels = np.where((basins > 0) & (top >= 0.5 * peak[basins]), basins, 0)
-    labels = _split_touching(_filled(_largest_parts(labels)), NECK_MM / pitch_mm)
+    labels = _split_touching(_filled(_merge_shallow(_largest_parts(labels), top)), NECK_MM / pitch_mm)
     labels = _with_evidence(labels, top, pitch_mm, h)
     labels = _above_texture(labels, top)
     labels, _, _ = segmentation.relabel_sequential(labels)
@@ -173,6 +174,42 @@ def _with_evidence(labels: np.ndarray, top: np.ndarray, pitch_mm: float, h: floa
     return np.where(keep[labels], labels, 0)
 
 
+def _merge_shallow(labels: np.ndarray, top: np.ndarray) -> np.ndarray:
+    """Merge touching members whose saddle stands above SADDLE_SHARE of the lower one's peak: two
+    maxima of noise on one dim bead's top are one bead. (Touching members with a real neck come
+    apart again at it in _split_touching.)"""
+    n = int(labels.max())
+    if n < 2:
+        return labels
+    peak = np.zeros(n + 1)
+    np.maximum.at(peak, labels.ravel(), top.ravel())
+    parent = np.arange(n + 1)
+
+    def root(k):
+        while parent[k] != k:
+            parent[k] = parent[parent[k]]
+            k = parent[k]
+        return k
+
+    for a, b, ta, tb in ((labels[:, 1:], labels[:, :-1], top[:, 1:], top[:, :-1]), (labels[1:], labels[:-1], top[1:], top[:-1])):
+        touch = (a != b) & (a > 0) & (b > 0)
+        if not touch.any():
+            continue
+        pa, pb, level = a[touch], b[touch], np.minimum(ta[touch], tb[touch])
+        saddle: dict[tuple[int, int], float] = {}
+        for x, y, v in zip(pa.tolist(), pb.tolist(), level.tolist()):
+            key = (x, y) if x < y else (y, x)
+            if v > saddle.get(key, -1.0):
+                saddle[key] = v
+        for (x, y), v in saddle.items():
+            if v >= SADDLE_SHARE * min(peak[x], peak[y]):
+                rx, ry = root(x), root(y)
+                if rx != ry:
+                    parent[max(rx, ry)] = min(rx, ry)
+    roots = np.array([root(k) for k in range(n + 1)])
+    return roots[labels].astype(labels.dtype)
+
+
 def _filled(labels: np.ndarray) -> np.ndarray:
     """Fill each member's holes (SEM particles glow at their rims, so half their peak can be a
     ring): hole pixels go to the member around them. Only holes no larger than the member
@@ -197,7 +234,9 @@ def _split_touching(labels: np.ndarray, depth_px: float) -> np.ndarray:
         return labels
     inside = (labels > 0) & ~inner_outline(labels)
     dist = ndimage.distance_transform_edt(inside)
-    markers, n = ndimage.label(_h_maxima(dist, max(depth_px, 0.5)) & inside)
+    # _h_maxima marks every second pixel of a plateau: a 3x3 dilation joins those marks again.
+    marks = ndimage.binary_dilation(_h_maxima(dist, max(depth_px, 0.5)), structure=np.ones((3, 3)))
+    markers, n = ndimage.label(marks & inside)
     if n == 0:
         return labels
     parts = segmentation.watershed(-dist, markers, mask=labels > 0)

@@ -31,13 +31,14 @@ from skimage import exposure, filters, segmentation
 
 from .lines import LINE_HEIGHT_MM, LINE_WIDTH_MM, MIN_GAP_MM, Lines, draw_lines, find_lines
 from .objects import ObjectMap, dome_profile, label_median
-from .population import BACKGROUND_MM, Members, find_members
+from .population import BACKGROUND_MM, Members, _roundness, find_members
 
 NETWORK_CELLS = 3  # a line network encloses at least this many fingertip-sized regions
 NETWORK_STRENGTH = 20.0  # median ridge response on the lines over its MAD: measured 45-240 on networks, 7 on SEM sphere rims
 MAX_LINE_COVER = 0.45  # drawn lines covering more than this are no network but a texture
 MIN_MEMBERS = 2
-POPULATION_ENERGY = 0.55
+POPULATION_ENERGY = 0.6
+POPULATION_ROUNDNESS = 0.7
 POPULATION_SPREAD = 2.5
 MIN_FELT_MM = 2.0  # members narrower than this are drawn this wide when few
 FEW_MEMBERS = 60
@@ -216,14 +217,17 @@ def _is_network(lines: Lines) -> bool:
 
 def _is_population(members: Members, pitch_mm: float) -> bool:
     """A population, not the peaks of a continuous picture: the members hold most of the detail
-    (POPULATION_ENERGY of the top-hat), or they are of similar size (POPULATION_SPREAD) and hold a
-    clear part of it (measured: a portrait 0.44, stained tissue 0.48, beads 0.51, SEM and STEM
-    particle fields 0.63-0.80; particles on a textured substrate 0.22, but within a factor 1.4)."""
+    (POPULATION_ENERGY of the top-hat), or they are round (POPULATION_ROUNDNESS, median minor /
+    major axis), of similar size (POPULATION_SPREAD) and hold a clear part of it. Measured: a
+    portrait 0.42, stained tissue 0.48-0.54, SEM and STEM particle fields 0.63-0.80; beads 0.51
+    and particles on a textured substrate 0.22, but round (0.85-0.99) and within a factor 1.5 in
+    size, where pieces of vessels, terraces' noise and tissue are not (0.32-0.64)."""
     if members.count < MIN_MEMBERS:
         return False
     if members.energy >= POPULATION_ENERGY:
         return True
-    return members.spread(pitch_mm) <= POPULATION_SPREAD and members.energy >= 0.15
+    round_ = float(np.median(_roundness(members.labels, members.count)[1:]))
+    return members.spread(pitch_mm) <= POPULATION_SPREAD and members.energy >= 0.15 and round_ >= POPULATION_ROUNDNESS
 
 
 def _members_explain(members: Members, lines: Lines, pitch_mm: float) -> bool:

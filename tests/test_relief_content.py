@@ -58,7 +58,7 @@ def test_every_bead_dim_or_bright_is_raised_by_the_same_lift_and_the_glow_is_not
     between = ndimage.binary_dilation(a, iterations=2) & ndimage.binary_dilation(b, iterations=2)
     assert made.heights_mm[between].min() <= min(made.heights_mm[a].max(), made.heights_mm[b].max()) - 0.5
     assert made.object_count == 10
-    assert any(note.startswith("Found 10 members, all raised at least") for note in made.notes)
+    assert any(check.startswith("Found 10 members, all raised at least") for check in made.checks)
 
 
 @pytest.mark.timeout(60)
@@ -78,7 +78,7 @@ def test_dark_line_network_becomes_raised_lines_on_a_flat_ground(invert):
     width_mm = ((h - BASE) > 0.5).sum() * mm * mm / length_mm
     assert 1.0 <= width_mm <= 1.6, width_mm
     assert "network of lines" in made.reason and "1.2 mm wide" in made.reason
-    assert any("raised 1.0 mm over the areas they enclose" in note for note in made.notes)
+    assert any("raised 1.0 mm over the areas they enclose" in check for check in made.checks)
 
 
 def _skeleton_length_mm(mask, mm):
@@ -164,5 +164,26 @@ def test_content_through_the_pipeline_is_a_closed_print_of_the_requested_size(tm
     mesh.merge_vertices()
     assert mesh.is_watertight and mesh.is_winding_consistent and mesh.volume > 0
     assert mesh.bounds[1][0] - mesh.bounds[0][0] == pytest.approx(80, abs=1e-6)
+    # The check compares with the picture, first among the legibility sentences.
+    assert litho.report.legibility["verdicts"][0].startswith("A network of lines, raised 1.0 mm")
     # Lines stand 1 mm over the base, whatever the relief: a tactile line's height.
     assert litho.heightmap.max() == pytest.approx(litho.params.base_mm + 1.0, abs=0.05)
+
+
+@pytest.mark.timeout(60)
+@pytest.mark.parametrize("pitch_px, feelable", [(10.0, True), (4.0, False)])
+def test_the_check_counts_a_feelable_lattice_as_pattern_and_a_fine_one_as_roughness(pitch_px, feelable):
+    """Brightness = height of a dot lattice: at 3.9 mm pitch the check says it is a lattice a finger
+    feels and gives no advice to smooth it away; at 1.6 mm it is roughness."""
+    truth = dot_lattice(pitch_px=pitch_px)
+    mm = pitch(truth.image)
+    h = make_relief(prep(truth.image), style="reference", mm_per_px=mm, base_mm=BASE, relief_mm=RELIEF).heights_mm
+    report = assess(h, mm, style="reference")
+    assert report.fine_share > 0.2
+    said = " ".join(report.verdicts)
+    if feelable:
+        assert report.period_mm == pytest.approx(pitch_px * mm, rel=0.1)
+        assert "lattice of" in said and "roughness" in said and "try" not in said.split("lattice of")[0][-60:]
+        assert not any("larger detail_mm" in v for v in report.verdicts)
+    else:
+        assert report.period_mm is None and "felt as roughness" in said

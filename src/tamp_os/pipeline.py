@@ -242,6 +242,7 @@ def _relief(prepared: Prepared, layout: Layout, params: LithoParams, machine: Pr
 
 def _legibility_report(legibility: Legibility, relief: ReliefResult) -> dict:
     out = legibility.as_dict()
+    out["verdicts"] = list(relief.checks) + out["verdicts"]  # what the print shows of the picture first
     out["levels_mm"] = [round(v, 3) for v in relief.levels_mm]
     return out
 

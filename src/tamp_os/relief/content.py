@@ -163,10 +163,12 @@ def lattice_period(work: np.ndarray, pitch_mm: float) -> Period | None:
 
 
 def make_content(work: np.ndarray, *, pitch_mm: float, relief_mm: float, width_mm: float, found,
-                 min_area_mm2: float, hints: ContentHints | None = None) -> ContentMade:
+                 min_area_mm2: float, hints: ContentHints | None = None, fallback: bool = True) -> ContentMade | None:
     """The content relief on the working grid (see the module's notes). `found`: the edge-enclosed
     objects (an ObjectMap, or a function that finds them: only asked for when needed). `hints`:
-    file metadata that helps the choice (detector, modality, channel), said in the reason."""
+    file metadata that helps the choice (detector, signal), said in the reason. Without
+    `fallback`, None when the picture holds no population, no line network and no weak-contrast
+    specimen (auto then chooses among the other styles, and the shape is not made for nothing)."""
     specimen = find_specimen(work, pitch_mm)
     hints = hints or ContentHints()
     polarity = content_polarity(work, pitch_mm, None if specimen.all() else specimen, hints.signal)
@@ -180,13 +182,13 @@ def make_content(work: np.ndarray, *, pitch_mm: float, relief_mm: float, width_m
             return _weak_contrast(work, x, pitch_mm, relief_mm, width_mm, min_area_mm2, polarity, lattice + meta, specimen)
     lines = find_lines(x, pitch_mm=pitch_mm, min_area_mm2=min_area_mm2)
     members = find_members(x, pitch_mm=pitch_mm)
-    if polarity.undecided:
+    if polarity.undecided and not _is_population(members, pitch_mm):
         # A mid-grey ground: the side whose members hold more of the detail is the content.
         other = find_members(1.0 - x, pitch_mm=pitch_mm)
         if other.energy > members.energy:
+            polarity = polarity.flipped(f"members of the other side hold more of the detail ({other.energy:.0%} against {members.energy:.0%})")
             x, members = 1.0 - x, other
             lines = find_lines(x, pitch_mm=pitch_mm, min_area_mm2=min_area_mm2)
-            polarity = polarity.flipped(f"members of the other side hold more of the detail ({other.energy:.0%} against {members.energy:.0%})")
     network = _is_network(lines) and not _members_explain(members, lines, pitch_mm)
     if not network:
         # A network of the other polarity (dark lines between bright grains whose own brightness
@@ -199,14 +201,17 @@ def make_content(work: np.ndarray, *, pitch_mm: float, relief_mm: float, width_m
                                 f"raised and the regions they enclose sit at the base")
     if network:
         return _as_lines(lines, pitch_mm, relief_mm, width_mm, polarity, lattice + meta, "lines")
-    big = _large_edge_objects(found() if callable(found) else found, pitch_mm)
-    if big is not None:
-        return _as_members(big, pitch_mm, relief_mm, polarity, lattice + meta,
-                           f"{int(big.max())} objects outlined by edges, wider than the {BACKGROUND_MM:g} mm local ground")
     if _is_population(members, pitch_mm):
         return _as_members(members.labels, pitch_mm, relief_mm, polarity, lattice + meta,
                            f"{members.count} members found by local contrast (each against the ground around it, cut at half its own peak; "
                            f"dimmest {np.min(members.contrast):.2f}, brightest {np.max(members.contrast):.2f} of the range)")
+    # Objects wider than the local ground (the FePt spheres) are found by the edges around them.
+    big = _large_edge_objects(found() if callable(found) else found, pitch_mm)
+    if big is not None:
+        return _as_members(big, pitch_mm, relief_mm, polarity, lattice + meta,
+                           f"{int(big.max())} objects outlined by edges, wider than the {BACKGROUND_MM:g} mm local ground")
+    if not fallback:
+        return None
     return _weak_contrast(work, x, pitch_mm, relief_mm, width_mm, min_area_mm2, polarity, lattice + meta,
                           None if specimen.all() else specimen, grains=False)
 
@@ -265,7 +270,7 @@ def _as_members(labels: np.ndarray, pitch_mm, relief_mm, polarity, extra, what) 
         # Few members under a fingertip: draw each at least MIN_FELT_MM across (into free ground only).
         grown = segmentation.expand_labels(labels, distance=max(1.0, (MIN_FELT_MM - float(diam[small].min())) / 2 / pitch_mm))
         keep_small = np.concatenate([[False], small])
-        labels = np.where((labels == 0) & keep_small[grown] & (_dist_to(grown == 0) >= 0), grown, labels)
+        labels = np.where((labels == 0) & keep_small[grown], grown, labels)
         notes.append(f"content: {int(small.sum())} members narrower than {MIN_FELT_MM:g} mm were drawn {MIN_FELT_MM:g} mm wide, so a finger finds them.")
     elif small.any():
         notes.append(f"content: {int(small.sum())} of {count} members are narrower than {MIN_FELT_MM:g} mm; with so many they read as a texture of small domes.")
@@ -287,10 +292,6 @@ def _with_interior(labels: np.ndarray) -> np.ndarray:
     has[labels[(labels > 0) & ~inner_outline(labels)]] = True
     out = np.where(has[labels], labels, 0)
     return segmentation.relabel_sequential(out)[0].astype(np.int32)
-
-
-def _dist_to(mask):
-    return ndimage.distance_transform_edt(~mask) if mask.any() else np.zeros(mask.shape)
 
 
 def _as_lines(lines: Lines, pitch_mm, relief_mm, width_mm, polarity, extra, kind, what: str = "") -> ContentMade:

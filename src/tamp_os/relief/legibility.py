@@ -39,6 +39,8 @@ class Legibility:
     lowest_lift_mm : the least-lifted object's lift, or None.
     relief_span_mm : 1st to 99th percentile of the heights.
     verdicts : plain sentences with advice.
+    period_mm : pitch of a lattice or grating in the heights that a finger can feel (>= 2.5 mm), or None:
+        its fine share is shape (as braille is), not roughness.
     """
 
     fine_share: float
@@ -52,6 +54,7 @@ class Legibility:
     lowest_lift_mm: float | None
     relief_span_mm: float
     verdicts: tuple[str, ...]
+    period_mm: float | None = None
 
     def as_dict(self) -> dict:
         out = asdict(self)
@@ -94,12 +97,24 @@ def assess(
     slope = float(np.degrees(np.arctan(np.percentile(np.hypot(gx, gy), 99.9))))
     count, lift, lowest = _lifts(h, objects, mm_per_px)
     area = h.size * mm_per_px**2
+    period = _feelable_period(work, pitch) if fine > FINE_SHARE_WARN else None
     figures = dict(
         fine_share=fine, levels_used=levels, smallest_step_mm=step, narrow_area_mm2=narrow_mm2,
         narrow_share=narrow_mm2 / area if area else 0.0, steepest_slope_deg=slope, object_count=count,
-        object_lift_mm=lift, lowest_lift_mm=lowest, relief_span_mm=span,
+        object_lift_mm=lift, lowest_lift_mm=lowest, relief_span_mm=span, period_mm=period,
     )
     return Legibility(**figures, verdicts=verdicts(figures, nozzle_mm, style))
+
+
+def _feelable_period(work: np.ndarray, pitch_mm: float) -> float | None:
+    """A lattice's pitch in the heights when a finger can feel it (>= MIN_PITCH_MM), else None."""
+    from .content import MIN_PITCH_MM, lattice_period
+
+    span = float(np.ptp(work))
+    if span <= 1e-9:
+        return None
+    found = lattice_period((work - work.min()) / span, pitch_mm)
+    return found.pitch_mm if found is not None and found.pitch_mm >= MIN_PITCH_MM else None
 
 
 def _fine_share(h: np.ndarray, mm_per_px: float) -> float:
@@ -167,7 +182,12 @@ def verdicts(f: dict, nozzle_mm: float, style: str | None = None) -> tuple[str, 
         return ("This print is a flat plate: there is nothing raised to feel.",)
     out = []
     share = f["fine_share"]
-    if share > FINE_SHARE_WARN and style == "content":
+    if share > FINE_SHARE_WARN and f.get("period_mm"):
+        out.append(
+            f"{share:.0%} of this relief's height variation is finer than a 1 mm low-pass keeps, but it is a lattice of "
+            f"{f['period_mm']:.1f} mm pitch, which fingers feel as a pattern (braille dots are 2.5 mm apart), not as roughness."
+        )
+    elif share > FINE_SHARE_WARN and style == "content":
         # The content style draws lines and members' edges on purpose: advice to smooth them
         # away would erase the main content.
         out.append(

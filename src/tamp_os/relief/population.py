@@ -91,14 +91,16 @@ def find_members(bright01: np.ndarray, *, pitch_mm: float) -> Members:
     empty = Members(np.zeros(image.shape, np.int32), 0, np.zeros(0), noise)
     if n == 0:
         return empty
-    basins = segmentation.watershed(-top, seeds, mask=top >= 0.5 * h)
+    # Basins only where the top-hat reaches h (fewer pixels for the watershed, the costly step on
+    # textured pictures); a member whose peak is under 2h is then cut at h, not at half its peak.
+    basins = segmentation.watershed(-top, seeds, mask=top >= h)
     peak = np.zeros(n + 1)
     np.maximum.at(peak, basins.ravel(), top.ravel())
     # Each member at half its own peak: dim and bright members get their true size.
     labels = np.where((basins > 0) & (top >= 0.5 * peak[basins]), basins, 0)
     labels = _split_touching(_filled(_merge_shallow(_largest_parts(labels), top)), NECK_MM / pitch_mm)
     labels = _with_evidence(labels, top, pitch_mm, h)
-    labels = _above_texture(labels, top)
+    labels = _solid(_above_texture(labels, top))
     labels, _, _ = segmentation.relabel_sequential(labels)
     count = int(labels.max())
     if count == 0:
@@ -106,6 +108,21 @@ def find_members(bright01: np.ndarray, *, pitch_mm: float) -> Members:
     contrast = label_median(top, labels, count)
     energy = float(top[labels > 0].sum() / max(float(top.sum()), 1e-9))
     return Members(labels.astype(np.int32), count, contrast, noise, energy)
+
+
+def _solid(labels: np.ndarray) -> np.ndarray:
+    """Drop concave members (solidity under MIN_SOLIDITY). A hull per member is the costly part,
+    so it comes last, for the survivors only, and only for members over SMALL_PX: a blob of a
+    few pixels is compact whatever its hull says."""
+    n = int(labels.max())
+    if n == 0:
+        return labels
+    area = np.bincount(labels.ravel(), minlength=n + 1)
+    keep = area > 0
+    keep[0] = False
+    small = area < SMALL_PX
+    keep = solid_enough(labels, keep & ~small, MIN_SOLIDITY) | (keep & small)
+    return np.where(keep[labels], labels, 0)
 
 
 def _above_texture(labels: np.ndarray, top: np.ndarray) -> np.ndarray:
@@ -145,8 +162,8 @@ def _largest_parts(labels: np.ndarray) -> np.ndarray:
 
 
 def _with_evidence(labels: np.ndarray, top: np.ndarray, pitch_mm: float, h: float) -> np.ndarray:
-    """Keep members that look like objects: big enough, not too big, compact, round enough,
-    contrast h over the ground all round."""
+    """Keep members that look like objects: big enough, not too big, round enough, contrast h
+    over the ground all round (compactness is checked last, in _solid)."""
     n = int(labels.max())
     if n == 0:
         return labels
@@ -154,10 +171,6 @@ def _with_evidence(labels: np.ndarray, top: np.ndarray, pitch_mm: float, h: floa
     keep = (area * pitch_mm**2 >= MIN_MEMBER_MM2) & (area <= MAX_MEMBER_SHARE * labels.size)
     keep[0] = False
     keep &= _roundness(labels, n) >= MIN_ROUNDNESS
-    # Solidity (a hull per member, the costly part) only for members over SMALL_PX: a blob of a
-    # few pixels is compact whatever its hull says.
-    small = area < SMALL_PX
-    keep = solid_enough(labels, keep & ~small, MIN_SOLIDITY) | (keep & small)
     # Contrast all round: the ring just outside (1 mm, or half the member's radius if wider)
     # stays low. Ring pixels belong to their nearest member.
     inside = label_median(top, labels, n)
@@ -276,11 +289,3 @@ def _roundness(labels: np.ndarray, n: int) -> np.ndarray:
     root = np.sqrt(((syy - sxx) / 2) ** 2 + sxy**2)
     big, small = (syy + sxx) / 2 + root, (syy + sxx) / 2 - root
     return np.sqrt(np.maximum(small, 0) / np.maximum(big, 1e-12))
-
-
-def groove_between(labels: np.ndarray) -> np.ndarray:
-    """Pixels where two members touch (bool): cut to the ground so a finger feels two."""
-    outline = inner_outline(labels)
-    other = ndimage.grey_dilation(labels, size=3)
-    low = -ndimage.grey_dilation(-np.where(labels > 0, labels, labels.max() + 1), size=3)
-    return outline & ((other != labels) & (other > 0) | (low != labels) & (low <= labels.max()))

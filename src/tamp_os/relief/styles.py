@@ -65,6 +65,8 @@ class ReliefResult:
     objects : (rows, cols) int32 labels of the objects found (0 = background), or None.
     levels_mm : heights above the base of the plateaus (`levels`), else ().
     notes : further sentences for the report (adjustments made, nothing found...).
+    checks : sentences comparing the print with what was found in the picture ("Found 10 members,
+        all raised at least 1.0 mm..."), for the legibility check (content style).
     """
 
     heights_mm: np.ndarray
@@ -73,6 +75,7 @@ class ReliefResult:
     objects: np.ndarray | None = None
     levels_mm: tuple[float, ...] = ()
     notes: tuple[str, ...] = field(default_factory=tuple)
+    checks: tuple[str, ...] = field(default_factory=tuple)
 
     @property
     def object_count(self) -> int:
@@ -149,12 +152,12 @@ def make_relief(
         # auto tries the content translation first: the benchmark (README, relief styles) shows
         # it ahead wherever it finds members, a line network or grains; elsewhere auto picks as before.
         content, kind = _content(image01, grid, work, objects_found, mm_per_px=mm_per_px, base_mm=base_mm, relief_mm=relief_mm,
-                                 layer_mm=layer_mm, options=options, hints=hints)
+                                 layer_mm=layer_mm, options=options, hints=hints, fallback=style == "content")
         if style == "content":
             return content
-        if kind != "shape":
+        if content is not None and kind != "shape":
             return ReliefResult(content.heights_mm, "content", f"auto chose content ({_KIND_WORDS[kind]}): {content.reason}",
-                                content.objects, (), content.notes)
+                                content.objects, (), content.notes, content.checks)
     found = objects_found()
     if style == "auto":
         style, reason = choose_style(work, pitch_mm=grid.pitch_mm, options=options, found=found)
@@ -176,7 +179,8 @@ def make_relief(
 _KIND_WORDS = {"members": "a population of members found", "lines": "a line network found", "grains": "grains outlined"}
 
 
-def _content(image01, grid, work, found, *, mm_per_px, base_mm, relief_mm, layer_mm, options, hints) -> tuple[ReliefResult, str]:
+def _content(image01, grid, work, found, *, mm_per_px, base_mm, relief_mm, layer_mm, options, hints,
+             fallback=True) -> tuple[ReliefResult | None, str]:
     """The content style (content.py) brought back to the output grid, and the kind of content it
     found. Members reach the full relief; lines stop at LINE_HEIGHT_MM (a tactile line's height),
     so they are not stretched."""
@@ -184,7 +188,9 @@ def _content(image01, grid, work, found, *, mm_per_px, base_mm, relief_mm, layer
 
     width_mm = (image01.shape[1] - 1) * mm_per_px
     made = make_content(work, pitch_mm=grid.pitch_mm, relief_mm=relief_mm, width_mm=width_mm, found=found,
-                        min_area_mm2=options.min_area_mm2, hints=hints)
+                        min_area_mm2=options.min_area_mm2, hints=hints, fallback=fallback)
+    if made is None:
+        return None, "shape"
     relief01 = np.clip(grid.up(made.relief01), 0.0, 1.0)
     relief01 = relief01 - float(relief01.min())
     if made.kind in ("members", "shape"):
@@ -193,12 +199,10 @@ def _content(image01, grid, work, found, *, mm_per_px, base_mm, relief_mm, layer
     labels = None
     if made.labels is not None and made.labels.max():
         labels = grid.up(made.labels.astype(np.float32), nearest=True).astype(np.int32)
-    lines = None if made.line_mask is None else grid.up(made.line_mask.astype(np.float32), nearest=True) > 0.5
-    from .content import ContentMade
-
-    full = ContentMade(made.relief01, made.kind, labels, made.reason, made.notes, lines)
-    checks = check_sentences(heights, full, mm_per_px, base_mm)
-    return ReliefResult(heights, "content", made.reason, labels, (), made.notes + checks), made.kind
+    # The check reads the heights on the working grid, where the members and lines were found
+    # (at 4096² a distance transform of the full grid alone would cost a second).
+    checks = check_sentences(grid.down(heights).astype(np.float64), made, grid.pitch_mm, base_mm)
+    return ReliefResult(heights, "content", made.reason, labels, (), made.notes, checks), made.kind
 
 
 def _full_span(relief01: np.ndarray) -> np.ndarray:

@@ -6,7 +6,11 @@ legibility report measures them, and the adaptive mesher (0.06 mm) counts the tr
 Prints a Markdown table, and a speed table at Medium and 4096².
 With --png DIR, writes each relief as a grey PNG (black = base, white = top) to look at.
 
-    PYTHONPATH=src .venv/bin/python benchmarks/bench_legibility.py [--png /work/screens/relief] [--speed-only]
+    PYTHONPATH=src .venv/bin/python benchmarks/bench_legibility.py [--png /work/screens/relief] [--speed-only] [--content-only]
+
+The content table (issue 26) measures every style against truth: synthetic pictures with exact
+truth (tests/synthetic_content.py) and real micrographs with truth masks made by a threshold or
+blob detection (benchmarks/content_truth.py says how for each; each was checked by eye).
 """
 
 from __future__ import annotations
@@ -20,6 +24,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
+sys.path.insert(0, str(ROOT / "benchmarks"))
 
 from synthetic import all_synthetic  # noqa: E402
 from tamp_os.mesh.adaptive import adaptive_solid  # noqa: E402
@@ -153,14 +158,76 @@ def speed():
         print(f"| {label} | " + " | ".join(cells) + " |")
 
 
+def content_table(png_dir: Path | None):
+    """Per picture and style: members felt, lines − enclosed (mm), lattice modulation (mm), grain
+    relief (mm), fine share, spurious raised regions; then the content style's extra CPU time."""
+    from content_metrics import grain_relief, lattice_modulation, lines_over_enclosed, members_felt, spurious
+    from content_truth import real_cases, synthetic_cases
+
+    print("| picture | style | members felt | lines − enclosed mm | lattice modulation mm | grain relief mm | fine share | spurious raised regions |")
+    print("|---|---|---|---|---|---|---|---|")
+    extra = []
+    for case in synthetic_cases() + real_cases():
+        if case.truth is None:
+            print(f"| {case.name} | skipped: {case.skipped} | | | | | | |")
+            continue
+        t, mm = case.truth, case.mm_per_px
+        content = None
+        for part in (t.members, t.lines, t.grains):
+            if part is not None:
+                content = (part > 0) if content is None else content | (part > 0)
+        made = {}
+        best = {s: np.inf for s in STYLES}
+        for _ in range(3):
+            for style in STYLES:
+                start = time.process_time()
+                made[style] = make_relief(case.image01, style=style, mm_per_px=mm, base_mm=BASE, relief_mm=RELIEF, layer_mm=LAYER)
+                best[style] = min(best[style], time.process_time() - start)
+        extra.append(best["content"] - best["reference"])
+        for style in STYLES:
+            r = made[style]
+            h = r.heights_mm
+            rep = assess(h, mm, nozzle_mm=NOZZLE, layer_mm=LAYER, objects=r.objects, style=r.style)
+
+            def cell(v, fmt):
+                return "–" if v is None or (isinstance(v, float) and not np.isfinite(v)) else format(v, fmt)
+
+            felt = members_felt(h, t.members, mm) if t.members is not None else None
+            lines = lines_over_enclosed(h, t.lines, mm) if t.lines is not None else None
+            lattice = lattice_modulation(h, mm) if t.pitch_px is not None else None
+            grains = grain_relief(h, t.grains, mm) if t.grains is not None else None
+            spur = spurious(h, content, mm, BASE) if content is not None else None
+            label = style + (f" → {r.style}" if style == "auto" else "")
+            print(f"| {case.name} | {label} | {cell(felt, '.0%')} | {cell(lines, '+.2f')} | {cell(lattice, '.2f')} | "
+                  f"{cell(grains, '.2f')} | {rep.fine_share:.0%} | {cell(spur, 'd')} |")
+            if png_dir is not None:
+                from PIL import Image
+
+                grey = np.clip((h - BASE) / RELIEF * 255, 0, 255).astype(np.uint8)
+                src = (np.clip(case.image01, 0, 1) * 255).astype(np.uint8)
+                safe = case.name.split(" (")[0].replace(" ", "_").replace(".", "_")
+                Image.fromarray(np.concatenate([src, np.full((src.shape[0], 4), 128, np.uint8), grey], 1)).save(png_dir / f"content__{safe}__{style}.png")
+    print()
+    print(f"content style's extra CPU over reference (brightness = height), Medium: median {np.median(extra) * 1000:.0f} ms, "
+          f"worst {np.max(extra) * 1000:.0f} ms over {len(extra)} pictures")
+
+
 if __name__ == "__main__":
     parser = argparse.ArgumentParser()
     parser.add_argument("--png", type=Path, default=None)
     parser.add_argument("--speed-only", action="store_true")
+    parser.add_argument("--content-only", action="store_true")
     args = parser.parse_args()
+    if args.png:
+        args.png.mkdir(parents=True, exist_ok=True)
+    if args.content_only:
+        content_table(args.png)
+        sys.exit()
     if args.speed_only:
         speed()
         sys.exit()
     if args.png:
         args.png.mkdir(parents=True, exist_ok=True)
     main(args.png)
+    print()
+    content_table(args.png)

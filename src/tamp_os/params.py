@@ -22,7 +22,7 @@ from .units import PIXEL_SIZE_RANGE_M, format_length, parse_bed_mm, parse_length
 FITS = ("pad", "crop", "stretch")
 MESHERS = ("adaptive", "grid")
 # The relief styles (relief/styles.py implements them; a test keeps the two lists equal).
-RELIEF_STYLES = ("reference", "structure", "levels", "objects", "auto")
+RELIEF_STYLES = ("reference", "structure", "levels", "objects", "content", "auto")
 
 
 def _f(default, help, unit="", lo=None, hi=None, choices=None, lo_open=False):
@@ -52,10 +52,11 @@ class LithoParams:
     stretch_high_pct: float = _f(98.0, "upper percentile of the contrast stretch", "%", 0.0, 100.0)
     quantize: bool = _f(False, "round heights to whole layers")
     relief_style: str = _f(
-        "structure",
+        "auto",
         "how the picture becomes heights: structure (shapes a finger can find, fine detail as low texture), "
-        "levels (a few flat plateaus), objects (particles and cells raised as domes), auto (chosen from the "
-        "picture), reference (brightness = height, as the published workflow)",
+        "levels (a few flat plateaus), objects (particles and cells raised as domes), content (what the picture "
+        "shows: every member of a population raised alike, line networks as raised lines), auto (content where it "
+        "finds a population or lines, else chosen from the picture), reference (brightness = height, as the published workflow)",
         choices=RELIEF_STYLES,
     )
     detail_mm: float | None = _f(

@@ -124,7 +124,7 @@ def make_lithograph(source, params: LithoParams | None = None, *, printer_profil
     with clock("preprocess"):
         prepared = _prepare(cleaned, layout, params)
     with clock("relief"):
-        relief = _relief(prepared, layout, params, machine)
+        relief = _relief(prepared, layout, params, machine, _content_hints(cleaned))
         heights = relief.heights_mm
     with clock("legibility"):
         legibility = assess(heights, layout.mm_per_px, nozzle_mm=machine.nozzle_mm, layer_mm=machine.layer_mm,
@@ -143,7 +143,8 @@ def make_lithograph(source, params: LithoParams | None = None, *, printer_profil
     with clock("tactile"):
         tactile = _tactile(mesh, layout, params, furniture, machine.bed_mm)
     later = flattening + list(tactile.placed.notes if tactile.placed else []) + list(relief.notes) + list(tactile.tiles.notes if tactile.tiles else [])
-    legibility = dataclasses.replace(legibility, levels_mm=tuple(round(v, 3) for v in relief.levels_mm))
+    legibility = dataclasses.replace(legibility, levels_mm=tuple(round(v, 3) for v in relief.levels_mm),
+                                     verdicts=tuple(relief.checks) + tuple(legibility.verdicts))  # what the print shows of the picture first
     report = _report(picture, cleaned, prepared, layout, params, machine, tactile.mesh, tactile.placed, max_error, timings, later,
                      relief, legibility,
                      find_layout(heights, layout.mm_per_px, params.base_mm, params.relief_mm) if not prepared.uniform else None)
@@ -246,7 +247,15 @@ def _prepare(cleaned: Cleaned, layout: Layout, params: LithoParams) -> Prepared:
     )
 
 
-def _relief(prepared: Prepared, layout: Layout, params: LithoParams, machine: PrinterProfile) -> ReliefResult:
+def _content_hints(cleaned: Cleaned):
+    """The file's detector and signal, for the content relief style's choice (issue 26)."""
+    from .relief.content import ContentHints
+
+    instrument = cleaned.instrument
+    return ContentHints(instrument.detector, instrument.signal) if instrument else None
+
+
+def _relief(prepared: Prepared, layout: Layout, params: LithoParams, machine: PrinterProfile, hints=None) -> ReliefResult:
     """Heights in mm from the prepared image, in the chosen relief style."""
     # Unset, the detail scale is a fingertip's (2 mm), or the grid pitch where the grid is coarser.
     detail_mm = params.detail_mm if params.detail_mm is not None else max(DEFAULT_DETAIL_MM, layout.mm_per_px)
@@ -254,7 +263,7 @@ def _relief(prepared: Prepared, layout: Layout, params: LithoParams, machine: Pr
                            nozzle_mm=machine.nozzle_mm)
     return make_relief(prepared.image, style=params.relief_style, mm_per_px=layout.mm_per_px, base_mm=params.base_mm,
                        relief_mm=params.relief_mm, layer_mm=machine.layer_mm if params.quantize else None,
-                       options=options, uniform=prepared.uniform)
+                       options=options, uniform=prepared.uniform, hints=hints)
 
 
 def _furniture(params: LithoParams, sample_per_mm: float | None) -> Furniture:

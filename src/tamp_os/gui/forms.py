@@ -45,10 +45,11 @@ FIELDS = {f.name: f for f in (
 TEXT_FIELDS = ("caption", "pixel_size", "scale_bar", "bed_mm", "channel")
 # The relief styles in the web app's words: what each is for.
 STYLE_CHOICES = (
-    ("structure", "Shapes to feel (recommended)", "Large shapes a fingertip can follow; fine detail kept only as a low texture."),
+    ("structure", "Shapes to feel", "Large shapes a fingertip can follow; fine detail kept only as a low texture."),
     ("objects", "Raised objects", "Particles, spheres or cells raised as rounded domes over a flat ground. Good for SEM pictures."),
     ("levels", "A few flat levels", "Two to five plateaus, clearly apart by touch. Good for maps and diagrams."),
-    ("auto", "Choose for me", "Picks one of the above from the picture and says why."),
+    ("content", "What the picture shows", "Every particle, bead or cell raised alike; grain boundaries, membranes and strokes as raised lines."),
+    ("auto", "Choose for me (recommended)", "What the picture shows where it finds particles or lines, else one of the above; says why."),
     ("reference", "Brightness as height", "Every brightness step becomes height, as the published workflow does."),
 )
 NUMBER_FIELDS = tuple(n for n in FIELDS if n not in TEXT_FIELDS)
@@ -107,7 +108,7 @@ def params_from_form(form) -> tuple[LithoParams | None, FormErrors]:
     changes["preset"] = form.get("preset") if form.get("preset") in PRESETS else "medium"
     changes["formats"] = tuple(f for f in form.getlist("formats")) or ("stl",)
     style = form.get("relief_style")
-    changes["relief_style"] = style if style in dict((c[0], c) for c in STYLE_CHOICES) else "structure"
+    changes["relief_style"] = style if style in dict((c[0], c) for c in STYLE_CHOICES) else "auto"
     table = form.get("braille_table")
     if table:
         if table in dict(braille_table_choices()):

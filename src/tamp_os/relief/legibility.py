@@ -41,6 +41,8 @@ class Legibility(Facts):
     lowest_lift_mm : the least-lifted object's lift, or None.
     relief_span_mm : 1st to 99th percentile of the heights.
     verdicts : plain sentences with advice.
+    period_mm : pitch of a lattice or grating in the heights that a finger can feel (>= 2.5 mm), or None:
+        its fine share is shape (as braille is), not roughness.
     """
 
     fine_share: float
@@ -55,6 +57,7 @@ class Legibility(Facts):
     relief_span_mm: float
     verdicts: tuple[str, ...]
     levels_mm: tuple[float, ...] | None = None  # the plateaus of the relief style, when it made plateaus (set by the pipeline)
+    period_mm: float | None = None
 
     def as_dict(self) -> dict:
         out = asdict(self)
@@ -101,12 +104,24 @@ def assess(
     slope = float(np.degrees(np.arctan(np.percentile(np.hypot(gx, gy), 99.9))))
     count, lift, lowest = _lifts(h, objects, mm_per_px)
     area = h.size * mm_per_px**2
+    period = _feelable_period(work, pitch) if fine > FINE_SHARE_WARN else None
     figures = dict(
         fine_share=fine, levels_used=levels, smallest_step_mm=step, narrow_area_mm2=narrow_mm2,
         narrow_share=narrow_mm2 / area if area else 0.0, steepest_slope_deg=slope, object_count=count,
-        object_lift_mm=lift, lowest_lift_mm=lowest, relief_span_mm=span,
+        object_lift_mm=lift, lowest_lift_mm=lowest, relief_span_mm=span, period_mm=period,
     )
     return Legibility(**figures, verdicts=verdicts(figures, nozzle_mm, style))
+
+
+def _feelable_period(work: np.ndarray, pitch_mm: float) -> float | None:
+    """A lattice's pitch in the heights when a finger can feel it (>= MIN_PITCH_MM), else None."""
+    from .content import MIN_PITCH_MM, lattice_period
+
+    span = float(np.ptp(work))
+    if span <= 1e-9:
+        return None
+    found = lattice_period((work - work.min()) / span, pitch_mm)
+    return found.pitch_mm if found is not None and found.pitch_mm >= MIN_PITCH_MM else None
 
 
 def _fine_share(h: np.ndarray, mm_per_px: float) -> float:
@@ -174,7 +189,19 @@ def verdicts(f: dict, nozzle_mm: float, style: str | None = None) -> tuple[str, 
         return ("This print is a flat plate: there is nothing raised to feel.",)
     out = []
     share = f["fine_share"]
-    if share > FINE_SHARE_WARN:
+    if share > FINE_SHARE_WARN and f.get("period_mm"):
+        out.append(
+            f"{share:.0%} of this relief's height variation is finer than a 1 mm low-pass keeps, but it is a lattice of "
+            f"{f['period_mm']:.1f} mm pitch, which fingers feel as a pattern (braille dots are 2.5 mm apart), not as roughness."
+        )
+    elif share > FINE_SHARE_WARN and style == "content":
+        # The content style draws lines and members' edges on purpose: advice to smooth them
+        # away would erase the main content.
+        out.append(
+            f"{share:.0%} of this relief's height variation is finer than a fingertip resolves (about 1 mm): it is the "
+            f"edges of the drawn content (raised lines, members' outlines), kept on purpose; a wider print spreads it out."
+        )
+    elif share > FINE_SHARE_WARN:
         out.append(Text(
             f"{share:.0%} of this relief's height variation is finer than a fingertip resolves (about 1 mm), so it is "
             f"felt as roughness, not as shape; "
@@ -205,7 +232,7 @@ def verdicts(f: dict, nozzle_mm: float, style: str | None = None) -> tuple[str, 
                 f"The {n} object{'s' * (n != 1)} stand{'s' * (n == 1)} only {lift:.2g} mm (median) above the ground around "
                 f"{'it' if n == 1 else 'them'}; "
                 f"a finger may not find {'it' if n == 1 else 'them'}; "
-                + ("try a taller `relief_mm`." if style == "objects" else "try `relief_style` objects.")
+                + ("try a taller `relief_mm`." if style in ("objects", "content") else "try `relief_style` objects.")
             ))
         else:
             out.append(f"{n} object{'s' * (n != 1)} stand{'s' * (n == 1)} {lift:.2g} mm (median; lowest {low:.2g} mm) above the "

@@ -13,6 +13,8 @@ work with every style, upstream of it.
   under a fingertip's area are merged into their neighbours; outlines smoothed at nozzle scale.
 - objects: objects found (enclosed by edges, else bright blobs) raised as domes or rounded
   plateaus over a flat background carrying only the `texture_mm` texture.
+- content: translates what the picture shows (content.py): members of a population raised by
+  one lift, line networks as raised lines on a flat ground, weak contrast equalised locally.
 - auto: picks one of the above from the picture and says why.
 """
 
@@ -29,7 +31,7 @@ from .heightmap import heights_mm
 from .objects import ObjectMap, dome_profile, find_objects
 from .scales import WorkGrid, coarse_gaussian_mm, gaussian_mm, guided_smooth, robust_unit
 
-STYLES = ("reference", "structure", "levels", "objects", "auto")
+STYLES = ("reference", "structure", "levels", "objects", "content", "auto")
 LEVEL_RANGE = (2, 5)
 MIN_STEP_MM = 0.5  # height step fingers tell apart reliably
 DOME_ROUND_DETAILS = 5  # domes up to 2 × 5 × detail_mm across; wider objects get rounded plateaus
@@ -63,6 +65,8 @@ class ReliefResult:
     objects : (rows, cols) int32 labels of the objects found (0 = background), or None.
     levels_mm : heights above the base of the plateaus (`levels`), else ().
     notes : further sentences for the report (adjustments made, nothing found...).
+    checks : sentences comparing the print with what was found in the picture ("Found 10 members,
+        all raised at least 1.0 mm..."), for the legibility check (content style).
     """
 
     heights_mm: np.ndarray
@@ -71,6 +75,7 @@ class ReliefResult:
     objects: np.ndarray | None = None
     levels_mm: tuple[float, ...] = ()
     notes: tuple[str, ...] = field(default_factory=tuple)
+    checks: tuple[str, ...] = field(default_factory=tuple)
 
     @property
     def object_count(self) -> int:
@@ -107,6 +112,7 @@ def make_relief(
     layer_mm: float | None = None,
     options: StyleOptions = StyleOptions(),
     uniform: bool = False,
+    hints=None,
 ) -> ReliefResult:
     """Heights in mm from the prepared image, in the given relief style.
 
@@ -119,6 +125,8 @@ def make_relief(
     layer_mm : when given, heights are rounded to whole layers (as `heights_mm` does).
     options : StyleOptions.
     uniform : the picture is uniform (prepare's info['uniform']): every style gives a flat plate.
+    hints : content.ContentHints (detector, signal) from the file's metadata, or None; the content
+        style reads its polarity from it and says it in its reason.
 
     Returns
     -------
@@ -132,8 +140,25 @@ def make_relief(
     # Shape and objects are read at fingertip scale: a grid at the nozzle's pitch carries all of it.
     grid = WorkGrid.plan(image01.shape, mm_per_px, options.nozzle_mm)
     work = grid.down(image01)
-    # Every style (and auto's choice) reads the same objects: find them once.
-    found = find_objects(work, pitch_mm=grid.pitch_mm, min_area_mm2=options.min_area_mm2, nozzle_mm=options.nozzle_mm)
+    # Every style (and auto's choice) reads the same objects: find them once (content asks only if it needs them).
+    found_once: list[ObjectMap] = []
+
+    def objects_found() -> ObjectMap:
+        if not found_once:
+            found_once.append(find_objects(work, pitch_mm=grid.pitch_mm, min_area_mm2=options.min_area_mm2, nozzle_mm=options.nozzle_mm))
+        return found_once[0]
+
+    if style in ("content", "auto"):
+        # auto tries the content translation first: the benchmark (README, relief styles) shows
+        # it ahead wherever it finds members, a line network or grains; elsewhere auto picks as before.
+        content, kind = _content(image01, grid, work, objects_found, mm_per_px=mm_per_px, base_mm=base_mm, relief_mm=relief_mm,
+                                 layer_mm=layer_mm, options=options, hints=hints, fallback=style == "content")
+        if style == "content":
+            return content
+        if content is not None and kind != "shape":
+            return ReliefResult(content.heights_mm, "content", f"auto chose content ({_KIND_WORDS[kind]}): {content.reason}",
+                                content.objects, (), content.notes, content.checks)
+    found = objects_found()
     if style == "auto":
         style, reason = choose_style(work, pitch_mm=grid.pitch_mm, options=options, found=found)
     else:
@@ -149,6 +174,35 @@ def make_relief(
         plateaus = np.unique(np.clip(made.relief01, 0.0, 1.0).astype(np.float32))
         levels = tuple(float(h) for h in heights_mm(plateaus, base_mm=base_mm, relief_mm=relief_mm, layer_mm=layer_mm) - base_mm)
     return ReliefResult(heights, style, reason or made.summary, labels, levels, made.notes)
+
+
+_KIND_WORDS = {"members": "a population of members found", "lines": "a line network found", "grains": "grains outlined"}
+
+
+def _content(image01, grid, work, found, *, mm_per_px, base_mm, relief_mm, layer_mm, options, hints,
+             fallback=True) -> tuple[ReliefResult | None, str]:
+    """The content style (content.py) brought back to the output grid, and the kind of content it
+    found. Members reach the full relief; lines stop at LINE_HEIGHT_MM (a tactile line's height),
+    so they are not stretched."""
+    from .content import check_sentences, make_content
+
+    width_mm = (image01.shape[1] - 1) * mm_per_px
+    made = make_content(work, pitch_mm=grid.pitch_mm, relief_mm=relief_mm, width_mm=width_mm, found=found,
+                        min_area_mm2=options.min_area_mm2, hints=hints, fallback=fallback)
+    if made is None:
+        return None, "shape"
+    relief01 = np.clip(grid.up(made.relief01), 0.0, 1.0)
+    relief01 = relief01 - float(relief01.min())
+    if made.kind in ("members", "shape"):
+        relief01 = _full_span(relief01)
+    heights = heights_mm(relief01, base_mm=base_mm, relief_mm=relief_mm, layer_mm=layer_mm)
+    labels = None
+    if made.labels is not None and made.labels.max():
+        labels = grid.up(made.labels.astype(np.float32), nearest=True).astype(np.int32)
+    # The check reads the heights on the working grid, where the members and lines were found
+    # (at 4096² a distance transform of the full grid alone would cost a second).
+    checks = check_sentences(grid.down(heights).astype(np.float64), made, grid.pitch_mm, base_mm)
+    return ReliefResult(heights, "content", made.reason, labels, (), made.notes, checks), made.kind
 
 
 def _full_span(relief01: np.ndarray) -> np.ndarray:

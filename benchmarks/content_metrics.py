@@ -1,0 +1,84 @@
+"""Content measures of a relief against a picture's truth (issue 26), all in mm on the print.
+
+- members felt: share of true members whose top (95th percentile of heights) stands at least
+  0.5 mm over the median of a 1.5 mm ring around it (ring pixels go to their nearest member).
+- lines − enclosed: median height on the true lines minus the median of the areas they enclose
+  (pixels over 1 mm from any true line).
+- lattice modulation: 95th minus 5th percentile of the heights (away from a 5 mm border).
+- grain relief: over neighbouring true grains, the larger of the median height step between
+  them and the rise of their shared boundary (1 px band) over their interiors.
+- spurious: raised regions (over 0.5 mm above the base, at least 2 mm²) touching no true
+  content (members, lines, grains dilated by 1 mm): mesas a finger finds where there is nothing.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import ndimage
+
+FELT_MM = 0.5
+RING_MM = 1.5
+
+
+def members_felt(h: np.ndarray, labels: np.ndarray, mm: float) -> float:
+    n = int(labels.max())
+    if n == 0:
+        return float("nan")
+    mask = labels > 0
+    dist, (iy, ix) = ndimage.distance_transform_edt(~mask, return_indices=True)
+    owner = np.where((~mask) & (dist * mm <= RING_MM), labels[iy, ix], 0)
+    index = np.arange(1, n + 1)
+    top = np.asarray(ndimage.labeled_comprehension(h, labels, index, lambda v: np.percentile(v, 95), float, np.nan))
+    ring = np.asarray(ndimage.median(h, owner, index), dtype=np.float64)
+    ring = np.where(np.isfinite(ring), ring, np.median(h[~mask]))
+    ok = np.isfinite(top)
+    return float(np.mean((top - ring)[ok] >= FELT_MM))
+
+
+def lines_over_enclosed(h: np.ndarray, lines: np.ndarray, mm: float) -> float:
+    if not lines.any():
+        return float("nan")
+    far = ndimage.distance_transform_edt(~lines) * mm > 1.0
+    return float(np.median(h[lines]) - np.median(h[far]))
+
+
+def lattice_modulation(h: np.ndarray, mm: float) -> float:
+    b = int(round(5 / mm))
+    inner = h[b:-b, b:-b] if min(h.shape) > 2 * b + 4 else h
+    return float(np.percentile(inner, 95) - np.percentile(inner, 5))
+
+
+def grain_relief(h: np.ndarray, grains: np.ndarray, mm: float) -> float:
+    n = int(grains.max())
+    if n < 2:
+        return float("nan")
+    med = np.asarray(ndimage.median(h, grains, np.arange(n + 1)), dtype=np.float64)
+    pairs = set()
+    band = np.zeros(h.shape, bool)
+    for a, b, sl_a, sl_b in ((grains[:, 1:], grains[:, :-1], (slice(None), slice(1, None)), (slice(None), slice(None, -1))),
+                             (grains[1:], grains[:-1], (slice(1, None), slice(None)), (slice(None, -1), slice(None)))):
+        differ = (a != b) & (a > 0) & (b > 0)
+        pairs |= set(zip(a[differ].tolist(), b[differ].tolist()))
+        band[sl_a] |= differ
+        band[sl_b] |= differ
+    if not pairs:
+        return float("nan")
+    steps = np.median([abs(med[a] - med[b]) for a, b in pairs])
+    interior = (grains > 0) & (ndimage.distance_transform_edt(~band) * mm > 1.5)
+    rise = np.median(h[band]) - np.median(h[interior]) if interior.any() else 0.0
+    return float(max(steps, rise))
+
+
+def spurious(h: np.ndarray, content: np.ndarray | None, mm: float, base_mm: float) -> int:
+    if content is None:
+        return -1
+    raised, n = ndimage.label(h - base_mm > FELT_MM)
+    if n == 0:
+        return 0
+    near = ndimage.binary_dilation(content, iterations=max(1, round(1 / mm)))
+    area = np.bincount(raised.ravel()) * mm * mm
+    touches = np.zeros(n + 1, bool)
+    touches[raised[near]] = True
+    bad = (~touches) & (area >= 2.0)
+    bad[0] = False
+    return int(bad.sum())

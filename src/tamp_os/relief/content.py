@@ -1,0 +1,393 @@
+"""The `content` relief style: translate what the picture shows, not its brightness (issue 26).
+
+Tactile graphics encode a picture: points and particles as domes, outlines as raised lines,
+empty space as the ground. This style reads the picture on the working grid and decides:
+
+1. polarity: the ground is the most common brightness (the histogram's mode at fingertip scale);
+   whichever side of it holds more of the picture's deviation is the content (bright beads on
+   black fluorescence, dark strokes on white paper); the ground goes to the base.
+2. a line network (ridge filter, skeleton) that encloses at least NETWORK_CELLS regions: raised
+   lines LINE_WIDTH_MM wide and LINE_HEIGHT_MM high on a flat ground (lines.py);
+3. else a population (local-contrast members, population.py, or the edge-enclosed objects the
+   other styles find when they are too large for a local background): every member a dome of
+   the same full lift, touching members apart by a groove, small ones drawn at a feelable size
+   when few;
+4. else weak contrast: the specimen is found against an empty mount, its contrast is equalised
+   locally (CLAHE over a tenth of the field) and its grains are outlined by raised lines when
+   their boundaries form a network; anything else gets the structure style's shape.
+
+A lattice or grating is recognised by its spectrum's peak and named with its pitch on the print.
+Every decision is written into the reason with the measured facts, and `check_sentences` compares
+the print with what was found ("found 10 members, all raised at least 1.0 mm").
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import ndimage
+from skimage import exposure, filters, segmentation
+
+from .lines import LINE_HEIGHT_MM, LINE_WIDTH_MM, MIN_GAP_MM, Lines, draw_lines, find_lines
+from .objects import ObjectMap, dome_profile, label_median
+from .population import BACKGROUND_MM, Members, _roundness, find_members
+
+NETWORK_CELLS = 3  # a line network encloses at least this many fingertip-sized regions
+NETWORK_STRENGTH = 20.0  # median ridge response on the lines over its MAD: measured 45-240 on networks, 7 on SEM sphere rims
+MAX_LINE_COVER = 0.45  # drawn lines covering more than this are no network but a texture
+MIN_MEMBERS = 2
+POPULATION_ENERGY = 0.6
+POPULATION_ROUNDNESS = 0.7
+POPULATION_SPREAD = 2.5
+MIN_FELT_MM = 2.0  # members narrower than this are drawn this wide when few
+FEW_MEMBERS = 60
+MIN_PITCH_MM = 2.5  # a lattice finer than this on the print is felt as roughness
+MEMBER_ROUND_MM = 10.0  # dome shoulders (as the objects style); wider members get rounded plateaus
+EMPTY_GROUND_SHARE = 0.5  # a bright ground this share of the picture lies within 0.06 of is empty (paper, brightfield)
+ELECTRON_EMPTY_SHARE = 0.8  # with an electron signal, only a bright ground this empty is the ground
+WEAK_SPREAD = 0.3  # a specimen whose 1st-99th percentiles span less than this (beside a mount) has weak contrast
+EMPTY_MOUNT_SHARE = 0.05  # a dark, featureless area covering at least this share is the mount
+
+
+@dataclass(frozen=True)
+class ContentHints:
+    """File metadata that informs the translation (each None when the file does not say).
+
+    detector : the detector's name as the file gives it ("HE-SE2", "ETD", "HAADF").
+    signal : "SE", "BSE" or "STEM": electron images, whose ground is dark unless it is empty and bright.
+    """
+
+    detector: str | None = None
+    signal: str | None = None
+
+    def words(self) -> str:
+        parts = []
+        if self.detector:
+            parts.append(f"detector {self.detector}")
+        if self.signal:
+            parts.append(f"{self.signal} signal")
+        return ", ".join(parts)
+
+
+@dataclass(frozen=True)
+class Polarity:
+    bright: bool  # content brighter than the ground
+    ground: float  # the ground's brightness, 0..1
+    reason: str
+    undecided: bool = False  # a mid-grey ground: the members' evidence may turn it over
+
+    def flipped(self, why: str) -> "Polarity":
+        side = "bright" if not self.bright else "dark"
+        return Polarity(not self.bright, self.ground,
+                        f"the ground is mid-grey ({self.ground:.2f} of the range) and {why}, so the {side} parts are raised")
+
+
+@dataclass(frozen=True)
+class Period:
+    pitch_mm: float  # period on the print
+    share: float  # share of the detail's power in the spectrum's peak
+
+
+@dataclass(frozen=True)
+class ContentMade:
+    """What the content style made: relief01 on the working grid (0..1 of the relief; lines stop
+    at LINE_HEIGHT_MM / relief), the kind ('lines', 'members', 'grains', 'shape'), labels of the
+    members (or None), the reason (facts), and check sentences."""
+
+    relief01: np.ndarray
+    kind: str
+    labels: np.ndarray | None
+    reason: str
+    notes: tuple[str, ...]
+    line_mask: np.ndarray | None = None
+
+
+def content_polarity(work: np.ndarray, pitch_mm: float, within: np.ndarray | None = None, signal: str | None = None) -> Polarity:
+    """Which side of the ground carries the content (see the module's note 1).
+
+    Dark ground is the rule for SEM, dark field and fluorescence; a bright ground must be empty
+    (brightfield, paper): the mode is bright and at least EMPTY_GROUND_SHARE of the picture lies
+    within 0.06 of it. A particle field whose particles cover most of it has a bright mode too,
+    but a broad one. Between the two, the side holding more deviation from the mode wins. With an
+    electron signal (SE, BSE, STEM) from the file, the ground is dark unless it is plainly empty
+    and bright (ELECTRON_EMPTY_SHARE within 0.06 of a bright mode, as a bright-field image).
+    """
+    smooth = ndimage.gaussian_filter(work.astype(np.float32), max(0.5, 0.5 / pitch_mm), mode="nearest")
+    values = smooth[within] if within is not None and within.any() else smooth.ravel()
+    counts, edges = np.histogram(values, bins=64, range=(0.0, 1.0))
+    counts = np.convolve(counts, np.ones(3) / 3, mode="same")
+    mode = float((edges[:-1] + edges[1:])[int(np.argmax(counts))] / 2)
+    near = float(np.mean(np.abs(values - mode) < 0.06))
+    up = float(np.mean(np.clip(values - mode, 0, None)))
+    down = float(np.mean(np.clip(mode - values, 0, None)))
+    if signal in ("SE", "BSE", "STEM") and not (mode >= 0.6 and near >= ELECTRON_EMPTY_SHARE):
+        bright, why = True, f"the file's {signal} signal: electron images have a dark ground"
+    elif mode >= 0.6:
+        bright = near < EMPTY_GROUND_SHARE
+        why = (f"an empty bright ground ({near:.0%} of the picture within 0.06 of it)" if not bright
+               else f"bright but not empty (only {near:.0%} of the picture within 0.06 of it: a field of bright members)")
+    elif mode <= 0.4:
+        bright, why = True, "dark"
+    else:
+        bright = up >= down
+        why = f"mid-grey, with more of the picture {'above' if bright else 'below'} it ({max(up, down):.3f} against {min(up, down):.3f})"
+        reason = (f"the ground is the most common brightness ({mode:.2f} of the range: {why}), so the "
+                  f"{'bright' if bright else 'dark'} parts are raised and the ground sits at the base")
+        return Polarity(bright, mode, reason, undecided=True)
+    reason = (f"the ground is the most common brightness ({mode:.2f} of the range: {why}), so the "
+              f"{'bright' if bright else 'dark'} parts are raised and the ground sits at the base")
+    return Polarity(bright, mode, reason)
+
+
+def lattice_period(work: np.ndarray, pitch_mm: float) -> Period | None:
+    """The strongest period of the picture's detail (spectrum peak beyond 12 mm wavelengths), if
+    its peak holds a clear share of the detail's power; else None."""
+    rows, cols = work.shape
+    detail = work - ndimage.gaussian_filter(work, 4.0 / pitch_mm, mode="nearest")
+    window = np.outer(np.hanning(rows), np.hanning(cols)).astype(np.float32)
+    power = np.abs(np.fft.rfft2(detail * window)) ** 2
+    fy = np.fft.fftfreq(rows)[:, None]
+    fx = np.fft.rfftfreq(cols)[None, :]
+    freq = np.hypot(fy, fx) / pitch_mm  # cycles per mm
+    band = (freq > 1 / 12.0) & (freq < 0.5 / pitch_mm)
+    total = float(power[band].sum())
+    if total <= 0:
+        return None
+    at = np.unravel_index(np.argmax(np.where(band, power, 0)), power.shape)
+    near = band & (np.abs(freq - freq[at]) <= 0.08 * freq[at])  # the ring of that frequency (all orientations)
+    share = float(power[near].sum() / total)
+    if share < 0.35:
+        return None
+    return Period(float(1.0 / freq[at]), share)
+
+
+def make_content(work: np.ndarray, *, pitch_mm: float, relief_mm: float, width_mm: float, found,
+                 min_area_mm2: float, hints: ContentHints | None = None, fallback: bool = True) -> ContentMade | None:
+    """The content relief on the working grid (see the module's notes). `found`: the edge-enclosed
+    objects (an ObjectMap, or a function that finds them: only asked for when needed). `hints`:
+    file metadata that helps the choice (detector, signal), said in the reason. Without
+    `fallback`, None when the picture holds no population, no line network and no weak-contrast
+    specimen (auto then chooses among the other styles, and the shape is not made for nothing)."""
+    specimen = find_specimen(work, pitch_mm)
+    hints = hints or ContentHints()
+    polarity = content_polarity(work, pitch_mm, None if specimen.all() else specimen, hints.signal)
+    x = work if polarity.bright else 1.0 - work
+    period = lattice_period(work, pitch_mm)
+    meta = f"; file metadata: {hints.words()}" if hints.words() else ""
+    lattice = _lattice_words(period, width_mm)
+    if not specimen.all():
+        lo, hi = np.percentile(work[specimen], [1, 99])
+        if hi - lo < WEAK_SPREAD:
+            return _weak_contrast(work, x, pitch_mm, relief_mm, width_mm, min_area_mm2, polarity, lattice + meta, specimen)
+    lines = find_lines(x, pitch_mm=pitch_mm, min_area_mm2=min_area_mm2)
+    members = find_members(x, pitch_mm=pitch_mm)
+    if polarity.undecided and not _is_population(members, pitch_mm):
+        # A mid-grey ground: the side whose members hold more of the detail is the content.
+        other = find_members(1.0 - x, pitch_mm=pitch_mm)
+        if other.energy > members.energy:
+            polarity = polarity.flipped(f"members of the other side hold more of the detail ({other.energy:.0%} against {members.energy:.0%})")
+            x, members = 1.0 - x, other
+            lines = find_lines(x, pitch_mm=pitch_mm, min_area_mm2=min_area_mm2)
+    network = _is_network(lines) and not _members_explain(members, lines, pitch_mm)
+    if not network:
+        # A network of the other polarity (dark lines between bright grains whose own brightness
+        # varies, so the ground did not look empty) is content too: lines read better than cells.
+        other = find_lines(1.0 - x, pitch_mm=pitch_mm, min_area_mm2=min_area_mm2)
+        if _is_network(other):
+            lines, network = other, True
+            polarity = Polarity(not polarity.bright, polarity.ground,
+                                f"{'dark' if polarity.bright else 'bright'} lines form a network ({other.cell_count} regions), so they are "
+                                f"raised and the regions they enclose sit at the base")
+    if network:
+        return _as_lines(lines, pitch_mm, relief_mm, width_mm, polarity, lattice + meta, "lines")
+    if _is_population(members, pitch_mm):
+        return _as_members(members.labels, pitch_mm, relief_mm, polarity, lattice + meta,
+                           f"{members.count} members found by local contrast (each against the ground around it, cut at half its own peak; "
+                           f"dimmest {np.min(members.contrast):.2f}, brightest {np.max(members.contrast):.2f} of the range)")
+    # Objects wider than the local ground (the FePt spheres) are found by the edges around them.
+    big = _large_edge_objects(found() if callable(found) else found, pitch_mm)
+    if big is not None:
+        return _as_members(big, pitch_mm, relief_mm, polarity, lattice + meta,
+                           f"{int(big.max())} objects outlined by edges, wider than the {BACKGROUND_MM:g} mm local ground")
+    if not fallback:
+        return None
+    return _weak_contrast(work, x, pitch_mm, relief_mm, width_mm, min_area_mm2, polarity, lattice + meta,
+                          None if specimen.all() else specimen, grains=False)
+
+
+def _is_network(lines: Lines) -> bool:
+    return lines.cell_count >= NETWORK_CELLS and lines.cover <= MAX_LINE_COVER and lines.strength >= NETWORK_STRENGTH
+
+
+def _is_population(members: Members, pitch_mm: float) -> bool:
+    """A population, not the peaks of a continuous picture: the members hold most of the detail
+    (POPULATION_ENERGY of the top-hat), or they are round (POPULATION_ROUNDNESS, median minor /
+    major axis), of similar size (POPULATION_SPREAD) and hold a clear part of it. Measured: a
+    portrait 0.42, stained tissue 0.48-0.54, SEM and STEM particle fields 0.63-0.80; beads 0.51
+    and particles on a textured substrate 0.22, but round (0.85-0.99) and within a factor 1.5 in
+    size, where pieces of vessels, terraces' noise and tissue are not (0.32-0.64)."""
+    if members.count < MIN_MEMBERS:
+        return False
+    if members.energy >= POPULATION_ENERGY:
+        return True
+    round_ = float(np.median(_roundness(members.labels, members.count)[1:]))
+    return members.spread(pitch_mm) <= POPULATION_SPREAD and members.energy >= 0.15 and round_ >= POPULATION_ROUNDNESS
+
+
+def _members_explain(members: Members, lines: Lines, pitch_mm: float) -> bool:
+    """A dense population looks like a network of the gaps between members: the members explain
+    the picture when they cover more than the lines do and most cells hold one member."""
+    return members.count >= NETWORK_CELLS and members.cover > 1.5 * lines.cover
+
+
+def _large_edge_objects(found: ObjectMap, pitch_mm: float) -> np.ndarray | None:
+    """Objects the edge finder outlined that are too wide for the local ground (the FePt spheres)."""
+    if found.method != "edges" or found.count < 2:
+        return None
+    area = np.bincount(found.labels.ravel())[1:]
+    diameters = 2 * np.sqrt(area / np.pi) * pitch_mm
+    similar = np.percentile(diameters, 90) <= POPULATION_SPREAD * np.percentile(diameters, 10)
+    return found.labels if similar and float(np.median(diameters)) > BACKGROUND_MM else None
+
+
+def _lattice_words(period: Period | None, width_mm: float) -> str:
+    if period is None:
+        return ""
+    if period.pitch_mm >= MIN_PITCH_MM:
+        return f"; a lattice of {period.pitch_mm:.1f} mm pitch on the print, kept (feelable, not roughness)"
+    return (f"; a lattice of {period.pitch_mm:.1f} mm pitch on the print, too fine to feel: it becomes feelable "
+            f"at a print width of {width_mm * MIN_PITCH_MM / period.pitch_mm:.0f} mm")
+
+
+def _as_members(labels: np.ndarray, pitch_mm, relief_mm, polarity, extra, what) -> ContentMade:
+    count = int(labels.max())
+    area = np.bincount(labels.ravel(), minlength=count + 1)[1:]
+    diam = 2 * np.sqrt(area / np.pi) * pitch_mm
+    notes = []
+    small = diam < MIN_FELT_MM
+    if small.any() and count <= FEW_MEMBERS:
+        # Few members under a fingertip: draw each at least MIN_FELT_MM across (into free ground only).
+        grown = segmentation.expand_labels(labels, distance=max(1.0, (MIN_FELT_MM - float(diam[small].min())) / 2 / pitch_mm))
+        keep_small = np.concatenate([[False], small])
+        labels = np.where((labels == 0) & keep_small[grown], grown, labels)
+        notes.append(f"content: {int(small.sum())} members narrower than {MIN_FELT_MM:g} mm were drawn {MIN_FELT_MM:g} mm wide, so a finger finds them.")
+    elif small.any():
+        notes.append(f"content: {int(small.sum())} of {count} members are narrower than {MIN_FELT_MM:g} mm; with so many they read as a texture of small domes.")
+    before = int(labels.max())
+    labels = _with_interior(labels)
+    if int(labels.max()) < before:
+        notes.append(f"content: {before - int(labels.max())} members too thin to carry a dome were left flat.")
+    domes = dome_profile(labels, pitch_mm=pitch_mm, round_mm=MEMBER_ROUND_MM)
+    reason = f"content: {what}; each raised as a dome by the same lift, touching ones apart by a groove; {polarity.reason}{extra}"
+    return ContentMade(domes, "members", labels, reason, tuple(notes))
+
+
+def _with_interior(labels: np.ndarray) -> np.ndarray:
+    """Drop members that are all outline (a pixel-wide sliver has no dome to feel), renumbered."""
+    from .objects import inner_outline
+
+    n = int(labels.max())
+    has = np.zeros(n + 1, bool)
+    has[labels[(labels > 0) & ~inner_outline(labels)]] = True
+    out = np.where(has[labels], labels, 0)
+    return segmentation.relabel_sequential(out)[0].astype(np.int32)
+
+
+def _as_lines(lines: Lines, pitch_mm, relief_mm, width_mm, polarity, extra, kind, what: str = "") -> ContentMade:
+    height = min(LINE_HEIGHT_MM, relief_mm)
+    profile = draw_lines(lines, pitch_mm) * (height / relief_mm if relief_mm > 0 else 0.0)
+    notes = []
+    if lines.merged.any():
+        share = float(lines.merged.mean())
+        notes.append(
+            f"content: some lines run closer than {MIN_GAP_MM:g} mm, which a finger cannot separate; the space between them "
+            f"({share:.0%} of the picture) was filled so they read as one band; at a print width of about "
+            f"{width_mm * lines.separate_at:.0f} mm nine in ten of the regions they enclose would be felt apart."
+        )
+    what = what or f"a network of lines enclosing {lines.cell_count} regions ({lines.length_mm:.0f} mm of line, ridge strength {lines.strength:.0f} × noise)"
+    reason = (f"content: {what}, raised as lines {LINE_WIDTH_MM:g} mm wide and {height:.1f} mm high on a flat ground; "
+              f"{polarity.reason}{extra}")
+    return ContentMade(profile.astype(np.float32), kind, None, reason, tuple(notes), lines.skeleton)
+
+
+def find_specimen(work: np.ndarray, pitch_mm: float) -> np.ndarray:
+    """The specimen (bool) against an empty mount: a dark, featureless area (Otsu of the picture at
+    fingertip scale, the darker side with almost no detail) of at least EMPTY_MOUNT_SHARE; else all."""
+    smooth = ndimage.gaussian_filter(work, 1.0 / pitch_mm, mode="nearest")
+    if np.ptp(smooth) < 0.05:
+        return np.ones(work.shape, bool)
+    dark = smooth < filters.threshold_otsu(smooth)
+    if dark.mean() < EMPTY_MOUNT_SHARE or dark.mean() > 0.8:
+        return np.ones(work.shape, bool)
+    detail = np.abs(work - smooth)
+    if np.median(detail[dark]) > 0.5 * np.median(detail[~dark]) + 0.01 or np.median(work[dark]) > 0.25:
+        return np.ones(work.shape, bool)
+    return ndimage.binary_opening(~dark, iterations=2)
+
+
+def _weak_contrast(work, x, pitch_mm, relief_mm, width_mm, min_area_mm2, polarity, extra, specimen=None, grains=True) -> ContentMade:
+    """Weak contrast: local equalisation inside the specimen, then its grains outlined as raised
+    lines (when `grains` and their boundaries form a network), else the fingertip-scale shape."""
+    from .styles import StyleOptions, large_shape
+
+    specimen = find_specimen(work, pitch_mm) if specimen is None else specimen
+    inside = work[specimen]
+    lo, hi = (np.percentile(inside, [1, 99]) if inside.size else (0.0, 1.0))
+    spread = max(float(hi - lo), 1e-6)
+    local = np.clip((work - lo) / spread, 0, 1)
+    # CLAHE over about a tenth of the field: grains a few percent apart become distinct.
+    kernel = max(8, int(min(work.shape) / 10))
+    equal = exposure.equalize_adapthist(np.where(specimen, local, float(np.median(local[specimen]) if specimen.any() else 0)),
+                                        kernel_size=kernel, clip_limit=0.02).astype(np.float32)
+    edges = filters.sobel(ndimage.gaussian_filter(equal, 0.7))
+    edges = np.where(ndimage.binary_erosion(specimen, iterations=2), edges, 0)
+    lines = find_lines(edges / max(float(edges.max()), 1e-6), pitch_mm=pitch_mm, min_area_mm2=min_area_mm2)
+    where = ("the specimen was found against an empty mount (kept at the base)" if not specimen.all()
+             else "no empty mount")
+    if grains and lines.cell_count >= NETWORK_CELLS and lines.cover <= MAX_LINE_COVER:
+        made = _as_lines(lines, pitch_mm, relief_mm, width_mm, polarity, extra, "grains",
+                         what=(f"weak contrast (the specimen spans {spread:.2f} of the range; {where}): after local equalisation "
+                               f"its boundaries outline {lines.cell_count} grains"))
+        profile = np.where(specimen, made.relief01, 0.0)
+        return ContentMade(profile.astype(np.float32), "grains", None, made.reason, made.notes, lines.skeleton)
+    shape = large_shape(equal, pitch_mm, StyleOptions())
+    shape = np.where(specimen, shape, 0.0).astype(np.float32)
+    reason = (f"content: no population and no line network; contrast equalised locally ({where}) and its "
+              f"fingertip-scale shape raised; {polarity.reason}{extra}")
+    return ContentMade(shape, "shape", None, reason, ())
+
+
+def check_sentences(heights_mm: np.ndarray, made: ContentMade, mm_per_px: float, base_mm: float) -> tuple[str, ...]:
+    """Compare the print with what was found: how many members and how high the lowest stands
+    above the ground around it; the lines' height over what they enclose."""
+    if made.kind == "members" and made.labels is not None and made.labels.max():
+        lifts = member_tops(heights_mm, made.labels, mm_per_px)
+        n = lifts.size
+        felt = int((lifts >= 0.5).sum())
+        if felt == n:
+            return (f"Found {n} member{'s' * (n != 1)}, all raised at least {lifts.min():.1f} mm above the ground around them.",)
+        return (f"Found {n} members; {felt} stand at least 0.5 mm above the ground around them, {n - felt} do not "
+                f"(lowest {lifts.min():.1f} mm).",)
+    if made.line_mask is not None and made.line_mask.any():
+        on = heights_mm[made.line_mask]
+        off = heights_mm[~ndimage.binary_dilation(made.line_mask, iterations=3)]
+        rise = float(np.median(on) - (np.median(off) if off.size else base_mm))
+        what = "grain outlines" if made.kind == "grains" else "a network of lines"
+        return (f"{what[0].upper() + what[1:]}, raised {rise:.1f} mm over the areas they enclose.",)
+    return ()
+
+
+def member_tops(heights_mm: np.ndarray, labels: np.ndarray, mm_per_px: float, ring_mm: float = 1.5) -> np.ndarray:
+    """Per member: its top (highest point: what a finger finds) minus the median of a ring ring_mm
+    wide around it (ring pixels belong to their nearest member)."""
+    n = int(labels.max())
+    mask = labels > 0
+    dist, (iy, ix) = ndimage.distance_transform_edt(~mask, return_indices=True)
+    owner = np.where((~mask) & (dist * mm_per_px <= ring_mm), labels[iy, ix], 0)
+    top = np.full(n + 1, -np.inf)
+    np.maximum.at(top, labels.ravel(), heights_mm.ravel())
+    top = top[1:]
+    ring = label_median(heights_mm, owner, n)
+    ring = np.where(np.isfinite(ring), ring, float(np.median(heights_mm[~mask])) if (~mask).any() else 0.0)
+    return top - ring

@@ -1,0 +1,133 @@
+"""Synthetic pictures with exact truth for the content-aware relief (issue 26).
+
+Each maker returns a `Truth`: the picture (float32 0..1, row 0 = top) and what a finger should
+find in it: members of a population (labels), a line network (mask), a lattice's pitch, grains
+(labels), text labels (mask). Sizes are given for a 256 px wide picture printed 100 mm wide
+(0.39 mm per px) and scale with `cols`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import ndimage
+
+
+@dataclass(frozen=True)
+class Truth:
+    name: str
+    image: np.ndarray  # (rows, cols) float32, 0..1
+    members: np.ndarray | None = None  # (rows, cols) int32 labels of the population, 0 = ground
+    lines: np.ndarray | None = None  # (rows, cols) bool, True on the lines
+    pitch_px: float | None = None  # a lattice's period in pixels
+    grains: np.ndarray | None = None  # (rows, cols) int32 grain labels, 0 = mount
+    text: np.ndarray | None = None  # (rows, cols) bool, True on printed text
+
+
+def _grid(rows, cols):
+    return np.mgrid[0:rows, 0:cols].astype(np.float32)
+
+
+def dim_and_bright_beads(rows: int = 192, cols: int = 256, seed: int = 3) -> Truth:
+    """Ten fluorescent beads on a dark ground, peak brightness 0.15 to 1.0 (a 7x range), blurred
+    by the optics, one touching pair, noise; plus a broad, dim glow of shading (not an object)."""
+    rng = np.random.default_rng(seed)
+    yy, xx = _grid(rows, cols)
+    s = cols / 256
+    centres = [(40, 40), (50, 120), (45, 200), (100, 70), (100, 150), (104, 159), (150, 40), (160, 110), (150, 190), (90, 230)]
+    peaks = np.linspace(0.15, 1.0, len(centres))
+    rng.shuffle(peaks)
+    image = np.zeros((rows, cols), np.float32)
+    labels = np.zeros((rows, cols), np.int32)
+    for k, ((cy, cx), peak) in enumerate(zip(centres, peaks), start=1):
+        cy, cx, r = cy * rows / 192, cx * s, 5.5 * s
+        d2 = (yy - cy) ** 2 + (xx - cx) ** 2
+        disk = d2 <= r * r
+        image = np.maximum(image, peak * disk.astype(np.float32))
+        labels[disk & (labels == 0)] = k
+    image = ndimage.gaussian_filter(image, 1.5 * s)
+    glow = 0.08 * np.exp(-((yy - 0.5 * rows) ** 2 + (xx - 0.3 * cols) ** 2) / (2 * (0.25 * cols) ** 2))
+    image = image + glow + 0.02 + 0.012 * rng.standard_normal((rows, cols))
+    return Truth("dim_and_bright_beads", np.clip(image, 0, 1).astype(np.float32), members=labels)
+
+
+def dark_line_network(rows: int = 192, cols: int = 256, seed: int = 4) -> Truth:
+    """Grains of a polished section (Voronoi cells 25–40 px across) on a bright ground, their
+    boundaries dark lines 2 px wide; grains vary by ±4 % of grey, noise 3 %."""
+    rng = np.random.default_rng(seed)
+    cells, boundary = _voronoi(rows, cols, 40, rng)
+    image = 0.8 + 0.04 * rng.uniform(-1, 1, int(cells.max()) + 1)[cells]
+    lines = ndimage.binary_dilation(boundary, iterations=1)
+    image = np.where(lines, 0.25, image)
+    image = ndimage.gaussian_filter(image, 0.7) + 0.03 * rng.standard_normal((rows, cols))
+    return Truth("dark_line_network", np.clip(image, 0, 1).astype(np.float32), lines=lines, grains=np.where(lines, 0, cells + 1))
+
+
+def _voronoi(rows, cols, count, rng):
+    """Voronoi cells of `count` random seeds (int labels) and their 4-connected boundary (bool)."""
+    seeds = np.stack([rng.uniform(0, rows, count), rng.uniform(0, cols, count)], 1)
+    yy, xx = _grid(rows, cols)
+    d = (yy[..., None] - seeds[:, 0]) ** 2 + (xx[..., None] - seeds[:, 1]) ** 2
+    cells = np.argmin(d, axis=-1).astype(np.int32)
+    boundary = np.zeros((rows, cols), bool)
+    boundary[1:] |= cells[1:] != cells[:-1]
+    boundary[:, 1:] |= cells[:, 1:] != cells[:, :-1]
+    return cells, boundary
+
+
+def dot_lattice(rows: int = 192, cols: int = 256, pitch_px: float = 10.0, seed: int = 5) -> Truth:
+    """A square lattice of bright dots (as atoms in HRTEM) at `pitch_px` (10 px = 3.9 mm on the
+    print), dot radius a quarter of the pitch, on a mid-grey ground with noise."""
+    rng = np.random.default_rng(seed)
+    yy, xx = _grid(rows, cols)
+    p = pitch_px * cols / 256
+    bump = (1 + np.cos(2 * np.pi * yy / p)) * (1 + np.cos(2 * np.pi * xx / p)) / 4  # 1 at each lattice point
+    image = 0.3 + 0.5 * (bump > 0.5)
+    image = ndimage.gaussian_filter(image.astype(np.float32), 0.1 * p) + 0.05 * rng.standard_normal((rows, cols))
+    return Truth("dot_lattice", np.clip(image, 0, 1).astype(np.float32), pitch_px=p)
+
+
+def faint_grains(rows: int = 192, cols: int = 256, seed: int = 6) -> Truth:
+    """Channelling contrast: grains (Voronoi cells) whose grey levels differ by 3 % steps of the
+    full range (0.60, 0.63, 0.66), noise 1 %, on a specimen that covers the right 80 %; the
+    mount at the left is black."""
+    rng = np.random.default_rng(seed)
+    cells, _ = _voronoi(rows, cols, 30, rng)
+    shade = 0.60 + 0.03 * (np.arange(int(cells.max()) + 1) % 3)
+    image = shade[cells]
+    grains = cells + 1
+    mount = np.zeros((rows, cols), bool)
+    mount[:, : int(0.2 * cols)] = True
+    image = np.where(mount, 0.05, image) + 0.01 * rng.standard_normal((rows, cols))
+    return Truth("faint_grains", np.clip(image, 0, 1).astype(np.float32), grains=np.where(mount, 0, grains).astype(np.int32))
+
+
+def line_diagram(rows: int = 192, cols: int = 256, seed: int = 7) -> Truth:
+    """A diagram: black strokes 2 px wide on white (a box, a circle, a connecting line) with
+    three short text labels in black beside them."""
+    from PIL import Image, ImageDraw, ImageFont
+
+    picture = Image.new("L", (cols, rows), 255)
+    draw = ImageDraw.Draw(picture)
+    s = cols / 256
+    w = max(2, round(2 * s))
+    draw.rectangle([20 * s, 30 * s, 100 * s, 110 * s], outline=0, width=w)
+    draw.ellipse([150 * s, 40 * s, 230 * s, 120 * s], outline=0, width=w)
+    draw.line([100 * s, 70 * s, 150 * s, 80 * s], fill=0, width=w)
+    strokes = np.asarray(picture) < 128
+    text = Image.new("L", (cols, rows), 255)
+    tdraw = ImageDraw.Draw(text)
+    font = ImageFont.load_default()
+    for x, y, word in ((25, 130, "cell A"), (160, 135, "nucleus"), (105, 50, "link")):
+        tdraw.text((x * s, y * s), word, fill=0, font=font)
+    text_mask = np.asarray(text) < 128
+    image = np.where(strokes | text_mask, 0.0, 1.0).astype(np.float32)
+    rng = np.random.default_rng(seed)
+    image = image + 0.02 * rng.standard_normal((rows, cols)).astype(np.float32)
+    return Truth("line_diagram", np.clip(image, 0, 1).astype(np.float32), lines=strokes, text=text_mask & ~strokes)
+
+
+def all_content(rows: int = 192, cols: int = 256) -> list[Truth]:
+    return [dim_and_bright_beads(rows, cols), dark_line_network(rows, cols), dot_lattice(rows, cols),
+            faint_grains(rows, cols), line_diagram(rows, cols)]

@@ -1,0 +1,189 @@
+"""The content relief style (issue 26) on synthetic pictures with exact truth (100 mm wide, 3 mm relief).
+
+Every figure is measured on the heights in mm against the picture's truth, not against what the
+style says it found.
+"""
+
+import numpy as np
+import pytest
+from scipy import ndimage
+
+from synthetic_content import dark_line_network, dim_and_bright_beads, dot_lattice, faint_grains, line_diagram
+from tamp_os.relief.content import ContentHints
+from tamp_os.relief.legibility import assess
+from tamp_os.relief.preprocess import prepare
+from tamp_os.relief.styles import make_relief
+
+BASE, RELIEF = 1.0, 3.0
+
+
+def prep(image, invert=False):
+    rows, cols = image.shape
+    return prepare(image, None, rows=rows, cols=cols, target_aspect=(rows - 1) / (cols - 1), fit="stretch",
+                   low_pct=2.0, high_pct=98.0, sigma_px=1.2, invert=invert, flip_x=False).image
+
+
+def pitch(image):
+    return 100.0 / (image.shape[1] - 1)
+
+
+def content(image, invert=False, **kw):
+    return make_relief(prep(image, invert), style="content", mm_per_px=pitch(image), base_mm=BASE, relief_mm=RELIEF, **kw)
+
+
+def tops_over_rings(h, labels, mm, ring_mm=1.5):
+    """Per true member: highest point minus the median of the 1.5 mm ring around it."""
+    mask = labels > 0
+    dist, (iy, ix) = ndimage.distance_transform_edt(~mask, return_indices=True)
+    owner = np.where(~mask & (dist * mm <= ring_mm), labels[iy, ix], 0)
+    n = int(labels.max())
+    tops = np.array([h[labels == k].max() for k in range(1, n + 1)])
+    rings = np.array([np.median(h[owner == k]) for k in range(1, n + 1)])
+    return tops - rings
+
+
+@pytest.mark.timeout(60)
+def test_every_bead_dim_or_bright_is_raised_by_the_same_lift_and_the_glow_is_not():
+    truth = dim_and_bright_beads()
+    made = content(truth.image)
+    mm = pitch(truth.image)
+    lifts = tops_over_rings(made.heights_mm, truth.members, mm)
+    # Peaks differ 7x in brightness; every bead stands >= 1 mm over its ring, all within 0.3 mm of each other.
+    assert lifts.min() >= 1.0 and np.ptp(lifts) <= 0.3, np.round(lifts, 2)
+    # The broad glow of shading is no object: the ground 1 mm away from every bead is flat at the base.
+    far = ndimage.distance_transform_edt(truth.members == 0) * mm > 1.0
+    assert np.percentile(made.heights_mm[far], 99) <= BASE + 0.05
+    # The touching pair stays two: a groove between them drops at least 0.5 mm below both tops.
+    a, b = truth.members == 5, truth.members == 6
+    between = ndimage.binary_dilation(a, iterations=2) & ndimage.binary_dilation(b, iterations=2)
+    assert made.heights_mm[between].min() <= min(made.heights_mm[a].max(), made.heights_mm[b].max()) - 0.5
+    assert made.object_count == 10
+    assert any(check.startswith("Found 10 members, all raised at least") for check in made.checks)
+
+
+@pytest.mark.timeout(60)
+@pytest.mark.parametrize("invert", [False, True])
+def test_dark_line_network_becomes_raised_lines_on_a_flat_ground(invert):
+    """Dark lines on bright (or, inverted, bright lines on dark): the same raised lines, since
+    polarity comes from the content; lines 1.0-1.5 mm wide and 0.8-1.2 mm high."""
+    truth = dark_line_network()
+    made = content(truth.image, invert=invert)
+    mm, h = pitch(truth.image), made.heights_mm
+    enclosed = ndimage.distance_transform_edt(~truth.lines) * mm > 1.5
+    rise = np.median(h[truth.lines]) - np.median(h[enclosed])
+    assert 0.8 <= rise <= 1.2, rise
+    assert np.percentile(h[enclosed], 95) <= BASE + 0.05  # flat ground inside the cells
+    # Width: raised area (over half the line height) per mm of true line.
+    length_mm = _skeleton_length_mm(truth.lines, mm)
+    width_mm = ((h - BASE) > 0.5).sum() * mm * mm / length_mm
+    assert 1.0 <= width_mm <= 1.6, width_mm
+    assert "network of lines" in made.reason and "1.2 mm wide" in made.reason
+    assert any("raised 1.0 mm over the areas they enclose" in check for check in made.checks)
+
+
+def _skeleton_length_mm(mask, mm):
+    from skimage.morphology import skeletonize
+
+    return skeletonize(mask).sum() * mm * 1.12
+
+
+@pytest.mark.timeout(60)
+def test_line_diagram_strokes_are_raised_and_the_text_is_not():
+    truth = line_diagram()
+    made = content(truth.image)
+    mm, h = pitch(truth.image), made.heights_mm
+    assert np.median(h[truth.lines]) >= BASE + 0.8
+    # White paper is the ground, at the base; the printed words are not raised as lines.
+    paper = ndimage.distance_transform_edt(~(truth.lines | truth.text)) * mm > 1.5
+    assert np.percentile(h[paper], 99) <= BASE + 0.05
+    words = ndimage.binary_dilation(truth.text, iterations=1) & ~ndimage.binary_dilation(truth.lines, iterations=4)
+    assert (h[words] - BASE > 0.5).mean() < 0.1
+
+
+@pytest.mark.timeout(60)
+def test_lattice_is_kept_as_domes_and_named_with_its_pitch():
+    truth = dot_lattice()  # 10 px = 3.9 mm pitch on a 100 mm print
+    made = content(truth.image)
+    h = made.heights_mm
+    inner = h[13:-13, 13:-13]
+    assert np.percentile(inner, 95) - np.percentile(inner, 5) >= 1.0
+    pitch_mm = truth.pitch_px * pitch(truth.image)
+    import re
+
+    said = re.search(r"a lattice of ([0-9.]+) mm pitch", made.reason)
+    assert said and abs(float(said.group(1)) - pitch_mm) <= 0.1 * pitch_mm, made.reason
+    report = assess(h, pitch(truth.image), objects=made.objects, style=made.style)
+    assert not any("larger detail_mm" in v or "relief_style structure" in v for v in report.verdicts)
+
+
+@pytest.mark.timeout(60)
+def test_grains_three_percent_apart_become_distinct_and_the_mount_stays_at_the_base():
+    truth = faint_grains()
+    made = content(truth.image)
+    h, mm = made.heights_mm, pitch(truth.image)
+    mount = ndimage.binary_erosion(truth.grains == 0, iterations=3)
+    assert np.percentile(h[mount], 99) <= BASE + 0.05
+    # Neighbouring grains differ by >= 0.5 mm (median over all neighbouring pairs).
+    med = ndimage.median(h, truth.grains, np.arange(truth.grains.max() + 1))
+    a, b = truth.grains[:, 3:], truth.grains[:, :-3]
+    pairs = {(x, y) for x, y in zip(a[(a != b) & (a > 0) & (b > 0)], b[(a != b) & (a > 0) & (b > 0)])}
+    steps = [abs(med[x] - med[y]) for x, y in pairs]
+    assert len(steps) >= 10 and np.median(steps) >= 0.5, np.round(steps, 2)
+
+
+@pytest.mark.timeout(60)
+def test_a_bright_patch_of_shading_is_not_an_object():
+    rows, cols = 188, 250
+    yy, xx = np.mgrid[0:rows, 0:cols]
+    glow = 0.2 + 0.5 * np.exp(-((yy - 90) ** 2 + (xx - 120) ** 2) / (2 * 35.0**2))
+    image = (glow + 0.01 * np.random.default_rng(0).standard_normal((rows, cols))).astype(np.float32)
+    made = content(np.clip(image, 0, 1))
+    assert made.object_count == 0 and "members" not in made.reason.split(";")[0]
+
+
+@pytest.mark.timeout(60)
+def test_the_reason_names_the_files_detector_and_the_electron_signal_sets_the_ground():
+    truth = dim_and_bright_beads()
+    made = content(truth.image, hints=ContentHints(detector="HAADF", signal="STEM"))
+    assert "file metadata: detector HAADF, STEM signal" in made.reason
+    assert "STEM signal: electron images have a dark ground" in made.reason
+
+
+@pytest.mark.timeout(120)
+def test_content_through_the_pipeline_is_a_closed_print_of_the_requested_size(tmp_path):
+    import trimesh
+
+    from tamp_os.pipeline import make_lithograph
+
+    image = (dark_line_network().image * 255).astype(np.uint8)
+    litho = make_lithograph(image, relief_style="content", width_mm=80, scale_bar="off")
+    assert litho.report.relief_style == "content" and "network of lines" in litho.report.relief_reason
+    path = tmp_path / "lines.stl"
+    litho.save(path)
+    mesh = trimesh.load(path, force="mesh")
+    mesh.merge_vertices()
+    assert mesh.is_watertight and mesh.is_winding_consistent and mesh.volume > 0
+    assert mesh.bounds[1][0] - mesh.bounds[0][0] == pytest.approx(80, abs=1e-6)
+    # The check compares with the picture, first among the legibility sentences.
+    assert litho.report.legibility["verdicts"][0].startswith("A network of lines, raised 1.0 mm")
+    # Lines stand 1 mm over the base, whatever the relief: a tactile line's height.
+    assert litho.heightmap.max() == pytest.approx(litho.params.base_mm + 1.0, abs=0.05)
+
+
+@pytest.mark.timeout(60)
+@pytest.mark.parametrize("pitch_px, feelable", [(10.0, True), (4.0, False)])
+def test_the_check_counts_a_feelable_lattice_as_pattern_and_a_fine_one_as_roughness(pitch_px, feelable):
+    """Brightness = height of a dot lattice: at 3.9 mm pitch the check says it is a lattice a finger
+    feels and gives no advice to smooth it away; at 1.6 mm it is roughness."""
+    truth = dot_lattice(pitch_px=pitch_px)
+    mm = pitch(truth.image)
+    h = make_relief(prep(truth.image), style="reference", mm_per_px=mm, base_mm=BASE, relief_mm=RELIEF).heights_mm
+    report = assess(h, mm, style="reference")
+    assert report.fine_share > 0.2
+    said = " ".join(report.verdicts)
+    if feelable:
+        assert report.period_mm == pytest.approx(pitch_px * mm, rel=0.1)
+        assert "lattice of" in said and "roughness" in said and "try" not in said.split("lattice of")[0][-60:]
+        assert not any("larger detail_mm" in v for v in report.verdicts)
+    else:
+        assert report.period_mm is None and "felt as roughness" in said

@@ -72,6 +72,7 @@ class LithoParams:
     save_masks: bool = _f(False, "write NAME.annotations.png showing what was removed")
     max_megapixels: float = _f(400.0, "refuse larger images (decompression-bomb guard)", "Mpx", 0.0, 1e6, lo_open=True)
     max_decoded_gb: float = _f(2.0, "refuse images whose decoded pixels would take more memory (checked before decoding)", "GB", 0.0, 1024.0, lo_open=True)
+    max_memory_gb: float = _f(4.0, "refuse images whose conversion would need more memory in all: pixels, tiles, copies, working arrays (checked before decoding)", "GB", 0.0, 4096.0, lo_open=True)
     caption: str | None = _f(None, "braille caption along the bottom margin (text, or Unicode braille as is)")
     braille_table: str = _f(DEFAULT_TABLE, "liblouis table for braille (en-ueb-g1.ctb for grade 1, or any other)")
     scale_bar: str = _f("auto", "auto (when the pixel size is known), off, or a length such as 5um")

@@ -182,7 +182,7 @@ def _read(source, params: LithoParams) -> Picture:
         return source
     if isinstance(source, (str, Path)):
         return read_image(source, page=params.page, channel=params.channel, max_megapixels=params.max_megapixels,
-                          z_slice=params.z_slice, max_decoded_gb=params.max_decoded_gb)
+                          z_slice=params.z_slice, max_decoded_gb=params.max_decoded_gb, max_memory_gb=params.max_memory_gb)
     return read_array(source, channel=params.channel)
 
 

@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import InputError, MissingDependencyError, ParameterError
+from .read_cost import MAX_MEMORY_GB, Cost, check_memory, pillow_copies_bytes, tiff_chunk_bytes, working_bytes
 
 log = logging.getLogger(__name__)
 
@@ -84,7 +85,7 @@ MAX_DECODED_GB = 2.0  # default decoded-bytes guard: pixels × samples × bytes 
 
 def read_image(
     path, *, page: int | None = None, channel: str = "luminance", max_megapixels: float = 400.0, z_slice: int | None = None,
-    max_decoded_gb: float = MAX_DECODED_GB,
+    max_decoded_gb: float = MAX_DECODED_GB, max_memory_gb: float = MAX_MEMORY_GB,
 ) -> Picture:
     """Read an image file by its content into a Picture.
 
@@ -98,30 +99,46 @@ def read_image(
     z_slice : one z slice instead of the maximum-intensity projection.
     max_decoded_gb : refuse files whose decoded pixels (every plane read, all samples, at their
         own bit depth) would exceed this many GB (1e9 bytes), checked from the header before decoding.
-        Peak memory while reading is about 2–3× this (the float32 working copies).
+        The largest tile in flight and palette/RGBA conversion copies count as decoded bytes.
+    max_memory_gb : refuse files whose estimated peak while converting (decoded pixels, tiles,
+        copies and the pipeline's float32 working arrays, see read_cost.py) would exceed this.
     """
-    limits = _Limits(max_megapixels, max_decoded_gb)
+    limits = _Limits(max_megapixels, max_decoded_gb, max_memory_gb)
     path = Path(path)
     _refuse_special(path)
     try:
-        data = path.read_bytes()
+        with path.open("rb") as fh:  # only the head: the file is hashed by streaming, never held whole
+            head = fh.read(512)
     except FileNotFoundError:
         raise InputError(f"{path}: no such file; check the name and folder.") from None
     except OSError as exc:
         raise InputError(f"{path}: cannot be read ({exc.strerror}); check its permissions.") from None
-    if not data:
+    if not head:
         raise InputError(f"{path}: the file is empty (0 bytes); it is not an image. Export it again.")
-    sha = hashlib.sha256(data).hexdigest()
-    head = data[:8]
     if head[:4] in TIFF_MAGIC:
         decoded = _read_tiff(path, page, limits, z_slice, channel)
     elif head[:4] in DM_MAGIC:
-        decoded = _read_dm(path, limits, len(data))
+        decoded = _read_dm(path, limits, path.stat().st_size)
     else:
-        decoded = _read_pillow(path, data, page, limits)
+        decoded = _read_pillow(path, head, page, limits)
+    sha = _sha256_of(path)  # after the header checks: a refused file costs no read of its bytes
     if decoded.channel_chosen:
         channel = "luminance"  # the channel was chosen among the TIFF's planes
     return _to_picture(decoded, channel, name=path.name, sha=sha, path=str(path))
+
+
+def _sha256_of(path: Path) -> str:
+    """SHA-256 of a file read by blocks (a 5 GB file with a small image never sits in memory)."""
+    try:
+        with path.open("rb") as fh:
+            if hasattr(hashlib, "file_digest"):  # Python 3.11+: one reused buffer, twice as fast as read()
+                return hashlib.file_digest(fh, "sha256").hexdigest()
+            digest = hashlib.sha256()
+            for block in iter(lambda: fh.read(1 << 20), b""):
+                digest.update(block)
+            return digest.hexdigest()
+    except OSError as exc:
+        raise InputError(f"{path}: cannot be read ({exc.strerror}); check its permissions.") from None
 
 
 def _refuse_special(path: Path) -> None:
@@ -162,15 +179,24 @@ class _Limits:
 
     max_megapixels: float
     max_decoded_gb: float
+    max_memory_gb: float = MAX_MEMORY_GB
 
 
-def _check_bytes(path, shape, dtype, limits: _Limits, what: str = "image") -> None:
+def _check_bytes(path, shape, dtype, limits: _Limits, what: str = "image", chunk_bytes: float = 0.0) -> None:
     """Refuse, before decoding, an array of `shape` and `dtype` above the decoded-bytes limit.
 
     shape : every axis that will be decoded (planes, rows, columns, samples).
+    chunk_bytes : the tiles or strips decoded at once, as declared (a tile may be far larger than the image).
     """
     itemsize = np.dtype(dtype).itemsize
     total = int(np.prod([int(n) for n in shape], dtype=np.float64)) * itemsize
+    if chunk_bytes > total:  # a tile larger than the image: the decoder allocates the whole tile
+        if chunk_bytes > limits.max_decoded_gb * 1e9:
+            raise InputError(
+                f"{path}: this {what} is stored in tiles (or strips) that decode to {chunk_bytes / 1e9:.1f} GB, far larger than "
+                f"its {'×'.join(str(int(n)) for n in shape)} pixels; that exceeds the limit of {limits.max_decoded_gb:g} GB that "
+                f"guards against decompression bombs. The file is malformed or hostile; re-export it from the microscope software."
+            )
     if total > limits.max_decoded_gb * 1e9:
         dims = "×".join(str(int(n)) for n in shape)
         raise InputError(
@@ -178,6 +204,16 @@ def _check_bytes(path, shape, dtype, limits: _Limits, what: str = "image") -> No
             f"the limit of {limits.max_decoded_gb:g} GB that guards against decompression bombs. If you trust the "
             f"file and the computer has the memory (about 3× that), raise the limit: max_decoded_gb = {math.ceil(total / 1e9)}."
         )
+
+
+def _check_cost(path, plane_hw, shape, dtype, limits: _Limits, chunk_bytes: float = 0.0, copies_bytes: float = 0.0) -> None:
+    """Refuse, before decoding, a file whose conversion would need more than max_memory_gb in all."""
+    cost = Cost()
+    cost.add("decoded pixels", float(np.prod([int(n) for n in shape], dtype=np.float64)) * np.dtype(dtype).itemsize)
+    cost.add("tiles being decoded", chunk_bytes)
+    cost.add("converted copies", copies_bytes)
+    cost.add("float32 working arrays", working_bytes(*plane_hw))
+    check_memory(path, f"{int(plane_hw[1])}×{int(plane_hw[0])} image", cost, limits.max_memory_gb)
 
 
 def _check_size(path, shape, limits: _Limits) -> None:
@@ -219,8 +255,11 @@ def _read_tiff(path, page, limits: _Limits, z_slice=None, channel="luminance") -
             chosen, axes, shape = source.chosen, source.chosen.axes, source.chosen.shape
             if "Y" not in axes or "X" not in axes:
                 raise InputError(f"{path}: TIFF series with axes {axes!r} has no 2-D image plane.")
-            _check_size(path, (shape[axes.index("Y")], shape[axes.index("X")]), limits)
-            _check_bytes(path, shape, chosen.dtype, limits, f"TIFF series ({axes})")
+            plane_hw = (shape[axes.index("Y")], shape[axes.index("X")])
+            _check_size(path, plane_hw, limits)
+            chunk = tiff_chunk_bytes(chosen.keyframe)
+            _check_bytes(path, shape, chosen.dtype, limits, f"TIFF series ({axes})", chunk)
+            _check_cost(path, plane_hw, shape, chosen.dtype, limits, chunk)
             meta = {"tiff_series_axes": axes, "tiff_series": source.series, **_vendor_blocks(tif)}
             tags = {tag.code: tag.value for tag in tif.pages[0].tags}
             tags.update({tag.code: tag.value for tag in tif.pages[source.tag_page].tags} if source.tag_page else {})
@@ -286,9 +325,9 @@ def _channel_names(meta) -> list[str]:
     if not xml:
         labels = (meta.get("imagej_metadata") or {}).get("Labels")
         return [str(x) for x in labels] if isinstance(labels, (list, tuple)) else []
-    import re
+    from .xmltext import ome_channel_names  # a parser, not a regex: linear in the text's length
 
-    return re.findall(r"<Channel[^>]*\sName=\"([^\"]*)\"", xml)
+    return ome_channel_names(xml)
 
 
 @dataclass
@@ -375,6 +414,7 @@ def _read_dm(path, limits: _Limits, file_bytes: int) -> _Decoded:
         plane = data[(0,) * (data.ndim - 2)] if data.ndim > 2 else data
         _check_size(path, plane.shape, limits)
         _check_bytes(path, plane.shape, data.dtype, limits, "DigitalMicrograph plane")
+        _check_cost(path, plane.shape, plane.shape, data.dtype, limits)
         array = np.asarray(plane)
     except (InputError, ParameterError):
         raise
@@ -410,17 +450,20 @@ def _open_pillow(stream):
     raise UnidentifiedImageError("cannot identify image file")
 
 
-def _read_pillow(path, data, page, limits: _Limits) -> _Decoded:
-    import io
-
+def _read_pillow(path, head, page, limits: _Limits) -> _Decoded:
     from PIL import UnidentifiedImageError
 
     fmt = "image"
+    stream = None
     try:
-        im = _open_pillow(io.BytesIO(data))
+        stream = open(path, "rb")  # Pillow reads the file as it decodes; its bytes are never held twice
+        im = _open_pillow(stream)
         fmt = im.format or "image"
-        _check_size(path, (im.size[1], im.size[0]), limits)
-        _check_bytes(path, (im.size[1], im.size[0], *_pillow_samples(im.mode)), np.uint8, limits, f"{fmt} image")
+        hw = (im.size[1], im.size[0])
+        _check_size(path, hw, limits)
+        _check_bytes(path, (*hw, *_pillow_samples(im.mode)), np.uint8, limits, f"{fmt} image")
+        _check_cost(path, hw, (*hw, *_pillow_samples(im.mode)), np.uint8, limits,
+                    copies_bytes=pillow_copies_bytes(im.mode, hw[0] * hw[1]))
         frames = getattr(im, "n_frames", 1)
         if page:
             if page >= frames:
@@ -428,7 +471,7 @@ def _read_pillow(path, data, page, limits: _Limits) -> _Decoded:
             im.seek(page)
         im.load()
     except UnidentifiedImageError:
-        what = "it holds text, not pixels" if data[:512].isascii() and b"\0" not in data[:512] else "its contents match no image format"
+        what = "it holds text, not pixels" if head[:512].isascii() and b"\0" not in head[:512] else "its contents match no image format"
         raise InputError(  # the file's bytes are never echoed: they may be private and mean nothing to a reader
             f"{path}: not an image that can be read ({what}); "
             f"supported: PNG, JPEG, TIFF, BMP, GIF, WebP, DM3/DM4."
@@ -437,6 +480,11 @@ def _read_pillow(path, data, page, limits: _Limits) -> _Decoded:
         raise
     except (OSError, SyntaxError, ValueError, EOFError) as exc:
         raise InputError(f"{path}: the {fmt} file is damaged or truncated ({exc}).") from None
+    except MemoryError:
+        raise InputError(f"{path}: not enough memory to decode this {fmt} image; make it smaller and try again.") from None
+    finally:
+        if stream is not None:
+            stream.close()  # load() has read every pixel the image needs
     meta = {"pillow_mode": im.mode}
     if "dpi" in im.info:
         meta["dpi_not_physical"] = im.info["dpi"]
@@ -536,6 +584,21 @@ def _weigh_unknown(file: ImageFile, values, alpha):
     return values, alpha
 
 
+LUMA_ROWS = 512  # rows converted at a time: the (rows, W, 3) float32 copy stays small
+
+
+def _luminance(colour: np.ndarray) -> np.ndarray:
+    """(H, W) float32 luminance of (H, W, 3) colour, a block of rows at a time.
+
+    float32 keeps 16-bit sources exact to ~1e-3 of a grey level, at a third of float64's cost;
+    converting by blocks avoids a full (H, W, 3) float32 copy (12 bytes a pixel).
+    """
+    out = np.empty(colour.shape[:2], np.float32)
+    for r in range(0, colour.shape[0], LUMA_ROWS):
+        np.matmul(colour[r:r + LUMA_ROWS].astype(np.float32), LUMA_601, out=out[r:r + LUMA_ROWS])
+    return out
+
+
 def _alpha_scale(dtype) -> float:
     return float(np.iinfo(dtype).max) if np.dtype(dtype).kind in "ui" else 1.0
 
@@ -554,8 +617,7 @@ def _grayscale(array, channel: str, name: str):
         if colour.shape[-1] == 1:
             values = colour[..., 0].astype(np.float32)
         else:
-            # float32 keeps 16-bit sources exact to ~1e-3 of a grey level, at a third of float64's cost
-            values = colour.astype(np.float32) @ LUMA_601
+            values = _luminance(colour)
         return values, alpha
     index = CHANNEL_NAMES.get(channel.lower()) if not channel.isdigit() else int(channel)
     if index is None or index >= n:

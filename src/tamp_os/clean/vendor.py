@@ -10,6 +10,50 @@ import configparser
 import math
 from pathlib import Path
 
+SIDECAR_MAX_BYTES = 1_000_000  # JEOL, Hitachi and TESCAN sidecars are a few kB; more is not a sidecar
+SIDECAR_MAX_LINE = 4096  # characters kept of one line (a line this long holds no key we read)
+
+
+def sidecar_text(path: Path, warnings: list[str] | None = None) -> str | None:
+    """The text of a sidecar beside an image, read once and size-capped; None (with a warning)
+    when it cannot be read, is not a regular file or is larger than a sidecar can be."""
+    try:
+        size = path.stat().st_size
+        if size > SIDECAR_MAX_BYTES:
+            if warnings is not None:
+                warnings.append(f"{path.name}: {size:,} bytes is too large for a microscope sidecar (at most "
+                                f"{SIDECAR_MAX_BYTES:,}); it was ignored.")
+            return None
+        with path.open("rb") as fh:
+            data = fh.read(SIDECAR_MAX_BYTES + 1)[:SIDECAR_MAX_BYTES]
+    except OSError as exc:
+        if warnings is not None:
+            warnings.append(f"{path.name}: the sidecar cannot be read ({exc.strerror or exc}); it was ignored. "
+                            "Check its permissions.")
+        return None
+    return data.decode("utf-8", errors="replace")
+
+
+def sidecar_keys(text: str, keys: tuple[str, ...]) -> dict[str, str]:
+    """The first value of each key in a line-based sidecar, read line by line (linear time).
+
+    A line is `KEY=VALUE` (Hitachi) or `KEY VALUE...` (JEOL's `$$SM_MICRON_BAR 120`, `$CM_...`);
+    leading `$` signs and blanks are ignored. Values are the rest of the line, stripped.
+    """
+    wanted, found = set(keys), {}
+    for line in text.splitlines():
+        line = line[:SIDECAR_MAX_LINE].strip().lstrip("$")
+        if not line:
+            continue
+        key, sep, value = line.partition("=")
+        if not sep or " " in key.strip():
+            key, _, value = line.partition(" ")
+            key = key.rstrip("=")
+        key = key.strip()
+        if key in wanted and key not in found:
+            found[key] = value.strip().lstrip("=").strip()
+    return found
+
 
 def number(value) -> float | None:
     """A finite float from a number or from the first word of a string, else None."""
@@ -40,7 +84,7 @@ def tescan_main(tiff_tags: dict, path: Path | None) -> tuple[dict[str, str], str
     if not (isinstance(text, str) and "[MAIN]" in text) and path is not None:
         sidecar = path.with_suffix(".hdr")
         if sidecar.is_file():
-            text, where = sidecar.read_text(encoding="utf-8", errors="replace"), f"TESCAN sidecar {sidecar.name}"
+            text, where = sidecar_text(sidecar), f"TESCAN sidecar {sidecar.name}"
     if not (isinstance(text, str) and "[MAIN]" in text):
         return None
     return ini_sections(text).get("MAIN", {}), where

@@ -93,27 +93,47 @@ def plain_error(exc: TampError, path: Path, name: str) -> str:
     text = str(exc).replace(str(path), name)
     text = re.sub(r" \(the file starts with b?['\"].*?['\"]\)", "", text)
     text = re.sub(r"If you trust the file, raise the limit with --[\w-]+ \d+\.?", "Make the image smaller and try again.", text)
-    return text
+    return _without_limit_advice(text)
+
+
+def _without_limit_advice(text: str) -> str:
+    """The library ends a size refusal with how to raise its limit (a parameter this web app does
+    not offer): that last sentence becomes the advice that works here."""
+    at = text.find("raise the limit")
+    if at < 0:
+        return text
+    start = text.rfind(". ", 0, at)
+    return (text[: start + 2] if start >= 0 else "") + "Make the image smaller and try again."
 
 
 def inspect_upload(path: Path, name: str, thumbs: Path, index: int, max_decoded_mb: float) -> Upload:
-    """Read an upload once (in a worker thread): refuse non-images and oversized ones, suggest a
-    level of detail from its contrast and detail, and write a small thumbnail."""
+    """Read an upload once (in a worker process, gui/workers.py): refuse non-images and oversized
+    ones, suggest a level of detail from its contrast and detail, and write a small thumbnail."""
+    from .workers import read_memory_gb, shared_pool
+
+    check_size(path, max_decoded_mb)
+    try:
+        width, height, preset, reason, thumb = shared_pool().run(
+            name, inspect_in_worker, path, thumbs, index, max_decoded_mb, read_memory_gb())
+    except TampError as exc:
+        raise InputError(plain_error(exc, path, name)) from None
+    return Upload(name, path, width, height, preset, reason, thumb)
+
+
+def inspect_in_worker(path: Path, thumbs: Path, index: int, max_decoded_mb: float, max_memory_gb: float):
+    """(width, height, preset, reason, thumbnail name) of an upload, read with the web app's own caps:
+    the page read_image will read is priced by read_image itself (tiles, copies, working arrays)."""
     from ..printers import BUILTIN_PRINTERS
     from ..read import read_image
     from ..relief.touch import suggest_by_touch
 
-    check_size(path, max_decoded_mb)
-    try:
-        picture = read_image(path, max_megapixels=max_decoded_mb)  # one byte per pixel at least
-    except TampError as exc:
-        raise InputError(plain_error(exc, path, name)) from None
+    picture = read_image(path, max_megapixels=max_decoded_mb, max_decoded_gb=max_decoded_mb / 1000,
+                         max_memory_gb=max_memory_gb)  # max_megapixels: one byte per pixel at least
     standard = BUILTIN_PRINTERS["standard"]  # the printer is chosen later; judge at its width and nozzle
     suggestion = suggest_by_touch(picture.values, picture.alpha, width_mm=standard.width_mm, nozzle_mm=standard.nozzle_mm)
-    preset, reason = suggestion.preset, suggestion.reason
     thumb = f"{index}.png"
     write_png(thumbs / thumb, thumbnail(picture.values))
-    return Upload(name, path, picture.file.width, picture.file.height, preset, reason, thumb)
+    return picture.file.width, picture.file.height, suggestion.preset, suggestion.reason, thumb
 
 
 def thumbnail(values: np.ndarray, size_px: int = THUMB_PX) -> np.ndarray:

@@ -70,7 +70,7 @@ class LithoParams:
     pixel_size: str | None = _f(None, "physical pixel size, overriding the file's, e.g. 4.2nm, 0.5um, 3 micron, 0.01mm")
     keep_annotations: bool = _f(False, "keep burned-in scale bars, labels and data bands (default: remove them)")
     save_masks: bool = _f(False, "write NAME.annotations.png showing what was removed")
-    max_megapixels: float = _f(400.0, "refuse larger images (decompression-bomb guard)", "Mpx", 0.0, 1e6, lo_open=True)
+    max_megapixels: float = _f(100.0, "refuse larger images (decompression-bomb guard; 100 Mpx fits max_memory_gb)", "Mpx", 0.0, 1e6, lo_open=True)
     max_decoded_gb: float = _f(2.0, "refuse images whose decoded pixels would take more memory (checked before decoding)", "GB", 0.0, 1024.0, lo_open=True)
     max_memory_gb: float = _f(4.0, "refuse images whose conversion would need more memory in all: pixels, tiles, copies, working arrays (checked before decoding)", "GB", 0.0, 4096.0, lo_open=True)
     caption: str | None = _f(None, "braille caption along the bottom margin (text, or Unicode braille as is)")

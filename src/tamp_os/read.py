@@ -84,7 +84,7 @@ MAX_DECODED_GB = 2.0  # default decoded-bytes guard: pixels × samples × bytes 
 
 
 def read_image(
-    path, *, page: int | None = None, channel: str = "luminance", max_megapixels: float = 400.0, z_slice: int | None = None,
+    path, *, page: int | None = None, channel: str = "luminance", max_megapixels: float = 100.0, z_slice: int | None = None,
     max_decoded_gb: float = MAX_DECODED_GB, max_memory_gb: float = MAX_MEMORY_GB,
 ) -> Picture:
     """Read an image file by its content into a Picture.
@@ -462,7 +462,7 @@ def _read_pillow(path, head, page, limits: _Limits) -> _Decoded:
         hw = (im.size[1], im.size[0])
         _check_size(path, hw, limits)
         _check_bytes(path, (*hw, *_pillow_samples(im.mode)), np.uint8, limits, f"{fmt} image")
-        _check_cost(path, hw, (*hw, *_pillow_samples(im.mode)), np.uint8, limits,
+        _check_cost(path, hw, (*hw, _mode_bytes(im.mode)), np.uint8, limits,
                     copies_bytes=pillow_copies_bytes(im.mode, hw[0] * hw[1]))
         frames = getattr(im, "n_frames", 1)
         if page:
@@ -503,6 +503,14 @@ def _pillow_samples(mode: str) -> tuple[int]:
         return (4,)  # palette -> RGBA, colour models -> RGB (4 bytes is an upper bound)
     info = ImageMode.getmode(mode)
     return (len(info.bands) * np.dtype(info.typestr).itemsize,)
+
+
+def _mode_bytes(mode: str) -> int:
+    """Bytes per pixel Pillow itself holds for `mode` (a palette image: one index a pixel)."""
+    from PIL import ImageMode
+
+    info = ImageMode.getmode(mode)
+    return len(info.bands) * np.dtype(info.typestr).itemsize
 
 
 EXIF_ORIENTATION = 0x0112

@@ -245,3 +245,119 @@ def test_a_caption_that_fits_keeps_the_plate_at_most_twice_as_deep():
         assert box[3] - box[1] <= 60.0
     else:
         pytest.fail("a caption of 119 words never hit the cap")
+
+
+# --- 2. no super-linear parsing: each parser, 1 MB of adversarial text, under 1 s ------------------
+
+MB = 1_000_000
+
+
+def _timed(fn, *args) -> float:
+    start = time.perf_counter()
+    fn(*args)
+    return time.perf_counter() - start
+
+
+ADVERSARIAL_XML = {
+    "unclosed_channel": "<OME>" + "<Channel" + " a" * (MB // 2),
+    "long_comment": "<OME><!--" + " Channel Name" * (MB // 13) + "--><Channel Name=\"DAPI\"/></OME>",
+    "many_attributes": "<OME><Channel " + " ".join(f"a{i}=\"x\"" for i in range(MB // 10)) + " Name=\"GFP\"/></OME>",
+    "entity_bomb": "<?xml version=\"1.0\"?><!DOCTYPE l [<!ENTITY a \"" + "a" * 1000 + "\">" + "".join(
+        f"<!ENTITY a{i} \"&a{i - 1 if i else ''};&a{i - 1 if i else ''};\">" for i in range(1, 30)) + "]><OME>&a29;</OME>",
+}
+
+
+@pytest.mark.timeout(60)
+@pytest.mark.parametrize("case", sorted(ADVERSARIAL_XML))
+def test_ome_xml_parsing_is_linear(case):
+    from tamp_os.clean.scale import read_pixel_size
+    from tamp_os.read import _channel_names
+
+    text = ADVERSARIAL_XML[case]
+    assert len(text) >= MB * 0.9 or case == "entity_bomb"
+    assert _timed(_channel_names, {"ome_metadata": text}) < 1.0
+    assert _timed(read_pixel_size, {"ome_metadata": text}, {}, None, 100) < 1.0
+    names = _channel_names({"ome_metadata": text})
+    assert names == {"long_comment": ["DAPI"], "many_attributes": ["GFP"]}.get(case, [])
+
+
+@pytest.mark.timeout(60)
+def test_channel_names_of_real_ome_xml_by_the_parser():
+    from tamp_os.xmltext import ome_channel_names
+
+    xml = ('<?xml version="1.0"?><OME xmlns="http://www.openmicroscopy.org/Schemas/OME/2016-06"><Image><Pixels>'
+           '<Channel ID="C0" Name="DAPI"/><Channel ID="C1"/><Channel ID="C2" Name="Alexa &amp; 488"/></Pixels></Image></OME>')
+    assert ome_channel_names(xml) == ["DAPI", "Alexa & 488"]
+
+
+@pytest.mark.timeout(120)
+def test_an_ome_tiff_with_a_long_comment_reads_quickly(tmp_path):
+    from tamp_os.read import read_image
+
+    path = tmp_path / "long.ome.tif"
+    data = np.random.default_rng(0).integers(0, 60000, (2, 32, 40), dtype=np.uint16)
+    tifffile.imwrite(path, data, ome=True, metadata={"axes": "CYX", "Channel": {"Name": ["DAPI", "GFP"]}})
+    with tifffile.TiffFile(path) as tif:
+        xml = tif.ome_metadata
+    padded = xml.replace("<Image ", "<!--" + " <Channel" * 60_000 + " --><Image ", 1)
+    tifffile.tiffcomment(path, padded.encode())
+    start = time.perf_counter()
+    picture = read_image(path, channel="GFP")
+    assert time.perf_counter() - start < 3.0
+    assert np.array_equal(picture.values, data[1].astype(np.float32))
+
+
+SIDECAR_CASES = {
+    "blank_lines": "\n" * MB,
+    "spaces_one_line": " " * MB,
+    "dollars": "$" * MB,
+    "key_prefix_repeated": "PixelSize" * (MB // 9),
+    "jeol_marker_spaces": "$$SM_MICRON_MARKER" + " " * MB + "x",
+    "many_keys": "$$SM_MICRON_BAR \n" * (MB // 17),
+}
+
+
+@pytest.mark.timeout(60)
+@pytest.mark.parametrize("case", sorted(SIDECAR_CASES))
+def test_line_sidecars_are_read_in_linear_time(tmp_path, case):
+    from tamp_os.clean.scale import read_pixel_size
+
+    image = tmp_path / "sem.tif"
+    image.write_bytes(b"")
+    (tmp_path / "sem.txt").write_text(SIDECAR_CASES[case][:MB])
+    (tmp_path / "sem.hdr").write_text("[MAIN]\n" + SIDECAR_CASES[case][:MB - 7])
+    start = time.perf_counter()
+    found = read_pixel_size({}, {}, str(image), 100)
+    assert time.perf_counter() - start < 1.0
+    assert found.metres is None
+
+
+@pytest.mark.timeout(60)
+def test_a_sidecar_larger_than_a_sidecar_can_be_is_ignored_with_a_warning(tmp_path):
+    from tamp_os.clean.scale import read_pixel_size
+
+    image = tmp_path / "h.tif"
+    image.write_bytes(b"")
+    (tmp_path / "h.txt").write_text("PixelSize=2.5\n" + "x" * 2 * MB)
+    found = read_pixel_size({}, {}, str(image), 100)
+    assert found.metres is None and any("too large for a microscope sidecar" in w for w in found.warnings)
+
+
+@pytest.mark.timeout(60)
+def test_length_text_from_a_file_is_refused_before_its_pattern_runs():
+    from tamp_os.errors import ParameterError
+    from tamp_os.units import parse_length_m
+
+    for text in ("1" * MB, "1." + "1" * MB, " " * MB + "nm"):
+        start = time.perf_counter()
+        with pytest.raises(ParameterError, match="cannot read"):
+            parse_length_m(text)
+        assert time.perf_counter() - start < 1.0
+
+
+@pytest.mark.timeout(60)
+def test_ini_sidecar_parsing_is_linear():
+    from tamp_os.clean.vendor import ini_sections
+
+    for text in ("[MAIN]\n" + "a=b\n" * (MB // 4), "[" * MB, "[MAIN]\n" + "=" * MB, "[MAIN]\nPixelSizeX=" + "1" * MB):
+        assert _timed(ini_sections, text) < 1.0

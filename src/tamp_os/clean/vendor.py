@@ -6,7 +6,6 @@ turn their loosely typed values into numbers and sections, and never raise on ba
 
 from __future__ import annotations
 
-import configparser
 import math
 from pathlib import Path
 
@@ -65,14 +64,29 @@ def number(value) -> float | None:
 
 
 def ini_sections(text: str) -> dict[str, dict[str, str]]:
-    """Sections of an INI text (case kept); {} when it does not parse."""
-    parser = configparser.ConfigParser(strict=False, interpolation=None)
-    parser.optionxform = str
-    try:
-        parser.read_string(text)
-    except configparser.Error:
-        return {}
-    return {s: dict(parser[s]) for s in parser.sections()}
+    """Sections of an INI text (case kept; later keys win); {} when it has none.
+
+    Read line by line in one pass: configparser takes 3 µs a line, so a hostile 1 MB sidecar of
+    blank lines took seconds. Lines starting with ';' or '#' are comments; keys and values are
+    split at the first '=' (or ':') and stripped; lines outside a section are ignored.
+    """
+    sections: dict[str, dict[str, str]] = {}
+    current: dict[str, str] | None = None
+    for raw in text.splitlines():
+        line = raw[:SIDECAR_MAX_LINE].strip()
+        if not line or line[0] in ";#":
+            continue
+        if line[0] == "[" and line.endswith("]"):
+            current = sections.setdefault(line[1:-1].strip(), {})
+            continue
+        if current is None:
+            continue
+        key, sep, value = line.partition("=")
+        if not sep or ":" in key:
+            key, sep, value = line.partition(":") if ":" in line else (key, sep, value)
+        if sep and key:
+            current[key.strip()] = value.strip()
+    return sections
 
 
 def tescan_main(tiff_tags: dict, path: Path | None) -> tuple[dict[str, str], str] | None:

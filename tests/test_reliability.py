@@ -757,3 +757,42 @@ def test_a_reused_pid_does_not_keep_a_dead_servers_folder(tmp_path):
     folder.mkdir()
     (folder / OWNER_FILE).write_text(f"{os.getpid()} 1\n")  # our pid, but another start time
     assert [p.name for p in sweep_stale(tmp_path)] == ["tamp-gui-reused"]
+
+
+def _vm_hwm_mb(pid: int) -> float:
+    for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+        if line.startswith("VmHWM:"):
+            return int(line.split()[1]) / 1024
+    return 0.0
+
+
+@pytest.mark.timeout(300)
+def test_bombs_cost_the_web_server_one_message_each_and_no_memory(tmp_path):
+    import httpx
+
+    from gui_support import form_token, png_bytes, start_server, stop_server
+
+    bombs = {
+        "tile.tif": tile_bomb(tmp_path / "tile.tif").read_bytes(),
+        "palette.png": zero_png(tmp_path / "palette.png", 12000, 12000, 3, palette=True).read_bytes(),
+        "rgb.png": zero_png(tmp_path / "rgb.png", 9000, 9000, 2).read_bytes(),
+    }
+    assert all(len(b) < 1_000_000 for b in bombs.values())
+    proc, url = start_server(tmp_path / "jobs", slow_s=0.0)
+    try:
+        with httpx.Client(base_url=url, timeout=120) as client:
+            for name, data in bombs.items():
+                token = form_token(client)
+                r = client.post("/jobs", data={"token": token}, files={"images": (name, data, "application/octet-stream")})
+                assert r.status_code == 400, (name, r.status_code)
+                message = r.text.split('id="images-error"')[1].split("</p>")[0]
+                assert name in message and "Traceback" not in r.text and "max_" not in message, message
+                assert client.get("/").status_code == 200
+            token = form_token(client)
+            r = client.post("/jobs", data={"token": token}, files={"images": ("fine.png", png_bytes(), "image/png")},
+                            follow_redirects=False)
+            assert r.status_code == 303  # the server and its workers still convert
+        peak = _vm_hwm_mb(proc.pid)
+    finally:
+        stop_server(proc)
+    assert peak < 400, f"the server process itself peaked at {peak:.0f} MB"

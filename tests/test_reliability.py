@@ -796,3 +796,31 @@ def test_bombs_cost_the_web_server_one_message_each_and_no_memory(tmp_path):
     finally:
         stop_server(proc)
     assert peak < 400, f"the server process itself peaked at {peak:.0f} MB"
+
+
+@pytest.mark.timeout(120)
+def test_a_jpeg_stream_larger_than_its_tiff_strip_is_priced_from_its_frame_header(tmp_path):
+    import io
+
+    from tamp_os.errors import InputError
+    from tamp_os.read import read_image
+    from tamp_os.read_cost import jpeg_frame_bytes
+
+    buf = io.BytesIO()
+    Image.fromarray(np.zeros((3000, 2000), np.uint8)).save(buf, "JPEG", quality=50)
+    stream = buf.getvalue()
+    assert jpeg_frame_bytes(stream) == 3000 * 2000
+    assert jpeg_frame_bytes(b"\xff\xd8" + b"\xff\xe1\x00\x04ab" * 10 + stream[2:]) == 3000 * 2000  # APP segments first
+    assert jpeg_frame_bytes(b"not a jpeg") == 0
+    path = tmp_path / "strip.tif"
+    tifffile.imwrite(path, np.zeros((16, 16), np.uint8), compression="jpeg")
+    with tifffile.TiffFile(path) as tif:
+        page, order = tif.pages[0], tif.byteorder
+        spots = page.tags[273].valueoffset, page.tags[279].valueoffset
+    data = bytearray(path.read_bytes())
+    struct.pack_into(order + "I", data, spots[0], len(data))
+    struct.pack_into(order + "I", data, spots[1], len(stream))
+    path.write_bytes(bytes(data) + stream)  # the 16×16 strip now holds a 2000×3000 JPEG stream
+    with pytest.raises(InputError, match="tiles \\(or strips\\) that decode to 0.0 GB|far larger than its 16×16"):
+        read_image(path, max_decoded_gb=0.005)
+    assert read_image(path).values.shape == (16, 16)  # within the limits it reads as the 16×16 it claims

@@ -18,7 +18,8 @@ from pathlib import Path
 import numpy as np
 
 from .errors import InputError, MissingDependencyError, ParameterError
-from .read_cost import MAX_MEMORY_GB, Cost, check_memory, pillow_copies_bytes, tiff_chunk_bytes, working_bytes
+from .read_cost import (MAX_MEMORY_GB, Cost, check_memory, pillow_copies_bytes, tiff_chunk_bytes, tiff_jpeg_bytes,
+                        working_bytes)
 
 log = logging.getLogger(__name__)
 
@@ -257,7 +258,7 @@ def _read_tiff(path, page, limits: _Limits, z_slice=None, channel="luminance") -
                 raise InputError(f"{path}: TIFF series with axes {axes!r} has no 2-D image plane.")
             plane_hw = (shape[axes.index("Y")], shape[axes.index("X")])
             _check_size(path, plane_hw, limits)
-            chunk = tiff_chunk_bytes(chosen.keyframe)
+            chunk = max(tiff_chunk_bytes(chosen.keyframe), tiff_jpeg_bytes(path, chosen.keyframe))  # as the file declares
             _check_bytes(path, shape, chosen.dtype, limits, f"TIFF series ({axes})", chunk)
             _check_cost(path, plane_hw, shape, chosen.dtype, limits, chunk)
             meta = {"tiff_series_axes": axes, "tiff_series": source.series, **_vendor_blocks(tif)}

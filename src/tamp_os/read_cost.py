@@ -83,3 +83,57 @@ def pillow_copies_bytes(mode: str, pixels: int) -> float:
     import numpy as np
 
     return float(pixels) * len(info.bands) * np.dtype(info.typestr).itemsize  # the NumPy copy
+
+
+JPEG_CODES = (6, 7, 34892)  # TIFF compressions whose chunks are JPEG streams
+SOF_MARKERS = frozenset(range(0xC0, 0xD0)) - {0xC4, 0xC8, 0xCC}  # start-of-frame: baseline, progressive, lossless…
+JPEG_FIRST_BYTES = 4096  # a frame header usually sits within the first kilobyte, after the tables
+JPEG_HEAD_BYTES = 65536  # ... and within this when APP segments come first
+MAX_STREAMS_LOOKED_AT = 4096
+
+
+def jpeg_frame_bytes(head: bytes) -> float:
+    """Decoded bytes (height × width × components, at least one byte each) that a JPEG stream's
+    frame header declares, or 0 when `head` holds none. Walks the marker segments; never decodes."""
+    at = 2 if head[:2] == b"\xff\xd8" else 0
+    while at + 4 <= len(head):
+        if head[at] != 0xFF:
+            return 0.0
+        marker = head[at + 1]
+        if marker == 0xFF:  # fill byte
+            at += 1
+            continue
+        if marker in (0xD8, 0x01) or 0xD0 <= marker <= 0xD7:  # markers without a length
+            at += 2
+            continue
+        length = int.from_bytes(head[at + 2:at + 4], "big")
+        if marker in SOF_MARKERS and at + 10 <= len(head):
+            precision = head[at + 4]
+            height = int.from_bytes(head[at + 5:at + 7], "big")
+            width = int.from_bytes(head[at + 7:at + 9], "big")
+            components = head[at + 9]
+            return float(height) * width * max(1, components) * (2 if precision > 8 else 1)
+        if length < 2:
+            return 0.0
+        at += 2 + length
+    return 0.0
+
+
+def tiff_jpeg_bytes(path, page) -> float:
+    """The largest frame that any JPEG-compressed chunk of `page` declares, in decoded bytes: a
+    16×16 tile may hold a JPEG stream of 65000×65000, which the decoder decodes whole."""
+    if int(getattr(page, "compression", 0)) not in JPEG_CODES:
+        return 0.0
+    offsets, counts = page.dataoffsets, page.databytecounts
+    largest = 0.0
+    with open(path, "rb") as fh:
+        for offset, count in list(zip(offsets, counts))[:MAX_STREAMS_LOOKED_AT]:
+            if not count:
+                continue
+            fh.seek(offset)
+            found = jpeg_frame_bytes(fh.read(min(int(count), JPEG_FIRST_BYTES)))
+            if not found and count > JPEG_FIRST_BYTES:  # tables or padding before the frame: look further
+                fh.seek(offset)
+                found = jpeg_frame_bytes(fh.read(min(int(count), JPEG_HEAD_BYTES)))
+            largest = max(largest, found)
+    return largest

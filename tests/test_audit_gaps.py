@@ -215,3 +215,81 @@ def test_a_bad_sidecar_falls_through_to_the_next_source(tmp_path):
     found = read_pixel_size({"imagej_metadata": {"unit": "micron"}}, {282: (4, 1)}, str(image), 100)
     assert found.metres == pytest.approx(0.25e-6) and "ImageJ" in found.provenance
     assert any("Hitachi" in w for w in found.warnings)
+
+
+def test_edge_problems_are_counted_exactly():
+    from tamp_os.mesh.validate import _edge_problems
+
+    faces = CUBE_FACES.copy()
+    assert _edge_problems(faces, 8) == (0, 0)
+    assert _edge_problems(faces[1:], 8) == (0, 3)  # one face gone: its three edges have one face each
+    assert _edge_problems(faces[2:], 8) == (0, 4)  # the bottom gone: its four outer edges are open
+    assert _edge_problems(np.vstack([faces, faces[:2]]), 8) == (6, 0)  # two faces twice: six directed edges reused
+    flipped = faces.copy()
+    flipped[0] = flipped[0, ::-1]
+    assert _edge_problems(flipped, 8) == (3, 0)  # one face flipped: its edges run the same way as the neighbours'
+    check = check_solid(Mesh(CUBE_VERTICES.copy(), faces[1:]))
+    assert "3 edges have only one face (the surface is open)" in check.problems
+    check = check_solid(Mesh(CUBE_VERTICES.copy(), np.vstack([faces, faces[:2]])))
+    assert "6 directed edges are used by more than one face (pinched or inconsistently wound)" in check.problems
+
+
+def test_a_needle_face_far_from_the_origin_is_a_sliver_as_written():
+    # Three distinct points, collinear once rounded to float32 (y = 10 + 1e-8 becomes 10): the
+    # face keeps three positions but has no area. The first corner is far from the origin.
+    vertices = np.array([[10.0, 10.0, 10.0], [11.0, 10.0, 10.0], [10.5, 10.0 + 1e-8, 10.0]])
+    mesh = Mesh(vertices, np.array([[0, 1, 2], [0, 2, 1]]))
+    assert check_solid(mesh).degenerate_faces == 0
+    check = check_as_written(mesh)
+    assert check.degenerate_faces == 2 and not check.ok
+    assert "2 faces have an area of at most 1e-08 mm² (slivers)" in check.problems
+
+
+def test_slivers_and_volume_add_up_across_chunks():
+    from tamp_os.mesh.validate import _small_faces_and_volume
+
+    mesh = cube((3.0, 4.0, 5.0))
+    needle = np.array([[20.0, 0, 0], [21.0, 0, 0], [20.5, 0, 0]])
+    vertices = np.vstack([mesh.vertices, needle])
+    faces = np.vstack([[8, 9, 10], mesh.faces, [8, 10, 9]])
+    whole = _small_faces_and_volume(vertices, faces, 1e-8)
+    for chunk in (1, 2, 5, 13):
+        assert _small_faces_and_volume(vertices, faces, 1e-8, chunk=chunk) == pytest.approx(whole)
+    assert whole[0] == 2 and whole[1] == pytest.approx(1.0)
+
+
+def _colliding_positions():
+    """Two float32 positions whose 64-bit grouping keys in merge_float32 collide."""
+    rng = np.random.default_rng(11)
+    mult = np.uint64(0x9E3779B97F4A7C15)
+    with np.errstate(over="ignore"):
+        while True:
+            p = rng.random(3).astype(np.float32) * 10
+            z_q = np.float32(rng.random() * 10)
+            bp = p.view(np.uint32).astype(np.uint64)
+            key_p = ((bp[0] << np.uint64(32)) | bp[1]) ^ (bp[2] * mult)
+            hi_q = key_p ^ (np.array([z_q], np.float32).view(np.uint32).astype(np.uint64)[0] * mult)
+            q = np.array([hi_q >> np.uint64(32), hi_q & np.uint64(0xFFFFFFFF)], np.uint64).astype(np.uint32).view(np.float32)
+            if np.isfinite(q).all() and (np.abs(q) < 1e6).all() and (np.abs(q) > 1e-6).all():
+                return p, np.array([q[0], q[1], z_q], np.float32)
+
+
+def test_merge_by_position_is_exact_even_when_grouping_keys_collide():
+    p, q = _colliding_positions()
+    vertices = np.array([p, q, p, q, p], np.float64)
+    faces = np.array([[0, 1, 2], [3, 4, 1]])
+    merged, merged_faces = merge_float32(vertices, faces)
+    assert len(merged) == 2
+    assert np.array_equal(merged[merged_faces[0]], vertices[[0, 1, 2]].astype(np.float32).astype(np.float64))
+    assert np.array_equal(merged[merged_faces[1]], vertices[[3, 4, 1]].astype(np.float32).astype(np.float64))
+    assert merged_faces[0, 0] == merged_faces[0, 2] == merged_faces[1, 1] != merged_faces[0, 1]
+
+
+def test_merge_of_distinct_positions_keeps_every_vertex_and_face():
+    vertices = CUBE_VERTICES + 0.25
+    merged, merged_faces = merge_float32(vertices, CUBE_FACES)
+    assert np.array_equal(merged, vertices) and np.array_equal(merged_faces, CUBE_FACES)
+    twice = np.vstack([vertices, vertices])
+    merged, merged_faces = merge_float32(twice, CUBE_FACES + 8)
+    assert len(merged) == 8
+    assert np.array_equal(merged[merged_faces], vertices[CUBE_FACES])

@@ -293,3 +293,91 @@ def test_merge_of_distinct_positions_keeps_every_vertex_and_face():
     merged, merged_faces = merge_float32(twice, CUBE_FACES + 8)
     assert len(merged) == 8
     assert np.array_equal(merged[merged_faces], vertices[CUBE_FACES])
+
+
+# --- tactile/braille.py: wrapping and the translators --------------------------------------------
+
+words_of_cells = st.lists(st.text(alphabet="⠁⠃⠉⠙⠑⠋", min_size=1, max_size=14), min_size=1, max_size=12)
+
+
+@settings(max_examples=120, deadline=None)
+@given(words=words_of_cells, max_cells=st.integers(1, 10))
+def test_wrapped_braille_lines_are_greedy_and_lose_nothing(words, max_cells):
+    from tamp_os.tactile.braille import BLANK, wrap_cells
+
+    lines = wrap_cells(BLANK.join(words), max_cells)
+    assert all(1 <= len(line) <= max_cells for line in lines)
+    assert "".join("".join(line.split(BLANK)) for line in lines) == "".join(words)  # every cell, in order
+    for word in words:
+        if len(word) <= max_cells:  # a word that fits a line is never split
+            assert any(word in line.split(BLANK) for line in lines), (word, lines)
+    for line, following in zip(lines, lines[1:]):
+        first = following.split(BLANK)[0]
+        if BLANK not in line and len(line) == max_cells:
+            continue  # a piece of a long word
+        assert len(line) + 1 + len(first) > max_cells  # greedy: the next word did not fit
+
+
+def test_wrapping_examples_and_a_plate_too_narrow():
+    from tamp_os.errors import ParameterError
+    from tamp_os.tactile.braille import BLANK, wrap_cells
+
+    b = BLANK
+    assert wrap_cells(f"⠁⠁{b}⠃⠃{b}⠉⠉", 5) == [f"⠁⠁{b}⠃⠃", "⠉⠉"]
+    assert wrap_cells(f"⠁⠁{b}⠃⠃{b}⠉⠉", 8) == [f"⠁⠁{b}⠃⠃{b}⠉⠉"]
+    assert wrap_cells("⠁⠃⠉⠙⠑⠋⠛", 3) == ["⠁⠃⠉", "⠙⠑⠋", "⠛"]
+    assert wrap_cells(f"⠁{b}⠃⠉⠙⠑⠋⠛{b}⠓", 3) == ["⠁", "⠃⠉⠙", "⠑⠋⠛", "⠓"]
+    assert wrap_cells("", 4) == []
+    with pytest.raises(ParameterError, match="too narrow"):
+        wrap_cells("⠁", 0)
+
+
+def test_braille_ascii_folds_lower_case_onto_the_same_cells():
+    from tamp_os.tactile.braille import _fold
+
+    assert [_fold(c) for c in "az`{|}~"] == list("AZ@[\\]^")
+    assert [_fold(c) for c in "AZ@_ 09"] == list("AZ@_ 09")
+
+
+def test_the_lou_translate_command_and_its_failures(tmp_path):
+    from conftest import need
+
+    from tamp_os.errors import MissingDependencyError, ParameterError
+    from tamp_os.tactile.braille import Liblouis
+
+    command = Liblouis.system().command
+    need(command is not None, "liblouis' lou_translate (apt-get install liblouis-bin)")
+    by_command = Liblouis(binding=None, command=command)
+    assert by_command.translate("abc", "en-ueb-g1.ctb") == "⠁⠃⠉"
+    assert by_command.translate("ABC", "en-ueb-g1.ctb").endswith("⠁⠃⠉")
+    assert by_command.translate("中", "en-ueb-g1.ctb") == "\u2873"  # a character the table lacks: marked for refusal
+    if Liblouis.system().binding is not None:
+        assert Liblouis.system().translate("5 µm", "en-ueb-g1.ctb") == by_command.translate("5 µm", "en-ueb-g1.ctb")
+    failing = tmp_path / "lou_translate"
+    failing.write_text("#!/bin/sh\necho 'bad table' >&2\nexit 3\n")
+    failing.chmod(0o755)
+    with pytest.raises(ParameterError, match="lou_translate failed \\(bad table\\)"):
+        Liblouis(binding=None, command=str(failing)).translate("abc", "x.ctb")
+    with pytest.raises(MissingDependencyError):
+        Liblouis(binding=None, command=None).translate("abc", "x.ctb")
+    assert not Liblouis(binding=None, command=None).available and by_command.available
+
+
+def test_a_binding_that_refuses_a_table_is_a_parameter_error():
+    from tamp_os.errors import ParameterError
+    from tamp_os.tactile.braille import Liblouis
+
+    class Binding:
+        dotsIO, ucBrl = 1, 2
+
+        @staticmethod
+        def translateString(tables, text, mode=0):
+            assert mode == 3 and tables == ["t.ctb"]
+            if text == "bad":
+                raise RuntimeError("cannot compile table")
+            return "⠁"
+
+    louis = Liblouis(binding=Binding, command=None)
+    assert louis.translate("a", "t.ctb") == "⠁"
+    with pytest.raises(ParameterError, match="braille table 't.ctb': liblouis cannot use it \\(cannot compile table\\)"):
+        louis.translate("bad", "t.ctb")

@@ -114,6 +114,9 @@ class JobStore:
         self.root = Path(root) if root else Path(tempfile.mkdtemp(prefix="tamp-gui-"))
         self.root.mkdir(parents=True, exist_ok=True)
         claim(self.root)
+        from .workers import shared_pool
+
+        shared_pool().warm()  # the conversion workers start while the first page loads
         self.jobs: dict[str, WebJob] = {}
         self.lock = threading.Lock()
         self.pool = ThreadPoolExecutor(max_workers=workers, thread_name_prefix="tamp-job")

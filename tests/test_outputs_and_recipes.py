@@ -153,7 +153,7 @@ def test_a_second_batch_into_the_same_folder_is_refused_while_the_first_runs(tmp
     first_out, first_err = first.communicate(timeout=300)
     assert first.returncode == 0, first_err
     assert "6 converted" in first_out
-    if "another batch is writing" not in second.stderr:  # the first finished before the second started
+    if "is writing into this folder now" not in second.stderr:  # the first finished before the second started
         assert second.returncode == 0
     else:
         assert second.returncode == 1

@@ -156,21 +156,12 @@ LOCK_NAME = ".tamp-batch.lock"
 
 @contextlib.contextmanager
 def _folder_lock(out_dir: Path):
-    """Hold an exclusive lock on the output folder: a second batch into the same folder stops
-    with a clear message instead of deleting the first one's temporary files."""
-    import fcntl
+    """Hold an exclusive lock on the output folder (locks.py): a second batch or convert into the
+    same folder stops with a clear message instead of mixing its files with this one's."""
+    from .locks import folder_lock
 
-    with open(out_dir / LOCK_NAME, "a+") as fh:
-        try:
-            fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
-            raise InputError(
-                f"{out_dir}: another batch is writing into this folder now; wait for it to finish or choose another output folder."
-            ) from None
-        try:
-            yield
-        finally:
-            fcntl.flock(fh, fcntl.LOCK_UN)
+    with folder_lock(out_dir, "another batch or convert"):
+        yield
 
 
 def exit_with_parent() -> None:
@@ -222,13 +213,13 @@ def run_batch(
 ) -> list[dict]:
     """Run every job on `executor` (any object with submit(fn, *args) -> future), or on a local
     process pool of `workers` processes. Returns the outcomes in input order."""
-    out_dir.mkdir(parents=True, exist_ok=True)
+    from .locks import prepare_folder, sweep_parts
+
     with _folder_lock(out_dir):
         name_jobs(jobs)
         for folder in {job.out_dir for job in jobs}:
-            folder.mkdir(parents=True, exist_ok=True)
-            for stale in folder.glob(".*.part"):  # temporary files of a run that was killed mid-write
-                stale.unlink(missing_ok=True)
+            prepare_folder(folder)
+            sweep_parts(folder)  # temporary files of a run that was killed mid-write
         return _run_locked(jobs, out_dir, executor, workers, on_done)
 
 

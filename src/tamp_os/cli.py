@@ -230,6 +230,8 @@ def main(argv=None) -> int:
         return EXIT_USAGE
     from .errors import ParameterError, TampError
 
+    previous = _stop_on_signals()
+    _never_fail_on_encoding()
     try:
         commands = {
             "convert": cmd_convert, "batch": cmd_batch, "presets": cmd_presets, "info": cmd_info,
@@ -249,6 +251,59 @@ def main(argv=None) -> int:
     except BrokenPipeError:  # output piped into a program that stopped reading (| head)
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return EXIT_OK
+    except Exception as exc:  # last resort: a bug or an unforeseen situation is one line, not a traceback
+        if args.debug:
+            raise
+        print(f"error: {last_resort_words(exc)}", file=sys.stderr)
+        return EXIT_FAILED
+    finally:
+        _restore_signals(previous)
+
+
+def last_resort_words(exc: BaseException) -> str:
+    """One line for an error nobody foresaw: what happened, and how to learn more."""
+    if isinstance(exc, MemoryError):
+        return "not enough memory for this image; make it smaller (or lower --resolution-px) and try again."
+    if isinstance(exc, OSError) and exc.strerror:
+        where = f"{exc.filename}: " if exc.filename else ""
+        return f"{where}{exc.strerror}; check the file or folder and its permissions. (--debug shows the details.)"
+    text = str(exc).splitlines()[0][:200] if str(exc) else ""
+    return (f"unexpected {exc.__class__.__name__}{': ' + text if text else ''}. Nothing half-written was left; "
+            "run again with --debug to see where it happened, and please report it.")
+
+
+def _stop_on_signals() -> dict:
+    """SIGTERM and SIGHUP (a closed terminal, a service stopped) stop the run as Ctrl-C does, so
+    temporary files are removed and the folder's lock is released, instead of being left behind.
+    Returns the handlers replaced, for _restore_signals."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        return {}  # signal handlers can only be set from the main thread (the CLI called from a worker)
+    previous = {}
+    for name in ("SIGTERM", "SIGHUP"):
+        if hasattr(signal, name):
+            number = getattr(signal, name)
+            previous[number] = signal.signal(number, signal.default_int_handler)
+    return previous
+
+
+def _restore_signals(previous: dict) -> None:
+    import signal
+
+    for number, handler in previous.items():
+        signal.signal(number, handler if handler is not None else signal.SIG_DFL)
+
+
+def _never_fail_on_encoding() -> None:
+    """A file name that is not valid UTF-8 must print (as an escape), not crash the output."""
+    for stream in (sys.stdout, sys.stderr):
+        if getattr(stream, "errors", None) == "strict" and hasattr(stream, "reconfigure"):
+            try:
+                stream.reconfigure(errors="backslashreplace")
+            except (ValueError, OSError):
+                pass
 
 
 def _run_each(items, action, debug: bool = False) -> int:
@@ -266,6 +321,12 @@ def _run_each(items, action, debug: bool = False) -> int:
             if debug:
                 raise
             print(f"error: {cli_words(exc)}", file=sys.stderr)
+            failed += 1
+            continue
+        except (OSError, MemoryError) as exc:  # one input's unforeseen trouble must not stop the others
+            if debug:
+                raise
+            print(f"error: {last_resort_words(exc)}", file=sys.stderr)
             failed += 1
             continue
         for line in lines:
@@ -301,7 +362,17 @@ def cmd_convert(args) -> int:
             lines.append(f"  note: named {stem} because another input of this run has the same name")
         return lines
 
-    return _run_each(list(zip(jobs, stems)), convert_job, args.debug)
+    from .errors import TampError
+    from .locks import output_lock
+
+    try:
+        with output_lock(Path(args.output)):  # one writer per folder: never a set mixed from two runs
+            return _run_each(list(zip(jobs, stems)), convert_job, args.debug)
+    except TampError as exc:  # the output folder cannot be used: nothing was converted
+        if args.debug:
+            raise
+        print(f"error: {cli_words(exc)}", file=sys.stderr)
+        return EXIT_FAILED
 
 
 def _say(conversion, verbose: bool = False) -> list[str]:
@@ -571,7 +642,7 @@ def cmd_presets(args) -> int:
         from .read import read_image
 
         picture = read_image(args.image, page=params.page, channel=params.channel, max_megapixels=params.max_megapixels,
-                             max_decoded_gb=params.max_decoded_gb)
+                             max_decoded_gb=params.max_decoded_gb, max_memory_gb=params.max_memory_gb)
         width = layout_for(params, printer, picture.file.width, picture.file.height).width_mm
         suggestion = suggest_by_touch(picture.values, picture.alpha, width_mm=width, nozzle_mm=printer.nozzle_mm)
     print(f"printer {printer.name}: nozzle {printer.nozzle_mm:g} mm, layer {layer:g} mm, mesher {params.mesher}")

@@ -91,12 +91,19 @@ def _write_multipart(litho, folder: Path, stem: str, formats: list[str], meta: d
     return write_parts(litho.parts, litho.mesh, folder, stem, formats, meta)
 
 
+LONGEST_SUFFIX_BYTES = 48  # '.description.txt', '.annotations.png', part and tile names, + a temporary name's 15
+
+
 def _target(litho, target: Path, formats, stem) -> tuple[Path, str, list[str]]:
+    from .files import check_path_length
+
+    check_path_length(target)  # before any look at the file system: a too-long name fails there
     if target.suffix and not target.is_dir():
         folder, stem, formats = target.parent, target.stem, [target.suffix.lstrip(".").lower()]
     else:
         folder, stem = target, stem or litho.name
         formats = list(formats or litho.params.formats)
+    check_path_length(folder / stem, LONGEST_SUFFIX_BYTES)  # every file of the set fits, or none is written
     if not folder.exists():
         try:
             folder.mkdir(parents=True)
@@ -199,6 +206,9 @@ def recipe_dict(litho, files: list[str]) -> dict:
 
 def write_recipe(litho, path: Path, files: list[str]) -> Path:
     recipe = recipe_dict(litho, files)
+    # Each output's hash, so a resume knows the set is this run's whole set (not a file of the
+    # same name from another run, or one damaged since).
+    recipe["output_sha256"] = {name: file_sha256(path.parent / name) for name in files if (path.parent / name).is_file()}
     if recipe["input"]["path"]:  # also relative to the recipe, so a moved folder still rebuilds
         recipe["input"]["path_from_recipe"] = os.path.relpath(os.path.abspath(recipe["input"]["path"]), os.path.abspath(path.parent))
     return write_text(path, json.dumps(recipe, indent=2, ensure_ascii=False) + "\n")
@@ -226,7 +236,13 @@ def load_recipe(path) -> tuple[Path, LithoParams, PrinterProfile | None, dict]:
     candidates.append(path.parent / info["name"])
     for image in candidates:
         if image.is_file():
-            if file_sha256(image) != info["sha256"]:
+            try:
+                digest = file_sha256(image)
+            except OSError as exc:
+                raise InputError(
+                    f"{path}: its input {image} cannot be read ({exc.strerror}); check its permissions and run again."
+                ) from None
+            if digest != info["sha256"]:
                 raise InputError(
                     f"{path}: the input {image} has changed since the recipe was written (SHA-256 differs); "
                     f"the same output cannot be rebuilt from it."
@@ -264,7 +280,8 @@ def _read_recipe(path: Path) -> dict:
 
 def recipe_outputs_if_current(recipe_path: Path, source: Path, params: LithoParams) -> list[str] | None:
     """The files an existing recipe lists, if it records this input and these parameters and
-    every file it lists is still there; else None (the input must be converted again)."""
+    every file it lists is still there with the SHA-256 the recipe recorded; else None (the
+    input must be converted again)."""
     try:
         recipe = json.loads(recipe_path.read_text(encoding="utf-8"))
     except (OSError, ValueError):
@@ -278,6 +295,13 @@ def recipe_outputs_if_current(recipe_path: Path, source: Path, params: LithoPara
     if (recipe.get("input") or {}).get("sha256") != digest:
         return None
     outputs = recipe.get("outputs", [])
-    if not outputs or not all((recipe_path.parent / name).is_file() for name in outputs):
-        return None
+    hashes = recipe.get("output_sha256")
+    if not outputs or not isinstance(hashes, dict) or set(hashes) != set(outputs):
+        return None  # written before outputs were hashed, or not by TAMP-OS: convert again
+    for name in outputs:
+        try:
+            if file_sha256(recipe_path.parent / name) != hashes[name]:
+                return None  # missing, changed, or another run's file of the same name
+        except OSError:
+            return None
     return outputs + [recipe_path.name]

@@ -199,8 +199,8 @@ def _read(source, params: LithoParams) -> Picture:
         return source
     if isinstance(source, (str, Path)):
         return read_image(source, page=params.page, channel=params.channel, max_megapixels=params.max_megapixels,
-                          z_slice=params.z_slice, max_decoded_gb=params.max_decoded_gb, time=params.time, scene=params.scene,
-                          target_px=_pyramid_target_px(params))
+                          z_slice=params.z_slice, max_decoded_gb=params.max_decoded_gb, max_memory_gb=params.max_memory_gb,
+                          time=params.time, scene=params.scene, target_px=_pyramid_target_px(params))
     return read_array(source, channel=params.channel)
 
 

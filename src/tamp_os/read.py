@@ -18,6 +18,8 @@ from pathlib import Path
 import numpy as np
 
 from .errors import InputError, MissingDependencyError, ParameterError, Text
+from .read_cost import (MAX_MEMORY_GB, Cost, check_memory, pillow_copies_bytes, tiff_chunk_bytes, tiff_jpeg_bytes,
+                        working_bytes)
 
 log = logging.getLogger(__name__)
 
@@ -91,9 +93,9 @@ MAX_DECODED_GB = 2.0  # default decoded-bytes guard: pixels × samples × bytes 
 
 
 def read_image(
-    path, *, page: int | None = None, channel: str = "luminance", max_megapixels: float = 400.0, z_slice: int | None = None,
-    max_decoded_gb: float = MAX_DECODED_GB, time: int | None = None, scene: int | None = None,
-    target_px: int | None = None,
+    path, *, page: int | None = None, channel: str = "luminance", max_megapixels: float = 100.0, z_slice: int | None = None,
+    max_decoded_gb: float = MAX_DECODED_GB, max_memory_gb: float = MAX_MEMORY_GB, time: int | None = None,
+    scene: int | None = None, target_px: int | None = None,
 ) -> Picture:
     """Read an image file by its content into a Picture.
 
@@ -107,14 +109,16 @@ def read_image(
     z_slice : one z slice instead of the maximum-intensity projection.
     max_decoded_gb : refuse files whose decoded pixels (every plane read, all samples, at their
         own bit depth) would exceed this many GB (1e9 bytes), checked from the header before decoding.
-        Peak memory while reading is about 2–3× this (the float32 working copies).
+        The largest tile in flight and palette/RGBA conversion copies count as decoded bytes.
+    max_memory_gb : refuse files whose estimated peak while converting (decoded pixels, tiles,
+        copies and the pipeline's float32 working arrays, see read_cost.py) would exceed this.
     time : the time point of a time series (0-based); None: the first, with a note.
     scene : the scene, series, image or position of a multi-scene file (CZI, LIF, ND2, EMD...);
         None: the first, with a note. TIFF files choose their series with `page`.
     target_px : of a pyramid (SVS, pyramidal TIFF, OME-Zarr), read the smallest level at least this
         wide (default 2048), never the full-resolution slide when a smaller level fits the print.
     """
-    limits = _Limits(max_megapixels, max_decoded_gb)
+    limits = _Limits(max_megapixels, max_decoded_gb, max_memory_gb)
     path = Path(path)
     if path.is_dir() and _vendor_kind(path):  # an OME-Zarr folder
         from .vendor_read.picture import read_vendor
@@ -122,8 +126,10 @@ def read_image(
         return read_vendor(path, _vendor_kind(path), page, channel, limits, z_slice, time, scene, target_px)
     _refuse_special(path)
     try:
-        with path.open("rb") as fh:
+        with path.open("rb") as fh:  # only the head: the file is hashed by streaming, never held whole
             head = fh.read(1024)
+    except FileNotFoundError:
+        raise InputError(f"{path}: no such file; check the name and folder.") from None
     except OSError as exc:
         raise InputError(f"{path}: cannot be read ({exc.strerror}); check its permissions.") from None
     if not head:
@@ -135,21 +141,15 @@ def read_image(
         return read_vendor(path, kind, page, channel, limits, z_slice, time, scene, target_px)
     for name, value in (("time", time), ("scene", scene)):
         if value:
-            raise ParameterError(f"{path}: {name} {value} asked for, but this file has no {name} axis; leave {name} out (TIFF series: page).")
-    try:
-        if head[:4] in TIFF_MAGIC or head[:4] in DM_MAGIC:  # hashed in pieces: a large stack never sits in memory whole
-            sha, data = _sha256_of(path), None
-        else:
-            data = path.read_bytes()
-            sha = hashlib.sha256(data).hexdigest()
-    except OSError as exc:
-        raise InputError(f"{path}: cannot be read ({exc.strerror}); check its permissions.") from None
+            raise ParameterError(f"{path}: `{name}` {value} asked for, but this file has no {name} axis; leave `{name}` out "
+                                 f"(TIFF series: `page`).", parameter=name, value=value)
     if head[:4] in TIFF_MAGIC:
         decoded = _read_tiff(path, page, limits, z_slice, channel, target_px or DEFAULT_TARGET_PX)
     elif head[:4] in DM_MAGIC:
         decoded = _read_dm(path, limits, path.stat().st_size)
     else:
-        decoded = _read_pillow(path, data, page, limits)
+        decoded = _read_pillow(path, head, page, limits)
+    sha = _sha256_of(path)  # after the header checks: a refused file costs no read of its bytes
     if decoded.channel_chosen:
         channel = "luminance"  # the channel was chosen among the TIFF's planes
     return _to_picture(decoded, channel, name=path.name, sha=sha, path=str(path))
@@ -168,15 +168,19 @@ def _vendor_kind(path: Path) -> str | None:
 
 
 def _sha256_of(path: Path) -> str:
-    """SHA-256 of a file read in 1 MB pieces, or of a folder's files (name and bytes, sorted)."""
-    digest = hashlib.sha256()
+    """SHA-256 of a file read by blocks (a 5 GB file with a small image never sits in memory), or
+    of a folder's files (name and bytes, sorted: an OME-Zarr folder)."""
     files = sorted(p for p in path.rglob("*") if p.is_file()) if path.is_dir() else [path]
-    for file in files:
-        if path.is_dir():
-            digest.update(file.relative_to(path).as_posix().encode() + b"\0")
-        with file.open("rb") as fh:
-            for chunk in iter(lambda: fh.read(1 << 20), b""):
-                digest.update(chunk)
+    digest = hashlib.sha256()
+    try:
+        for file in files:
+            if path.is_dir():
+                digest.update(file.relative_to(path).as_posix().encode() + b"\0")
+            with file.open("rb") as fh:
+                for block in iter(lambda: fh.read(1 << 20), b""):
+                    digest.update(block)
+    except OSError as exc:
+        raise InputError(f"{path}: cannot be read ({exc.strerror}); check its permissions.") from None
     return digest.hexdigest()
 
 
@@ -218,15 +222,24 @@ class _Limits:
 
     max_megapixels: float
     max_decoded_gb: float
+    max_memory_gb: float = MAX_MEMORY_GB
 
 
-def _check_bytes(path, shape, dtype, limits: _Limits, what: str = "image") -> None:
+def _check_bytes(path, shape, dtype, limits: _Limits, what: str = "image", chunk_bytes: float = 0.0) -> None:
     """Refuse, before decoding, an array of `shape` and `dtype` above the decoded-bytes limit.
 
     shape : every axis that will be decoded (planes, rows, columns, samples).
+    chunk_bytes : the tiles or strips decoded at once, as declared (a tile may be far larger than the image).
     """
     itemsize = np.dtype(dtype).itemsize
     total = int(np.prod([int(n) for n in shape], dtype=np.float64)) * itemsize
+    if chunk_bytes > total:  # a tile larger than the image: the decoder allocates the whole tile
+        if chunk_bytes > limits.max_decoded_gb * 1e9:
+            raise InputError(
+                f"{path}: this {what} is stored in tiles (or strips) that decode to {chunk_bytes / 1e9:.1f} GB, far larger than "
+                f"its {'×'.join(str(int(n)) for n in shape)} pixels; that exceeds the limit of {limits.max_decoded_gb:g} GB that "
+                f"guards against decompression bombs. The file is malformed or hostile; re-export it from the microscope software."
+            )
     if total > limits.max_decoded_gb * 1e9:
         dims = "×".join(str(int(n)) for n in shape)
         raise InputError(
@@ -235,6 +248,16 @@ def _check_bytes(path, shape, dtype, limits: _Limits, what: str = "image") -> No
             hint=f"If you trust the file and the computer has the memory (about 3× that), raise the limit: "
                  f"`max_decoded_gb` = {math.ceil(total / 1e9)}.",
         )
+
+
+def _check_cost(path, plane_hw, shape, dtype, limits: _Limits, chunk_bytes: float = 0.0, copies_bytes: float = 0.0) -> None:
+    """Refuse, before decoding, a file whose conversion would need more than max_memory_gb in all."""
+    cost = Cost()
+    cost.add("decoded pixels", float(np.prod([int(n) for n in shape], dtype=np.float64)) * np.dtype(dtype).itemsize)
+    cost.add("tiles being decoded", chunk_bytes)
+    cost.add("converted copies", copies_bytes)
+    cost.add("float32 working arrays", working_bytes(*plane_hw))
+    check_memory(path, f"{int(plane_hw[1])}×{int(plane_hw[0])} image", cost, limits.max_memory_gb)
 
 
 def _check_size(path, shape, limits: _Limits) -> None:
@@ -297,8 +320,11 @@ def _read_tiff(path, page, limits: _Limits, z_slice=None, channel="luminance", t
             chosen, axes, shape = source.chosen, source.chosen.axes, source.chosen.shape
             if "Y" not in axes or "X" not in axes:
                 raise InputError(f"{path}: TIFF series with axes {axes!r} has no 2-D image plane.")
-            _check_size(path, (shape[axes.index("Y")], shape[axes.index("X")]), limits)
-            _check_bytes(path, shape, chosen.dtype, limits, f"TIFF series ({axes})")
+            plane_hw = (shape[axes.index("Y")], shape[axes.index("X")])
+            _check_size(path, plane_hw, limits)
+            chunk = max(tiff_chunk_bytes(chosen.keyframe), tiff_jpeg_bytes(path, chosen.keyframe))  # as the file declares
+            _check_bytes(path, shape, chosen.dtype, limits, f"TIFF series ({axes})", chunk)
+            _check_cost(path, plane_hw, shape, chosen.dtype, limits, chunk)
             meta = {"tiff_series_axes": axes, "tiff_series": source.series, **_vendor_blocks(tif, source.tag_page), **level_meta}
             tags = {tag.code: tag.value for tag in tif.pages[0].tags}
             tags.update({tag.code: tag.value for tag in tif.pages[source.tag_page].tags} if source.tag_page else {})
@@ -374,9 +400,9 @@ def _channel_names(meta) -> list[str]:
     if not xml:
         labels = (meta.get("imagej_metadata") or {}).get("Labels")
         return [str(x) for x in labels] if isinstance(labels, (list, tuple)) else []
-    import re
+    from .xmltext import ome_channel_names  # a parser, not a regex: linear in the text's length
 
-    return re.findall(r"<Channel[^>]*\sName=\"([^\"]*)\"", xml)
+    return ome_channel_names(xml)
 
 
 @dataclass
@@ -468,6 +494,7 @@ def _read_dm(path, limits: _Limits, file_bytes: int) -> _Decoded:
         plane = data[(0,) * (data.ndim - 2)] if data.ndim > 2 else data
         _check_size(path, plane.shape, limits)
         _check_bytes(path, plane.shape, data.dtype, limits, "DigitalMicrograph plane")
+        _check_cost(path, plane.shape, plane.shape, data.dtype, limits)
         array = np.asarray(plane)
     except (InputError, ParameterError):
         raise
@@ -503,17 +530,20 @@ def _open_pillow(stream):
     raise UnidentifiedImageError("cannot identify image file")
 
 
-def _read_pillow(path, data, page, limits: _Limits) -> _Decoded:
-    import io
-
+def _read_pillow(path, head, page, limits: _Limits) -> _Decoded:
     from PIL import UnidentifiedImageError
 
     fmt = "image"
+    stream = None
     try:
-        im = _open_pillow(io.BytesIO(data))
+        stream = open(path, "rb")  # Pillow reads the file as it decodes; its bytes are never held twice
+        im = _open_pillow(stream)
         fmt = im.format or "image"
-        _check_size(path, (im.size[1], im.size[0]), limits)
-        _check_bytes(path, (im.size[1], im.size[0], *_pillow_samples(im.mode)), np.uint8, limits, f"{fmt} image")
+        hw = (im.size[1], im.size[0])
+        _check_size(path, hw, limits)
+        _check_bytes(path, (*hw, *_pillow_samples(im.mode)), np.uint8, limits, f"{fmt} image")
+        _check_cost(path, hw, (*hw, _mode_bytes(im.mode)), np.uint8, limits,
+                    copies_bytes=pillow_copies_bytes(im.mode, hw[0] * hw[1]))
         frames = getattr(im, "n_frames", 1)
         if page:
             if page >= frames:
@@ -521,7 +551,7 @@ def _read_pillow(path, data, page, limits: _Limits) -> _Decoded:
             im.seek(page)
         im.load()
     except UnidentifiedImageError:
-        what = "it holds text, not pixels" if data[:512].isascii() and b"\0" not in data[:512] else "its contents match no image format"
+        what = "it holds text, not pixels" if head[:512].isascii() and b"\0" not in head[:512] else "its contents match no image format"
         raise InputError(  # the file's bytes are never echoed: they may be private and mean nothing to a reader
             f"{path}: not an image that can be read ({what}); "
             f"supported: PNG, JPEG, TIFF, BMP, GIF, WebP, DM3/DM4."
@@ -530,6 +560,11 @@ def _read_pillow(path, data, page, limits: _Limits) -> _Decoded:
         raise
     except (OSError, SyntaxError, ValueError, EOFError) as exc:
         raise InputError(f"{path}: the {fmt} file is damaged or truncated ({exc}).") from None
+    except MemoryError:
+        raise InputError(f"{path}: not enough memory to decode this {fmt} image; make it smaller and try again.") from None
+    finally:
+        if stream is not None:
+            stream.close()  # load() has read every pixel the image needs
     meta = {"pillow_mode": im.mode}
     if "dpi" in im.info:
         meta["dpi_not_physical"] = im.info["dpi"]
@@ -548,6 +583,14 @@ def _pillow_samples(mode: str) -> tuple[int]:
         return (4,)  # palette -> RGBA, colour models -> RGB (4 bytes is an upper bound)
     info = ImageMode.getmode(mode)
     return (len(info.bands) * np.dtype(info.typestr).itemsize,)
+
+
+def _mode_bytes(mode: str) -> int:
+    """Bytes per pixel Pillow itself holds for `mode` (a palette image: one index a pixel)."""
+    from PIL import ImageMode
+
+    info = ImageMode.getmode(mode)
+    return len(info.bands) * np.dtype(info.typestr).itemsize
 
 
 EXIF_ORIENTATION = 0x0112
@@ -631,6 +674,21 @@ def _weigh_unknown(file: ImageFile, values, alpha):
     return values, alpha
 
 
+LUMA_ROWS = 512  # rows converted at a time: the (rows, W, 3) float32 copy stays small
+
+
+def _luminance(colour: np.ndarray) -> np.ndarray:
+    """(H, W) float32 luminance of (H, W, 3) colour, a block of rows at a time.
+
+    float32 keeps 16-bit sources exact to ~1e-3 of a grey level, at a third of float64's cost;
+    converting by blocks avoids a full (H, W, 3) float32 copy (12 bytes a pixel).
+    """
+    out = np.empty(colour.shape[:2], np.float32)
+    for r in range(0, colour.shape[0], LUMA_ROWS):
+        np.matmul(colour[r:r + LUMA_ROWS].astype(np.float32), LUMA_601, out=out[r:r + LUMA_ROWS])
+    return out
+
+
 def _alpha_scale(dtype) -> float:
     return float(np.iinfo(dtype).max) if np.dtype(dtype).kind in "ui" else 1.0
 
@@ -649,8 +707,7 @@ def _grayscale(array, channel: str, name: str):
         if colour.shape[-1] == 1:
             values = colour[..., 0].astype(np.float32)
         else:
-            # float32 keeps 16-bit sources exact to ~1e-3 of a grey level, at a third of float64's cost
-            values = colour.astype(np.float32) @ LUMA_601
+            values = _luminance(colour)
         return values, alpha
     index = CHANNEL_NAMES.get(channel.lower()) if not channel.isdigit() else int(channel)
     if index is None or index >= n:

@@ -35,6 +35,9 @@ PIXEL_SIZE_RANGE_M = (1e-12, 1.0)  # 1 pm to 1 m per pixel: anything else is a t
 MIN_BED_MM = 60.0  # smaller beds leave no room for the tiles' pegs, sockets and labels
 
 
+MAX_LENGTH_TEXT = 64  # characters of a length such as '4.2 nm'
+
+
 def parse_length_m(text: str, name: str = "pixel_size", range_m: tuple[float, float] | None = None) -> float:
     """'4.2nm' -> 4.2e-9. Raises ParameterError naming `name` when it cannot be read.
 
@@ -42,12 +45,16 @@ def parse_length_m(text: str, name: str = "pixel_size", range_m: tuple[float, fl
     """
     if range_m is None and name == "pixel_size":
         range_m = PIXEL_SIZE_RANGE_M
-    match = re.fullmatch(r"\s*([-+]?[0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)\s*([a-zA-Zµμ\u00c5\u212b]+)\s*", str(text))
+    text_s = str(text)
+    # A length is a few characters; a long text (a recipe or CSV is a file) would make the
+    # pattern's [0-9]*\.?[0-9]+ backtrack quadratically, so it is refused before matching.
+    match = None if len(text_s) > MAX_LENGTH_TEXT else re.fullmatch(
+        r"\s*([-+]?[0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)\s*([a-zA-Zµμ\u00c5\u212b]+)\s*", text_s)
     factor = unit_factor_m(match.group(2)) if match else None
     if not match or factor is None:
         raise ParameterError(
-            f"`{name}`: cannot read {text!r} as a length; give a number and a unit, for example 4.2nm, "
-            f"0.5um, 3 micron, 12Å or 0.01mm (units: pm, Å, nm, µm, um, micron, mm, cm, m).",
+            f"`{name}`: cannot read {text_s[:40]!r}{'…' if len(text_s) > 40 else ''} as a length; give a number and a unit, "
+            f"for example 4.2nm, 0.5um, 3 micron, 12Å or 0.01mm (units: pm, Å, nm, µm, um, micron, mm, cm, m).",
             parameter=name, value=text, allowed="a number and a unit", hint="for example 4.2nm",
         )
     value = float(match.group(1)) * factor

@@ -8,14 +8,13 @@ resolution (72 or 96 dpi from SEM vendors) is never taken as a physical size. Th
 
 from __future__ import annotations
 
-import re
-import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import Text
 from ..units import format_length, unit_factor_m
-from .vendor import number, tescan_main
+from ..xmltext import parse_xml
+from .vendor import number, sidecar_keys, sidecar_text, tescan_main
 
 PLAUSIBLE_M = (1e-13, 1e-2)  # 0.1 pm to 1 cm per pixel
 USER_GIVEN = Text("given by the user (`pixel_size`)")
@@ -140,23 +139,33 @@ def _tescan(inp: _Inputs, warnings: list[str]) -> Found:
 
 
 def _sidecar_txt(inp: _Inputs, warnings: list[str]) -> Found:
-    """JEOL SEM ($$SM_MICRON_BAR / $$SM_MICRON_MARKER) and Hitachi (PixelSize= in nm) sidecars."""
+    """JEOL SEM ($$SM_MICRON_BAR / $$SM_MICRON_MARKER) and Hitachi (PixelSize= in nm) sidecars,
+    read line by line and size-capped (clean/vendor.py): no regex runs over the file's text."""
     if inp.path is None or not inp.path.with_suffix(".txt").is_file():
         return None
     sidecar = inp.path.with_suffix(".txt")
-    text = sidecar.read_text(encoding="utf-8", errors="replace")
-    hitachi = re.search(r"^\s*PixelSize\s*=\s*(\S+)", text, re.M)
-    if hitachi:
-        nm = number(hitachi.group(1))
-        return (None if nm is None else nm * 1e-9), f"Hitachi sidecar {sidecar.name} PixelSize (nm)"
-    bar = re.search(r"^\s*\$+SM_MICRON_BAR\s+(\S+)", text, re.M)
-    marker = re.search(r"^\s*\$+SM_MICRON_MARKER\s+([0-9.]+)\s*([a-zA-Zµμ]+)", text, re.M)
-    if not (bar and marker):
+    text = sidecar_text(sidecar, warnings)
+    if text is None:
         return None
-    pixels, length = number(bar.group(1)), number(marker.group(1))
-    unit = unit_factor_m(marker.group(2))
+    keys = sidecar_keys(text, ("PixelSize", "SM_MICRON_BAR", "SM_MICRON_MARKER"))
+    if "PixelSize" in keys:
+        nm = number(keys["PixelSize"])
+        return (None if nm is None else nm * 1e-9), f"Hitachi sidecar {sidecar.name} PixelSize (nm)"
+    if "SM_MICRON_BAR" not in keys or "SM_MICRON_MARKER" not in keys:
+        return None
+    pixels, (length, unit_word) = number(keys["SM_MICRON_BAR"]), _number_and_unit(keys["SM_MICRON_MARKER"])
+    unit = unit_factor_m(unit_word) if unit_word else None
     size = length * unit / pixels if pixels and length and unit else None
     return size, f"JEOL sidecar {sidecar.name} SM_MICRON_MARKER ÷ SM_MICRON_BAR"
+
+
+def _number_and_unit(text: str) -> tuple[float | None, str]:
+    """'10um' or '10 um' -> (10.0, 'um'); (None, '') when it does not start with a number."""
+    text = text.strip()
+    digits = len(text) - len(text.lstrip("0123456789."))
+    rest = text[digits:].lstrip()
+    letters = len(rest) - len(rest.lstrip("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZµμ"))
+    return (number(text[:digits]) if digits else None), rest[:letters]
 
 
 def _imagej(inp: _Inputs, warnings: list[str]) -> Found:
@@ -178,9 +187,8 @@ def _ome(inp: _Inputs, warnings: list[str]) -> Found:
     xml = inp.metadata.get("ome_metadata")
     if not xml:
         return None
-    try:
-        root = ET.fromstring(xml)
-    except ET.ParseError:
+    root = parse_xml(xml) if isinstance(xml, str) else None
+    if root is None:
         warnings.append("OME-XML: cannot be parsed; ignored.")
         return None
     pixels = next((el for el in root.iter() if el.tag.endswith("}Pixels") or el.tag == "Pixels"), None)

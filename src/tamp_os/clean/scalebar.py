@@ -86,8 +86,14 @@ def parse_label(text: str) -> float | None:
 
 
 def ink_of(values: np.ndarray) -> np.ndarray:
-    """(H, W) bool: pixels far from the region's most common value (its background)."""
+    """(H, W) bool: pixels far from the region's most common value (its background).
+
+    Unknown (NaN) pixels are never ink; a region of NaN padding only (stitched or registered
+    float images) has none.
+    """
     finite = np.isfinite(values)
+    if not finite.any():
+        return np.zeros(values.shape, bool)
     lo, hi = float(np.min(values[finite])), float(np.max(values[finite]))
     if hi <= lo:
         return np.zeros(values.shape, bool)

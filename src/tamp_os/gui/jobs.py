@@ -105,8 +105,18 @@ class WebJob:
 
 class JobStore:
     def __init__(self, root: Path | None = None, workers: int = 2, ttl_s: float = 3600.0, grace_s: float = 60.0, slow_s: float = 0.0):
+        from .stale import claim, sweep_root, sweep_stale
+
+        if root and Path(root).is_dir():
+            sweep_root(Path(root))
+        elif not root:
+            sweep_stale()  # the folders of servers that were killed before they could clean up
         self.root = Path(root) if root else Path(tempfile.mkdtemp(prefix="tamp-gui-"))
         self.root.mkdir(parents=True, exist_ok=True)
+        claim(self.root)
+        from .workers import shared_pool
+
+        shared_pool().warm()  # the conversion workers start while the first page loads
         self.jobs: dict[str, WebJob] = {}
         self.lock = threading.Lock()
         self.pool = ThreadPoolExecutor(max_workers=workers, thread_name_prefix="tamp-job")
@@ -146,8 +156,11 @@ class JobStore:
                 self.remove(job_id)
 
     def close(self) -> None:
+        from .workers import close_shared_pool
+
         self._stop.set()
         self.pool.shutdown(wait=False, cancel_futures=True)
+        close_shared_pool()
         shutil.rmtree(self.root, ignore_errors=True)
 
     def start(self, job: WebJob, params: LithoParams) -> None:
@@ -229,7 +242,9 @@ def convert(job: WebJob, upload: Upload) -> Result:
         params = params.replace(**texts)
     stem = Path(upload.name).stem
     try:
-        made = run_library(upload.path, params, job.out, stem)
+        from .workers import read_memory_gb, shared_pool  # one bad upload costs one message, never the server
+
+        made = shared_pool().run(upload.name, run_library, upload.path, params.replace(max_memory_gb=read_memory_gb()), job.out, stem)
     except TampError as exc:
         return Result(upload.name, False, web_words(exc).replace(str(upload.path), upload.name))
     except Exception as exc:  # keep the server alive and say what happened

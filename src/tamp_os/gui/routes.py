@@ -15,6 +15,7 @@ from ..params import FORMATS, LithoParams
 from ..printers import PRESETS
 from .forms import FIELDS, FLAGS, NUMBER_FIELDS, STYLE_CHOICES, TEXT_FIELDS, params_from_form
 from .jobs import WebJob, safe_name
+from .security import only_text_fields
 from .uploads import inspect_upload
 
 MAX_TEXT_CHARS = 200  # a caption or subject per image; braille captions are a line or two
@@ -35,6 +36,7 @@ def add_upload_routes(app: FastAPI, web) -> None:
         except StarletteHTTPException:  # more parts than allowed
             return upload_error(request, [f"More than {limits.max_files} files were chosen; at most {limits.max_files} "
                                           "are converted at once. Choose fewer and add the rest in another round."], 400)
+        only_text_fields(form, files=("images",))
         if not web.guard.token_ok(form.get("token")):
             return web.message(403, *NO_TOKEN)
         files = [f for f in form.getlist("images") if getattr(f, "filename", "")]
@@ -94,6 +96,7 @@ def add_job_routes(app: FastAPI, web) -> None:
         if job is None:
             return RedirectResponse(f"{web.base}/?message=That+job+has+ended+or+does+not+exist.", status_code=303)
         form = await request.form()
+        only_text_fields(form)
         if not web.guard.token_ok(form.get("token")):
             return web.message(403, *NO_TOKEN)
         if job.state == "running":
@@ -122,6 +125,7 @@ def add_job_routes(app: FastAPI, web) -> None:
     @app.post("/jobs/{job_id}/delete")
     async def delete(request: Request, job_id: str):
         form = await request.form()
+        only_text_fields(form)
         if not web.guard.token_ok(form.get("token")):
             return web.message(403, *NO_TOKEN)
         web.store.remove(job_id)

@@ -11,9 +11,12 @@ from __future__ import annotations
 
 import hmac
 import ipaddress
+import logging
 import secrets
 from dataclasses import dataclass, field
 from urllib.parse import parse_qsl, urlencode, urlsplit
+
+log = logging.getLogger(__name__)
 
 LOOPBACK_NAMES = frozenset({"localhost", "127.0.0.1", "::1"})
 SAFE_METHODS = frozenset({"GET", "HEAD", "OPTIONS"})
@@ -116,7 +119,26 @@ class GuardMiddleware:
             return await self._accept_token(scope, send)
         if scope["method"] not in SAFE_METHODS:
             receive = self._capped(receive)
-        await self.app(scope, receive, send)
+        await self._answering_errors(scope, receive, send)
+
+    async def _answering_errors(self, scope, receive, send):
+        """Run the app; an exception nobody handled becomes a plain 500 page sent through `send`
+        (so it carries the security headers too), logged, and never a second response."""
+        started = False
+
+        async def tracking(message):
+            nonlocal started
+            if message["type"] == "http.response.start":
+                started = True
+            await send(message)
+
+        try:
+            await self.app(scope, receive, tracking)
+        except Exception:
+            log.exception("unexpected error answering %s %s", scope.get("method"), scope.get("path"))
+            if not started:
+                await self.refuse(500, "Something went wrong", "TAMP-OS could not answer this request because of an "
+                                  "unexpected error. Go back and try again; if it happens again, please report it.")(scope, receive, send)
 
     def _check(self, scope, headers):
         g, netloc = self.guard, headers.get("host", "")
@@ -174,6 +196,17 @@ class GuardMiddleware:
             await send(message)
 
         return sending
+
+
+def only_text_fields(form, files: tuple[str, ...] = ()) -> None:
+    """Refuse (400) a form in which a field other than `files` arrived as a file part: the routes
+    read those fields as text, and a file there is a malformed (or hostile) form, not a 500."""
+    from starlette.datastructures import UploadFile
+    from starlette.exceptions import HTTPException
+
+    for key, value in form.multi_items():
+        if key not in files and isinstance(value, UploadFile):
+            raise HTTPException(400, f"the form field {key[:40]!r} was sent as a file")
 
 
 def _too_large_text(limit_bytes: int) -> str:

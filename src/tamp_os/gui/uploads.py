@@ -114,32 +114,58 @@ def plain_error(exc: TampError, path: Path, name: str) -> str:
     from .forms import offers, web_words
 
     text = web_words(exc).replace(str(path), name)
-    if exc.hint and not all(offers(n) for n in exc.hint_names()):
+    if exc.hint and not all(offers(n) for n in exc.hint_names()) and "smaller" not in text:
         text += " Make the image smaller and try again."
     return text
 
 
 def inspect_upload(path: Path, name: str, thumbs: Path, index: int, max_decoded_mb: float) -> Upload:
-    """Read an upload once (in a worker thread): refuse non-images and oversized ones, suggest a
-    level of detail from its contrast and detail, and write a small thumbnail."""
+    """Read an upload once (in a worker process, gui/workers.py): refuse non-images and oversized
+    ones, suggest a level of detail from its contrast and detail, and write a small thumbnail."""
+    from .workers import read_memory_gb, shared_pool
+
+    check_size(path, max_decoded_mb)
+    try:
+        seen = shared_pool().run(name, inspect_in_worker, path, thumbs, index, max_decoded_mb, read_memory_gb())
+    except TampError as exc:
+        raise InputError(plain_error(exc, path, name)) from None
+    return Upload(name, path, seen.width, seen.height, seen.suggested, seen.reason, seen.thumb, contents=seen.contents,
+                  channels=seen.channels, z_slices=seen.z_slices, time_points=seen.time_points, scenes=seen.scenes)
+
+
+@dataclass(frozen=True)
+class Inspected:
+    """What the worker process found in an upload (sent back pickled)."""
+
+    width: int
+    height: int
+    suggested: str
+    reason: str
+    thumb: str
+    contents: str
+    channels: int
+    z_slices: int
+    time_points: int
+    scenes: int
+
+
+def inspect_in_worker(path: Path, thumbs: Path, index: int, max_decoded_mb: float, max_memory_gb: float) -> Inspected:
+    """What an upload holds (size, suggested preset, thumbnail, channels and axes), read with the web app's own caps:
+    the page read_image will read is priced by read_image itself (tiles, copies, working arrays)."""
     from ..printers import BUILTIN_PRINTERS
     from ..read import read_image
     from ..relief.touch import suggest_by_touch
 
-    check_size(path, max_decoded_mb)
-    try:
-        picture = read_image(path, max_megapixels=max_decoded_mb, max_decoded_gb=max_decoded_mb / 1000)  # one byte per pixel at least
-    except TampError as exc:
-        raise InputError(plain_error(exc, path, name)) from None
+    picture = read_image(path, max_megapixels=max_decoded_mb, max_decoded_gb=max_decoded_mb / 1000,
+                         max_memory_gb=max_memory_gb)  # max_megapixels: one byte per pixel at least
     standard = BUILTIN_PRINTERS["standard"]  # the printer is chosen later; judge at its width and nozzle
     suggestion = suggest_by_touch(picture.values, picture.alpha, width_mm=standard.width_mm, nozzle_mm=standard.nozzle_mm)
-    preset, reason = suggestion.preset, suggestion.reason
     thumb = f"{index}.png"
     write_png(thumbs / thumb, thumbnail(picture.values))
     axes = picture.file.axes or {}
-    return Upload(name, path, picture.file.width, picture.file.height, preset, reason, thumb, contents=contents_words(picture.file),
-                  channels=max(int(picture.file.channel_count or 1), int(picture.file.channels or 1)),
-                  z_slices=int(axes.get("Z", 1)), time_points=int(axes.get("T", 1)), scenes=int(axes.get("scenes", 1)))
+    return Inspected(picture.file.width, picture.file.height, suggestion.preset, suggestion.reason, thumb,
+                     contents_words(picture.file), max(int(picture.file.channel_count or 1), int(picture.file.channels or 1)),
+                     int(axes.get("Z", 1)), int(axes.get("T", 1)), int(axes.get("scenes", 1)))
 
 
 def contents_words(file) -> str:

@@ -211,4 +211,6 @@ def block_size_mm(lines: list[str], spec: BrailleSpec) -> tuple[float, float]:
     cells = max(len(line) for line in lines)
     width = (cells - 1) * spec.cell_spacing_mm + spec.dot_spacing_mm + spec.dot_diameter_mm
     height = (len(lines) - 1) * spec.line_spacing_mm + spec.cell_height_mm
+    if any(0x2800 <= ord(cell) <= 0x28FF and (ord(cell) - 0x2800) & 0xC0 for cell in lines[-1]):
+        height += spec.dot_spacing_mm  # 8-dot cells (dots 7 and 8) in the last line reach a fourth row
     return width, height

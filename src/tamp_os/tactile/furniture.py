@@ -30,7 +30,7 @@ import numpy as np
 
 from .braille import DEFAULT_TABLE, BrailleSpec, block_size_mm, dot_centres, to_braille, wrap_cells
 from .scalebar import GAP_MM, ScaleBar, auto_scale_bar, chosen_scale_bar
-from ..errors import ExportError, Text
+from ..errors import ExportError, ParameterError, Text
 from ..mesh.solid import INDEX, Mesh
 
 CLEARANCE_MM = 4.0  # between distinct raised elements (standard: at least 3 mm)
@@ -126,6 +126,30 @@ def _scale_bar(furniture: Furniture, inner_w: float) -> tuple[ScaleBar | None, l
     return bar, []
 
 
+MAX_CAPTION_CHARS = 500  # a caption names the picture; longer text belongs in the description
+
+
+def _caption_lines(furniture: Furniture, cells: int, depth_mm: float) -> list[str]:
+    """The caption's braille lines, refused when too long to translate or to fit the plate:
+    its block may be at most as deep as the picture (so the plate never more than doubles)."""
+    text = furniture.caption
+    if len(text) > MAX_CAPTION_CHARS:
+        raise ParameterError(
+            f"`caption`: {len(text):,} characters is too long for a braille caption (at most {MAX_CAPTION_CHARS}); "
+            "shorten it to a title of a few words."
+        )
+    lines = wrap_cells(to_braille(text, furniture.braille_table, what="caption"), max(cells, 1))
+    height = block_size_mm(lines, furniture.spec)[1]
+    limit = max(depth_mm, 2 * furniture.spec.line_spacing_mm)
+    if height > limit:
+        fit = max(1, int(len(text) * limit / height))
+        raise ParameterError(
+            f"`caption`: {len(lines)} braille lines ({height:.0f} mm) would be deeper than the picture itself "
+            f"({depth_mm:.0f} mm); shorten it to about {fit} characters, or make the print wider."
+        )
+    return lines
+
+
 def plan_furniture(width_mm: float, depth_mm: float, furniture: Furniture) -> Plan:
     """Plan the plate: its size, the relief's origin, and boxes and dot centres for each element.
 
@@ -142,7 +166,7 @@ def plan_furniture(width_mm: float, depth_mm: float, furniture: Furniture) -> Pl
     caption_lines: list[str] = []
     if furniture.caption:
         cells = int((inner_w - spec.dot_spacing_mm - spec.dot_diameter_mm) // spec.cell_spacing_mm) + 1
-        caption_lines = wrap_cells(to_braille(furniture.caption, furniture.braille_table, what="caption"), cells)
+        caption_lines = _caption_lines(furniture, cells, depth_mm)
         rows_h.append(block_size_mm(caption_lines, spec)[1])
     below = (side - BORDER_MM if frame else 0.0) + sum(CLEARANCE_MM + h for h in rows_h) + BOTTOM_BORDER_MM
     if not rows_h:

@@ -12,7 +12,7 @@ from pathlib import Path
 from .params import LithoParams
 from .pipeline import Lithograph, make_lithograph
 from .printers import PrinterProfile
-from .report import Report, removed_notes, summary_line, touch_notes
+from .report import Printing, Report, removed_notes, summary_line, touch_notes
 
 
 @dataclass(frozen=True)
@@ -60,8 +60,8 @@ def save_outputs(litho: Lithograph, target, formats=None, stem: str | None = Non
         return written, litho
     from .slicer import slice_outputs
 
-    written, printing = slice_outputs(litho, written)
-    sliced = dataclasses.replace(litho, report=litho.report.with_printing(printing))
+    written, result = slice_outputs(litho, written)
+    sliced = dataclasses.replace(litho, report=litho.report.with_printing(Printing(result, Path(result.gcode).name)))
     recipe = written[-1]
     assert recipe.name.endswith(RECIPE_SUFFIX)
     write_recipe(sliced, recipe, [p.name for p in written[:-1]])

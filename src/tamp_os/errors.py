@@ -14,10 +14,16 @@ from typing import Any, Callable
 Namer = Callable[[str], "str | None"]  # a parameter's name -> a front end's word for it (None: keep it)
 
 
-def _known_names() -> frozenset[str]:
-    from .params import parameter_names
+_PARAMETER_NAMES: set[str] = set()  # filled by params.py when LithoParams is defined (errors imports nothing)
 
-    return parameter_names()
+
+def register_parameter_names(names) -> None:
+    """Tell message templates which words are parameters (params.py does, once)."""
+    _PARAMETER_NAMES.update(names)
+
+
+def _known_names() -> set[str]:
+    return _PARAMETER_NAMES
 
 
 def render(template: str, namer: Namer | None = None) -> str:

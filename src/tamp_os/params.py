@@ -14,7 +14,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
-from .errors import ParameterError, render
+from .errors import ParameterError, register_parameter_names, render
 from .formats import GRAPHIC_FORMATS, NAMES as FORMATS  # noqa: F401  (GRAPHIC_FORMATS: re-exported)
 from .printers import PRESETS
 from .standards import DEFAULT_TABLE, BrailleSpec
@@ -307,3 +307,4 @@ LithoParams.__doc__ = (
     "Every setting of a lithograph, frozen and checked when made; `replace(**changes)` makes a variant.\n\n"
     "Parameters (name [unit]: meaning. Allowed values; default):\n" + field_table()
 )
+register_parameter_names(f.name for f in dataclasses.fields(LithoParams))

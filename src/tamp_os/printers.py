@@ -166,7 +166,7 @@ def get_printer(name: str) -> PrinterProfile:
         close = close_names(name)
         if bundles():  # a PrusaSlicer system preset; its error lists close names unless the table has some
             try:
-                return system_printer_profile(name)
+                return PrinterProfile(*system_printer_profile(name))
             except ParameterError:
                 if not close:
                     raise

@@ -186,16 +186,16 @@ def preset_config(name: str, material: str = "PLA") -> PresetConfig:
     return PresetConfig(printer, print_name if print_options else None, filament, layer, options)
 
 
-def system_printer_profile(name: str):
-    """A PrinterProfile for a system preset: its nozzle, its default print's layer height, and a
-    default print width of 100 mm or less to fit its bed."""
-    from .printers import PrinterProfile
-
+def system_printer_profile(name: str) -> tuple:
+    """The numbers of a PrinterProfile for a system preset, in the profile's field order: its name,
+    nozzle, its default print's layer height, a default print width of 100 mm or less to fit its
+    bed, a description, the preset and the bed (printers.py makes the profile: this module never
+    imports it, so the two do not depend on each other)."""
     printer = find_system_printer(name)
     sections = read_bundle(printer.bundle)
     print_name = _unquote(resolve(sections, "printer", printer.name).get("default_print_profile"))
     print_options = resolve(sections, "print", print_name) if f"print:{print_name}" in sections else {}
     layer = float(print_options.get("layer_height", printer.nozzle_mm / 2))
     width = min(100.0, max(10.0, min(printer.bed_mm) - 20.0))
-    return PrinterProfile(printer.name, printer.nozzle_mm, layer, width, f"PrusaSlicer system preset ({printer.vendor})", printer.name,
-                          printer.bed_mm)
+    return (printer.name, printer.nozzle_mm, layer, width, f"PrusaSlicer system preset ({printer.vendor})", printer.name,
+            printer.bed_mm)

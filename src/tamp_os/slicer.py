@@ -22,7 +22,6 @@ import subprocess
 import tempfile
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -30,8 +29,6 @@ from .errors import MissingDependencyError, ParameterError, TampError
 # The print settings the reliefs are designed for, the same as in the 3MF's settings.
 from .export.print_settings import BOTTOM_LAYERS, FIRST_LAYER_MM, INFILL, PERIMETERS, TOP_LAYERS, first_layer_mm
 
-if TYPE_CHECKING:
-    from .report import Printing
 from .printers import PrinterProfile
 
 GENERIC_NOTE = "generic printer profile: the G-code is for estimates only, not for sending to a printer"
@@ -273,13 +270,12 @@ def estimate(volume_mm3: float, vertices: np.ndarray, faces: np.ndarray, printer
     }
 
 
-def slice_outputs(litho, written: list[Path]) -> tuple[list[Path], "Printing"]:
+def slice_outputs(litho, written: list[Path]) -> tuple[list[Path], SliceResult]:
     """Slice a saved lithograph with PrusaSlicer: its STL (written first when `written` has none)
     becomes NAME.gcode beside it. Returns the paths now written (recipe last, not yet rewritten)
     and what slicing found; convert.save_outputs makes the new report and recipe from them."""
     from .export import save_mesh
     from .outputs import RECIPE_SUFFIX, metadata
-    from .report import Printing
 
     recipe = next(p for p in written if p.name.endswith(RECIPE_SUFFIX))
     others = [p for p in written if p != recipe]
@@ -290,5 +286,5 @@ def slice_outputs(litho, written: list[Path]) -> tuple[list[Path], "Printing"]:
     params = litho.params
     result = slice_mesh(stl, litho.printer, material(params.material, params.filament_price_per_kg), timeout_s=params.slice_timeout_s)
     others.append(Path(result.gcode))
-    return others + [recipe], Printing(result, Path(result.gcode).name)
+    return others + [recipe], result
 

@@ -2,18 +2,12 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 from scipy import ndimage
 from skimage import filters, measure
 
 
-if TYPE_CHECKING:
-    from .styles import StyleOptions
-
-
-def plateau_classes(shape01: np.ndarray, count: int, *, pitch_mm: float, options: "StyleOptions") -> np.ndarray:
+def plateau_classes(shape01: np.ndarray, count: int, *, pitch_mm: float, nozzle_mm: float, min_area_mm2: float) -> np.ndarray:
     """Class 0..count-1 of every pixel: multi-level Otsu, outlines smoothed, small regions merged.
 
     Parameters
@@ -21,7 +15,8 @@ def plateau_classes(shape01: np.ndarray, count: int, *, pitch_mm: float, options
     shape01 : (rows, cols) float, 0..1, already smooth at fingertip scale.
     count : number of classes, 2–5.
     pitch_mm : grid pitch in mm per pixel.
-    options : StyleOptions (nozzle_mm and min_area_mm2 are used).
+    nozzle_mm : outlines are smoothed at the nozzle's width.
+    min_area_mm2 : regions smaller than this are merged into their neighbours.
 
     Returns
     -------
@@ -31,8 +26,8 @@ def plateau_classes(shape01: np.ndarray, count: int, *, pitch_mm: float, options
         return np.zeros(shape01.shape, np.int32)
     thresholds = filters.threshold_multiotsu(shape01, classes=count)
     classes = np.digitize(shape01, thresholds).astype(np.int32)
-    classes = _smooth_outlines(classes, count, options.nozzle_mm / pitch_mm)
-    min_px = max(1, int(np.ceil(options.min_area_mm2 / pitch_mm**2)))
+    classes = _smooth_outlines(classes, count, nozzle_mm / pitch_mm)
+    min_px = max(1, int(np.ceil(min_area_mm2 / pitch_mm**2)))
     for _ in range(4):  # merging can, rarely, leave a new small region: repeat a few times
         classes, merged = _merge_small(classes, min_px)
         if not merged:

@@ -28,6 +28,7 @@ from skimage import exposure, filters
 
 from ..errors import ParameterError, Text
 from .heightmap import heights_mm
+from .levels import plateau_classes
 from .objects import ObjectMap, dome_profile, find_objects
 from .scales import WorkGrid, coarse_gaussian_mm, gaussian_mm, guided_smooth, robust_unit
 
@@ -287,8 +288,6 @@ def _objects(work, pitch_mm, relief_mm, options, found) -> _Made:
 
 
 def _levels(work, pitch_mm, relief_mm, options, found) -> _Made:
-    from .levels import plateau_classes
-
     count, notes = options.level_count, []
     while count > 2 and relief_mm / (count - 1) < MIN_STEP_MM:
         count -= 1
@@ -298,7 +297,7 @@ def _levels(work, pitch_mm, relief_mm, options, found) -> _Made:
             f"{MIN_STEP_MM} mm, which fingers do not tell apart; {count} levels were used."
         ))
     shape, found = structure_shape(work, pitch_mm, options, found)
-    classes = plateau_classes(shape, count, pitch_mm=pitch_mm, options=options)
+    classes = plateau_classes(shape, count, pitch_mm=pitch_mm, nozzle_mm=options.nozzle_mm, min_area_mm2=options.min_area_mm2)
     used = int(np.unique(classes).size)
     if used < count:
         notes.append(f"levels: only {used} of {count} levels are large enough to feel in this picture.")

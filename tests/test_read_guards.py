@@ -1,5 +1,5 @@
-"""Issue 12 §2 and the rest of issue 14: decoded-bytes guard before decoding, preview pages
-skipped (Olympus SIS), DigitalMicrograph TIFF tags, instrument facts, and the full-source mask."""
+"""read.py and clean/: the decoded-bytes guard before decoding, preview pages skipped (Olympus SIS),
+DigitalMicrograph TIFF tags, instrument facts, and the full-source mask."""
 
 import struct
 import time

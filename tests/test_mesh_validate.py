@@ -1,6 +1,6 @@
 """Every written mesh is a closed solid as slicers read it (vertices merged by position), the
 product refuses to write one that is not, the automatic scale bar fits, and every plate carries
-its cut corner. Issue 12 section 1, issue 16 points 4 and 5."""
+its cut corner (mesh/validate.py, with the furniture that every plate carries)."""
 
 import logging
 

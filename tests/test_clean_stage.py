@@ -1,5 +1,5 @@
-"""Issue 14 (microscopy input, second pass) and issue 12 (input hardening): scale bars read from
-real data bands, black margins, EXIF orientation, Ångström and picometre lengths, and more."""
+"""clean/stage.py and what it leans on: scale bars read from real data bands, black margins, EXIF
+orientation, Ångström and picometre lengths, and more."""
 
 import shutil
 

@@ -43,7 +43,10 @@ def run_limited(code: str, *args, limit_gb: float, timeout_s: float = 120) -> tu
     def limit_memory():
         resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
 
-    env = {**os.environ, "PYTHONPATH": SRC, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
+    # A plain environment: the product's own peak, not what another test left in os.environ.
+    keep = ("PATH", "HOME", "LANG", "LC_ALL", "TMPDIR", "TAMP_STRICT")
+    env = {**{k: os.environ[k] for k in keep if k in os.environ},
+           "PYTHONPATH": SRC, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
     proc = subprocess.Popen([PYTHON, "-c", code, *map(str, args)], preexec_fn=limit_memory, env=env,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:

@@ -170,6 +170,8 @@ def make_content(work: np.ndarray, *, pitch_mm: float, relief_mm: float, width_m
     `fallback`, None when the picture holds no population, no line network and no weak-contrast
     specimen (auto then chooses among the other styles, and the shape is not made for nothing)."""
     specimen = find_specimen(work, pitch_mm)
+    if not specimen.any():  # no specimen found (a picture all mount, or flat): the whole picture is the specimen
+        specimen = np.ones_like(specimen)
     hints = hints or ContentHints()
     polarity = content_polarity(work, pitch_mm, None if specimen.all() else specimen, hints.signal)
     x = work if polarity.bright else 1.0 - work

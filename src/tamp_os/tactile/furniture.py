@@ -127,11 +127,13 @@ def _scale_bar(furniture: Furniture, inner_w: float) -> tuple[ScaleBar | None, l
 
 
 MAX_CAPTION_CHARS = 500  # a caption names the picture; longer text belongs in the description
+CAPTION_MIN_ROOM_MM = 40.0  # four braille lines: a thin strip of a picture still takes a title
 
 
 def _caption_lines(furniture: Furniture, cells: int, depth_mm: float) -> list[str]:
     """The caption's braille lines, refused when too long to translate or to fit the plate:
-    its block may be at most as deep as the picture (so the plate never more than doubles)."""
+    its block may be at most as deep as the picture, or four lines for a thin one (so the plate
+    never more than doubles, but by 40 mm)."""
     text = furniture.caption
     if len(text) > MAX_CAPTION_CHARS:
         raise ParameterError(
@@ -140,12 +142,13 @@ def _caption_lines(furniture: Furniture, cells: int, depth_mm: float) -> list[st
         )
     lines = wrap_cells(to_braille(text, furniture.braille_table, what="caption"), max(cells, 1))
     height = block_size_mm(lines, furniture.spec)[1]
-    limit = max(depth_mm, 2 * furniture.spec.line_spacing_mm)
+    limit = max(depth_mm, CAPTION_MIN_ROOM_MM)
     if height > limit:
         fit = max(1, int(len(text) * limit / height))
         raise ParameterError(
-            f"`caption`: {len(lines)} braille lines ({height:.0f} mm) would be deeper than the picture itself "
-            f"({depth_mm:.0f} mm); shorten it to about {fit} characters, or make the print wider."
+            f"`caption`: {len(lines)} braille lines ({height:.0f} mm) would be deeper than the picture itself allows "
+            f"({limit:.0f} mm: the picture's depth, and at least {CAPTION_MIN_ROOM_MM:g} mm); shorten it to about {fit} "
+            f"characters, or make the print wider."
         )
     return lines
 

@@ -88,11 +88,16 @@ class Report:
     legibility: Legibility | None = None  # figures and verdicts
     instrument: Instrument | None = None  # magnification, kv, detector, signal, source when the file records them
     source_px: tuple[int, int] = (0, 0)  # the source image's width and height (where annotations were)
+    key: tuple = ()  # KeyEntry (label, encoding, braille) of a channel print's key; empty otherwise
 
     def as_dict(self) -> dict:
         """The report as a plain dict (JSON-ready), with the keys of the earlier untyped report
         (except `files`: `save()` returns the paths it wrote)."""
         d = {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.name != "source_px"}
+        if self.key:
+            d["key"] = [dataclasses.asdict(e) for e in self.key]
+        else:
+            del d["key"]
         d["tactile"] = self.tactile.as_dict() if self.tactile else None
         d["crop"] = self.crop.as_dict()
         d["annotations"] = [a.describe() for a in self.annotations]

@@ -148,7 +148,7 @@ def shape_ranking(shape: Shape) -> list[str]:
         first = "plateau"  # diffuse: covers much of the picture
     elif shape.elongation >= 2.5 or (shape.roundness < 0.6 and shape.line_score > 0.35):
         first = "ridges"  # elongated structure: filaments
-    elif shape.blob_diam_mm < 1.5:
+    elif shape.blob_diam_mm < 2.0:
         first = "dots"  # blobs smaller than a dome a finger can feel as one
     elif shape.roundness >= 0.75:
         first = "domes"
@@ -201,9 +201,15 @@ def choose(channels: list[ChannelImage], assigned: dict[str, str], mm_per_px: fl
         if enc is None:
             enc, why = by_shape(shapes[c.name]), "shape"
         out.append(ChannelChoice(c.name, enc, why))
-    # two channels with the same encoding would feel alike: later ones take a free encoding by shape
+    # round blobs much smaller than another channel's are spots beside its nuclei
+    dome_diams = [shapes[c.name].blob_diam_mm for c in out if c.encoding == "domes"]
+    out = [ChannelChoice(c.name, "dots", "shape") if c.encoding == "domes" and c.why == "shape"
+           and shapes[c.name].blob_diam_mm < 0.4 * max(dome_diams) else c for c in out]
+    # two channels with the same encoding would feel alike: the ones chosen by shape give way to
+    # those chosen by name or wavelength, and take their next-best encoding
     used = set()
-    for i, ch in enumerate(out):
+    for i in sorted(range(len(out)), key=lambda i: out[i].why == "shape"):
+        ch = out[i]
         if ch.encoding in used:
             free = [e for e in shape_ranking(shapes[ch.name]) if e not in used]
             if free:
@@ -233,9 +239,14 @@ def encode(img: np.ndarray, encoding: str, mm_per_px: float, relief_mm: float, a
     if encoding == "plateau":
         edge = mask & ~ndi.binary_erosion(mask, iterations=max(1, round(0.5 / mm_per_px)))
         return np.where(edge, OUTLINE_SHARE * relief_mm, np.where(mask, top, 0.0)), mask
-    tex = pattern(spec_for(TEXTURE_OF[encoding], angle_deg), img.shape, mm_per_px)
-    # the texture stands on a thin plinth so the region's extent is felt between its features
-    return np.where(mask, 0.15 * relief_mm + (top - 0.15 * relief_mm) * tex, 0.0), mask
+    spec = spec_for(TEXTURE_OF[encoding], angle_deg)
+    tex = pattern(spec, img.shape, mm_per_px)
+    # Structures narrower than the texture's pitch (a filament, a spot) are their own ridge or dot:
+    # they stand at the texture's full height; wider regions carry the texture on a plinth, so the
+    # region's extent is felt between its features.
+    plinth = max(MIN_FEATURE_MM, 0.15 * relief_mm)
+    wide = ndi.binary_opening(mask, structure=morphology.disk(max(1, round(spec.pitch_mm / 2 / mm_per_px))))
+    return np.where(wide, plinth + (top - plinth) * tex, np.where(mask, top, 0.0)), mask
 
 
 def channel_relief(channels: list[ChannelImage], *, mm_per_px: float, base_mm: float, relief_mm: float,
@@ -281,27 +292,33 @@ def is_fluorescence_composite(rgb: np.ndarray) -> bool:
     return bool(np.median(x.mean(axis=2)) < 0.25)
 
 
+DAB_OD = 0.15  # optical density of DAB that is a stain, not the cross-talk H&E leaves in the DAB channel
+DAB_MIN_SHARE = 0.01  # share of the tissue that must be DAB-positive for an IHC slide
+
+
 def stain_channels(rgb: np.ndarray) -> list[ChannelImage]:
-    """Haematoxylin, eosin and DAB densities (0..1 each) by colour deconvolution, white space at 0."""
+    """Haematoxylin and eosin (0..1 each), and DAB when the slide has it, by colour deconvolution; white space at 0."""
     x = rgb[..., :3].astype(np.float64)
     x = x / (255.0 if x.max() > 1.5 else 1.0)
     hed = color.rgb2hed(np.clip(x, 0, 1))
+    tissue = x.mean(axis=2) < 0.85
     out = []
     for i, name in enumerate(("haematoxylin", "eosin", "DAB")):
         v = np.clip(hed[..., i], 0, None)
+        if name == "DAB" and (not tissue.any() or float((v[tissue] > DAB_OD).mean()) < DAB_MIN_SHARE):
+            break
         hi = np.percentile(v, 99.5)
         out.append(ChannelImage(name, (v / hi).clip(0, 1) if hi > 0 else v))
     return out
 
 
 STAIN_ENCODING = {"haematoxylin": "domes", "eosin": "ridges", "DAB": "plateau"}
-STAIN_LABEL = {"haematoxylin": "nuclei (haematoxylin)", "eosin": "tissue (eosin)", "DAB": "DAB positive"}
+STAIN_LABEL = {"haematoxylin": "nuclei", "eosin": "tissue", "DAB": "DAB positive"}
 
 
 def stain_relief(channels: list[ChannelImage], *, mm_per_px: float, base_mm: float, relief_mm: float) -> ChannelRelief:
     """H&E / IHC: nuclei domes, eosin tissue as low ridges, DAB-positive regions raised, white at base."""
-    h, e, d = channels
-    # the nuclear mask: haematoxylin clearly above the tissue's own level
+    h, e = channels[:2]
     tissue = (e.image + h.image) > 0.15
     # haematoxylin tints all tissue: nuclei are where it stands clearly above the tissue's median
     ref = float(np.median(h.image[tissue])) if tissue.any() else 0.0
@@ -310,9 +327,9 @@ def stain_relief(channels: list[ChannelImage], *, mm_per_px: float, base_mm: flo
     assigned = {"haematoxylin": "domes", "eosin": "ridges"}
     notes = []
     chans = [h, ChannelImage("eosin", np.where(tissue, np.maximum(e.image, 0.5), 0.0))]
-    if float((d.image > 0.5).mean()) > 0.005:
+    if len(channels) > 2:
         assigned["dab"] = "plateau"
-        chans.append(d)
+        chans.append(channels[2])
     else:
         notes.append(Text("No DAB stain found (an H&E slide): haematoxylin and eosin are printed."))
     res = channel_relief(chans, mm_per_px=mm_per_px, base_mm=base_mm, relief_mm=relief_mm, assigned=assigned)

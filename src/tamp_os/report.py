@@ -266,6 +266,10 @@ def _what_is_raised(report: Report, params: LithoParams) -> str:
         n = report.legibility.object_count if report.legibility else 0
         return (f"{n} object{'s' if n != 1 else ''} found in the picture stand{'s' if n == 1 else ''} up as rounded domes, "
                 f"up to {up} above the base, over a flat, lightly textured background.")
+    if report.relief_style == "channels" and report.key:
+        entries = "; ".join(f"{e.encoding}: {e.label}" for e in report.key)
+        return (f"Each channel or stain of the picture is its own texture ({entries}), up to {up} above the base. "
+                f"Below the picture, along the near margin, a key shows a swatch of each texture with its label in braille.")
     if report.relief_style == "structure":
         return (f"The {raised} parts of the image are raised, up to {up} above the base, simplified to shapes a "
                 f"fingertip can follow; finer detail is kept only as a low texture.")

@@ -4,15 +4,28 @@ import math
 
 import numpy as np
 import pytest
-
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from conftest import need
+
 from tamp_os.errors import ParameterError
 from tamp_os.mesh.validate import check_solid
 from tamp_os.pipeline import make_lithograph
-from tamp_os.relief.channels import ChannelImage, channel_relief, parse_assignments, stain_channels
+from tamp_os.relief.channels import (
+    ChannelImage,
+    channel_relief,
+    parse_assignments,
+    stain_channels,
+)
 from tamp_os.relief.key3d import KEY_GAP_MM, SWATCH_W_MM
-from tamp_os.relief.textures3d import (DOT_DIAMETER_MM, DOT_PITCH_MM, RIDGE_PITCH_MM, RIDGE_WIDTH_MM, pattern,
-                                        ridge_angle_unlike, spec_for)
+from tamp_os.relief.textures3d import (
+    DOT_PITCH_MM,
+    RIDGE_PITCH_MM,
+    RIDGE_WIDTH_MM,
+    pattern,
+    ridge_angle_unlike,
+    spec_for,
+)
 from tamp_os.standards import BrailleSpec
 from tamp_os.tactile.braille import liblouis_available
 
@@ -44,7 +57,7 @@ def test_textures_differ_by_period_direction_and_height():
     hatch = pattern(spec_for("crosshatch", 0.0), shape, MM)
     smooth = pattern(spec_for("smooth"), shape, MM)
     p0, a0 = _period_and_angle_mm(ridges0)
-    p90, a90 = _period_and_angle_mm(ridges90)
+    _, a90 = _period_and_angle_mm(ridges90)
     assert p0 == pytest.approx(RIDGE_PITCH_MM, rel=0.05) and p0 >= 2.5
     assert abs(a0 - a90) == pytest.approx(90, abs=3)  # ridges along x vary along y, and the other way
     # ridges at least 0.8 mm wide where they stand above half their height... measured across them
@@ -58,7 +71,7 @@ def test_textures_differ_by_period_direction_and_height():
     pd, _ = _period_and_angle_mm(row[None, :].repeat(8, 0))
     assert pd == pytest.approx(DOT_PITCH_MM, rel=0.05) and pd >= 3.0
     # raised share tells them apart: smooth all, hatch more than ridges, dots least
-    cover = {k: float((v > 0.5).mean()) for k, v in dict(smooth=smooth, hatch=hatch, ridges=ridges0, dots=dots).items()}
+    cover = {k: float((v > 0.5).mean()) for k, v in {"smooth": smooth, "hatch": hatch, "ridges": ridges0, "dots": dots}.items()}
     assert cover["smooth"] == 1.0 and cover["hatch"] > cover["ridges"] * 1.5 and cover["dots"] < cover["ridges"]
     # cross-hatch has energy in both directions
     f = np.abs(np.fft.fft2(hatch - hatch.mean()))
@@ -68,7 +81,7 @@ def test_textures_differ_by_period_direction_and_height():
 
 @pytest.mark.timeout(30)
 def test_ridge_direction_unlike_the_pictures_lines():
-    y, x = np.mgrid[0:200, 0:200]
+    y = np.mgrid[0:200, 0:200][0]
     horizontal_lines = (np.sin(y / 3.0) > 0).astype(float)  # lines along x
     assert ridge_angle_unlike(horizontal_lines) == 90.0
     assert ridge_angle_unlike(horizontal_lines.T) == 0.0
@@ -126,7 +139,7 @@ def test_channels_parameter_parsing_and_mistakes():
     assert parse_assignments("auto") == {}
     with pytest.raises(ParameterError, match="channels.*NAME=ENCODING"):
         parse_assignments("DAPI=bumps")
-    nuclei, fil, spots = _synthetic_channels()
+    nuclei = _synthetic_channels()[0]
     with pytest.raises(ParameterError, match="no channel named gfp"):
         channel_relief([ChannelImage("DAPI", nuclei)], mm_per_px=0.3, base_mm=1, relief_mm=3, assigned={"gfp": "ridges"})
 
@@ -190,7 +203,7 @@ def test_real_czi_dapi_gfp(fixture):
     rows_picture = litho.heightmap.shape[0] - (round((r.relief_mm[1] - 100) / r.mm_per_px))
     strip, dots = _key_dots_on_mesh(litho, rows_picture)
     spec = BrailleSpec()
-    assert len(dots) == sum(bin(ord(c) - 0x2800).count("1") for e in r.key for c in e.braille)
+    assert len(dots) == sum((ord(c) - 0x2800).bit_count() for e in r.key for c in e.braille)
     for top, diam in dots:
         assert top == pytest.approx(spec.dot_height_mm, abs=0.08)
         assert diam == pytest.approx(spec.dot_diameter_mm, abs=2.5 * r.mm_per_px)
@@ -238,3 +251,20 @@ def test_real_svs_he_epidermis_raised_white_at_base(fixture):
     assert np.median(h[white]) < 0.1
     assert np.median(h[purple]) >= np.median(h[pink]) + 0.5
     assert float((h[pink] >= 0.5).mean()) > 0.5
+
+
+@pytest.mark.timeout(60)
+@settings(max_examples=60, deadline=None)
+@given(st.dictionaries(st.text(alphabet="ABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789 -", min_size=1, max_size=12).map(str.strip)
+                       .filter(bool), st.sampled_from(("domes", "ridges", "dots", "plateau")), min_size=1, max_size=4))
+def test_assignments_round_trip(assign):
+    text = ",".join(f"{k}={v}" for k, v in assign.items())
+    got = parse_assignments(text)
+    assert got == {k.lower(): v for k, v in assign.items()} or len({k.lower() for k in assign}) < len(assign)
+
+
+@pytest.mark.timeout(120)
+def test_key_labels_mistake_is_one_clear_message():
+    rgb = (np.stack(_synthetic_channels(), axis=-1) * 230).astype(np.uint8)
+    with pytest.raises(ParameterError, match="key_labels.*NAME=LABEL"):
+        make_lithograph(rgb, channels="auto", key_labels="nuclei", width_mm=90)

@@ -13,8 +13,18 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ParameterError, Text
-from .channels import (STAIN_LABEL, ChannelImage, ChannelRelief, KeyEntry, channel_relief, is_fluorescence_composite,
-                       is_stained_brightfield, parse_assignments, stain_channels, stain_relief)
+from .channels import (
+    STAIN_LABEL,
+    ChannelImage,
+    ChannelRelief,
+    KeyEntry,
+    channel_relief,
+    is_fluorescence_composite,
+    is_stained_brightfield,
+    parse_assignments,
+    stain_channels,
+    stain_relief,
+)
 from .preprocess import prepare
 
 

@@ -31,10 +31,10 @@ TOP_SHARE = {"domes": 1.0, "ridges": 0.6, "dots": 0.7, "plateau": 0.3}
 OUTLINE_SHARE = 0.6
 MIN_FEATURE_MM = 0.5
 
-_NUCLEAR = re.compile(r"dapi|hoechst|nuc|draq5|sytox|propidium|\bpi\b|haemat|hemat|h33342", re.I)
-_FILAMENT = re.compile(r"actin|phalloid|tubulin|collagen|shg|vimentin|keratin|filament|mitotracker|fibr", re.I)
-_SPOTS = re.compile(r"lyso|vesic|foci|focus|spot|puncta|endosom|peroxi|gamma ?h2ax|53bp1|fish|rab\d", re.I)
-_DIFFUSE = re.compile(r"cytopl|cellmask|cfse|calcein|eosin|membrane|wga", re.I)
+_NUCLEAR = re.compile(r"dapi|hoechst|nuc|draq5|sytox|propidium|\bpi\b|haemat|hemat|h33342", re.IGNORECASE)
+_FILAMENT = re.compile(r"actin|phalloid|tubulin|collagen|shg|vimentin|keratin|filament|mitotracker|fibr", re.IGNORECASE)
+_SPOTS = re.compile(r"lyso|vesic|foci|focus|spot|puncta|endosom|peroxi|gamma ?h2ax|53bp1|fish|rab\d", re.IGNORECASE)
+_DIFFUSE = re.compile(r"cytopl|cellmask|cfse|calcein|eosin|membrane|wga", re.IGNORECASE)
 
 
 @dataclass(frozen=True)

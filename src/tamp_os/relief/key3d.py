@@ -13,7 +13,7 @@ import math
 import numpy as np
 
 from ..standards import BrailleSpec
-from ..tactile.braille import BLANK, block_size_mm, dot_centres, to_braille, wrap_cells
+from ..tactile.braille import block_size_mm, dot_centres, to_braille, wrap_cells
 from .channels import KeyEntry, encode
 
 KEY_GAP_MM = 3.0
@@ -44,7 +44,7 @@ def _swatch(encoding: str, rows: int, cols: int, mm_per_px: float, relief_mm: fl
 def key_strip(entries: tuple[KeyEntry, ...], *, width_mm: float, mm_per_px: float, relief_mm: float,
               table: str, spec: BrailleSpec | None = None) -> KeyStrip:
     spec = spec or BrailleSpec()
-    cols = int(round(width_mm / mm_per_px)) + 1
+    cols = round(width_mm / mm_per_px) + 1
     text_left_mm = KEY_GAP_MM + SWATCH_W_MM + KEY_GAP_MM
     max_cells = max(1, int((width_mm - text_left_mm - KEY_GAP_MM - spec.dot_spacing_mm - spec.dot_diameter_mm) // spec.cell_spacing_mm) + 1)
     rows_layout, done, y = [], [], KEY_GAP_MM
@@ -63,8 +63,8 @@ def key_strip(entries: tuple[KeyEntry, ...], *, width_mm: float, mm_per_px: floa
     centres = []
     r = spec.dot_diameter_mm / 2
     for e, lines, top, row_h in rows_layout:
-        r0, c0 = int(round((top + (row_h - SWATCH_H_MM) / 2) / mm_per_px)), int(round(KEY_GAP_MM / mm_per_px))
-        sr, sc = int(round(SWATCH_H_MM / mm_per_px)), int(round(SWATCH_W_MM / mm_per_px))
+        r0, c0 = int(round((top + (row_h - SWATCH_H_MM) / 2) / mm_per_px)), round(KEY_GAP_MM / mm_per_px)
+        sr, sc = round(SWATCH_H_MM / mm_per_px), round(SWATCH_W_MM / mm_per_px)
         h[r0:r0 + sr, c0:c0 + sc] = np.maximum(h[r0:r0 + sr, c0:c0 + sc], _swatch(e.encoding, sr, sc, mm_per_px, relief_mm))
         # dot_centres works y-up from top_mm; we work y-down from the strip's top, so mirror it
         _, text_h = block_size_mm(lines, spec)

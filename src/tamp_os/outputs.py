@@ -191,7 +191,7 @@ def file_sha256(path: Path) -> str:
 
 def recipe_dict(litho, files: list[str]) -> dict:
     src = litho.picture.file
-    return {
+    recipe = {
         "tamp_os_version": __version__,
         "input": {"name": src.name, "path": src.path, "sha256": src.sha256},
         "params": litho.params.to_dict(),
@@ -202,6 +202,9 @@ def recipe_dict(litho, files: list[str]) -> dict:
         "versions": dict(dependency_versions()),
         "printer_profile": litho.printer.as_dict(),
     }
+    if litho.report.key:  # a channel print's key (issue 22); other recipes are unchanged
+        recipe["relief"]["key"] = litho.report.as_dict()["key"]
+    return recipe
 
 
 def write_recipe(litho, path: Path, files: list[str]) -> Path:

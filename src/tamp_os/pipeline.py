@@ -25,6 +25,7 @@ from .read import Picture, read_array, read_image
 from .relief.legibility import Legibility, assess
 from .relief.layout import Layout, plan_layout
 from .relief.preprocess import Prepared, prepare
+from .relief.channel_stage import channel_path
 from .relief.styles import ReliefResult, StyleOptions, make_relief
 from .report import Plate, Report
 from .tactile.furniture import Furniture, Placed, add_furniture
@@ -125,6 +126,9 @@ def make_lithograph(source, params: LithoParams | None = None, *, printer_profil
         prepared = _prepare(cleaned, layout, params)
     with clock("relief"):
         relief = _relief(prepared, layout, params, machine, _content_hints(cleaned))
+        key = ()
+        if params.channels:  # several channels, or a stained slide, as textures with a braille key (issue 22)
+            relief, layout, key = channel_path(picture.values if isinstance(source, Picture) else source, relief, layout, params)
         heights = relief.heights_mm
     with clock("legibility"):
         legibility = assess(heights, layout.mm_per_px, nozzle_mm=machine.nozzle_mm, layer_mm=machine.layer_mm,
@@ -148,6 +152,8 @@ def make_lithograph(source, params: LithoParams | None = None, *, printer_profil
     report = _report(picture, cleaned, prepared, layout, params, machine, tactile.mesh, tactile.placed, max_error, timings, later,
                      relief, legibility,
                      find_layout(heights, layout.mm_per_px, params.base_mm, params.relief_mm) if not prepared.uniform else None)
+    if key:
+        report = dataclasses.replace(report, key=key)
     return Lithograph(mesh=tactile.mesh, heightmap=heights, params=params, printer=machine, layout=layout, picture=picture,
                       report=report, furniture=furniture, mask=cleaned.source_mask(), parts=tactile.parts, tiles=tactile.tiles)
 

@@ -93,11 +93,16 @@ class Report:
     instrument: Instrument | None = None  # magnification, kv, detector, signal, source when the file records them
     source_px: tuple[int, int] = (0, 0)  # the source image's width and height (where annotations were)
     layout: "ReliefLayout | None" = None  # where the raised pieces are (layout_words.py), for the description
+    key: tuple = ()  # KeyEntry (label, encoding, braille) of a channel print's key; empty otherwise
 
     def as_dict(self) -> dict:
         """The report as a plain dict (JSON-ready), with the keys of the earlier untyped report
         (except `files`: `save()` returns the paths it wrote)."""
         d = {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.name != "source_px"}
+        if self.key:
+            d["key"] = [dataclasses.asdict(e) for e in self.key]
+        else:
+            del d["key"]
         d["tactile"] = self.tactile.as_dict() if self.tactile else None
         d["crop"] = self.crop.as_dict()
         d["annotations"] = [a.describe() for a in self.annotations]
@@ -373,6 +378,10 @@ def _what_is_raised(report: Report, params: LithoParams) -> str:
 
         return (f"{count_words(n, 'object').capitalize()} found in the picture {'stands' if n == 1 else 'stand'} up as "
                 f"rounded domes, up to {up} above the base, over a flat, lightly textured background.")
+    if report.relief_style == "channels" and report.key:
+        entries = "; ".join(f"{e.encoding}: {e.label}" for e in report.key)
+        return (f"Each channel or stain of the picture is its own texture ({entries}), up to {up} above the base. "
+                f"Below the picture, along the near margin, a key shows a swatch of each texture with its label in braille.")
     if report.relief_style == "structure":
         return (f"The {raised} parts of the image are raised, up to {up} above the base, simplified to shapes a "
                 f"fingertip can follow; finer detail is kept only as a low texture.")

@@ -1,0 +1,337 @@
+"""Several channels (or a stained brightfield RGB) -> one relief where each channel is a texture.
+
+A nuclear stain becomes smooth domes, filaments parallel ridges, small spots dots, diffuse
+cytoplasm a low plateau with a raised outline. The encoding comes from the channel's name or
+wavelengths where the file records them, else from the measured shape (a ridge filter's response
+against a blob detector's). H&E / IHC brightfield slides are split by colour deconvolution
+(Ruifrok & Johnston, skimage.color.rgb2hed) into haematoxylin, eosin and DAB.
+"""
+
+from __future__ import annotations
+
+import logging
+import re
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import ndimage as ndi
+from skimage import color, filters, morphology
+
+from ..errors import ParameterError, Text
+from .textures3d import MAX_TEXTURES, pattern, ridge_angle_unlike, spec_for
+
+log = logging.getLogger(__name__)
+
+ENCODINGS = ("domes", "ridges", "dots", "plateau")
+TEXTURE_OF = {"domes": "smooth", "ridges": "ridges", "dots": "dots", "plateau": "smooth"}
+DEFAULT_MAX_CHANNELS = 3
+# Heights of each encoding's top above the base, as a share of relief_mm (domes highest, so
+# nuclei stay the first thing found; textures at least 0.5 mm so a finger tells them from base).
+TOP_SHARE = {"domes": 1.0, "ridges": 0.6, "dots": 0.7, "plateau": 0.3}
+OUTLINE_SHARE = 0.6
+MIN_FEATURE_MM = 0.5
+
+_NUCLEAR = re.compile(r"dapi|hoechst|nuc|draq5|sytox|propidium|\bpi\b|haemat|hemat|h33342", re.IGNORECASE)
+_FILAMENT = re.compile(r"actin|phalloid|tubulin|collagen|shg|vimentin|keratin|filament|mitotracker|fibr", re.IGNORECASE)
+_SPOTS = re.compile(r"lyso|vesic|foci|focus|spot|puncta|endosom|peroxi|gamma ?h2ax|53bp1|fish|rab\d", re.IGNORECASE)
+_DIFFUSE = re.compile(r"cytopl|cellmask|cfse|calcein|eosin|membrane|wga", re.IGNORECASE)
+
+
+@dataclass(frozen=True)
+class ChannelImage:
+    """One channel on the print grid: name, 0..1 values (rows, cols), wavelengths where known."""
+
+    name: str
+    image: np.ndarray
+    excitation_nm: float | None = None
+    emission_nm: float | None = None
+
+
+@dataclass(frozen=True)
+class KeyEntry:
+    """One line of the print's key: what a texture means, and how it is written in braille."""
+
+    label: str
+    encoding: str
+    braille: str = ""
+
+
+@dataclass(frozen=True)
+class ChannelChoice:
+    name: str
+    encoding: str
+    why: str  # "name", "wavelength", "shape" or "asked"
+
+
+@dataclass
+class ChannelRelief:
+    """What the channel path made: heights, the encodings chosen, the masks raised, and notes."""
+
+    heights_mm: np.ndarray
+    choices: list[ChannelChoice]
+    masks: dict[str, np.ndarray]
+    notes: list[str] = field(default_factory=list)
+
+
+def parse_assignments(text: str | None) -> dict[str, str]:
+    """`"DAPI=domes,GFP=ridges"` -> {"dapi": "domes", "gfp": "ridges"} (names case-free)."""
+    if not text or text.strip().lower() == "auto":
+        return {}
+    out = {}
+    for part in text.split(","):
+        if not part.strip():
+            continue
+        name, sep, enc = part.partition("=")
+        enc = enc.strip().lower()
+        if not sep or not name.strip() or enc not in ENCODINGS:
+            raise ParameterError(Text(
+                f"`channels`: {part.strip()!r} is not NAME=ENCODING; write e.g. \"DAPI=domes,GFP=ridges\" "
+                f"with an encoding among {', '.join(ENCODINGS)}, or auto."))
+        out[name.strip().lower()] = enc
+    if len(set(out.values())) > MAX_TEXTURES:
+        raise ParameterError(Text(f"`channels`: at most {MAX_TEXTURES} encodings on one print; a finger does not tell more apart."))
+    return out
+
+
+def _by_name(name: str) -> str | None:
+    for rx, enc in ((_NUCLEAR, "domes"), (_FILAMENT, "ridges"), (_SPOTS, "dots"), (_DIFFUSE, "plateau")):
+        if rx.search(name):
+            return enc
+    return None
+
+
+def _by_wavelength(ex: float | None, em: float | None) -> str | None:
+    # DAPI / Hoechst: excited near 350-405 nm, emitting 440-470 nm
+    if (ex is not None and ex <= 410) or (em is not None and 430 <= em <= 470):
+        return "domes"
+    return None
+
+
+@dataclass(frozen=True)
+class Shape:
+    """Measured shape of a channel: how line-like, how blob-like, typical blob size, how much structure."""
+
+    line_score: float  # share of the foreground whose ridge-filter response dominates
+    blob_diam_mm: float  # median equivalent diameter of foreground components
+    roundness: float  # median area / convex area of the components
+    foreground: float  # share of the picture in the foreground
+    structure: float  # contrast of the channel: the spread of its values
+    elongation: float = 1.0  # median major / minor axis of the components
+
+
+def measure_shape(image: np.ndarray, mm_per_px: float) -> Shape:
+    from skimage import measure
+
+    img = image.astype(np.float64)
+    mask = foreground(img)
+    fg = float(mask.mean())
+    if not mask.any():
+        return Shape(0.0, 0.0, 0.0, 0.0, 0.0)
+    sigma_px = max(1.0, 0.6 / mm_per_px)
+    ridge = filters.sato(img, sigmas=[sigma_px], black_ridges=False)
+    line_score = float((ridge[mask] > 0.5 * np.percentile(ridge[mask], 95)).mean()) if ridge[mask].max() > 0 else 0.0
+    labels = measure.label(mask)
+    props = measure.regionprops(labels)
+    areas = np.array([p.area for p in props], float)
+    big = [p for p in props if p.area >= 4]
+    diam = float(np.median([p.equivalent_diameter_area for p in big])) * mm_per_px if big else 0.0
+    solid = float(np.median([p.solidity for p in big])) if big else 0.0
+    structure = float(np.percentile(img, 99) - np.percentile(img, 50))
+    elong = float(np.median([p.axis_major_length / max(p.axis_minor_length, 1.0) for p in big])) if big else 1.0
+    del areas
+    return Shape(line_score, diam, solid, fg, structure, elong)
+
+
+def shape_ranking(shape: Shape) -> list[str]:
+    """Encodings from the most to the least fitting for this measured shape."""
+    if shape.foreground > 0.45:
+        first = "plateau"  # diffuse: covers much of the picture
+    elif shape.elongation >= 2.5 or (shape.roundness < 0.6 and shape.line_score > 0.35):
+        first = "ridges"  # elongated structure: filaments
+    elif shape.blob_diam_mm < 2.0:
+        first = "dots"  # blobs smaller than a dome a finger can feel as one
+    elif shape.roundness >= 0.75:
+        first = "domes"
+    else:
+        first = "plateau"
+    rest = ["dots", "plateau", "ridges", "domes"] if shape.foreground < 0.2 else ["plateau", "ridges", "dots", "domes"]
+    return [first] + [e for e in rest if e != first]
+
+
+def by_shape(shape: Shape) -> str:
+    return shape_ranking(shape)[0]
+
+
+def foreground(img: np.ndarray) -> np.ndarray:
+    """Where the channel has signal: Otsu threshold of the lightly smoothed channel, small specks dropped."""
+    if float(img.max() - img.min()) < 1e-6:
+        return np.zeros(img.shape, bool)
+    smooth = filters.gaussian(img, 1.0)
+    t = filters.threshold_otsu(smooth)
+    mask = smooth > t
+    return morphology.remove_small_objects(mask, max_size=8)
+
+
+def choose(channels: list[ChannelImage], assigned: dict[str, str], mm_per_px: float,
+           max_channels: int = DEFAULT_MAX_CHANNELS) -> tuple[list[ChannelChoice], list[str]]:
+    """An encoding for each channel kept; a note when some are left out."""
+    notes = []
+    if assigned:
+        keep = [c for c in channels if c.name.lower() in assigned]
+        unknown = sorted(set(assigned) - {c.name.lower() for c in channels})
+        if unknown:
+            raise ParameterError(Text(
+                f"`channels`: no channel named {', '.join(unknown)} in this picture; its channels are "
+                f"{', '.join(c.name for c in channels)}."))
+        return [ChannelChoice(c.name, assigned[c.name.lower()], "asked") for c in keep], notes
+    shapes = {c.name: measure_shape(c.image, mm_per_px) for c in channels}
+    kept = channels
+    if len(channels) > max_channels:
+        kept = sorted(channels, key=lambda c: -shapes[c.name].structure)[:max_channels]
+        dropped = [c.name for c in channels if c not in kept]
+        kept = [c for c in channels if c in kept]
+        notes.append(Text(f"The picture has {len(channels)} channels; the {max_channels} with most structure are printed "
+                          f"({', '.join(c.name for c in kept)}); left out: {', '.join(dropped)}. "
+                          f"Choose others with `channels`."))
+    out = []
+    for c in kept:
+        enc, why = _by_name(c.name), "name"
+        if enc is None:
+            enc, why = _by_wavelength(c.excitation_nm, c.emission_nm), "wavelength"
+        if enc is None:
+            enc, why = by_shape(shapes[c.name]), "shape"
+        out.append(ChannelChoice(c.name, enc, why))
+    # round blobs much smaller than another channel's are spots beside its nuclei
+    dome_diams = [shapes[c.name].blob_diam_mm for c in out if c.encoding == "domes"]
+    out = [ChannelChoice(c.name, "dots", "shape") if c.encoding == "domes" and c.why == "shape"
+           and shapes[c.name].blob_diam_mm < 0.4 * max(dome_diams) else c for c in out]
+    # two channels with the same encoding would feel alike: the ones chosen by shape give way to
+    # those chosen by name or wavelength, and take their next-best encoding
+    used = set()
+    for i in sorted(range(len(out)), key=lambda i: out[i].why == "shape"):
+        ch = out[i]
+        if ch.encoding in used:
+            free = [e for e in shape_ranking(shapes[ch.name]) if e not in used]
+            if free:
+                out[i] = ChannelChoice(ch.name, free[0], "distinct")
+        used.add(out[i].encoding)
+    return out, notes
+
+
+def _domes(img: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """Smooth domes over each blob: the square root of the normalized distance to its edge."""
+    dist = ndi.distance_transform_edt(mask)
+    labels, n = ndi.label(mask)
+    if n == 0:
+        return np.zeros(mask.shape)
+    peak = ndi.maximum(dist, labels, index=np.arange(1, n + 1))
+    peak_px = np.concatenate([[1.0], np.maximum(peak, 1.0)])[labels]
+    return np.where(mask, np.sqrt(np.clip(dist / peak_px, 0, 1)), 0.0)
+
+
+def encode(img: np.ndarray, encoding: str, mm_per_px: float, relief_mm: float, angle_deg: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """(relief above the base in mm, mask of the region raised) for one channel."""
+    mask = foreground(img)
+    top = TOP_SHARE[encoding] * relief_mm
+    if encoding == "domes":
+        h = _domes(img, mask)
+        return MIN_FEATURE_MM * mask + (top - MIN_FEATURE_MM) * h, mask
+    if encoding == "plateau":
+        edge = mask & ~ndi.binary_erosion(mask, iterations=max(1, round(0.5 / mm_per_px)))
+        return np.where(edge, OUTLINE_SHARE * relief_mm, np.where(mask, top, 0.0)), mask
+    spec = spec_for(TEXTURE_OF[encoding], angle_deg)
+    tex = pattern(spec, img.shape, mm_per_px)
+    # Structures narrower than the texture's pitch (a filament, a spot) are their own ridge or dot:
+    # they stand at the texture's full height; wider regions carry the texture on a plinth, so the
+    # region's extent is felt between its features.
+    plinth = max(MIN_FEATURE_MM, 0.15 * relief_mm)
+    wide = ndi.binary_opening(mask, structure=morphology.disk(max(1, round(spec.pitch_mm / 2 / mm_per_px))))
+    return np.where(wide, plinth + (top - plinth) * tex, np.where(mask, top, 0.0)), mask
+
+
+def channel_relief(channels: list[ChannelImage], *, mm_per_px: float, base_mm: float, relief_mm: float,
+                   assigned: dict[str, str] | None = None, max_channels: int = DEFAULT_MAX_CHANNELS) -> ChannelRelief:
+    """Heights in mm (base included) where each chosen channel's region carries its texture.
+
+    Where regions overlap the higher layer wins (domes over dots over ridges over plateau), so
+    nuclei are never hidden by cytoplasm.
+    """
+    if relief_mm * min(TOP_SHARE.values()) < MIN_FEATURE_MM and relief_mm < 1.7:
+        raise ParameterError(Text(f"`relief_mm` {relief_mm:g} mm is too low for channel textures (each needs "
+                                  f"≥{MIN_FEATURE_MM:g} mm); use at least 1.7 mm."))
+    choices, notes = choose(channels, assigned or {}, mm_per_px, max_channels)
+    by_name = {c.name: c for c in channels}
+    heights = np.zeros(channels[0].image.shape)
+    masks = {}
+    order = sorted(choices, key=lambda ch: ("plateau", "ridges", "dots", "domes").index(ch.encoding))
+    line_picture = np.max([by_name[ch.name].image for ch in choices], axis=0) if choices else heights
+    angle = ridge_angle_unlike(line_picture)
+    for ch in order:
+        h, mask = encode(by_name[ch.name].image, ch.encoding, mm_per_px, relief_mm, angle)
+        heights = np.where(mask, h, heights) if ch.encoding == "domes" else np.maximum(heights, h)
+        masks[ch.name] = mask
+    return ChannelRelief(base_mm + heights, choices, masks, notes)
+
+
+# ---- brightfield stains ---------------------------------------------------------------
+
+def is_stained_brightfield(rgb: np.ndarray) -> bool:
+    """A stained slide: mostly bright background, with purple/pink/brown (not grey) tissue."""
+    x = rgb[..., :3].astype(np.float64)
+    x = x / (255.0 if x.max() > 1.5 else 1.0)
+    lum = x.mean(axis=2)
+    sat = x.max(axis=2) - x.min(axis=2)
+    tissue = lum < 0.85
+    return bool(np.median(lum) > 0.6 and tissue.mean() > 0.02 and np.median(sat[tissue]) > 0.08) if tissue.any() else False
+
+
+def is_fluorescence_composite(rgb: np.ndarray) -> bool:
+    """A fluorescence composite: a dark background with coloured signal."""
+    x = rgb[..., :3].astype(np.float64)
+    x = x / (255.0 if x.max() > 1.5 else 1.0)
+    return bool(np.median(x.mean(axis=2)) < 0.25)
+
+
+DAB_OD = 0.15  # optical density of DAB that is a stain, not the cross-talk H&E leaves in the DAB channel
+DAB_MIN_SHARE = 0.01  # share of the tissue that must be DAB-positive for an IHC slide
+
+
+def stain_channels(rgb: np.ndarray) -> list[ChannelImage]:
+    """Haematoxylin and eosin (0..1 each), and DAB when the slide has it, by colour deconvolution; white space at 0."""
+    x = rgb[..., :3].astype(np.float64)
+    x = x / (255.0 if x.max() > 1.5 else 1.0)
+    hed = color.rgb2hed(np.clip(x, 0, 1))
+    tissue = x.mean(axis=2) < 0.85
+    out = []
+    for i, name in enumerate(("haematoxylin", "eosin", "DAB")):
+        v = np.clip(hed[..., i], 0, None)
+        if name == "DAB" and (not tissue.any() or float((v[tissue] > DAB_OD).mean()) < DAB_MIN_SHARE):
+            break
+        hi = np.percentile(v, 99.5)
+        out.append(ChannelImage(name, (v / hi).clip(0, 1) if hi > 0 else v))
+    return out
+
+
+STAIN_ENCODING = {"haematoxylin": "domes", "eosin": "ridges", "DAB": "plateau"}
+STAIN_LABEL = {"haematoxylin": "nuclei", "eosin": "tissue", "DAB": "DAB positive"}
+
+
+def stain_relief(channels: list[ChannelImage], *, mm_per_px: float, base_mm: float, relief_mm: float) -> ChannelRelief:
+    """H&E / IHC: nuclei domes, eosin tissue as low ridges, DAB-positive regions raised, white at base."""
+    h, e = channels[:2]
+    tissue = (e.image + h.image) > 0.15
+    # haematoxylin tints all tissue: nuclei are where it stands clearly above the tissue's median
+    ref = float(np.median(h.image[tissue])) if tissue.any() else 0.0
+    top = float(np.percentile(h.image, 99.5))
+    h = ChannelImage("haematoxylin", np.clip((h.image - ref) / max(top - ref, 1e-6), 0, 1))
+    assigned = {"haematoxylin": "domes", "eosin": "ridges"}
+    notes = []
+    chans = [h, ChannelImage("eosin", np.where(tissue, np.maximum(e.image, 0.5), 0.0))]
+    if len(channels) > 2:
+        assigned["dab"] = "plateau"
+        chans.append(channels[2])
+    else:
+        notes.append(Text("No DAB stain found (an H&E slide): haematoxylin and eosin are printed."))
+    res = channel_relief(chans, mm_per_px=mm_per_px, base_mm=base_mm, relief_mm=relief_mm, assigned=assigned)
+    res.notes[:0] = notes
+    return res

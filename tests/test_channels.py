@@ -1,0 +1,270 @@
+"""Issue 22: channels and stains as textures, with a braille key; measured on the printed heights."""
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from conftest import need
+
+from tamp_os.errors import ParameterError
+from tamp_os.mesh.validate import check_solid
+from tamp_os.pipeline import make_lithograph
+from tamp_os.relief.channels import (
+    ChannelImage,
+    channel_relief,
+    parse_assignments,
+    stain_channels,
+)
+from tamp_os.relief.key3d import KEY_GAP_MM, SWATCH_W_MM
+from tamp_os.relief.textures3d import (
+    DOT_PITCH_MM,
+    RIDGE_PITCH_MM,
+    RIDGE_WIDTH_MM,
+    pattern,
+    ridge_angle_unlike,
+    spec_for,
+)
+from tamp_os.standards import BrailleSpec
+from tamp_os.tactile.braille import liblouis_available
+
+MM = 0.1  # grid pitch of the texture tests
+
+
+def _period_and_angle_mm(tex: np.ndarray) -> tuple[float, float]:
+    """Strongest spatial period (mm) and its wave direction (degrees, image y down) by FFT."""
+    f = np.abs(np.fft.fftshift(np.fft.fft2(tex - tex.mean())))
+    r, c = np.unravel_index(np.argmax(f), f.shape)
+    fy = (r - f.shape[0] // 2) / (f.shape[0] * MM)
+    fx = (c - f.shape[1] // 2) / (f.shape[1] * MM)
+    return 1.0 / math.hypot(fx, fy), math.degrees(math.atan2(fy, fx)) % 180
+
+
+def _widths_mm(profile: np.ndarray) -> list[float]:
+    """Lengths (mm) of the runs where a 1-D profile is raised above half height."""
+    on = np.concatenate([[0], (profile > 0.5).astype(int), [0]])
+    starts, ends = np.flatnonzero(np.diff(on) == 1), np.flatnonzero(np.diff(on) == -1)
+    return [(e - s) * MM for s, e in zip(starts, ends)][1:-1]
+
+
+@pytest.mark.timeout(60)
+def test_textures_differ_by_period_direction_and_height():
+    shape = (400, 400)
+    ridges0 = pattern(spec_for("ridges", 0.0), shape, MM)
+    ridges90 = pattern(spec_for("ridges", 90.0), shape, MM)
+    dots = pattern(spec_for("dots"), shape, MM)
+    hatch = pattern(spec_for("crosshatch", 0.0), shape, MM)
+    smooth = pattern(spec_for("smooth"), shape, MM)
+    p0, a0 = _period_and_angle_mm(ridges0)
+    _, a90 = _period_and_angle_mm(ridges90)
+    assert p0 == pytest.approx(RIDGE_PITCH_MM, rel=0.05) and p0 >= 2.5
+    assert abs(a0 - a90) == pytest.approx(90, abs=3)  # ridges along x vary along y, and the other way
+    # ridges at least 0.8 mm wide where they stand above half their height... measured across them
+    widths = _widths_mm(ridges0[:, 200])
+    assert widths and min(widths) >= 0.6 and np.median(widths) == pytest.approx(RIDGE_WIDTH_MM / 2 * 1.33, rel=0.25)
+    # dots: at least 1.5 mm across at their foot, ≥3 mm apart along a row
+    row = dots[0, :]
+    foot = np.concatenate([[0], (row > 0).astype(int), [0]])
+    feet = (np.flatnonzero(np.diff(foot) == -1) - np.flatnonzero(np.diff(foot) == 1)) * MM
+    assert np.median(feet[1:-1]) >= 1.5 - MM
+    pd, _ = _period_and_angle_mm(row[None, :].repeat(8, 0))
+    assert pd == pytest.approx(DOT_PITCH_MM, rel=0.05) and pd >= 3.0
+    # raised share tells them apart: smooth all, hatch more than ridges, dots least
+    cover = {k: float((v > 0.5).mean()) for k, v in {"smooth": smooth, "hatch": hatch, "ridges": ridges0, "dots": dots}.items()}
+    assert cover["smooth"] == 1.0 and cover["hatch"] > cover["ridges"] * 1.5 and cover["dots"] < cover["ridges"]
+    # cross-hatch has energy in both directions
+    f = np.abs(np.fft.fft2(hatch - hatch.mean()))
+    k = round(400 * MM / 3.0)
+    assert f[k, 0] > 0.2 * f.max() and f[0, k] > 0.2 * f.max()
+
+
+@pytest.mark.timeout(30)
+def test_ridge_direction_unlike_the_pictures_lines():
+    y = np.mgrid[0:200, 0:200][0]
+    horizontal_lines = (np.sin(y / 3.0) > 0).astype(float)  # lines along x
+    assert ridge_angle_unlike(horizontal_lines) == 90.0
+    assert ridge_angle_unlike(horizontal_lines.T) == 0.0
+
+
+def _synthetic_channels(rows=300, cols=300):
+    """Three channels with known shapes: big round nuclei, long thin filaments, small spots."""
+    yy, xx = np.mgrid[0:rows, 0:cols]
+    nuclei = np.zeros((rows, cols))
+    for cy, cx in [(60, 60), (60, 200), (200, 100), (220, 240)]:
+        nuclei[(yy - cy) ** 2 + (xx - cx) ** 2 < 25 ** 2] = 1.0
+    fil = np.zeros((rows, cols))
+    for k in range(6):
+        fil[np.abs(yy - (0.4 * xx + 30 + 45 * k)) < 2.0] = 1.0
+    rng = np.random.default_rng(3)
+    spots = np.zeros((rows, cols))
+    for cy, cx in rng.integers(10, rows - 10, size=(60, 2)):
+        spots[(yy - cy) ** 2 + (xx - cx) ** 2 < 2.5 ** 2] = 1.0
+    return nuclei, fil, spots
+
+
+@pytest.mark.timeout(60)
+def test_encodings_from_measured_shape_and_heights():
+    nuclei, fil, spots = _synthetic_channels()
+    mm = 0.3
+    chans = [ChannelImage("channel 0", nuclei), ChannelImage("channel 1", fil), ChannelImage("channel 2", spots)]
+    res = channel_relief(chans, mm_per_px=mm, base_mm=1.0, relief_mm=3.0)
+    enc = {c.name: c.encoding for c in res.choices}
+    assert enc == {"channel 0": "domes", "channel 1": "ridges", "channel 2": "dots"}
+    h = res.heights_mm - 1.0
+    core = nuclei > 0
+    assert np.median(h[core]) >= 1.5 and h[core].max() == pytest.approx(3.0, abs=0.05)  # domes stand highest
+    assert float((h[(fil > 0) & ~core] >= 0.5).mean()) > 0.5
+    assert float((h[(spots > 0) & ~core] >= 0.5).mean()) > 0.5
+    from scipy import ndimage as ndi
+
+    background = ~ndi.binary_dilation((nuclei + fil + spots) > 0, iterations=2)  # the masks' edges are blurred by a pixel
+    assert float(np.abs(h[background]).max()) < 0.05  # background at the base
+
+
+@pytest.mark.timeout(30)
+def test_names_and_wavelengths_decide_before_shape():
+    nuclei, fil, spots = _synthetic_channels()
+    chans = [ChannelImage("Hoechst 33342", spots), ChannelImage("Phalloidin-488", nuclei), ChannelImage("x", fil, 405.0, 455.0)]
+    res = channel_relief(chans, mm_per_px=0.3, base_mm=1.0, relief_mm=3.0)
+    got = {c.name: (c.encoding, c.why) for c in res.choices}
+    assert got["Hoechst 33342"] == ("domes", "name")
+    assert got["Phalloidin-488"] == ("ridges", "name")
+    assert got["x"][1] in ("wavelength", "distinct")
+
+
+@pytest.mark.timeout(30)
+def test_channels_parameter_parsing_and_mistakes():
+    assert parse_assignments("DAPI=domes, GFP=ridges") == {"dapi": "domes", "gfp": "ridges"}
+    assert parse_assignments("auto") == {}
+    with pytest.raises(ParameterError, match="channels.*NAME=ENCODING"):
+        parse_assignments("DAPI=bumps")
+    nuclei = _synthetic_channels()[0]
+    with pytest.raises(ParameterError, match="no channel named gfp"):
+        channel_relief([ChannelImage("DAPI", nuclei)], mm_per_px=0.3, base_mm=1, relief_mm=3, assigned={"gfp": "ridges"})
+
+
+@pytest.mark.timeout(120)
+def test_rgb_fluorescence_composite_split_by_colour_with_key():
+    need(liblouis_available(), "liblouis (braille key)")
+    nuclei, fil, spots = _synthetic_channels()
+    rgb = np.stack([fil, spots, nuclei], axis=-1) * 230  # dark background, colour per structure
+    litho = make_lithograph(rgb.astype(np.uint8), channels="auto", width_mm=90)
+    r = litho.report
+    assert r.relief_style == "channels"
+    enc = {e.encoding: e.label for e in r.key}
+    assert set(enc) == {"domes", "ridges", "dots"}
+    assert "blue" in enc["domes"] and "red" in enc["ridges"]
+    assert [e["label"] for e in r.as_dict()["key"]] == [e.label for e in r.key]
+    check = check_solid(litho.mesh)
+    assert check.ok, check.problems
+    assert r.relief_mm[1] > 90 + 10  # the plate grew to hold the key
+    assert any("grew" in str(w) for w in r.warnings)
+
+
+@pytest.mark.timeout(60)
+def test_no_key_entry_without_channels():
+    litho = make_lithograph(np.eye(64), width_mm=40)
+    assert "key" not in litho.report.as_dict()
+
+
+def _key_dots_on_mesh(litho, rows_picture):
+    """Heights above the base of the mesh at each key braille dot's expected centre, and the dot's diameter."""
+    from tamp_os.relief.key3d import key_strip
+
+    r, spec = litho.report, BrailleSpec()
+    mm = r.mm_per_px
+    strip = key_strip(r.key, width_mm=r.relief_mm[0], mm_per_px=mm, relief_mm=litho.params.relief_mm,
+                      table=litho.params.braille_table)
+    ox, oy = r.tactile.relief_origin_mm if r.tactile else (0.0, 0.0)
+    depth = r.relief_mm[1]
+    v = litho.mesh.vertices
+    out = []
+    for x, y_dn in strip.dot_centres_mm:
+        X, Y = ox + x, oy + depth - ((rows_picture - 1) * mm + y_dn)
+        near = v[np.hypot(v[:, 0] - X, v[:, 1] - Y) < spec.dot_diameter_mm]
+        base = litho.params.base_mm
+        top = near[:, 2].max() - base
+        raised = near[near[:, 2] - base > 0.1 * spec.dot_height_mm]
+        diam = 2 * np.hypot(raised[:, 0] - X, raised[:, 1] - Y).max() if len(raised) else 0.0
+        out.append((top, diam))
+    return strip, out
+
+
+@pytest.mark.timeout(300)
+def test_real_czi_dapi_gfp(fixture):
+    need(liblouis_available(), "liblouis (braille key)")
+    litho = make_lithograph(fixture("real/zeiss_dapi_gfp_2ch.czi"), channels="auto", width_mm=100)
+    r = litho.report
+    choice = {e.label: e.encoding for e in r.key}
+    assert choice["nuclei (DAPI)"] == "domes"
+    assert "domes: nuclei (DAPI)" in r.relief_reason
+    assert check_solid(litho.mesh).ok
+    rows_picture = litho.heightmap.shape[0] - (round((r.relief_mm[1] - 100) / r.mm_per_px))
+    strip, dots = _key_dots_on_mesh(litho, rows_picture)
+    spec = BrailleSpec()
+    assert len(dots) == sum((ord(c) - 0x2800).bit_count() for e in r.key for c in e.braille)
+    for top, diam in dots:
+        assert top == pytest.approx(spec.dot_height_mm, abs=0.08)
+        assert diam == pytest.approx(spec.dot_diameter_mm, abs=2.5 * r.mm_per_px)
+    # every dot at least KEY_GAP_MM from the swatches
+    for x, _ in strip.dot_centres_mm:
+        assert x - spec.dot_diameter_mm / 2 >= KEY_GAP_MM + SWATCH_W_MM + KEY_GAP_MM - 1e-9
+
+
+@pytest.mark.timeout(300)
+def test_real_nd2_four_channels_three_printed(fixture):
+    need(liblouis_available(), "liblouis (braille key)")
+    litho = make_lithograph(fixture("real/nikon_pbmc_4ch.nd2"), channels="auto", width_mm=80)
+    r = litho.report
+    assert len(r.key) == 3
+    assert any("4 channels" in str(w) and "left out" in str(w) for w in r.warnings)
+    assert {e.label: e.encoding for e in r.key}["nuclei (DAPI)"] == "domes"
+    assert check_solid(litho.mesh).ok
+    one = make_lithograph(fixture("real/nikon_pbmc_4ch.nd2"), channels="DAPI=domes,FITC BP=ridges", width_mm=80)
+    assert [(e.label, e.encoding) for e in one.report.key] == [("nuclei (DAPI)", "domes"), ("filaments (FITC BP)", "ridges")]
+
+
+@pytest.mark.timeout(400)
+def test_real_svs_he_epidermis_raised_white_at_base(fixture):
+    need(liblouis_available(), "liblouis (braille key)")
+    from skimage.transform import resize
+
+    from tamp_os.vendor_read import read_channels
+
+    path = fixture("real/aperio_cmu1_he_skin.svs")
+    litho = make_lithograph(path, channels="auto", width_mm=100)
+    r = litho.report
+    assert [e.encoding for e in r.key] == ["domes", "ridges"]  # H&E: no DAB
+    assert check_solid(litho.mesh).ok
+    # the source's colours on the picture's grid: white space, purple (epidermis) and pink (dermis)
+    rgb = np.stack([c.values for c in read_channels(path)], axis=-1) / 255.0
+    rows_picture = round(100 * rgb.shape[0] / rgb.shape[1] / r.mm_per_px) + 1
+    h = litho.heightmap[:rows_picture] - litho.params.base_mm
+    small = resize(rgb, h.shape + (3,), anti_aliasing=True)
+    white = small.mean(axis=2) > 0.85
+    assert float(white.mean()) == pytest.approx(0.68, abs=0.06)
+    hed = stain_channels(small)
+    tissue = ~white
+    purple = tissue & (hed[0].image > np.percentile(hed[0].image[tissue], 80))
+    pink = tissue & (hed[0].image < np.percentile(hed[0].image[tissue], 40))
+    assert np.median(h[white]) < 0.1
+    assert np.median(h[purple]) >= np.median(h[pink]) + 0.5
+    assert float((h[pink] >= 0.5).mean()) > 0.5
+
+
+@pytest.mark.timeout(60)
+@settings(max_examples=60, deadline=None)
+@given(st.dictionaries(st.text(alphabet="ABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789 -", min_size=1, max_size=12).map(str.strip)
+                       .filter(bool), st.sampled_from(("domes", "ridges", "dots", "plateau")), min_size=1, max_size=4))
+def test_assignments_round_trip(assign):
+    text = ",".join(f"{k}={v}" for k, v in assign.items())
+    got = parse_assignments(text)
+    assert got == {k.lower(): v for k, v in assign.items()} or len({k.lower() for k in assign}) < len(assign)
+
+
+@pytest.mark.timeout(120)
+def test_key_labels_mistake_is_one_clear_message():
+    rgb = (np.stack(_synthetic_channels(), axis=-1) * 230).astype(np.uint8)
+    with pytest.raises(ParameterError, match="key_labels.*NAME=LABEL"):
+        make_lithograph(rgb, channels="auto", key_labels="nuclei", width_mm=90)

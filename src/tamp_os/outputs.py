@@ -34,7 +34,8 @@ def metadata(litho) -> dict:
     """Title, description, designer and application, for formats that carry them (3MF, GLB)."""
     return {
         "title": f"Tactile lithograph of {litho.picture.file.name}",
-        "description": " ".join([describe(litho.report, litho.params, litho.picture.file.name), *multipart_sentences(litho)]),
+        "description": " ".join([getattr(litho, "description", None) or describe(litho.report, litho.params, litho.picture.file.name),
+                                 *multipart_sentences(litho)]),
         "designer": "TAMP-OS",
         "application": f"TAMP-OS {__version__}",
     }
@@ -175,7 +176,7 @@ def recipe_dict(litho, files: list[str]) -> dict:
     return {
         "tamp_os_version": __version__,
         "input": {"name": src.name, "path": src.path, "sha256": src.sha256},
-        "params": litho.params.to_dict(),
+        "params": (getattr(litho, "recipe_params", None) or litho.params).to_dict(),
         "outputs": files,
         "print": litho.report.print,
         "relief": {"style": litho.report.relief_style, "reason": litho.report.relief_reason, "legibility": litho.report.legibility},

@@ -43,6 +43,7 @@ class Report:
     relief_reason: str = ""  # why that style, or what it did, in one sentence
     legibility: dict | None = None  # relief.legibility.Legibility.as_dict(): figures and verdicts
     instrument: dict | None = None  # magnification, kv, detector, signal, source when the file records them
+    panels: dict | None = None  # multi-panel figures (figure.py): split or not and why, this print's panel
 
     def as_dict(self) -> dict:
         """The report as a plain dict (JSON-ready), with the keys of the earlier untyped report

@@ -619,13 +619,14 @@ def _isolated_glyphs(window: np.ndarray, side: int):
     min_h, max_h = max(8, int(0.04 * side)), max(12, int(0.3 * side))
     for ink_mask, ground in ((window <= 0.3, window >= 0.7), (window >= 0.7, window <= 0.3)):
         labels, n = ndimage.label(ink_mask)
-        if n == 0 or n > 400:
+        if n == 0:
             continue
         parts = []
-        for i, sl in enumerate(ndimage.find_objects(labels), start=1):
-            gh, gw = sl[0].stop - sl[0].start, sl[1].stop - sl[1].start
-            if not (min_h <= gh <= max_h and gw <= 1.6 * gh and gw >= 1):
-                continue
+        slices = ndimage.find_objects(labels)
+        heights = np.array([sl[0].stop - sl[0].start for sl in slices])
+        widths = np.array([sl[1].stop - sl[1].start for sl in slices])
+        for i in np.flatnonzero((heights >= min_h) & (heights <= max_h) & (widths <= 1.6 * heights))[:200] + 1:
+            sl = slices[i - 1]
             comp = labels[sl] == i
             if comp.sum() < 12:
                 continue

@@ -111,8 +111,8 @@ def read_overrides(path: Path) -> dict[str, dict]:
 
 def convert_one(source: str, out_dir: str, params_json: str, stem: str) -> dict:
     """Convert one input in a worker; never raises for a user-facing problem."""
+    from .figure import make_figure
     from .outputs import RECIPE_SUFFIX, recipe_outputs_if_current
-    from .pipeline import make_lithograph
 
     start = time.perf_counter()
     src, out = Path(source), Path(out_dir)
@@ -121,12 +121,15 @@ def convert_one(source: str, out_dir: str, params_json: str, stem: str) -> dict:
     if done:
         return dataclasses.asdict(Outcome(str(src), "skipped (up to date)", done, time.perf_counter() - start))
     try:
-        litho = make_lithograph(src, params)
-        written = litho.save(out, stem=stem)
-        if params.gcode:
-            from .slicer import slice_outputs
+        figure = make_figure(src, params)  # one picture, or each panel of a figure and an overview
+        written = []
+        for suffix, litho in figure.prints:
+            paths = litho.save(out, stem=stem + suffix)
+            if params.gcode:
+                from .slicer import slice_outputs
 
-            written = slice_outputs(litho, written)
+                paths = slice_outputs(litho, paths)
+            written += paths
     except TampError as exc:
         return dataclasses.asdict(Outcome(str(src), "failed", [], time.perf_counter() - start, str(exc)))
     except Exception as exc:  # a bug must not stop the batch either; report it plainly
@@ -134,7 +137,7 @@ def convert_one(source: str, out_dir: str, params_json: str, stem: str) -> dict:
         return dataclasses.asdict(Outcome(str(src), "failed", [], time.perf_counter() - start, f"{src}: unexpected error: {exc!r}"))
     from .report import touch_notes
 
-    warnings = list(litho.report.warnings)
+    warnings = list(dict.fromkeys([w for lit in figure.lithographs for w in lit.report.warnings] + list(figure.notes)))
     if litho.report.uniform:
         warnings.insert(0, "flat plate: the image is uniform, so nothing is raised")
     return dataclasses.asdict(Outcome(str(src), "converted", [p.name for p in written], time.perf_counter() - start,

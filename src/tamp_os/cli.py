@@ -276,8 +276,9 @@ def _run_each(items, action, debug: bool = False) -> int:
 
 
 def cmd_convert(args) -> int:
+    from .figure import make_figure
     from .outputs import distinct_stems, load_recipe
-    from .pipeline import make_lithograph, resolve_printer
+    from .pipeline import resolve_printer
 
     jobs = []
     if args.recipe:
@@ -293,8 +294,9 @@ def cmd_convert(args) -> int:
 
     def convert(job_and_stem):
         (image, job_params, printer), stem = job_and_stem
-        litho = make_lithograph(image, job_params, printer_profile=printer)
-        lines = _save_and_say(litho, Path(args.output), stem)
+        figure = make_figure(image, job_params, printer_profile=printer)  # one picture, or each panel and an overview
+        lines = [line for suffix, litho in figure.prints for line in _save_and_say(litho, Path(args.output), stem + suffix)]
+        lines += [f"  note: {note}" for note in figure.notes]
         if stem != (image.stem or "lithograph"):
             lines.append(f"  note: named {stem} because another input of this run has the same name")
         return lines

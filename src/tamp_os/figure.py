@@ -94,7 +94,10 @@ def make_figure(source, params: LithoParams | None = None, *, printer_profile: P
         return _whole(picture, params, printer_profile, layout, notes)
     record = params.replace(panel_boxes=layout.record())
     prints = [(f".panel-{p.label}", _panel_print(picture, p, layout, params, record, printer_profile)) for p in printable]
-    overview = _overview(picture, layout, params, record, printer_profile, notes, [p.label for p in printable])
+    # The overview names every panel large enough to print, whichever `panel` chose, so that it is
+    # the same file whichever panel's recipe rebuilds it.
+    big = [p.label for p in layout.panels if min(p.w, p.h) >= MIN_PANEL_PX]
+    overview = _overview(picture, layout, params, record.replace(panel=None), printer_profile, notes, big)
     for note in notes:
         log.warning(note)
     return Figure(layout, prints + [(".overview", overview)], notes)
@@ -111,12 +114,14 @@ def _layout(picture: Picture, params: LithoParams) -> PanelLayout:
 def _chosen(layout: PanelLayout, params: LithoParams) -> list[Panel]:
     if not params.panel:
         return list(layout.panels)
-    wanted = [w.strip() for w in params.panel.split(",") if w.strip()]
     labels = layout.labels()
+    # A number that is not a label counts panels in reading order (panel 2 = the second panel).
+    wanted = [w.strip() for w in params.panel.split(",") if w.strip()]
+    wanted = [labels[int(w) - 1] if w not in labels and w.isdigit() and 1 <= int(w) <= len(labels) else w for w in wanted]
     unknown = [w for w in wanted if w not in labels]
     if unknown:
         raise ParameterError(f"panel: the figure has panels {', '.join(labels)}; there is no panel {', '.join(unknown)}. "
-                             f"Give some of {', '.join(labels)}, separated by commas (for example {labels[0]}).")
+                             f"Give some of {', '.join(labels)}, separated by commas (for example {labels[0]}), or their numbers in reading order.")
     return [p for p in layout.panels if p.label in wanted]
 
 
@@ -210,10 +215,15 @@ def overview_description(name: str, layout: PanelLayout, printed: list[str], not
     parts.append("Each panel is a raised frame with its label in braille inside its top-left corner and a low, "
                  "blurred relief of its content; the caption along the bottom reads overview.")
     if printed:
-        parts.append(f"Panel{'s' if len(printed) > 1 else ''} {', '.join(printed)} {'are' if len(printed) > 1 else 'is'} printed on "
+        parts.append(f"Panel{'s' if len(printed) > 1 else ''} {', '.join(printed)} {'have' if len(printed) > 1 else 'has'} "
                      f"{'their' if len(printed) > 1 else 'its'} own plate{'s' if len(printed) > 1 else ''}, at full size, named after the label.")
-    parts.append(f"The layout was found as: {layout.reason}.")
-    parts += [f"Note: {n_}." for n_ in list(layout.notes) + notes]
+    inferred = [p.label for p in layout.panels if p.label.isalpha() and not p.letter_read]
+    if inferred:
+        parts.append(f"The letter{'s' if len(inferred) > 1 else ''} {', '.join(inferred)} did not read on the figure and "
+                     f"{'were' if len(inferred) > 1 else 'was'} inferred from the order of the others.")
+    if not any(p.label.isalpha() for p in layout.panels):
+        parts.append("No panel letters were read on the figure, so the panels are numbered in reading order.")
+    parts += [f"Note: {n_}." for n_ in notes]  # from the overview itself (a panel too small for its frame)
     return " ".join(parts)
 
 

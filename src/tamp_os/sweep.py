@@ -85,15 +85,16 @@ def save_png(image, path: Path, alt: str) -> list[Path]:
 
 def run_sweep(image_path, params: LithoParams, vary: dict[str, list], out_dir: Path, render: bool = True) -> dict:
     """Make every variant, save each (named STEM_NAME_VALUE.ext), and the contact sheet(s)."""
-    from .pipeline import make_lithograph
+    from .figure import make_figure
 
     out_dir.mkdir(parents=True, exist_ok=True)
     image_path = Path(image_path)
     panels, render_panels, written, lines = [], [], [], []
     for suffix, p in variants(params, vary):
-        litho = make_lithograph(image_path, p)
+        figure = make_figure(image_path, p)  # a figure's panels and overview are saved; the sheet shows the last print
         stem = f"{image_path.stem}_{suffix}"
-        paths = litho.save(out_dir, stem=stem)
+        paths = figure.save(out_dir, stem=stem)
+        litho = figure.lithographs[-1]
         written += paths
         label = suffix.replace("_", " ")
         panels.append((label, litho.heightmap))

@@ -113,7 +113,10 @@ class PanelLayout:
 
     def record(self) -> str:
         """The boxes as the `panel_boxes` parameter records them: 'a=x,y,w,h;b=...'."""
-        return ";".join(f"{p.label}={','.join(str(v) for v in p.box_px)}" for p in self.panels)
+        def key(p: Panel) -> str:  # a letter inferred, not read, is marked with *
+            return p.label + ("*" if p.label.isalpha() and not p.letter_read else "")
+
+        return ";".join(f"{key(p)}={','.join(str(v) for v in p.box_px)}" for p in self.panels)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -185,9 +188,10 @@ def forced_grid(values: np.ndarray, grid: str, *, read_letters: bool = True) -> 
 def given_layout(values: np.ndarray, record: str) -> PanelLayout:
     """The layout recorded in a recipe ('a=x,y,w,h;b=...'), checked against the figure."""
     h, w = values.shape
-    boxes, labels = parse_boxes(record, w, h)
-    _, rows = reading_order(boxes)
-    panels = tuple(Panel(b, lab, lab.isalpha(), "given") for b, lab in zip(boxes, labels))
+    boxes, keys = parse_boxes(record, w, h)
+    order, rows = reading_order(boxes)
+    boxes, keys = [boxes[i] for i in order], [keys[i] for i in order]
+    panels = tuple(Panel(b, k.rstrip("*"), k.isalpha(), "given") for b, k in zip(boxes, keys))
     return PanelLayout(True, panels, rows, None, "the panel boxes recorded in the recipe", (), (w, h), 0.0)
 
 
@@ -201,7 +205,8 @@ def parse_grid(text: str) -> tuple[int, int]:
 
 
 def parse_boxes(record: str, width_px: int | None = None, height_px: int | None = None) -> tuple[list[Box], list[str]]:
-    """'a=10,10,200,150;b=...' -> boxes and labels; ParameterError on anything else."""
+    """'a=10,10,200,150;b*=...' -> boxes and labels as written (* marks a letter inferred, not
+    read); ParameterError on anything else."""
     from ..errors import ParameterError
 
     boxes, labels = [], []
@@ -215,13 +220,13 @@ def parse_boxes(record: str, width_px: int | None = None, height_px: int | None 
         except ValueError:
             raise ParameterError(f"panel_boxes: each panel is label=x,y,w,h in pixels (for example a=0,0,400,300); got {item!r}.") from None
         label = label.strip()
-        if not re.fullmatch(r"[A-Za-z]|[0-9]{1,3}", label) or x < 0 or y < 0 or bw < 1 or bh < 1:
+        if not re.fullmatch(r"[A-Za-z]\*?|[0-9]{1,3}", label) or x < 0 or y < 0 or bw < 1 or bh < 1:
             raise ParameterError(f"panel_boxes: each panel is a letter or number = x,y,w,h with x, y ≥ 0 and w, h ≥ 1; got {item!r}.")
         if width_px is not None and (x + bw > width_px or y + bh > height_px):
             raise ParameterError(f"panel_boxes: panel {label} ({x},{y},{bw},{bh}) reaches outside the {width_px}×{height_px} figure; "
                                  f"the recipe belongs to another image, or give panels auto.")
-        if label in labels:
-            raise ParameterError(f"panel_boxes: panel {label} is given twice.")
+        if label.rstrip("*") in [k.rstrip("*") for k in labels]:
+            raise ParameterError(f"panel_boxes: panel {label.rstrip('*')} is given twice.")
         boxes.append((x, y, bw, bh))
         labels.append(label)
     if len(boxes) < 2:
@@ -618,7 +623,7 @@ def _isolated_glyphs(window: np.ndarray, side: int):
     yields (ink crop, (row, col) of the group's centre in the window)."""
     min_h, max_h = max(8, int(0.04 * side)), max(12, int(0.3 * side))
     for ink_mask, ground in ((window <= 0.3, window >= 0.7), (window >= 0.7, window <= 0.3)):
-        labels, n = ndimage.label(ink_mask)
+        labels, n = ndimage.label(ink_mask, structure=np.ones((3, 3), bool))  # anti-aliased strokes meet at corners
         if n == 0:
             continue
         parts = []

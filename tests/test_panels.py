@@ -309,3 +309,22 @@ def test_unread_letters_fall_back_to_numbers_and_say_so():
     if shutil.which("tesseract"):
         assert any("no panel letters could be read" in n for n in made.notes)
     assert "no letter was read" in made.prints[0][1].description
+
+
+@pytest.mark.timeout(300)
+def test_panel_with_data_band_is_cleaned_and_scaled_on_its_own():
+    """Printed, the Zeiss panel's data zone is cropped by its own pipeline and its own "200 µm"
+    bar gives its scale (the fixture's pixel is 2.614 µm); the other panel reads its own bar."""
+    from tamp_os.figure import make_figure
+
+    _need_fixtures("test_tiff_Zeiss_SEM_1k.tif", "fept_spheres_sem.png")
+    _need_ocr()
+    zeiss = micrograph("test_tiff_Zeiss_SEM_1k.tif", 768, 1024)
+    figure = grid_white_boxes([zeiss, micrograph("fept_spheres_sem.png", 768, 1024)], cols=2, letters="ab", size=40)
+    made = make_figure(figure.image, width_mm=80)
+    _check(figure, made.layout)
+    (_, a), (_, b) = made.prints[0], made.prints[1]
+    assert a.report.crop["bottom_rows"] >= 60 and a.report.crop["source"] == "detected data band"
+    assert a.report.pixel_size_source == "scale bar label"
+    assert a.report.pixel_size_m == pytest.approx(2.614e-6, rel=0.05)
+    assert b.report.pixel_size_m and abs(b.report.pixel_size_m / a.report.pixel_size_m - 1) > 0.5  # its own scale

@@ -44,6 +44,7 @@ MIN_PANEL_SHARE = 0.05  # a panel's shorter side is at least this share of the f
 SIZE_TOL = 0.02  # widths and pitches agree within this share
 LETTER_WHITELIST = "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ()"
 OCR_LINE_PX = 30  # glyph height on the page Tesseract reads
+MAX_SINGLE_CALLS = 8  # glyphs read one by one at most (each call 0.1–0.3 s)
 GRID = re.compile(r"^\s*([1-9][0-9]?)\s*[x×]\s*([1-9][0-9]?)\s*$")
 
 Box = tuple[int, int, int, int]  # x, y, w, h in source pixels
@@ -419,22 +420,28 @@ def _overlapping(leaves: list[_Leaf]) -> bool:
 
 
 def _merge_bands(panels: list[_Leaf], texts: list[_Leaf]) -> None:
-    """Give each panel the text strips right under it that are as wide as a data band (in place:
-    merged strips leave `texts`)."""
+    """Give each panel the text right under it that makes up a data band (in place: merged strips
+    leave `texts`). The band's pieces (lines of text, its frame, a logo) are gathered while each
+    starts within a few rows of the panel or of the pieces already gathered, inside the panel's
+    columns; together they must span at least BAND_WIDTH_SHARE of the panel's width."""
     for p in sorted(panels, key=lambda lf: lf.box[1]):
-        changed = True
-        while changed:
-            changed = False
-            x0, y0, x1, y1 = p.box
-            gap_limit = max(3, round(0.03 * (y1 - y0)))
-            for t in sorted(texts, key=lambda lf: lf.box[1]):
-                tx0, ty0, tx1, ty1 = t.box
-                tol = SIZE_TOL * (x1 - x0) + 2
-                if 0 <= ty0 - y1 <= gap_limit and tx0 >= x0 - tol and tx1 <= x1 + tol and tx1 - tx0 >= BAND_WIDTH_SHARE * (x1 - x0):
-                    p.box = (x0, y0, x1, ty1)
-                    texts.remove(t)
-                    changed = True
-                    break
+        x0, y0, x1, y1 = p.box
+        gap_limit = max(3, round(0.03 * (y1 - y0)))
+        tol = SIZE_TOL * (x1 - x0) + 2
+        inside = [t for t in texts if t.box[0] >= x0 - tol and t.box[2] <= x1 + tol and t.box[1] >= y1]
+        bottom, cluster = y1, []
+        for t in sorted(inside, key=lambda lf: lf.box[1]):
+            if t.box[1] - bottom > gap_limit:
+                break
+            cluster.append(t)
+            bottom = max(bottom, t.box[3])
+        if not cluster:
+            continue
+        span = max(t.box[2] for t in cluster) - min(t.box[0] for t in cluster)
+        if span >= BAND_WIDTH_SHARE * (x1 - x0):
+            p.box = (x0, y0, x1, bottom)
+            for t in cluster:
+                texts.remove(t)
 
 
 def _intervals(values: list[tuple[int, int]], tol: float) -> list[tuple[int, int]]:
@@ -577,7 +584,7 @@ def _consistent(read: list[str | None], n: int) -> tuple[list[str], list[bool], 
 def _read_letters(scaled: np.ndarray, boxes: list[Box]) -> list[str | None]:
     """The letter in each panel's corner, or None. All glyphs go to Tesseract in one call (one
     line each), since each call costs 0.1–0.3 s; a glyph the batch misreads is not retried."""
-    crops = [_corner_glyphs(scaled, box) for box in boxes]
+    crops = [_corner_glyphs(scaled, box, boxes[:i] + boxes[i + 1:]) for i, box in enumerate(boxes)]
     found = [c for c in crops if c is not None]
     if not found:
         return [None] * len(boxes)
@@ -593,7 +600,7 @@ def _read_letters(scaled: np.ndarray, boxes: list[Box]) -> list[str | None]:
     return out
 
 
-def _corner_glyphs(scaled: np.ndarray, box: Box) -> _Glyphs | None:
+def _corner_glyphs(scaled: np.ndarray, box: Box, others: list[Box] = ()) -> _Glyphs | None:
     """The label glyphs nearest one of the panel's corners: isolated strokes on a plain ground
     (a label box or the gutter), inside the panel's corner or just outside it."""
     H, W = scaled.shape
@@ -608,6 +615,7 @@ def _corner_glyphs(scaled: np.ndarray, box: Box) -> _Glyphs | None:
         window = scaled[ya:yb, xa:xb]
         if window.size == 0:
             continue
+        window = _grey_others(window, xa, ya, others)
         for glyphs in _isolated_glyphs(window, side):
             ink, (gy, gx) = glyphs
             d = float(np.hypot(xa + gx - cx, ya + gy - cy))
@@ -618,10 +626,23 @@ def _corner_glyphs(scaled: np.ndarray, box: Box) -> _Glyphs | None:
     return best
 
 
+def _grey_others(window: np.ndarray, xa: int, ya: int, others: list[Box]) -> np.ndarray:
+    """The window with the parts of other panels greyed out (neither ink nor ground), so that a
+    corner's search reaching into the gutter never reads a neighbour's letter."""
+    out = None
+    for x, y, w, h in others:
+        c0, c1 = max(0, x - xa), min(window.shape[1], x + w - xa)
+        r0, r1 = max(0, y - ya), min(window.shape[0], y + h - ya)
+        if c1 > c0 and r1 > r0:
+            out = window.copy() if out is None else out
+            out[r0:r1, c0:c1] = 0.5
+    return window if out is None else out
+
+
 def _isolated_glyphs(window: np.ndarray, side: int):
     """Groups of glyph-sized strokes of one polarity whose surroundings are plainly the other:
     yields (ink crop, (row, col) of the group's centre in the window)."""
-    min_h, max_h = max(8, int(0.04 * side)), max(12, int(0.3 * side))
+    min_h, max_h = max(8, int(0.015 * side)), max(12, int(0.3 * side))
     for ink_mask, ground in ((window <= 0.3, window >= 0.7), (window >= 0.7, window <= 0.3)):
         labels, n = ndimage.label(ink_mask, structure=np.ones((3, 3), bool))  # anti-aliased strokes meet at corners
         if n == 0:
@@ -664,35 +685,52 @@ def _group_glyphs(parts):
     return [g for g in groups if len(g) <= 3]
 
 
-def _ocr_lines(inks: list[np.ndarray]) -> list[str]:
-    """Each ink crop read as one line of text by Tesseract, all in one call: a page with one glyph
-    group per line, black on white, each scaled to OCR_LINE_PX high (measured best for single
-    letters; the single-character mode reads the same at the cost of one call per glyph)."""
+def _page(ink: np.ndarray):
+    """A glyph group black on white, OCR_LINE_PX high, binarised again after scaling."""
     from PIL import Image
 
-    pages = []
-    for ink in inks:
-        scale = OCR_LINE_PX / max(1, ink.shape[0])
-        page = Image.fromarray(np.where(ink, 0, 255).astype(np.uint8))
-        size = (max(1, int(round(ink.shape[1] * scale))), OCR_LINE_PX)
-        pages.append(page.resize(size, Image.Resampling.LANCZOS).point(lambda v: 255 if v > 127 else 0))
-    line_h = 2 * OCR_LINE_PX
-    canvas = Image.new("L", (max(p.width for p in pages) + 2 * OCR_LINE_PX, line_h * len(pages) + OCR_LINE_PX), 255)
-    for i, p in enumerate(pages):
-        canvas.paste(p, (OCR_LINE_PX, OCR_LINE_PX // 2 + i * line_h))
+    scale = OCR_LINE_PX / max(1, ink.shape[0])
+    page = Image.fromarray(np.where(ink, 0, 255).astype(np.uint8))
+    size = (max(1, int(round(ink.shape[1] * scale))), OCR_LINE_PX)
+    return page.resize(size, Image.Resampling.LANCZOS).point(lambda v: 255 if v > 127 else 0)
+
+
+def _tesseract(canvas, psm: str) -> str | None:
     exe = shutil.which("tesseract")
     with tempfile.TemporaryDirectory(prefix="tamp-panels-") as tmp:
         path = Path(tmp) / "letters.png"
         canvas.save(path)
-        command = [exe, str(path), "stdout", "--psm", "6", "-l", "eng", "-c", f"tessedit_char_whitelist={LETTER_WHITELIST}"]
+        command = [exe, str(path), "stdout", "--psm", psm, "-l", "eng", "-c", f"tessedit_char_whitelist={LETTER_WHITELIST}"]
         try:
             done = subprocess.run(command, capture_output=True, text=True, encoding="utf-8", errors="replace", timeout=60)
         except (OSError, subprocess.TimeoutExpired):
-            return []
-    if done.returncode != 0:
-        return []
-    out = [line for line in done.stdout.splitlines() if line.strip()]
-    return out if len(out) == len(inks) else []
+            return None
+    return done.stdout if done.returncode == 0 else None
+
+
+def _ocr_lines(inks: list[np.ndarray]) -> list[str]:
+    """Each ink crop read by Tesseract. Several go in one call (a page with one glyph group per
+    line, mode 6), since each call costs 0.1–0.3 s; a line that comes back empty or not a letter,
+    and a lone glyph, is read alone as a single character (mode 10), which reads letters that
+    mode 6 drops when they stand alone. At most MAX_SINGLE_CALLS such calls."""
+    from PIL import Image
+
+    pages = [_page(ink) for ink in inks]
+    out = [""] * len(inks)
+    if len(inks) > 1:
+        line_h = 2 * OCR_LINE_PX
+        canvas = Image.new("L", (max(p.width for p in pages) + 2 * OCR_LINE_PX, line_h * len(pages) + OCR_LINE_PX), 255)
+        for i, p in enumerate(pages):
+            canvas.paste(p, (OCR_LINE_PX, OCR_LINE_PX // 2 + i * line_h))
+        lines = [line for line in (_tesseract(canvas, "6") or "").splitlines() if line.strip()]
+        if len(lines) == len(inks):
+            out = lines
+    retry = [i for i, text in enumerate(out) if parse_letter(text) is None][:MAX_SINGLE_CALLS]
+    for i in retry:
+        page = Image.new("L", (pages[i].width + 2 * OCR_LINE_PX, 3 * OCR_LINE_PX), 255)
+        page.paste(pages[i], (OCR_LINE_PX, OCR_LINE_PX))
+        out[i] = (_tesseract(page, "10") or "").strip()
+    return out
 
 
 def parse_letter(text: str) -> str | None:

@@ -328,3 +328,20 @@ def test_panel_with_data_band_is_cleaned_and_scaled_on_its_own():
     assert a.report.pixel_size_source == "scale bar label"
     assert a.report.pixel_size_m == pytest.approx(2.614e-6, rel=0.05)
     assert b.report.pixel_size_m and abs(b.report.pixel_size_m / a.report.pixel_size_m - 1) > 0.5  # its own scale
+
+
+@pytest.mark.timeout(300)
+def test_pdf_has_one_page_per_panel_plus_the_overview(tmp_path, capsys):
+    import pypdf
+
+    figure = grid_white_boxes([synthetic_texture(150, 200, s) for s in range(2)], cols=2, gutter=14, letters="")
+    path = save(figure, tmp_path)
+    code, out, err = run_cli(capsys, "convert", path, "-o", tmp_path / "out", "--formats", "pdf", "--width-mm", "50")
+    assert code == 0, err
+    reader = pypdf.PdfReader(tmp_path / "out" / "grid_white.pages.pdf")
+    assert len(reader.pages) == 3
+    overview = pypdf.PdfReader(tmp_path / "out" / "grid_white.overview.pdf").pages[0].mediabox
+    panel = pypdf.PdfReader(tmp_path / "out" / "grid_white.panel-1.pdf").pages[0].mediabox
+    assert [float(v) for v in reader.pages[0].mediabox] == pytest.approx([float(v) for v in overview])
+    assert [float(v) for v in reader.pages[1].mediabox] == pytest.approx([float(v) for v in panel])
+    assert "grid_white.pages.pdf" in out

@@ -296,6 +296,8 @@ def cmd_convert(args) -> int:
         (image, job_params, printer), stem = job_and_stem
         figure = make_figure(image, job_params, printer_profile=printer)  # one picture, or each panel and an overview
         lines = [line for suffix, litho in figure.prints for line in _save_and_say(litho, Path(args.output), stem + suffix)]
+        if figure.split and "pdf" in job_params.formats:
+            lines.append(f"  wrote {figure.save_pages_pdf(Path(args.output), stem).name} (the overview, then each panel, one page each)")
         lines += [f"  note: {note}" for note in figure.notes]
         if stem != (image.stem or "lithograph"):
             lines.append(f"  note: named {stem} because another input of this run has the same name")

@@ -60,7 +60,21 @@ class Figure:
         written = []
         for suffix, litho in self.prints:
             written += litho.save(target, formats, stem=f"{stem or litho.name}{suffix}")
+        if self.split and "pdf" in (formats or self.prints[0][1].params.formats):
+            written.append(self.save_pages_pdf(Path(target), stem or self.prints[0][1].name))
         return written
+
+    def save_pages_pdf(self, folder: Path, stem: str) -> Path:
+        """NAME.pages.pdf: the overview's page first, then each panel's, for swell paper or an embosser."""
+        from .export.tactile2d import write_pdf_pages
+        from .files import write_atomic
+        from .outputs import tactile_graphic
+
+        order = [litho for suffix, litho in self.prints if suffix == ".overview"] + [litho for suffix, litho in self.prints if suffix != ".overview"]
+        graphics = [tactile_graphic(litho) for litho in order]
+        params = order[0].params
+        title = f"Tactile graphics of the figure {order[0].picture.file.name}: overview, then panels {', '.join(s[7:] for s, _ in self.prints[:-1])}"
+        return write_atomic(folder / f"{stem}.pages.pdf", lambda fh: write_pdf_pages(graphics, fh, params.page_size, title))
 
 
 def make_figure(source, params: LithoParams | None = None, *, printer_profile: PrinterProfile | None = None, **changes) -> Figure:

@@ -345,3 +345,23 @@ def test_pdf_has_one_page_per_panel_plus_the_overview(tmp_path, capsys):
     assert [float(v) for v in reader.pages[0].mediabox] == pytest.approx([float(v) for v in overview])
     assert [float(v) for v in reader.pages[1].mediabox] == pytest.approx([float(v) for v in panel])
     assert "grid_white.pages.pdf" in out
+
+
+@pytest.mark.timeout(300)
+def test_web_app_prints_a_figures_panels_and_shows_the_overview(tmp_path):
+    from tamp_os.gui.forms import params_from_form
+    from tamp_os.gui.jobs import run_library
+
+    class Form(dict):
+        def getlist(self, name):
+            return []
+
+    params, errors = params_from_form(Form(panel="2", width_mm="50"))
+    assert not errors.by_field and params.panel == "2"
+    bad, errors = params_from_form(Form(panels="two by two"))
+    assert bad is None and "Panels of a figure" in errors.by_field["panels"]
+    figure = grid_white_boxes([synthetic_texture(150, 200, s) for s in range(2)], cols=2, gutter=14, letters="")
+    made = run_library(save(figure, tmp_path), params, tmp_path, "fig")
+    names = {p.name for p in made.files}
+    assert "fig.panel-2.stl" in names and "fig.overview.stl" in names and "fig.panel-1.stl" not in names
+    assert made.description.startswith("Overview of the figure") and "Panel 2: Panel 2 of two" in made.description

@@ -36,8 +36,11 @@ FIELDS = {f.name: f for f in (
     Field("detail_mm", "Finest shape (mm)", "Smaller detail becomes a low texture; leave empty for 2 mm.", "decimal"),
     Field("texture_mm", "Texture height (mm)", "Height of that fine texture; 0 for none.", "decimal"),
     Field("level_count", "Number of levels", "For the levels style: 2 to 5.", "numeric"),
+    Field("panels", "Panels of a figure", "auto finds the panels of a multi-panel figure and prints each, plus an overview; "
+          "off prints it whole; or a grid of rows x columns such as 2x2."),
+    Field("panel", "Panels to print", "Leave empty for every panel, or give their letters, such as b,c."),
 )}
-TEXT_FIELDS = ("caption", "pixel_size", "scale_bar")
+TEXT_FIELDS = ("caption", "pixel_size", "scale_bar", "panels", "panel")
 # The relief styles in the web app's words: what each is for.
 STYLE_CHOICES = (
     ("structure", "Shapes to feel (recommended)", "Large shapes a fingertip can follow; fine detail kept only as a low texture."),

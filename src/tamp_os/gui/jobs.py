@@ -200,24 +200,28 @@ class LibraryOutput:
 def run_library(path: Path, params: LithoParams, out: Path, stem: str) -> LibraryOutput:
     """The one place the web app calls the library: make, save, and read the report."""
     from ..export import save_mesh
-    from ..pipeline import make_lithograph
+    from ..figure import make_figure
 
     from ..report import touch_notes
     from .forms import plain
 
-    litho = make_lithograph(path, params)
-    written = litho.save(out, stem=stem)
-    if params.gcode:  # saving never slices; slicing is its own step
-        from ..slicer import slice_outputs
+    figure = make_figure(path, params)  # one picture, or each panel of a figure and an overview (shown here)
+    written = []
+    for suffix, litho in figure.prints:
+        paths = litho.save(out, stem=stem + suffix)
+        if params.gcode:  # saving never slices; slicing is its own step
+            from ..slicer import slice_outputs
 
-        written = slice_outputs(litho, written)
+            paths = slice_outputs(litho, paths)
+        written += paths
     meta = litho.metadata()
     save_mesh(litho.mesh, out / f"{stem}{PREVIEW_SUFFIX}", meta)
     r = litho.report
+    panels = [f"Panel {s[7:]}: {lit.metadata()['description']}" for s, lit in figure.prints if s.startswith(".panel-")]
     return LibraryOutput(
         files=written, heightmap=litho.heightmap, vertices=litho.mesh.vertices, faces=litho.mesh.faces,
-        description=meta["description"], print_mm=tuple(r.print_mm), grid=tuple(r.grid), triangles=r.triangles,
-        height_levels=0 if r.uniform else r.height_levels, scale=r.scale, warnings=list(r.warnings),
+        description=" ".join([meta["description"], *panels]), print_mm=tuple(r.print_mm), grid=tuple(r.grid), triangles=r.triangles,
+        height_levels=0 if r.uniform else r.height_levels, scale=r.scale, warnings=list(dict.fromkeys(list(r.warnings) + figure.notes)),
         annotations=list(r.annotations), printing=r.print["summary"] if r.print else "",
         relief_style=r.relief_style, relief_reason=r.relief_reason, touch=[plain(line) for line in touch_notes(r)],
     )

@@ -264,11 +264,13 @@ def reading_order(boxes: list[Box]) -> tuple[list[int], tuple[tuple[int, ...], .
 
 
 def _gutter_masks(values: np.ndarray, rgb: np.ndarray | None) -> dict[str, np.ndarray] | None:
-    finite = np.isfinite(values)
-    if not finite.any():
-        return None
-    lo, hi = float(values[finite].min()), float(values[finite].max())
-    if hi <= lo:
+    lo, hi = float(values.min()), float(values.max())
+    if not (np.isfinite(lo) and np.isfinite(hi)):  # only then the slower pass that skips NaN and inf
+        finite = np.isfinite(values)
+        if not finite.any():
+            return None
+        lo, hi = float(values[finite].min()), float(values[finite].max())
+    if not hi > lo:
         return None
     tol = GUTTER_TOL * (hi - lo)
     with np.errstate(invalid="ignore"):
@@ -293,23 +295,34 @@ def _border_colour(masks: dict[str, np.ndarray]) -> str:
 def _lines(mask: np.ndarray, axis: int) -> np.ndarray:
     """Gutter lines of a region: along axis 0 the rows, along 1 the columns."""
     n = mask.shape[1 - axis]
-    return np.count_nonzero(mask, axis=1 - axis) >= LINE_SHARE * n
+    # Summing bytes into uint16 is 3-5x faster than count_nonzero along an axis (SIMD, no int64).
+    counts = mask.view(np.uint8).sum(axis=1 - axis, dtype=np.uint16 if n < 65536 else np.int64)
+    return counts >= LINE_SHARE * n
 
 
 def _trim(mask: np.ndarray, x0: int, y0: int, x1: int, y1: int) -> tuple[int, int, int, int]:
     """The box without the gutter-colour lines along its edges (its margins)."""
-    for _ in range(3):  # trimming rows changes the columns' shares, and back
+    return _trimmed(mask, (x0, y0, x1, y1))[0]
+
+
+def _trimmed(mask: np.ndarray, box) -> tuple[tuple[int, int, int, int], tuple[np.ndarray, np.ndarray] | None]:
+    """The trimmed box and its gutter rows and columns (None when nothing is left), so that the
+    cut does not count them again."""
+    x0, y0, x1, y1 = box
+    for _ in range(4):  # trimming rows changes the columns' shares, and back
         sub = mask[y0:y1, x0:x1]
         if sub.size == 0:
-            return x0, y0, x0, y0
-        rows, cols = np.flatnonzero(~_lines(sub, 0)), np.flatnonzero(~_lines(sub, 1))
+            return (x0, y0, x0, y0), None
+        row_lines, col_lines = _lines(sub, 0), _lines(sub, 1)
+        rows, cols = np.flatnonzero(~row_lines), np.flatnonzero(~col_lines)
         if rows.size == 0 or cols.size == 0:
-            return x0, y0, x0, y0
+            return (x0, y0, x0, y0), None
         new = (x0 + int(cols[0]), y0 + int(rows[0]), x0 + int(cols[-1]) + 1, y0 + int(rows[-1]) + 1)
         if new == (x0, y0, x1, y1):
-            break
+            return new, (row_lines, col_lines)
         x0, y0, x1, y1 = new
-    return x0, y0, x1, y1
+    sub = mask[y0:y1, x0:x1]
+    return (x0, y0, x1, y1), (_lines(sub, 0), _lines(sub, 1))
 
 
 def _runs(flags: np.ndarray) -> list[tuple[int, int]]:
@@ -321,13 +334,12 @@ def _runs(flags: np.ndarray) -> list[tuple[int, int]]:
 
 def _xy_cut(mask: np.ndarray, box: tuple[int, int, int, int], min_gap: int, min_side: int, depth: int = 0) -> list[tuple[int, int, int, int]]:
     """Leaves (x0, y0, x1, y1) of the recursive cut of `box` along full-length gutter bands."""
-    x0, y0, x1, y1 = _trim(mask, *box)
-    if x1 - x0 < min_side or y1 - y0 < min_side:
+    (x0, y0, x1, y1), lines = _trimmed(mask, box)
+    if lines is None or x1 - x0 < min_side or y1 - y0 < min_side:
         return [(x0, y0, x1, y1)] if x1 > x0 and y1 > y0 else []
-    sub = mask[y0:y1, x0:x1]
     best = None
     for axis in (0, 1):
-        runs = [r for r in _runs(_lines(sub, axis)) if r[1] - r[0] >= min_gap]
+        runs = [r for r in _runs(lines[axis]) if r[1] - r[0] >= min_gap]
         if runs and (best is None or max(b - a for a, b in runs) > max(b - a for a, b in best[1])):
             best = (axis, runs)
     if best is None or depth >= MAX_DEPTH:
@@ -352,10 +364,15 @@ class _Leaf:
         return (self.box[2] - self.box[0]) * (self.box[3] - self.box[1])
 
 
+def _share(mask: np.ndarray) -> float:
+    """The share of True in a bool array (bytes summed: several times faster than mean())."""
+    return float(mask.view(np.uint8).sum(dtype=np.int64)) / max(1, mask.size)
+
+
 def _classify(mask: np.ndarray, box, fig_short: int, fig_area: int) -> _Leaf:
     x0, y0, x1, y1 = box
     sub = mask[y0:y1, x0:x1]
-    share = float(sub.mean())
+    share = _share(sub)
     edges = [sub[0].mean(), sub[-1].mean(), sub[:, 0].mean(), sub[:, -1].mean()]
     thin = min(x1 - x0, y1 - y0) < TEXT_SIDE_SHARE * fig_short or (x1 - x0) * (y1 - y0) < 0.01 * fig_area
     tiny = min(x1 - x0, y1 - y0) < MIN_PANEL_SHARE * fig_short or (x1 - x0) * (y1 - y0) < 0.004 * fig_area
@@ -493,14 +510,14 @@ def _regular_cells(mask, panels: list[_Leaf], others: list[_Leaf], w: int, h: in
             area = (x1 - x0) * (y1 - y0)
             if area <= 0 or any(_overlap(box, p.box) > 0.02 * area for p in panels + found):
                 continue
-            sub = mask[y0:y1, x0:x1]
-            if sub.mean() > 0.998 or sub.mean() < INSIDE_SHARE:
+            share = _share(mask[y0:y1, x0:x1])
+            if share > 0.998 or share < INSIDE_SHARE:
                 continue  # empty cell (no panel there), or a picture the gutters should have found
             if not any(_overlap(box, o.box) > 0 for o in others):
                 continue  # nothing the cut left over lies there
             if not _gutters_around(mask, box, w, h, min_gap):
                 continue
-            found.append(_Leaf(box, "panel", float(sub.mean())))
+            found.append(_Leaf(box, "panel", share))
     return found
 
 
@@ -584,7 +601,8 @@ def _consistent(read: list[str | None], n: int) -> tuple[list[str], list[bool], 
 def _read_letters(scaled: np.ndarray, boxes: list[Box]) -> list[str | None]:
     """The letter in each panel's corner, or None. All glyphs go to Tesseract in one call (one
     line each), since each call costs 0.1–0.3 s; a glyph the batch misreads is not retried."""
-    crops = [_corner_glyphs(scaled, box, boxes[:i] + boxes[i + 1:]) for i, box in enumerate(boxes)]
+    candidates = [_corner_glyphs(scaled, box, boxes[:i] + boxes[i + 1:]) for i, box in enumerate(boxes)]
+    crops = _alike(candidates)
     found = [c for c in crops if c is not None]
     if not found:
         return [None] * len(boxes)
@@ -600,14 +618,31 @@ def _read_letters(scaled: np.ndarray, boxes: list[Box]) -> list[str | None]:
     return out
 
 
-def _corner_glyphs(scaled: np.ndarray, box: Box, others: list[Box] = ()) -> _Glyphs | None:
-    """The label glyphs nearest one of the panel's corners: isolated strokes on a plain ground
-    (a label box or the gutter), inside the panel's corner or just outside it."""
+def _alike(candidates: list[list[_Glyphs]]) -> list[_Glyphs | None]:
+    """One glyph group per panel: the nearest to its corner among those about as tall as the
+    letters of the other panels (a figure's letters share one size; a bright speck in a dark
+    panel that happens to lie nearer does not)."""
+    nearest = [min(c, key=lambda g: g.distance) if c else None for c in candidates]
+    heights = [g.ink.shape[0] for g in nearest if g is not None]
+    if len(heights) < 2:
+        return nearest
+    typical = float(np.median(heights))
+    out = []
+    for c, near in zip(candidates, nearest):
+        alike = [g for g in c if 0.6 * typical <= g.ink.shape[0] <= 1.6 * typical]
+        out.append(min(alike, key=lambda g: g.distance) if alike else near)
+    return out
+
+
+def _corner_glyphs(scaled: np.ndarray, box: Box, others: list[Box] = ()) -> list[_Glyphs]:
+    """Label glyph groups near the panel's corners: isolated strokes on a plain ground (a label
+    box or the gutter), inside the panel's corner or just outside it. The top left is searched
+    first (almost always the letter's place); the other corners only when it holds none."""
     H, W = scaled.shape
     x, y, w, h = box
     side = min(w, h)
     reach_in, reach_out = max(12, int(0.25 * side)), max(8, int(0.2 * side))
-    best = None
+    found: list[_Glyphs] = []
     for cx, cy, sx, sy in ((x, y, 1, 1), (x + w, y, -1, 1), (x, y + h, 1, -1)):
         xa, xb = sorted((cx - sx * reach_out, cx + sx * reach_in))
         ya, yb = sorted((cy - sy * reach_out, cy + sy * reach_in))
@@ -616,14 +651,11 @@ def _corner_glyphs(scaled: np.ndarray, box: Box, others: list[Box] = ()) -> _Gly
         if window.size == 0:
             continue
         window = _grey_others(window, xa, ya, others)
-        for glyphs in _isolated_glyphs(window, side):
-            ink, (gy, gx) = glyphs
-            d = float(np.hypot(xa + gx - cx, ya + gy - cy))
-            if best is None or d < best.distance:
-                best = _Glyphs(ink, d)
-        if best is not None and cx == x and cy == y:
-            break  # the top left is where letters are, almost always
-    return best
+        for ink, (gy, gx) in _isolated_glyphs(window, side):
+            found.append(_Glyphs(ink, float(np.hypot(xa + gx - cx, ya + gy - cy))))
+        if found:
+            break
+    return found
 
 
 def _grey_others(window: np.ndarray, xa: int, ya: int, others: list[Box]) -> np.ndarray:

@@ -365,3 +365,22 @@ def test_web_app_prints_a_figures_panels_and_shows_the_overview(tmp_path):
     names = {p.name for p in made.files}
     assert "fig.panel-2.stl" in names and "fig.overview.stl" in names and "fig.panel-1.stl" not in names
     assert made.description.startswith("Overview of the figure") and "Panel 2: Panel 2 of two" in made.description
+
+
+@pytest.mark.timeout(300)
+def test_batch_converts_a_figure_and_a_rerun_skips_it(tmp_path):
+    import json
+
+    from tamp_os.batch import convert_one
+
+    figure = grid_white_boxes([synthetic_texture(150, 200, s) for s in range(2)], cols=2, gutter=14, letters="")
+    path = save(figure, tmp_path)
+    params = LithoParams(width_mm=50).to_json()
+    first = convert_one(str(path), str(tmp_path / "out"), params, "grid_white")
+    assert first["status"] == "converted"
+    assert {"grid_white.panel-1.stl", "grid_white.panel-2.stl", "grid_white.overview.stl", "grid_white.tamp.json"} <= set(first["outputs"])
+    recipe = json.loads((tmp_path / "out" / "grid_white.tamp.json").read_text())
+    assert recipe["panels"]["boxes"] == "1=14,14,200,150;2=228,14,200,150"
+    assert "grid_white.panel-2.stl" in recipe["outputs"]
+    again = convert_one(str(path), str(tmp_path / "out"), params, "grid_white")
+    assert again["status"] == "skipped (up to date)"

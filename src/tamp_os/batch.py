@@ -130,8 +130,7 @@ def convert_one(source: str, out_dir: str, params_json: str, stem: str) -> dict:
 
                 paths = slice_outputs(litho, paths)
             written += paths
-        if figure.split and "pdf" in params.formats:
-            written.append(figure.save_pages_pdf(out, stem))
+        written += figure.finish(out, stem, written)  # a figure's NAME.pages.pdf and recipe
     except TampError as exc:
         return dataclasses.asdict(Outcome(str(src), "failed", [], time.perf_counter() - start, str(exc)))
     except Exception as exc:  # a bug must not stop the batch either; report it plainly

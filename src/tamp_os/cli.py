@@ -295,9 +295,10 @@ def cmd_convert(args) -> int:
     def convert(job_and_stem):
         (image, job_params, printer), stem = job_and_stem
         figure = make_figure(image, job_params, printer_profile=printer)  # one picture, or each panel and an overview
-        lines = [line for suffix, litho in figure.prints for line in _save_and_say(litho, Path(args.output), stem + suffix)]
-        if figure.split and "pdf" in job_params.formats:
-            lines.append(f"  wrote {figure.save_pages_pdf(Path(args.output), stem).name} (the overview, then each panel, one page each)")
+        written: list[Path] = []
+        lines = [line for suffix, litho in figure.prints for line in _save_and_say(litho, Path(args.output), stem + suffix, written)]
+        if figure.split:  # the figure's own files: NAME.pages.pdf (with pdf) and its recipe NAME.tamp.json
+            lines.append("  wrote " + ", ".join(p.name for p in figure.finish(Path(args.output), stem, written)))
         lines += [f"  note: {note}" for note in figure.notes]
         if stem != (image.stem or "lithograph"):
             lines.append(f"  note: named {stem} because another input of this run has the same name")
@@ -306,8 +307,9 @@ def cmd_convert(args) -> int:
     return _run_each(list(zip(jobs, stems)), convert, args.debug)
 
 
-def _save_and_say(litho, out: Path, stem: str | None = None) -> list[str]:
-    """Save (and slice, when asked) one lithograph; its warnings to stderr, its lines returned."""
+def _save_and_say(litho, out: Path, stem: str | None = None, collect: list | None = None) -> list[str]:
+    """Save (and slice, when asked) one lithograph; its warnings to stderr, its lines returned
+    (the paths written are added to `collect` when given)."""
     from .report import removed_notes, summary_line
 
     written = litho.save(out, stem=stem)
@@ -315,6 +317,8 @@ def _save_and_say(litho, out: Path, stem: str | None = None) -> list[str]:
         from .slicer import slice_outputs
 
         written = slice_outputs(litho, written)
+    if collect is not None:
+        collect += written
     for warning in litho.report.warnings:
         print(f"warning: {in_cli_words(warning)}", file=sys.stderr)
     lines = [summary_line(litho.report, [p.name for p in written])] + [f"  note: {n}" for n in removed_notes(litho.report)]

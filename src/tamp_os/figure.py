@@ -46,6 +46,7 @@ class Figure:
     layout: PanelLayout
     prints: list[tuple[str, Lithograph]]
     notes: list[str] = field(default_factory=list)
+    params: LithoParams = field(default_factory=LithoParams)  # as given (the figure's recipe records them)
 
     @property
     def split(self) -> bool:
@@ -60,9 +61,35 @@ class Figure:
         written = []
         for suffix, litho in self.prints:
             written += litho.save(target, formats, stem=f"{stem or litho.name}{suffix}")
-        if self.split and "pdf" in (formats or self.prints[0][1].params.formats):
-            written.append(self.save_pages_pdf(Path(target), stem or self.prints[0][1].name))
-        return written
+        return written + self.finish(Path(target), stem or self.prints[0][1].name, written, formats)
+
+    def finish(self, folder: Path, stem: str, written: list[Path], formats=None) -> list[Path]:
+        """After each print is saved: for a figure, NAME.pages.pdf (when PDF is asked for) and the
+        figure's recipe NAME.tamp.json, listing every file and the parameters as given (so that a
+        batch rerun sees the figure done, and `--recipe` remakes it all)."""
+        if not self.split:
+            return []
+        extra = []
+        if "pdf" in (formats or self.params.formats):
+            extra.append(self.save_pages_pdf(folder, stem))
+        return extra + [self._save_recipe(folder, stem, [p.name for p in written + extra])]
+
+    def _save_recipe(self, folder: Path, stem: str, files: list[str]) -> Path:
+        import json
+        import os
+
+        from .files import write_text
+        from .outputs import RECIPE_SUFFIX, recipe_dict
+
+        overview = self.prints[-1][1]
+        recipe = recipe_dict(overview, files)
+        recipe["params"] = self.params.to_dict()
+        recipe["panels"] = {"boxes": self.layout.record(), "reason": self.layout.reason, "notes": list(self.notes)}
+        recipe.pop("relief", None)
+        path = folder / f"{stem}{RECIPE_SUFFIX}"
+        if recipe["input"]["path"]:
+            recipe["input"]["path_from_recipe"] = os.path.relpath(os.path.abspath(recipe["input"]["path"]), os.path.abspath(folder))
+        return write_text(path, json.dumps(recipe, indent=2, ensure_ascii=False) + "\n")
 
     def save_pages_pdf(self, folder: Path, stem: str) -> Path:
         """NAME.pages.pdf: the overview's page first, then each panel's, for swell paper or an embosser."""
@@ -88,7 +115,7 @@ def make_figure(source, params: LithoParams | None = None, *, printer_profile: P
     if changes:
         params = params.replace(**changes)
     if params.panels == "off" and not params.panel_boxes:
-        return Figure(PanelLayout(False, reason="panels is off"), [("", make_lithograph(source, params, printer_profile=printer_profile))])
+        return Figure(PanelLayout(False, reason="panels is off"), [("", make_lithograph(source, params, printer_profile=printer_profile))], [], params)
     picture = _read(source, params)
     layout = _layout(picture, params)
     if not layout.split:
@@ -114,7 +141,7 @@ def make_figure(source, params: LithoParams | None = None, *, printer_profile: P
     overview = _overview(picture, layout, params, record.replace(panel=None), printer_profile, notes, big)
     for note in notes:
         log.warning(note)
-    return Figure(layout, prints + [(".overview", overview)], notes)
+    return Figure(layout, prints + [(".overview", overview)], notes, params)
 
 
 def _layout(picture: Picture, params: LithoParams) -> PanelLayout:
@@ -146,7 +173,7 @@ def _whole(picture, params, printer_profile, layout: PanelLayout, notes: list[st
         if note not in litho.report.warnings:
             litho.report.warnings.append(note)
             log.warning(note)
-    return Figure(layout, [("", litho)], notes)
+    return Figure(layout, [("", litho)], notes, params)
 
 
 def crop_picture(picture: Picture, box: tuple[int, int, int, int]) -> Picture:

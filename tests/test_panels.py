@@ -384,3 +384,15 @@ def test_batch_converts_a_figure_and_a_rerun_skips_it(tmp_path):
     assert "grid_white.panel-2.stl" in recipe["outputs"]
     again = convert_one(str(path), str(tmp_path / "out"), params, "grid_white")
     assert again["status"] == "skipped (up to date)"
+
+
+@pytest.mark.timeout(120)
+def test_a_very_large_figure_is_looked_at_every_few_pixels(monkeypatch):
+    from tamp_os.clean import panels
+
+    figure = grid_white_boxes([synthetic_texture(300, 400, s) for s in range(4)], cols=2, gutter=24, letters="")
+    monkeypatch.setattr(panels, "MAX_DETECT_PIXELS", figure.image.size / 5)  # step 3
+    layout = detect_panels(figure.image.astype(np.float32), read_letters=False)
+    assert layout.figure_px == (figure.image.shape[1], figure.image.shape[0])
+    for found, truth in zip(layout.boxes(), figure.boxes):
+        assert box_error(found, truth) <= 0.02

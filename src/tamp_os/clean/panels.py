@@ -41,6 +41,7 @@ TEXT_SIDE_SHARE = 0.12  # text strips are thinner than this share of the figure'
 BAND_WIDTH_SHARE = 0.5  # a data band is at least this share of its panel's width
 MAX_DEPTH = 6  # cuts nested at most this deep (a grid of grids)
 MIN_PANEL_SHARE = 0.05  # a panel's shorter side is at least this share of the figure's shorter side
+MAX_DETECT_PIXELS = 25e6  # larger figures are looked at every few pixels
 SIZE_TOL = 0.02  # widths and pitches agree within this share
 LETTER_WHITELIST = "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ()"
 OCR_LINE_PX = 30  # glyph height on the page Tesseract reads
@@ -127,6 +128,9 @@ class PanelLayout:
 def detect_panels(values: np.ndarray, rgb: np.ndarray | None = None, *, read_letters: bool = True) -> PanelLayout:
     """The panels of a figure, or why it is one picture.
 
+    Figures above MAX_DETECT_PIXELS are looked at every few pixels (a 400 Mpx scan would need
+    0.8 GB of masks otherwise); the boxes are then exact to that step.
+
     values : (H, W) float image (any range; NaN = unknown, never gutter).
     rgb : optional (H, W, 3) colour image of the same figure: a gutter pixel must then be white
         or black in every channel (a saturated red stripe is not a gutter).
@@ -134,6 +138,10 @@ def detect_panels(values: np.ndarray, rgb: np.ndarray | None = None, *, read_let
     """
     start = time.perf_counter()
     h, w = values.shape
+    step = int(np.ceil(np.sqrt(h * w / MAX_DETECT_PIXELS)))
+    if step > 1:
+        small = detect_panels(values[::step, ::step], None if rgb is None else rgb[::step, ::step], read_letters=read_letters)
+        return _scaled(small, step, w, h, time.perf_counter() - start)
     masks = _gutter_masks(values, rgb)
     if masks is None:
         return PanelLayout(False, reason="the figure is uniform, so it has no panels", figure_px=(w, h), seconds=time.perf_counter() - start)
@@ -157,6 +165,16 @@ def detect_panels(values: np.ndarray, rgb: np.ndarray | None = None, *, read_let
     sentence = f"{len(panels)} panels found from {colour} gutters" + (
         "" if all(x == "gutters" for x in how) else " and the regularity of the layout")
     return PanelLayout(True, panels, rows, colour, sentence, tuple(notes + letter_notes), (w, h), time.perf_counter() - start)
+
+
+def _scaled(layout: PanelLayout, step: int, w: int, h: int, seconds: float) -> PanelLayout:
+    """A layout found on every step-th pixel, in the full figure's pixels."""
+    def up(box: Box) -> Box:
+        x, y, bw, bh = (v * step for v in box)
+        return (x, y, min(bw, w - x), min(bh, h - y))
+
+    panels = tuple(replace(p, box_px=up(p.box_px)) for p in layout.panels)
+    return replace(layout, panels=panels, figure_px=(w, h), seconds=seconds)
 
 
 def forced_grid(values: np.ndarray, grid: str, *, read_letters: bool = True) -> PanelLayout:

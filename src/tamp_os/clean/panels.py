@@ -22,6 +22,7 @@ When fewer than two panels are found, the figure is whole and `reason` says why.
 
 from __future__ import annotations
 
+import os
 import re
 import shutil
 import subprocess
@@ -582,9 +583,10 @@ def _labels(values: np.ndarray, mask: np.ndarray, boxes: list[Box], read_letters
     if shutil.which("tesseract") is None:
         return numbers, [False] * n, ["panel letters are not read without Tesseract (apt-get install tesseract-ocr); the panels are numbered 1 to "
                                        f"{n} in reading order"]
-    lo, hi = float(np.nanmin(values)), float(np.nanmax(values))
-    scaled = np.nan_to_num((values - lo) / (hi - lo), nan=0.5).astype(np.float32)
-    labels = _read_letters(scaled, boxes)
+    lo, hi = float(values.min()), float(values.max())
+    if not (np.isfinite(lo) and np.isfinite(hi)):
+        lo, hi = float(np.nanmin(values)), float(np.nanmax(values))
+    labels = _read_letters(_Scaled(values, lo, hi), boxes)
     return _consistent(labels, n)
 
 
@@ -616,7 +618,20 @@ def _consistent(read: list[str | None], n: int) -> tuple[list[str], list[bool], 
     return out, [bool(r) for r in read], notes
 
 
-def _read_letters(scaled: np.ndarray, boxes: list[Box]) -> list[str | None]:
+class _Scaled:
+    """The figure scaled to 0..1 (NaN as 0.5) one window at a time: scaling a whole 12 Mpx figure
+    to read letters in a few corners would cost more than finding the panels."""
+
+    def __init__(self, values: np.ndarray, lo: float, hi: float):
+        self.values, self.lo, self.span = values, lo, max(hi - lo, 1e-12)
+        self.shape = values.shape
+
+    def __getitem__(self, index) -> np.ndarray:
+        window = (self.values[index].astype(np.float32) - np.float32(self.lo)) / np.float32(self.span)
+        return np.nan_to_num(window, nan=0.5)
+
+
+def _read_letters(scaled: "_Scaled | np.ndarray", boxes: list[Box]) -> list[str | None]:
     """The letter in each panel's corner, or None. All glyphs go to Tesseract in one call (one
     line each), since each call costs 0.1–0.3 s; a glyph the batch misreads is not retried."""
     candidates = [_corner_glyphs(scaled, box, boxes[:i] + boxes[i + 1:]) for i, box in enumerate(boxes)]
@@ -652,7 +667,7 @@ def _alike(candidates: list[list[_Glyphs]]) -> list[_Glyphs | None]:
     return out
 
 
-def _corner_glyphs(scaled: np.ndarray, box: Box, others: list[Box] = ()) -> list[_Glyphs]:
+def _corner_glyphs(scaled: "_Scaled | np.ndarray", box: Box, others: list[Box] = ()) -> list[_Glyphs]:
     """Label glyph groups near the panel's corners: isolated strokes on a plain ground (a label
     box or the gutter), inside the panel's corner or just outside it. The top left is searched
     first (almost always the letter's place); the other corners only when it holds none."""
@@ -751,8 +766,10 @@ def _tesseract(canvas, psm: str) -> str | None:
         path = Path(tmp) / "letters.png"
         canvas.save(path)
         command = [exe, str(path), "stdout", "--psm", psm, "-l", "eng", "-c", f"tessedit_char_whitelist={LETTER_WHITELIST}"]
+        # One thread: Tesseract's OpenMP threads slow a page this small down, most on a busy machine.
+        env = {**os.environ, "OMP_THREAD_LIMIT": "1"}
         try:
-            done = subprocess.run(command, capture_output=True, text=True, encoding="utf-8", errors="replace", timeout=60)
+            done = subprocess.run(command, capture_output=True, text=True, encoding="utf-8", errors="replace", timeout=60, env=env)
         except (OSError, subprocess.TimeoutExpired):
             return None
     return done.stdout if done.returncode == 0 else None

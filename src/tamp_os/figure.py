@@ -138,6 +138,8 @@ def make_figure(source, params: LithoParams | None = None, *, printer_profile: P
     # The overview names every panel large enough to print, whichever `panel` chose, so that it is
     # the same file whichever panel's recipe rebuilds it.
     big = [p.label for p in layout.panels if min(p.w, p.h) >= MIN_PANEL_PX]
+    # (What each panel shows is in its own description, not here: the overview must not depend on
+    # which panels this run printed.)
     overview = _overview(picture, layout, params, record.replace(panel=None), printer_profile, notes, big)
     for note in notes:
         log.warning(note)
@@ -222,7 +224,7 @@ def _panel_print(picture, panel: Panel, layout: PanelLayout, params: LithoParams
 
 
 def _overview(picture, layout: PanelLayout, params: LithoParams, record: LithoParams, printer_profile, notes: list[str],
-              printed: list[str]) -> Lithograph:
+              printed: list[str], contents: dict[str, str] | None = None) -> Lithograph:
     """The overview lithograph: the layout at plate size (tactile/overview.py)."""
     from .pipeline import _furniture
     from .tactile.overview import OverviewPanel, build_overview
@@ -238,7 +240,7 @@ def _overview(picture, layout: PanelLayout, params: LithoParams, record: LithoPa
     built = build_overview((w, h), panels, plan.cols, plan.rows, plan.width_mm, plan.depth_mm, params.base_mm, furniture,
                            params.mesher, max_error)
     notes += built.notes
-    description = overview_description(picture.file.name, layout, printed, built.notes)
+    description = overview_description(picture.file.name, layout, printed, built.notes, contents or {})
     report = _overview_report(picture, plan, machine, params, built, description)
     report.panels = {"split": True, "overview": True, "panels": layout.labels(), "boxes_px": layout.boxes(), "printed": printed,
                      "letters_braille": built.letters_braille, "reason": layout.reason}
@@ -247,12 +249,13 @@ def _overview(picture, layout: PanelLayout, params: LithoParams, record: LithoPa
     return litho
 
 
-def overview_description(name: str, layout: PanelLayout, printed: list[str], notes: list[str]) -> str:
-    """The overview in words: 'Four panels in two rows: a, top left; b, top right; …'."""
+def overview_description(name: str, layout: PanelLayout, printed: list[str], notes: list[str], contents: dict[str, str] | None = None) -> str:
+    """The overview in words: 'Four panels in two rows: a, top left, 12 raised objects; b, top right, …'."""
     where = position_words(layout)
+    contents = contents or {}
     n, rows = len(layout.panels), len(layout.rows)
     parts = [f"Overview of the figure {name}. {_number(n).capitalize()} panels in {_number(rows)} row{'s' if rows != 1 else ''}: "
-             + "; ".join(f"{p.label}, {where[p.label]}" for p in layout.panels) + "."]
+             + "; ".join(", ".join([p.label, where[p.label]] + ([contents[p.label]] if p.label in contents else [])) for p in layout.panels) + "."]
     parts.append("Each panel is a raised frame with its label in braille inside its top-left corner and a low, "
                  "blurred relief of its content; the caption along the bottom reads overview.")
     if printed:

@@ -72,11 +72,18 @@ def overview_heights(figure_px: tuple[int, int], panels: list[OverviewPanel], co
         lx_mm, ly_mm = (c0 + fw) * mm + CLEARANCE_MM, (r0 + fw) * mm + CLEARANCE_MM  # from the left, from the top
         pad_c1 = int(np.ceil((lx_mm + bw + CLEARANCE_MM) / mm))
         pad_r1 = int(np.ceil((ly_mm + bh + CLEARANCE_MM) / mm))
+        if pad_c1 > c1 - fw or pad_r1 > r1 - fw:  # the braille would touch the frame: leave it out, and say so
+            del letters[panel.label]
+            notes.append(f"panel {panel.label}'s label ({len(braille)} braille cells) does not fit inside its frame on the overview; "
+                         f"the frame is there without it")
+            braille = None
         if inner[1] > inner[0] and inner[3] > inner[2]:
             hint = _hint(panel.values, inner[1] - inner[0], inner[3] - inner[2], mm)
             heights[inner[0]:inner[1], inner[2]:inner[3]] = base_mm + HINT_MM * hint
-            heights[r0 + fw:min(pad_r1, r1 - fw), c0 + fw:min(pad_c1, c1 - fw)] = base_mm
-        dots += dot_centres([braille], spec, lx_mm, depth_mm - ly_mm)  # y up from the relief's bottom edge
+            if braille:
+                heights[r0 + fw:min(pad_r1, r1 - fw), c0 + fw:min(pad_c1, c1 - fw)] = base_mm
+        if braille:
+            dots += dot_centres([braille], spec, lx_mm, depth_mm - ly_mm)  # y up from the relief's bottom edge
     return heights, letters, dots, notes
 
 

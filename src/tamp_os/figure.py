@@ -66,7 +66,7 @@ class Figure:
     def finish(self, folder: Path, stem: str, written: list[Path], formats=None) -> list[Path]:
         """After each print is saved: for a figure, NAME.pages.pdf (when PDF is asked for) and the
         figure's recipe NAME.tamp.json, listing every file and the parameters as given (so that a
-        batch rerun sees the figure done, and `--recipe` remakes it all)."""
+        batch rerun sees the figure done, and a rebuild from this recipe remakes it all)."""
         if not self.split:
             return []
         extra = []

@@ -144,10 +144,11 @@ def convert_one(source: str, out_dir: str, params_json: str, stem: str) -> dict:
     except Exception as exc:  # a bug must not stop the batch either; report it plainly
         log.exception("unexpected error on %s", src)
         return dataclasses.asdict(Outcome(str(src), "failed", [], time.perf_counter() - start, f"{src}: unexpected error: {exc!r}"))
-    warnings = list(conversion.report.warnings)
+    # A figure's prints: every warning once, then what the layout left out.
+    warnings = list(dict.fromkeys([w for each in conversion.prints for w in each.report.warnings] + list(conversion.layout_notes)))
     if conversion.report.uniform:
         warnings.insert(0, "flat plate: the image is uniform, so nothing is raised")
-    return dataclasses.asdict(Outcome(str(src), "converted", conversion.names, time.perf_counter() - start,
+    return dataclasses.asdict(Outcome(str(src), "converted", [p.name for p in conversion.all_written], time.perf_counter() - start,
                                       warnings=warnings, touch=conversion.touch()))
 
 

@@ -357,7 +357,10 @@ def cmd_convert(args) -> int:
         (image, job_params, printer), stem = job_and_stem
         with _WorkingLine(Path(image).name):  # its line is cleared before the warnings and results are printed
             conversion = convert(image, job_params, Path(args.output), stem=stem, printer_profile=printer)
-        lines = _say(conversion, verbose=args.verbose)
+        lines = [line for each in conversion.prints for line in _say(each, verbose=args.verbose)]
+        if conversion.figure_files:  # a figure's own files: NAME.pages.pdf (with pdf) and its recipe
+            lines.append("  wrote " + ", ".join(p.name for p in conversion.figure_files))
+        lines += [f"  note: {cli_words(note)}" for note in conversion.layout_notes]
         if stem != (image.stem or "lithograph"):
             lines.append(f"  note: named {stem} because another input of this run has the same name")
         return lines

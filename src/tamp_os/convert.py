@@ -10,18 +10,20 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from .params import LithoParams
-from .pipeline import Lithograph, make_lithograph
+from .pipeline import Lithograph
 from .printers import PrinterProfile
 from .report import Printing, Report, removed_notes, summary_line, touch_notes
 
 
 @dataclass(frozen=True)
-class Conversion:
-    """One converted image: the lithograph (its report includes the slicing result when sliced)
-    and the files written, recipe last."""
+class Print:
+    """One print and the files written for it, recipe last. `suffix` is "" for a picture, or
+    ".panel-a" … and ".overview" for the prints of a multi-panel figure. Its report includes the
+    slicing result when sliced."""
 
     litho: Lithograph
     written: tuple[Path, ...]
+    suffix: str = ""
 
     @property
     def report(self) -> Report:
@@ -49,6 +51,28 @@ class Conversion:
         return self.report.print.summary if self.report.print else ""
 
 
+@dataclass(frozen=True)
+class Conversion(Print):
+    """One converted image. For a single picture it is that print (`litho`, `written`); a
+    multi-panel figure also has its `panels` (each a Print, in reading order) before it, this print
+    being the overview, and the figure's own files (`figure_files`: NAME.pages.pdf with PDF, and the
+    figure's recipe) and `layout_notes` (what was not printed, letters not read)."""
+
+    panels: tuple[Print, ...] = ()
+    figure_files: tuple[Path, ...] = ()
+    layout_notes: tuple[str, ...] = ()
+
+    @property
+    def prints(self) -> tuple[Print, ...]:
+        """Every print, the figure's panels first: a front end says each in turn."""
+        return (*self.panels, self)
+
+    @property
+    def all_written(self) -> tuple[Path, ...]:
+        """Every file written for this image, the figure's own last."""
+        return tuple(p for each in self.prints for p in each.written) + self.figure_files
+
+
 def save_outputs(litho: Lithograph, target, formats=None, stem: str | None = None) -> tuple[list[Path], Lithograph]:
     """Save a lithograph's files and, when its parameters ask for G-code, slice it and rewrite the
     recipe with the result. Returns the paths written (recipe last) and the lithograph whose report
@@ -71,10 +95,22 @@ def save_outputs(litho: Lithograph, target, formats=None, stem: str | None = Non
 def convert(source, params: LithoParams | None, out_dir, *, stem: str | None = None,
             printer_profile: PrinterProfile | None = None, formats=None) -> Conversion:
     """Convert one image (a file, an array or a read Picture) into `out_dir`: see the module notes.
+    A multi-panel figure (`params.panels`, figure.py) gives a print per panel plus an overview.
 
     `stem` names the files (default: after the input); `printer_profile` replaces the printer that
     `params.printer` names (a recipe brings its own); `formats` replaces `params.formats`.
     """
-    litho = make_lithograph(source, params or LithoParams(), printer_profile=printer_profile)
-    written, litho = save_outputs(litho, Path(out_dir), formats, stem)
-    return Conversion(litho, tuple(written))
+    from .figure import make_figure
+
+    figure = make_figure(source, params or LithoParams(), printer_profile=printer_profile)
+    out = Path(out_dir)
+    base = stem or figure.prints[0][1].name
+    prints = []
+    for suffix, litho in figure.prints:
+        written, litho = save_outputs(litho, out, formats, f"{base}{suffix}")
+        prints.append(Print(litho, tuple(written), suffix))
+    figure_files = figure.finish(out, base, [p for each in prints for p in each.written], formats)
+    last = prints[-1]
+    warned = {w for each in prints for w in each.report.warnings}
+    notes = tuple(n for n in figure.notes if n not in warned)  # a note a print already warns of is said once
+    return Conversion(last.litho, last.written, last.suffix, tuple(prints[:-1]), tuple(figure_files), notes)

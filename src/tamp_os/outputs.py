@@ -39,8 +39,8 @@ def metadata(litho) -> dict:
     settings = settings_for(litho.printer, litho.params.material)
     return {
         "title": f"Tactile lithograph of {litho.picture.file.name}",
-        "description": " ".join([describe(litho.report, litho.params, litho.picture.file.name), *multipart_sentences(litho),
-                                 settings.sentence(in_3mf="3mf" in litho.params.formats)]),
+        "description": " ".join([litho.description or describe(litho.report, litho.params, litho.picture.file.name),
+                                 *multipart_sentences(litho), settings.sentence(in_3mf="3mf" in litho.params.formats)]),
         "designer": "TAMP-OS",
         "application": f"TAMP-OS {__version__}",
         "print_settings": settings,
@@ -194,7 +194,7 @@ def recipe_dict(litho, files: list[str]) -> dict:
     recipe = {
         "tamp_os_version": __version__,
         "input": {"name": src.name, "path": src.path, "sha256": src.sha256},
-        "params": litho.params.to_dict(),
+        "params": (getattr(litho, "recipe_params", None) or litho.params).to_dict(),
         "outputs": files,
         "print": litho.report.print.as_dict() if litho.report.print else None,
         "relief": {"style": litho.report.relief_style, "reason": litho.report.relief_reason,
@@ -207,8 +207,15 @@ def recipe_dict(litho, files: list[str]) -> dict:
     return recipe
 
 
-def write_recipe(litho, path: Path, files: list[str]) -> Path:
+def write_recipe(litho, path: Path, files: list[str], changes: dict | None = None) -> Path:
+    """The recipe of `litho` listing `files`, with `changes` made to its entries (a key given None
+    is left out: a figure's own recipe, figure.py)."""
     recipe = recipe_dict(litho, files)
+    for key, value in (changes or {}).items():
+        if value is None:
+            recipe.pop(key, None)
+        else:
+            recipe[key] = value
     # Each output's hash, so a resume knows the set is this run's whole set (not a file of the
     # same name from another run, or one damaged since).
     recipe["output_sha256"] = {name: file_sha256(path.parent / name) for name in files if (path.parent / name).is_file()}

@@ -99,6 +99,9 @@ class LithoParams:
     filament_price_per_kg: float = _f(25.0, "filament price per kg, in your currency", "", 0.0, 1000.0, lo_open=True)
     slice_timeout_s: float = _f(600.0, "stop PrusaSlicer after this long", "s", 0.0, 86400.0, lo_open=True)
     formats: tuple[str, ...] = _f(("stl",), "output formats (pdf and svg: a 2-D tactile graphic for swell paper or an embosser)", choices=FORMATS)
+    panels: str = _f("auto", "multi-panel figures: auto (find the panels; print each on its own plus an overview), off (print the figure whole), or a grid of rows x columns such as 2x3")
+    panel: str | None = _f(None, "print only these panels of a figure, by letter or number, e.g. b,c")
+    panel_boxes: str | None = _f(None, "the panels' boxes in source pixels, label=x,y,w,h;… (the recipe records them, so a rebuild is identical)")
     page_size: str = _f("plate", "page of the pdf and svg graphics: plate (its own size), a4 or letter (centred)", choices=("plate", "a4", "letter"))
 
     def __post_init__(self):
@@ -117,6 +120,14 @@ class LithoParams:
         if self.bed_mm is not None:
             if self.multicolour:
                 raise ParameterError("`multicolour` and `bed_mm`: tiled two-colour prints are not made yet; choose one of them.")
+        if self.panels not in ("auto", "off"):
+            from .clean.panels import parse_grid
+
+            parse_grid(self.panels)
+        if self.panel_boxes is not None:
+            from .clean.panels import parse_boxes
+
+            parse_boxes(self.panel_boxes)
         if not self.formats:
             raise ParameterError(f"`formats`: choose at least one of {', '.join(FORMATS)}.")
 

@@ -61,6 +61,8 @@ class Lithograph:
     mask: np.ndarray | None = None  # (rows, cols) float over the whole source: 0 kept, 0.5 cropped band, 1 inpainted
     parts: list | None = None  # multicolour: [base, raised] tactile.parts.Part, each closed; mesh is their union
     tiles: Tiling | None = None  # bed_mm smaller than the plate: the tiles to write instead of mesh
+    description: str | None = None  # a panel's or overview's own description (figure.py), else made from the report
+    recipe_params: LithoParams | None = None  # what the recipe records, when not `params` (a figure's panel)
 
     @property
     def name(self) -> str:

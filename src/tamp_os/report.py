@@ -57,6 +57,26 @@ class Printing(Facts):
 
 
 @dataclass(frozen=True)
+class PanelFacts(Facts):
+    """One print of a picture that may be a multi-panel figure (figure.py): whether the figure was
+    split and why; for a panel its label, box (x, y, w, h in the figure's pixels), how it was
+    found and whether its letter was read; for the overview every box, the panels printed and
+    the braille written in each frame."""
+
+    split: bool
+    reason: str = ""
+    panel: str | None = None
+    box_px: tuple[int, int, int, int] | None = None
+    found_by: str | None = None
+    letter_read: bool | None = None
+    panels: tuple[str, ...] = ()  # every panel's label, in reading order
+    overview: bool = False
+    boxes_px: tuple[tuple[int, int, int, int], ...] = ()
+    printed: tuple[str, ...] = ()
+    letters_braille: dict[str, str] = dataclasses.field(default_factory=dict)
+
+
+@dataclass(frozen=True)
 class Report:
     """Facts about one lithograph, built once. Lengths in mm; `print_mm` is the whole object (width,
     depth, height), `relief_mm` the picture's width and depth on the plate. The parts (plate,
@@ -94,6 +114,7 @@ class Report:
     source_px: tuple[int, int] = (0, 0)  # the source image's width and height (where annotations were)
     layout: "ReliefLayout | None" = None  # where the raised pieces are (layout_words.py), for the description
     key: tuple = ()  # KeyEntry (label, encoding, braille) of a channel print's key; empty otherwise
+    panels: "PanelFacts | None" = None  # a multi-panel figure (figure.py): split or not and why, this print's panel
 
     def as_dict(self) -> dict:
         """The report as a plain dict (JSON-ready), with the keys of the earlier untyped report
@@ -111,6 +132,10 @@ class Report:
         d["instrument"] = self.instrument.as_dict() if self.instrument else None
         d["timings_s"] = dict(self.timings_s)
         d["layout"] = self.layout.as_dict() if self.layout else None
+        if self.panels is None:  # only a figure's prints say so (other reports keep their keys)
+            del d["panels"]
+        else:
+            d["panels"] = self.panels.as_dict()
         for key in ("print_mm", "relief_mm", "grid"):
             d[key] = list(d[key])
         if self.print is None:

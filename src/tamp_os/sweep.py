@@ -92,7 +92,7 @@ class SweepResult:
     @property
     def written(self) -> list[Path]:
         """Every file written: each variant's files, then the sheets and their alt texts."""
-        files = [p for c in self.conversions for p in c.written]
+        files = [p for c in self.conversions for p in c.all_written]
         return files + [q for sheet in self.sheets for q in (sheet, sheet.with_suffix(".alt.txt"))]
 
 
@@ -113,7 +113,7 @@ def run_sweep(source, params: LithoParams, vary: dict[str, list], out_dir: Path,
         shown = name
     panels, render_panels, conversions, sheets = [], [], [], []
     for suffix, p in variants(params, vary):
-        conversion = convert(source, p, out_dir, stem=f"{name}_{suffix}")
+        conversion = convert(source, p, out_dir, stem=f"{name}_{suffix}")  # a figure: the sheet shows its overview
         conversions.append(conversion)
         label = suffix.replace("_", " ")
         panels.append((label, conversion.litho.heightmap))

@@ -170,6 +170,20 @@ def write_svg(graphic: Graphic2D, fh: BinaryIO, page_size: str | None = None, me
     fh.write((text[:head_end] + "\n" + title + text[head_end + 1:]).encode("utf-8"))
 
 
+def write_pdf_pages(graphics: list[Graphic2D], fh: BinaryIO, page_size: str | None = None, title: str = "Tactile graphics") -> None:
+    """Several graphics as one PDF, one page each at true size (a figure's overview and panels)."""
+    cairo = _cairo()
+    sizes = [page_placement(g.plate_mm, page_size) for g in graphics]
+    (pw, ph), _ = sizes[0]
+    surface = cairo.PDFSurface(fh, pw * PT_PER_MM, ph * PT_PER_MM)
+    surface.set_metadata(cairo.PDFMetadata.TITLE, title)
+    surface.set_metadata(cairo.PDFMetadata.CREATOR, "tamp-os")
+    for graphic, ((pw, ph), offset) in zip(graphics, sizes):
+        surface.set_size(pw * PT_PER_MM, ph * PT_PER_MM)
+        _draw(surface, graphic, offset, ph, PT_PER_MM)
+    surface.finish()
+
+
 Writer = Callable[..., None]
 GRAPHIC_WRITERS: dict[str, Writer] = {"pdf": write_pdf, "svg": write_svg}
 

@@ -41,8 +41,11 @@ FIELDS = {f.name: f for f in (
     Field("z_slice", "Z slice", "Leave empty for a projection of the whole z-stack; else a slice number from 0.", "numeric"),
     Field("time", "Time point", "Leave empty for the first time point; else a number from 0.", "numeric"),
     Field("scene", "Scene or series", "Leave empty for the first scene of a multi-scene file; else a number from 0.", "numeric"),
+    Field("panels", "Panels of a figure", "auto finds the panels of a multi-panel figure and prints each, plus an overview; "
+          "off prints it whole; or a grid of rows x columns such as 2x2."),
+    Field("panel", "Panels to print", "Leave empty for every panel, or give their letters, such as b,c."),
 )}
-TEXT_FIELDS = ("caption", "pixel_size", "scale_bar", "bed_mm", "channel")
+TEXT_FIELDS = ("caption", "pixel_size", "scale_bar", "bed_mm", "channel", "panels", "panel")
 # The relief styles in the web app's words: what each is for.
 STYLE_CHOICES = (
     ("structure", "Shapes to feel", "Large shapes a fingertip can follow; fine detail kept only as a low texture."),

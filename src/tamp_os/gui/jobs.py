@@ -251,8 +251,9 @@ def convert(job: WebJob, upload: Upload) -> Result:
         return Result(upload.name, False, f"{upload.name}: unexpected error ({exc.__class__.__name__}); please report it.")
     report, mesh = made.report, made.litho.mesh
     result = Result(
-        upload.name, True, files=[OutputFile(p.name, p.stat().st_size) for p in made.written],
-        description=made.litho.metadata()["description"], heightmap_png=f"{stem}.heightmap.png",
+        upload.name, True, files=[OutputFile(p.name, p.stat().st_size) for p in made.all_written],
+        description=" ".join([made.litho.metadata()["description"],  # a figure: the overview, then each panel
+                              *(f"Panel {each.suffix[7:]}: {each.litho.metadata()['description']}" for each in made.panels)]), heightmap_png=f"{stem}.heightmap.png",
         model_glb=f"{stem}{PREVIEW_SUFFIX}", summary=web_summary_lines(report, label_of),
         relief_style=report.relief_style, relief_reason=report.relief_reason, touch=[web_words(v) for v in made.touch()],
     )

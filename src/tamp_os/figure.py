@@ -1,0 +1,294 @@
+"""make_figure(): a picture that may be a multi-panel figure -> its lithographs.
+
+A single picture gives one lithograph, as make_lithograph. A figure of several panels gives one
+lithograph per panel (each through the whole pipeline: its own data band, scale bar, annotations
+and scale, its letter in braille at the start of its caption and in its description), named
+NAME.panel-<letter>, and an overview of the layout, NAME.overview. The front ends call this one
+function through convert.convert, which saves each print; nothing here writes files except
+Figure.finish (the figure's own recipe and pages).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .clean.panels import Panel, PanelLayout, detect_panels, forced_grid, given_layout
+from .errors import ParameterError, Text
+from .params import LithoParams
+from .pipeline import Lithograph, _read, layout_for, make_lithograph, resolve_printer
+from .printers import PrinterProfile, height_levels
+from .read import Picture
+from .report import PanelFacts, Report, describe
+
+log = logging.getLogger(__name__)
+
+# A panel with fewer source pixels than this on its shorter side is not printed on its own: at a
+# plate's width (about 100 mm) each of its pixels would be over 2 mm, coarser than a fingertip
+# resolves, so the print would show the pixels, not the picture.
+MIN_PANEL_PX = 48
+NUMBER_WORDS = ["no", "one", "two", "three", "four", "five", "six", "seven", "eight", "nine", "ten", "eleven", "twelve"]
+
+
+@dataclass
+class Figure:
+    """What a picture prints as.
+
+    layout : the panels found (layout.split False: one picture).
+    prints : (name suffix, lithograph) in order: ("", whole) for one picture, else
+        (".panel-a", …) for each panel printed and (".overview", overview) last. convert.convert
+        saves each (and slices it when asked), then calls `finish`.
+    notes : sentences on the layout (what was not printed, letters not read, why not split).
+    """
+
+    layout: PanelLayout
+    prints: list[tuple[str, Lithograph]]
+    notes: list[str] = field(default_factory=list)
+    params: LithoParams = field(default_factory=LithoParams)  # as given (the figure's recipe records them)
+
+    @property
+    def split(self) -> bool:
+        return len(self.prints) > 1 or (bool(self.prints) and self.prints[0][0] != "")
+
+    @property
+    def lithographs(self) -> list[Lithograph]:
+        return [litho for _, litho in self.prints]
+
+    def finish(self, folder: Path, stem: str, written: list[Path], formats=None) -> list[Path]:
+        """After each print is saved: for a figure, NAME.pages.pdf (when PDF is asked for) and the
+        figure's recipe NAME.tamp.json, listing every file and the parameters as given (so that a
+        batch rerun sees the figure done, and a rebuild from this recipe remakes it all)."""
+        if not self.split:
+            return []
+        extra = []
+        if "pdf" in (formats or self.params.formats):
+            extra.append(self.save_pages_pdf(folder, stem))
+        return extra + [self._save_recipe(folder, stem, [p.name for p in written + extra])]
+
+    def _save_recipe(self, folder: Path, stem: str, files: list[str]) -> Path:
+        from .outputs import RECIPE_SUFFIX, write_recipe
+
+        panels = {"boxes": self.layout.record(), "reason": self.layout.reason, "notes": [str(n) for n in self.notes]}
+        return write_recipe(self.prints[-1][1], folder / f"{stem}{RECIPE_SUFFIX}", files,
+                            {"params": self.params.to_dict(), "panels": panels, "relief": None})
+
+    def save_pages_pdf(self, folder: Path, stem: str) -> Path:
+        """NAME.pages.pdf: the overview's page first, then each panel's, for swell paper or an embosser."""
+        from .export.tactile2d import write_pdf_pages
+        from .files import write_atomic
+        from .outputs import tactile_graphic
+
+        order = [litho for suffix, litho in self.prints if suffix == ".overview"] + [litho for suffix, litho in self.prints if suffix != ".overview"]
+        graphics = [tactile_graphic(litho) for litho in order]
+        params = order[0].params
+        title = f"Tactile graphics of the figure {order[0].picture.file.name}: overview, then panels {', '.join(s[7:] for s, _ in self.prints[:-1])}"
+        return write_atomic(folder / f"{stem}.pages.pdf", lambda fh: write_pdf_pages(graphics, fh, params.page_size, title))
+
+
+def make_figure(source, params: LithoParams | None = None, *, printer_profile: PrinterProfile | None = None, **changes) -> Figure:
+    """The lithographs of a picture: itself, or each of its panels plus an overview.
+
+    `params.panels` auto finds the panels (a single micrograph is never split), off prints the
+    picture whole, RxC cuts an equal grid; `params.panel_boxes` (as recorded in a recipe) gives
+    the boxes; `params.panel` ('b,c') prints only those panels.
+    """
+    params = params or LithoParams()
+    if changes:
+        params = params.replace(**changes)
+    if params.panels == "off" and not params.panel_boxes:
+        return Figure(PanelLayout(False, reason="panels is off"), [("", make_lithograph(source, params, printer_profile=printer_profile))], [], params)
+    picture = _read(source, params)
+    layout = _layout(picture, params)
+    if not layout.split:
+        return _whole(picture, params, printer_profile, layout, [layout.reason] if "bands" in layout.reason else [])
+    notes = list(layout.notes)
+    chosen = _chosen(layout, params)
+    printable = []
+    for panel in chosen:
+        if min(panel.w, panel.h) < MIN_PANEL_PX:
+            notes.append(Text(f"panel {panel.label} ({panel.w}×{panel.h} pixels) is not printed on its own: below {MIN_PANEL_PX} pixels on a side, "
+                         f"each of its pixels would be over 2 mm on a plate, too coarse to feel as a picture. Print the figure "
+                         f"whole (`panels` off), or use a larger original of the figure."))
+        else:
+            printable.append(panel)
+    if not printable:
+        notes.append("no panel of the figure is large enough to print on its own, so the figure is printed whole")
+        return _whole(picture, params, printer_profile, layout, notes)
+    record = params.replace(panel_boxes=layout.record())
+    prints = [(f".panel-{p.label}", _panel_print(picture, p, layout, params, record, printer_profile)) for p in printable]
+    # The overview names every panel large enough to print, whichever `panel` chose, so that it is
+    # the same file whichever panel's recipe rebuilds it.
+    big = [p.label for p in layout.panels if min(p.w, p.h) >= MIN_PANEL_PX]
+    # (What each panel shows is in its own description, not here: the overview must not depend on
+    # which panels this run printed.)
+    overview = _overview(picture, layout, params, record.replace(panel=None), printer_profile, notes, big)
+    for note in notes:
+        log.warning(note)
+    return Figure(layout, prints + [(".overview", overview)], notes, params)
+
+
+def _layout(picture: Picture, params: LithoParams) -> PanelLayout:
+    if params.panel_boxes:
+        return given_layout(picture.values, params.panel_boxes)
+    if params.panels not in ("auto", "off"):
+        return forced_grid(picture.values, params.panels)
+    return detect_panels(picture.values)
+
+
+def _chosen(layout: PanelLayout, params: LithoParams) -> list[Panel]:
+    if not params.panel:
+        return list(layout.panels)
+    labels = layout.labels()
+    # A number that is not a label counts panels in reading order (panel 2 = the second panel).
+    wanted = [w.strip() for w in params.panel.split(",") if w.strip()]
+    wanted = [labels[int(w) - 1] if w not in labels and w.isdigit() and 1 <= int(w) <= len(labels) else w for w in wanted]
+    unknown = [w for w in wanted if w not in labels]
+    if unknown:
+        raise ParameterError(f"`panel`: the figure has panels {', '.join(labels)}; there is no panel {', '.join(unknown)}.",
+                             parameter="panel", value=params.panel, allowed=", ".join(labels),
+                             hint=f"Give some of {', '.join(labels)}, separated by commas (for example {labels[0]}), or their numbers in reading order.")
+    return [p for p in layout.panels if p.label in wanted]
+
+
+def _whole(picture, params, printer_profile, layout: PanelLayout, notes: list[str]) -> Figure:
+    litho = make_lithograph(picture, params, printer_profile=printer_profile)
+    new = [note for note in notes if note not in litho.report.warnings]
+    for note in new:
+        log.warning(note)
+    litho.report = dataclasses.replace(litho.report, panels=PanelFacts(split=False, reason=layout.reason),
+                                       warnings=litho.report.warnings + tuple(new))
+    return Figure(layout, [("", litho)], notes, params)
+
+
+def crop_picture(picture: Picture, box: tuple[int, int, int, int]) -> Picture:
+    """One panel of a figure as a Picture of its own. The file's vendor metadata is dropped: it
+    describes the figure's file, not the panel (a panel's scale comes from its own scale bar, or
+    pixel_size); the file's name and hash stay, so the recipe names the figure."""
+    x, y, w, h = box
+    alpha = None if picture.alpha is None else picture.alpha[y:y + h, x:x + w]
+    file = dataclasses.replace(picture.file, width=w, height=h, metadata={}, tiff_tags={}, notes=list(picture.file.notes))
+    return Picture(np.ascontiguousarray(picture.values[y:y + h, x:x + w]), alpha, file)
+
+
+def position_words(layout: PanelLayout) -> dict[str, str]:
+    """'top left', 'bottom right', 'middle', … for each panel label, from the layout's rows."""
+    out = {}
+    n_rows = len(layout.rows)
+    for r, row in enumerate(layout.rows):
+        vertical = "" if n_rows == 1 else ("top" if r == 0 else "bottom" if r == n_rows - 1 else "middle")
+        for c, i in enumerate(row):
+            horizontal = "" if len(row) == 1 else ("left" if c == 0 else "right" if c == len(row) - 1 else "centre")
+            out[layout.panels[i].label] = " ".join(w for w in (vertical, horizontal) if w) or "alone"
+    return out
+
+
+def _number(n: int) -> str:
+    return NUMBER_WORDS[n] if n < len(NUMBER_WORDS) else str(n)
+
+
+def _panel_print(picture, panel: Panel, layout: PanelLayout, params: LithoParams, record: LithoParams, printer_profile) -> Lithograph:
+    caption = f"{panel.label} {params.caption}" if params.caption else panel.label
+    panel_params = params.replace(panels="off", panel=None, panel_boxes=None, caption=caption)
+    litho = make_lithograph(crop_picture(picture, panel.box_px), panel_params, printer_profile=printer_profile)
+    where = position_words(layout)[panel.label]
+    letter = "letter" if panel.label.isalpha() else "number"
+    said = "" if panel.letter_read or not panel.label.isalpha() else " (inferred from the order of the others)"
+    if not panel.label.isalpha():
+        said = " (no letter was read on the figure, so panels are numbered in reading order)"
+    lead = (f"Panel {panel.label} of {_number(len(layout.panels))} in the figure {picture.file.name}, {where} "
+            f"(x {panel.x}–{panel.x + panel.w - 1}, y {panel.y}–{panel.y + panel.h - 1} of the figure's pixels); "
+            f"its {letter}{said} is the first braille word of the caption.")
+    litho.description = lead + " " + describe(litho.report, litho.params, picture.file.name)
+    litho.recipe_params = record.replace(panel=panel.label)
+    litho.report = dataclasses.replace(litho.report, panels=PanelFacts(
+        split=True, panel=panel.label, box_px=tuple(panel.box_px), found_by=panel.found_by, letter_read=panel.letter_read,
+        panels=tuple(layout.labels())))
+    return litho
+
+
+def _overview(picture, layout: PanelLayout, params: LithoParams, record: LithoParams, printer_profile, notes: list[str],
+              printed: list[str], contents: dict[str, str] | None = None) -> Lithograph:
+    """The overview lithograph: the layout at plate size (tactile/overview.py)."""
+    from .pipeline import _furniture
+    from .tactile.overview import OverviewPanel, build_overview
+
+    machine = resolve_printer(params, printer_profile)
+    h, w = picture.values.shape
+    plan = layout_for(params, machine, w, h)
+    caption = f"overview {params.caption}" if params.caption else "overview"
+    over_params = params.replace(caption=caption, panels="off", panel=None, panel_boxes=None)
+    furniture = dataclasses.replace(_furniture(over_params.replace(scale_bar="off"), None))
+    panels = [OverviewPanel(p.box_px, p.label, picture.values[p.y:p.y + p.h, p.x:p.x + p.w]) for p in layout.panels]
+    max_error = params.max_error_mm if params.max_error_mm is not None else machine.layer_mm / 2
+    built = build_overview((w, h), panels, plan.cols, plan.rows, plan.width_mm, plan.depth_mm, params.base_mm, furniture,
+                           params.mesher, max_error)
+    notes += built.notes
+    description = overview_description(picture.file.name, layout, printed, built.notes, contents or {})
+    facts = PanelFacts(split=True, reason=layout.reason, panels=tuple(layout.labels()), overview=True,
+                       boxes_px=tuple(tuple(b) for b in layout.boxes()), printed=tuple(printed), letters_braille=dict(built.letters_braille))
+    report = _overview_report(picture, plan, machine, params, built, description, facts)
+    litho = Lithograph(mesh=built.mesh, heightmap=built.heights_mm, params=over_params, printer=machine, layout=plan, picture=picture,
+                       report=report, furniture=furniture, description=description, recipe_params=record)
+    return litho
+
+
+def overview_description(name: str, layout: PanelLayout, printed: list[str], notes: list[str], contents: dict[str, str] | None = None) -> str:
+    """The overview in words: 'Four panels in two rows: a, top left, 12 raised objects; b, top right, …'."""
+    where = position_words(layout)
+    contents = contents or {}
+    n, rows = len(layout.panels), len(layout.rows)
+    parts = [f"Overview of the figure {name}. {_number(n).capitalize()} panels in {_number(rows)} row{'s' if rows != 1 else ''}: "
+             + "; ".join(", ".join([p.label, where[p.label]] + ([contents[p.label]] if p.label in contents else [])) for p in layout.panels) + "."]
+    parts.append("Each panel is a raised frame with its label in braille inside its top-left corner and a low, "
+                 "blurred relief of its content; the caption along the bottom reads overview.")
+    if printed:
+        parts.append(f"Panel{'s' if len(printed) > 1 else ''} {', '.join(printed)} {'have' if len(printed) > 1 else 'has'} "
+                     f"{'their' if len(printed) > 1 else 'its'} own plate{'s' if len(printed) > 1 else ''}, at full size, named after the label.")
+    inferred = [p.label for p in layout.panels if p.label.isalpha() and not p.letter_read]
+    if inferred:
+        parts.append(f"The letter{'s' if len(inferred) > 1 else ''} {', '.join(inferred)} did not read on the figure and "
+                     f"{'were' if len(inferred) > 1 else 'was'} inferred from the order of the others.")
+    if not any(p.label.isalpha() for p in layout.panels):
+        parts.append("No panel letters were read on the figure, so the panels are numbered in reading order.")
+    parts += [f"Note: {n_}." for n_ in notes]  # from the overview itself (a panel too small for its frame)
+    return " ".join(parts)
+
+
+def _overview_report(picture, plan, machine, params, built, description, facts: PanelFacts) -> Report:
+    from .clean.band import Band
+    from .pipeline import _tactile_report
+
+    mesh = built.mesh
+    return Report(
+        input=picture.file.name,
+        print_mm=[round(float(v), 3) for v in mesh.bounds_mm[1]],
+        relief_mm=[round(plan.width_mm, 3), round(plan.depth_mm, 3)],
+        grid=[plan.cols, plan.rows],
+        mm_per_px=round(plan.mm_per_px, 4),
+        blur_px=0.0,
+        printer=machine.name,
+        nozzle_mm=machine.nozzle_mm,
+        layer_mm=machine.layer_mm,
+        height_levels=height_levels(params.relief_mm, machine.layer_mm),
+        mesher=params.mesher,
+        max_error_mm=0.0,
+        triangles=mesh.n_triangles,
+        vertices=len(mesh.vertices),
+        uniform=False,
+        pixel_size_m=None,
+        pixel_size_source=None,
+        scale="no physical scale: the overview shows the layout, not the sample",
+        tactile=_tactile_report(built.placed),
+        crop=Band(),
+        annotations=(),
+        warnings=tuple(built.notes),
+        timings_s={},
+        relief_style="overview",
+        relief_reason=description,
+        source_px=(picture.file.width, picture.file.height),
+        panels=facts,
+    )

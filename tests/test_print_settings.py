@@ -22,7 +22,7 @@ from hypothesis import given, settings, strategies as st
 from conftest import need, run_cli
 from tamp_os.errors import ParameterError
 from tamp_os.pipeline import make_lithograph
-from tamp_os.printer_table import PRINTERS, find_printer, printers_of
+from tamp_os.printer_table import NOT_CHECKED, PRINTERS, find_printer, printers_of
 from tamp_os.printers import get_printer
 
 
@@ -62,6 +62,10 @@ def test_prusaslicer_slices_the_3mf_at_its_layer_height_without_load(tmp_path, m
     assert re.search(r"^; support_material = 0$", gcode, re.M)
     assert re.search(r"^; perimeters = 2$", gcode, re.M)
     assert re.search(r"^; fill_density = 15%$", gcode, re.M)
+    # every key we write is one PrusaSlicer read: its value comes back in the G-code's settings
+    for key, value in (("fill_pattern", "gyroid"), ("top_solid_layers", "3"), ("bottom_solid_layers", "3"),
+                       ("first_layer_height", "0.2"), ("nozzle_diameter", "0.4")):
+        assert re.search(rf"^; {key} = {re.escape(value)}$", gcode, re.M), key
     # The MK4's bed from the printer table (PrusaSlicer 2.5 has no MK4 preset to take it from).
     assert re.search(r"^; bed_shape = 0x0,250x0,250x210,0x210$", gcode, re.M)
     first, step = _layer_steps_mm(gcode)
@@ -126,14 +130,63 @@ def test_prusa_config_lines_parse_back_to_the_settings(tmp_path):
 
 # --- today's printers ---------------------------------------------------------------------------
 
-def test_every_printer_has_a_vendor_source_and_a_sane_bed():
-    domains = {"Prusa Research": "prusa3d.com", "Bambu Lab": "bambulab.com", "Creality": "creality.com", "Elegoo": "elegoo.com"}
+def test_every_printer_has_a_sane_bed_nozzle_and_layer_range():
     for p in PRINTERS:
-        assert p.source.startswith("https://") and domains[p.vendor] in p.source, p
-        assert all(100 <= v <= 500 for v in p.bed_mm) and 0.05 <= min(p.layers_mm) < max(p.layers_mm) <= 0.32
+        assert all(100 <= v <= 500 for v in p.bed_mm) and p.nozzle_mm == 0.4, p
+        # a range a 0.4 mm nozzle can print: thinner than the nozzle, and one that holds the 0.12 mm design layer
+        assert len(p.layers_mm) == 2 and 0.05 <= p.layers_mm[0] < 0.12 < p.layers_mm[1] < p.nozzle_mm, p
     asked = {"mk4", "mk4s", "mk3.9", "core one", "mini", "xl", "a1", "a1 mini", "p1s", "x1c"}
     assert all(find_printer(n) is not None for n in asked)
     assert len({find_printer(n).model for n in asked}) == len(asked)
+
+
+# A source names a repository file (owner/name then a path) or a URL, or says the row was not checked.
+_WHERE = re.compile(r"(https://\S+|github\.com/[\w.-]+/[\w.-]+ \S+|/usr/share/PrusaSlicer/profiles/\S+)")
+
+
+def test_every_row_names_where_its_facts_were_checked():
+    for p in PRINTERS:
+        assert p.source.strip(), p
+        assert p.source == NOT_CHECKED or _WHERE.search(p.source), p.source
+        if p.source != NOT_CHECKED:
+            # the numbers the row states can be found in its source
+            w, d, h = (f"{v:g}" for v in p.bed_mm)
+            assert h in p.source and (f"{w}x{d}" in p.source or w in p.source and d in p.source), p
+            assert all(f"{v:g}" in p.source for v in p.layers_mm), p
+
+
+def test_every_bed_is_one_the_sizing_and_tiling_code_accepts():
+    from tamp_os.printers import _bed
+    from tamp_os.tactile.tiles import plan_grid
+    from tamp_os.units import parse_bed_mm
+
+    for p in PRINTERS:
+        w, d, _ = p.bed_mm
+        assert parse_bed_mm(f"{w:g}x{d:g}") == (w, d) and _bed([w, d]) == (w, d)
+        profile = get_printer(p.model)
+        assert profile.bed_mm == (w, d) and 0 < profile.width_mm <= min(w, d) - 20
+        assert plan_grid((w / 2, d / 2), (w, d))[:2] == (1, 1)  # a plate inside the bed: one tile
+        rows, cols, _ = plan_grid((2.5 * w, 2.5 * d), (w, d))
+        assert rows >= 3 and cols >= 3  # a plate 2.5 beds across: at least three tiles each way
+
+
+def test_rows_agree_with_the_installed_prusaslicer_bundles():
+    """Where Debian's PrusaSlicer bundle has the printer, its own preset says the same bed, height and layers."""
+    from tamp_os.printer_table import installed_preset
+    from tamp_os.prusa_presets import find_system_printer, read_bundle, resolve
+
+    checked = 0
+    for p in PRINTERS:
+        preset = installed_preset(p)
+        if preset is None:
+            continue
+        system = find_system_printer(preset)
+        options = resolve(read_bundle(system.bundle), "printer", system.name)
+        assert system.bed_mm == p.bed_mm[:2] and float(options["max_print_height"]) == p.bed_mm[2], p
+        assert (float(options["min_layer_height"].split(",")[0]), float(options["max_layer_height"].split(",")[0])) == p.layers_mm
+        assert system.nozzle_mm == p.nozzle_mm
+        checked += 1
+    need(checked > 0, "PrusaSlicer's vendor bundles (apt-get install prusa-slicer)")
 
 
 @settings(max_examples=60, deadline=None)

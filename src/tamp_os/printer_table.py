@@ -1,11 +1,18 @@
-"""Today's printers: bed, nozzle and usual layer heights of printers found in classrooms, each with
-the vendor's specification page it comes from, and their names as people type them.
+"""Today's printers: bed, nozzle and layer-height range of printers found in classrooms, each with
+where those facts were checked, and their names as people type them.
 
 A row is a fact table, not a slicer profile: it sizes the print (width to fit the bed), decides
 tiling (bed), fills the print settings inside the 3MF, and names the PrusaSlicer system preset
 the installed PrusaSlicer has for it (Debian's PrusaSlicer 2.5 predates the MK4, CORE One and
 XL, so only printers whose preset is really installed get G-code; see `installed_preset`).
-The layer heights are the vendor's own slicer profiles for the stock 0.4 mm nozzle.
+
+Every number was read from the vendor's own slicer profile for the stock 0.4 mm nozzle (the
+machine has no web access, so the vendors' product pages were not read): the bed is the
+profile's printable area (`bed_shape` / `printable_area`), the height its `max_print_height` /
+`printable_height`, the layer range its `min_layer_height`..`max_layer_height`. A slicer's
+printable height can be a few mm below the height a product page advertises (Bambu Lab's P1S and
+X1 Carbon profiles say 250 mm); the slicer's number is the one a print must respect. A row whose
+facts could not be checked says "not checked" in its source.
 """
 
 from __future__ import annotations
@@ -14,25 +21,28 @@ import difflib
 import re
 from dataclasses import dataclass
 
-PRUSA_LAYERS_MM = (0.05, 0.07, 0.10, 0.15, 0.20, 0.25, 0.30)  # PrusaSlicer's MK4/MK4S/CORE One/XL print profiles
-PRUSA_MINI_LAYERS_MM = (0.05, 0.07, 0.10, 0.15, 0.20, 0.25)  # PrusaSlicer's MINI print profiles
-MK3_LAYERS_MM = (0.05, 0.07, 0.10, 0.15, 0.20, 0.30)  # PrusaSlicer's MK3S/MK3.9 print profiles
-BAMBU_LAYERS_MM = (0.08, 0.12, 0.16, 0.20, 0.24, 0.28)  # Bambu Studio's process profiles, 0.4 mm nozzle
-CREALITY_LAYERS_MM = (0.12, 0.16, 0.20, 0.24, 0.28)  # Creality Print's profiles, 0.4 mm nozzle
+NOT_CHECKED = "not checked"
+
+# Where the facts were read (repository, path, and the version read).
+_PRUSA_INI = ("github.com/prusa3d/PrusaSlicer resources/profiles/PrusaResearch.ini "
+              "(config_version 2.2.3, commit 31f9044e)")
+_ORCA = "github.com/SoftFever/OrcaSlicer resources/profiles/"
+_BBL_COMMON = (f"{_ORCA}BBL/machine/fdm_bbl_3dp_001_common.json (printable_area 256x256, printable_height 250, "
+               "layers 0.08-0.28; the same in github.com/bambulab/BambuStudio's copy of that file)")
 
 
 @dataclass(frozen=True)
 class PrinterModel:
-    """One printer as its vendor specifies it (stock 0.4 mm nozzle)."""
+    """One printer as its vendor's slicer profile describes it (stock 0.4 mm nozzle)."""
 
     vendor: str
     model: str  # the vendor's name for it
     short_names: tuple[str, ...]  # what people type: 'mk4', 'a1 mini'
-    bed_mm: tuple[float, float, float]  # build volume: width (x), depth (y), height (z)
-    layers_mm: tuple[float, ...]  # the usual layer heights (the vendor slicer's profiles)
-    source: str  # the vendor's specification page for bed and nozzle
+    bed_mm: tuple[float, float, float]  # printable volume: width (x), depth (y), height (z)
+    layers_mm: tuple[float, float]  # (thinnest, thickest) layer the vendor's printer profile allows
+    source: str  # where bed, nozzle and layers were checked (repository path or URL), or NOT_CHECKED
     nozzle_mm: float = 0.4
-    prusa_presets: tuple[str, ...] = ()  # PrusaSlicer system preset names for it, newest bundle first
+    prusa_presets: tuple[str, ...] = ()  # PrusaSlicer system preset names for it, the current one first
     bambu_model: str | None = None  # printer_model in Bambu Studio / OrcaSlicer project settings
 
     @property
@@ -50,41 +60,63 @@ class PrinterModel:
 
 
 PRINTERS: tuple[PrinterModel, ...] = (
-    PrinterModel("Prusa Research", "Original Prusa MK4S", ("mk4s", "prusa mk4s"), (250, 210, 220), PRUSA_LAYERS_MM,
-                 "https://www.prusa3d.com/product/original-prusa-mk4s-3d-printer-5/",
-                 prusa_presets=("Original Prusa MK4S", "Original Prusa MK4S 0.4 nozzle")),
-    PrinterModel("Prusa Research", "Original Prusa MK4", ("mk4", "prusa mk4"), (250, 210, 220), PRUSA_LAYERS_MM,
-                 "https://www.prusa3d.com/product/original-prusa-mk4-2/",
-                 prusa_presets=("Original Prusa MK4", "Original Prusa MK4 0.4 nozzle", "Original Prusa MK4 Input Shaper 0.4 nozzle")),
-    PrinterModel("Prusa Research", "Original Prusa MK3.9", ("mk3.9", "mk3.9s", "prusa mk3.9"), (250, 210, 210), MK3_LAYERS_MM,
-                 "https://www.prusa3d.com/product/original-prusa-mk3s-to-mk3-9-upgrade-kit/",
-                 prusa_presets=("Original Prusa MK3.9", "Original Prusa MK3.9 0.4 nozzle")),
-    PrinterModel("Prusa Research", "Prusa CORE One", ("core one", "coreone", "prusa core one"), (250, 220, 270), PRUSA_LAYERS_MM,
-                 "https://www.prusa3d.com/product/prusa-core-one/",
-                 prusa_presets=("Prusa CORE One", "Prusa CORE One 0.4 nozzle")),
+    PrinterModel("Prusa Research", "Original Prusa MK4S", ("mk4s", "prusa mk4s"), (250, 210, 220), (0.07, 0.30),
+                 f"{_PRUSA_INI}: [printer:Original Prusa MK4S 0.4 nozzle], via MK4 Input Shaper 0.4 nozzle "
+                 "(max_layer_height 0.30) from *commonMK4* (bed_shape 0x0,250x0,250x210,0x210, max_print_height 220, "
+                 "min_layer_height 0.07, nozzle_diameter 0.4)",
+                 prusa_presets=("Original Prusa MK4S 0.4 nozzle",)),
+    PrinterModel("Prusa Research", "Original Prusa MK4", ("mk4", "prusa mk4"), (250, 210, 220), (0.07, 0.30),
+                 f"{_PRUSA_INI}: [printer:Original Prusa MK4 Input Shaper 0.4 nozzle] (max_print_height 220, "
+                 "max_layer_height 0.30) from *commonMK4* (bed_shape 0x0,250x0,250x210,0x210, min_layer_height 0.07)",
+                 prusa_presets=("Original Prusa MK4 Input Shaper 0.4 nozzle", "Original Prusa MK4 0.4 nozzle")),
+    PrinterModel("Prusa Research", "Original Prusa MK3.9", ("mk3.9", "mk3.9s", "prusa mk3.9"), (250, 210, 220), (0.07, 0.30),
+                 f"{_PRUSA_INI}: [printer:Original Prusa MK3.9 0.4 nozzle] (max_print_height 220, max_layer_height 0.30) "
+                 "from *commonMK4* (bed_shape 0x0,250x0,250x210,0x210, min_layer_height 0.07)",
+                 prusa_presets=("Original Prusa MK3.9 0.4 nozzle",)),
+    PrinterModel("Prusa Research", "Prusa CORE One", ("core one", "coreone", "prusa core one"), (250, 220, 270), (0.07, 0.30),
+                 f"{_PRUSA_INI}: [printer:Prusa CORE One 0.4 nozzle] from [printer:Prusa CORE One HF0.4 nozzle] "
+                 "(bed_shape 0x0,250x0,250x220,0x220, max_print_height 270, min_layer_height 0.07, max_layer_height 0.3)",
+                 prusa_presets=("Prusa CORE One 0.4 nozzle",)),
     PrinterModel("Prusa Research", "Original Prusa MINI+", ("mini", "mini+", "prusa mini", "prusa mini+"), (180, 180, 180),
-                 PRUSA_MINI_LAYERS_MM, "https://www.prusa3d.com/product/original-prusa-mini-semi-assembled-3d-printer-4/",
-                 prusa_presets=("Original Prusa MINI & MINI+",)),
-    PrinterModel("Prusa Research", "Original Prusa XL", ("xl", "prusa xl"), (360, 360, 360), PRUSA_LAYERS_MM,
-                 "https://www.prusa3d.com/product/original-prusa-xl-2/",
-                 prusa_presets=("Original Prusa XL", "Original Prusa XL 0.4 nozzle")),
-    PrinterModel("Bambu Lab", "Bambu Lab A1", ("a1", "bambu a1"), (256, 256, 256), BAMBU_LAYERS_MM,
-                 "https://bambulab.com/en/a1/tech-specs", bambu_model="Bambu Lab A1"),
-    PrinterModel("Bambu Lab", "Bambu Lab A1 mini", ("a1 mini", "a1mini", "bambu a1 mini"), (180, 180, 180), BAMBU_LAYERS_MM,
-                 "https://bambulab.com/en/a1-mini/tech-specs", bambu_model="Bambu Lab A1 mini"),
-    PrinterModel("Bambu Lab", "Bambu Lab P1S", ("p1s", "bambu p1s"), (256, 256, 256), BAMBU_LAYERS_MM,
-                 "https://bambulab.com/en/p1/tech-specs", bambu_model="Bambu Lab P1S"),
-    PrinterModel("Bambu Lab", "Bambu Lab X1 Carbon", ("x1c", "x1 carbon", "bambu x1c", "bambu lab x1c"), (256, 256, 256),
-                 BAMBU_LAYERS_MM, "https://bambulab.com/en/x1/tech-specs", bambu_model="Bambu Lab X1 Carbon"),
-    PrinterModel("Creality", "Creality Ender-3 V3 SE", ("ender-3 v3 se", "ender 3 v3 se"), (220, 220, 250), CREALITY_LAYERS_MM,
-                 "https://www.creality.com/products/ender-3-v3-se"),
-    PrinterModel("Creality", "Creality K1C", ("k1c", "creality k1c"), (220, 220, 250), CREALITY_LAYERS_MM,
-                 "https://www.creality.com/products/creality-k1c"),
-    PrinterModel("Creality", "Creality Ender-3 V2", ("ender-3 v2", "ender 3 v2"), (220, 220, 250), CREALITY_LAYERS_MM,
-                 "https://www.creality.com/products/ender-3-v2-3d-printer-csco",
+                 (0.07, 0.25),
+                 f"{_PRUSA_INI}: [printer:Original Prusa MINI & MINI+] (bed_shape 0x0,180x0,180x180,0x180, "
+                 "max_print_height 180, min_layer_height 0.07, max_layer_height 0.25) and its Input Shaper child; the same "
+                 "in Debian's PrusaSlicer 2.5 bundle (/usr/share/PrusaSlicer/profiles/PrusaResearch.ini, config_version 1.5.1)",
+                 prusa_presets=("Original Prusa MINI & MINI+ Input Shaper", "Original Prusa MINI & MINI+")),
+    PrinterModel("Prusa Research", "Original Prusa XL", ("xl", "prusa xl"), (360, 360, 360), (0.07, 0.30),
+                 f"{_PRUSA_INI}: [printer:Original Prusa XL Input Shaper 0.4 nozzle] (max_layer_height 0.30) from "
+                 "*commonXLIS* and *commonXL* (bed_shape 0x0,360x0,360x360,0x360, max_print_height 360, min_layer_height 0.07)",
+                 prusa_presets=("Original Prusa XL Input Shaper 0.4 nozzle",)),
+    PrinterModel("Bambu Lab", "Bambu Lab A1", ("a1", "bambu a1"), (256, 256, 256), (0.08, 0.28),
+                 f"{_ORCA}BBL/machine/Bambu Lab A1 0.4 nozzle.json (printer_model, nozzle 0.4, printable_height 256) "
+                 f"on {_BBL_COMMON}", bambu_model="Bambu Lab A1"),
+    PrinterModel("Bambu Lab", "Bambu Lab A1 mini", ("a1 mini", "a1mini", "bambu a1 mini"), (180, 180, 180), (0.08, 0.28),
+                 f"{_ORCA}BBL/machine/Bambu Lab A1 mini 0.4 nozzle.json (printer_model, nozzle 0.4, printable_area 180x180, "
+                 f"printable_height 180) on {_BBL_COMMON}", bambu_model="Bambu Lab A1 mini"),
+    PrinterModel("Bambu Lab", "Bambu Lab P1S", ("p1s", "bambu p1s"), (256, 256, 250), (0.08, 0.28),
+                 f"{_ORCA}BBL/machine/Bambu Lab P1S 0.4 nozzle.json (printer_model, nozzle 0.4) on {_BBL_COMMON}",
+                 bambu_model="Bambu Lab P1S"),
+    PrinterModel("Bambu Lab", "Bambu Lab X1 Carbon", ("x1c", "x1 carbon", "bambu x1c", "bambu lab x1c"), (256, 256, 250),
+                 (0.08, 0.28),
+                 f"{_ORCA}BBL/machine/Bambu Lab X1 Carbon 0.4 nozzle.json (printer_model, nozzle 0.4) on {_BBL_COMMON}",
+                 bambu_model="Bambu Lab X1 Carbon"),
+    PrinterModel("Creality", "Creality Ender-3 V3 SE", ("ender-3 v3 se", "ender 3 v3 se"), (220, 220, 250), (0.08, 0.36),
+                 f"{_ORCA}Creality/machine/Creality Ender-3 V3 SE 0.4 nozzle.json (printable_area 220x220, "
+                 "printable_height 250, nozzle 0.4, min_layer_height 0.08, max_layer_height 0.36)"),
+    PrinterModel("Creality", "Creality K1C", ("k1c", "creality k1c"), (220, 220, 250), (0.08, 0.30),
+                 f"{_ORCA}Creality/machine/Creality K1C 0.4 nozzle.json (printable_area 220x220, printable_height 250, "
+                 "nozzle 0.4, min_layer_height 0.08, max_layer_height 0.3)"),
+    # The PrusaSlicer bundle's bed (its preset slices the G-code) is 210 mm wide, 10 mm less than OrcaSlicer's
+    # 220 x 220 (resources/profiles/Creality/machine/Creality Ender-3 V2 0.4 nozzle.json): the smaller one fits both.
+    PrinterModel("Creality", "Creality Ender-3 V2", ("ender-3 v2", "ender 3 v2"), (210, 220, 250), (0.08, 0.32),
+                 "PrusaSlicer's Creality bundle as Debian's prusa-slicer 2.5 installs it (/usr/share/PrusaSlicer/profiles/"
+                 "Creality.ini, config_version 0.2.1): [printer:Creality Ender-3 V2 (0.4 mm nozzle)] (bed_shape "
+                 "5x0,215x0,215x220,5x220, that is 210x220 printable, max_print_height 250, min_layer_height 0.08, max_layer_height 0.32, nozzle 0.4)",
                  prusa_presets=("Creality Ender-3 V2 (0.4 mm nozzle)",)),
-    PrinterModel("Elegoo", "Elegoo Neptune 4 Pro", ("neptune 4 pro", "elegoo neptune 4 pro"), (225, 225, 265), CREALITY_LAYERS_MM,
-                 "https://www.elegoo.com/products/elegoo-neptune-4-pro-fdm-3d-printer"),
+    PrinterModel("Elegoo", "Elegoo Neptune 4 Pro", ("neptune 4 pro", "elegoo neptune 4 pro"), (230, 230, 265), (0.08, 0.28),
+                 f"{_ORCA}Elegoo/machine/EN4SERIES/Elegoo Neptune 4 Pro 0.4 nozzle.json (printable_area 230x230, "
+                 "printable_height 265, nozzle 0.4) on Elegoo Neptune 4 0.4 nozzle.json (min_layer_height 0.08, "
+                 "max_layer_height 0.28)"),
 )
 
 # Vendor names as people type them ("prusa"), and PrusaSlicer's bundle ids.

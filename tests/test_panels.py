@@ -345,6 +345,9 @@ def test_pdf_has_one_page_per_panel_plus_the_overview(tmp_path, capsys):
     assert [float(v) for v in reader.pages[0].mediabox] == pytest.approx([float(v) for v in overview])
     assert [float(v) for v in reader.pages[1].mediabox] == pytest.approx([float(v) for v in panel])
     assert "grid_white.pages.pdf" in out
+    # Each result line says which print it is, so a screen-reader user knows which panel is which.
+    heads = [line.split(":")[0] for line in out.splitlines() if not line.startswith(" ")]
+    assert heads == ["grid_white.png, panel 1", "grid_white.png, panel 2", "grid_white.png, overview"], out
 
 
 @pytest.mark.timeout(300)

@@ -359,7 +359,7 @@ def cmd_convert(args) -> int:
             conversion = convert(image, job_params, Path(args.output), stem=stem, printer_profile=printer)
         lines = [line for each in conversion.prints for line in _say(each, verbose=args.verbose)]
         if conversion.figure_files:  # a figure's own files: NAME.pages.pdf (with pdf) and its recipe
-            lines.append("  wrote " + ", ".join(p.name for p in conversion.figure_files))
+            lines.append("  figure: wrote " + ", ".join(p.name for p in conversion.figure_files))
         lines += [f"  note: {cli_words(note)}" for note in conversion.layout_notes]
         if stem != (image.stem or "lithograph"):
             lines.append(f"  note: named {stem} because another input of this run has the same name")
@@ -383,8 +383,9 @@ def _say(conversion, verbose: bool = False) -> list[str]:
     the details) returned."""
     from .report import detail_lines
 
+    which = f"{conversion.label}: " if conversion.label else ""  # a figure's print: which panel warns
     for warning in conversion.report.warnings:
-        print(f"warning: {cli_words(warning)}", file=sys.stderr)
+        print(f"warning: {which}{cli_words(warning)}", file=sys.stderr)
     lines = [conversion.summary()] + [f"  note: {cli_words(n)}" for n in conversion.notes()]
     printing = conversion.report.print
     if printing:  # the why of "for estimates only" on its own line, so that each line stays short

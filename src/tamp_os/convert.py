@@ -33,9 +33,14 @@ class Print:
     def names(self) -> list[str]:
         return [p.name for p in self.written]
 
+    @property
+    def label(self) -> str:
+        """'' for a picture; 'panel a' or 'overview' for a print of a figure."""
+        return self.suffix.lstrip(".").replace("panel-", "panel ")
+
     def summary(self) -> str:
-        """The one-line summary `tamp-os convert` prints."""
-        return summary_line(self.report, self.names)
+        """The one-line summary `tamp-os convert` prints (a figure's print names its panel)."""
+        return summary_line(self.report, self.names, f"{self.report.input}, {self.label}" if self.label else None)
 
     def notes(self) -> list[str]:
         """What was removed from the picture (data band, annotations), in sentences."""

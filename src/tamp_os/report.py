@@ -159,9 +159,12 @@ class Report:
 MAX_LINE_CHARS = 160  # a result line a screen reader reads in one go; details go to the verbose lines and the report
 
 
-def summary_line(report: Report, written_names: list[str]) -> str:
+def summary_line(report: Report, written_names: list[str], shown: str | None = None) -> str:
     """One plain line per converted file, as `tamp-os convert` prints it: at most MAX_LINE_CHARS
-    characters (the mesh, printer, scale and every file name are in detail_lines)."""
+    characters (the mesh, printer, scale and every file name are in detail_lines). `shown` names
+    the print instead of the input's name (a figure's "fig.png, panel a")."""
+    if shown:
+        report = dataclasses.replace(report, input=shown)
     w, d, h = report.print_mm
     levels = "a flat plate" if report.uniform else f"{report.height_levels} height levels"
     size = f"{w:g} × {d:g} × {h:g} mm"

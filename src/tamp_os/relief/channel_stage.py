@@ -82,6 +82,14 @@ def _labels(text: str | None) -> dict[str, str]:
 
 
 _ROLE = {"domes": "nuclei", "ridges": "filaments", "dots": "spots", "plateau": "cytoplasm"}
+# An encoding chosen by measured shape says what the shape is, not what biology it might be (the
+# tubes of mitochondria are not "filaments", a dense field of EB3 comets is not "cytoplasm").
+_SHAPE_WORD = {"domes": "round blobs", "ridges": "lines", "dots": "spots", "plateau": "diffuse"}
+
+
+def _auto_label(choice) -> str:
+    words = _SHAPE_WORD if choice.why in ("shape", "distinct") else _ROLE
+    return f"{words[choice.encoding]} ({choice.name})"
 
 
 def _as_cleaned(raw: list, cleaned) -> list:
@@ -130,7 +138,7 @@ def run(source, layout, params, route=None, cleaned=None) -> ChannelStage | None
     if len(chans) < 2 and not assigned:
         return None  # one channel with signal: nothing for a key to tell apart
     rel = channel_relief(chans, mm_per_px=mm, base_mm=params.base_mm, relief_mm=params.relief_mm, assigned=assigned)
-    key = tuple(KeyEntry(labels.get(ch.name.lower(), f"{_ROLE[ch.encoding]} ({ch.name})"), ch.encoding) for ch in rel.choices)
+    key = tuple(KeyEntry(labels.get(ch.name.lower(), _auto_label(ch)), ch.encoding) for ch in rel.choices)
     return ChannelStage(rel, key, "fluorescence")
 
 

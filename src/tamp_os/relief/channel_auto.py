@@ -169,11 +169,11 @@ def route(source, picture, params) -> Route | None:
         return None  # a Picture read before: its channels are gone (only its luminance is kept)
     file = picture.file
     if file.channels == 1 and file.channel_count > 1:
-        return Route("channels", f"{file.channel_count} channels in the file")
+        return Route("channels", f"the file has {file.channel_count} channels")
     if file.channels >= 3 and file.colour_sample is not None:
         kind, why = colour_kind(colour_facts(file.colour_sample))
         if kind != "plain":
-            return Route(kind, why)
+            return Route(kind, f"it is {why}")
     return None
 
 

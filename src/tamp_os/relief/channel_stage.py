@@ -148,7 +148,10 @@ def describe_key(key) -> str:
 
 
 def channel_path(source, relief, layout, params, route=None, cleaned=None):
-    """(relief, layout, key) of the channel print, or the plain relief when the picture is not one.
+    """(relief, layout, key, key overlay) of the channel print, or the plain relief when the picture is not one.
+
+    The key overlay is a heightmap (mm above the base, like the relief's) of what a two-colour
+    print makes in its second colour: the key's braille and swatch outlines; None without a key.
 
     `relief` is the luminance relief, or a function that makes it (only called when needed).
     `route` (relief/channel_auto.py) says why the picture is printed channel by channel; None with
@@ -164,14 +167,15 @@ def channel_path(source, relief, layout, params, route=None, cleaned=None):
     def luminance():
         return plain if plain is not None else relief()
 
-    stage = run(source, layout, params, route, cleaned) if route is not None or params.channels else None
+    asked = bool(params.channels) and str(params.channels).strip().lower() not in OFF
+    stage = run(source, layout, params, route, cleaned) if route is not None or asked else None
     if stage is None:
         out = luminance()
-        if params.channels and str(params.channels).strip().lower() not in OFF:  # asked for, not possible
+        if asked:  # asked for, not possible
             note = Text("`channels`: this picture has one plain channel (not a multi-channel or stained picture); "
                         "it is printed as usual.")
             out = dataclasses.replace(out, notes=tuple(out.notes) + (note,))
-        return out, layout, ()
+        return out, layout, (), None
     rel = stage.relief
     strip = key_strip(stage.key, width_mm=layout.width_mm, mm_per_px=layout.mm_per_px, relief_mm=params.relief_mm,
                       table=params.braille_table)
@@ -187,12 +191,13 @@ def channel_path(source, relief, layout, params, route=None, cleaned=None):
     if why:
         how = ("The stains were separated by colour deconvolution" if stage.kind == "stain"
                else "The picture was printed channel by channel")
-        notes += (Text(f"{how}, each a texture named in the key, because it is {route.why}; `channel` prints a single "
+        notes += (Text(f"{how}, each a texture named in the key, because {route.why}; `channel` prints a single "
                        f"channel, and `channels` off prints the brightness as before."),)
     notes += (Text(f"The plate grew by {grown.depth_mm - layout.depth_mm:.1f} mm along its depth to hold the "
                    f"braille key below the picture."),)
     out = ReliefResult(heights, "channels", reason, None, (), notes)
-    return out, grown, strip.entries
+    overlay = np.vstack([np.zeros_like(rel.heights_mm), strip.overlay_mm[1:, :cols]])
+    return out, grown, strip.entries, overlay
 
 
 def without_channel_note(picture):

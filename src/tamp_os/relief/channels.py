@@ -75,7 +75,7 @@ class ChannelRelief:
 
 def parse_assignments(text: str | None) -> dict[str, str]:
     """`"DAPI=domes,GFP=ridges"` -> {"dapi": "domes", "gfp": "ridges"} (names case-free)."""
-    if not text or text.strip().lower() == "auto":
+    if not text or text.strip().lower() in ("auto", "off", "none", "luminance", "no"):
         return {}
     out = {}
     for part in text.split(","):
@@ -86,7 +86,7 @@ def parse_assignments(text: str | None) -> dict[str, str]:
         if not sep or not name.strip() or enc not in ENCODINGS:
             raise ParameterError(Text(
                 f"`channels`: {part.strip()!r} is not NAME=ENCODING; write e.g. \"DAPI=domes,GFP=ridges\" "
-                f"with an encoding among {', '.join(ENCODINGS)}, or auto."))
+                f"with an encoding among {', '.join(ENCODINGS)}; or auto, or off (brightness as before)."))
         out[name.strip().lower()] = enc
     if len(set(out.values())) > MAX_TEXTURES:
         raise ParameterError(Text(f"`channels`: at most {MAX_TEXTURES} encodings on one print; a finger does not tell more apart."))

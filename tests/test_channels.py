@@ -474,3 +474,38 @@ def test_two_colour_key_braille_and_outlines_on_the_second_part(fixture, tmp_pat
 
     left = v[(np.abs(v[:, 0] - (ox + KEY_GAP_MM + OUTLINE_MM / 2)) < OUTLINE_MM) & (v[:, 2] > b + 0.5 * spec.dot_height_mm)]
     assert np.ptp(left[:, 1]) >= SWATCH_H_MM * 0.8
+
+
+@pytest.mark.timeout(300)
+def test_paper_graphic_of_a_channel_print_has_textures_and_a_braille_key(fixture, tmp_path):
+    """Swell paper: one distinct paper texture per channel (outline, dots, lines), the key with a
+    swatch of each and its label in braille, every element at least 3 mm from the others."""
+    need(liblouis_available(), "liblouis (braille key)")
+    import itertools
+
+    from tamp_os.export.tactile2d import save_graphic
+    from tamp_os.outputs import tactile_graphic
+    from tamp_os.tactile.furniture import CLEARANCE_MM
+
+    litho = make_lithograph(fixture("real/nikon_pbmc_4ch.nd2"), width_mm=80)
+    g = tactile_graphic(litho)
+    key = litho.report.key
+    assert len(g.key) == len(key) == 3
+    assert sorted(g.textures.values()) == ["dots", "lines", "outline"]  # three textures, each once
+    assert [row.texture for row in g.key] == [g.textures[i + 1] for i in range(3)]
+    for row, entry in zip(g.key, key):  # the label's braille, wrapped into lines
+        assert "".join(row.label.lines).replace("⠀", "") == entry.braille.replace("⠀", "")
+    assert set(np.unique(g.regions)) <= {0, 1, 2, 3} and g.regions.shape[0] == round(80 / g.mm_per_px)
+    boxes = g.element_boxes()
+
+    def gap(a, b):
+        dx, dy = max(b[0] - a[2], a[0] - b[2], 0), max(b[1] - a[3], a[1] - b[3], 0)
+        return math.hypot(dx, dy)
+
+    for (na, a), (nb, b) in itertools.combinations(boxes.items(), 2):
+        assert gap(a, b) >= CLEARANCE_MM - 1e-6, (na, nb, gap(a, b))
+    for box in boxes.values():  # all on the plate
+        assert box[0] >= 0 and box[1] >= 0 and box[2] <= g.plate_mm[0] and box[3] <= g.plate_mm[1]
+    path = save_graphic(g, tmp_path / "k.svg")
+    svg = path.read_text()
+    assert svg.count("<path") >= 1 and path.stat().st_size > 1000

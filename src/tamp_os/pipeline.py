@@ -62,6 +62,7 @@ class Lithograph:
     mask: np.ndarray | None = None  # (rows, cols) float over the whole source: 0 kept, 0.5 cropped band, 1 inpainted
     parts: list | None = None  # multicolour: [base, raised] tactile.parts.Part, each closed; mesh is their union
     tiles: Tiling | None = None  # bed_mm smaller than the plate: the tiles to write instead of mesh
+    channel_regions: np.ndarray | None = None  # a channel print: (picture rows, cols), i = the i-th key entry's region
 
     @property
     def name(self) -> str:
@@ -128,7 +129,7 @@ def make_lithograph(source, params: LithoParams | None = None, *, printer_profil
     with clock("relief"):
         # several channels, or a stained slide, as textures with a braille key (issue 22), else the usual relief
         route = channel_route(source, picture, params)
-        relief, layout, key, key_overlay = channel_path(picture.values if isinstance(source, Picture) else source,
+        relief, layout, key, channel_extras = channel_path(picture.values if isinstance(source, Picture) else source,
                                            lambda: _relief(prepared, layout, params, machine, _content_hints(cleaned)),
                                            layout, params, route, cleaned)
         if key:
@@ -150,7 +151,7 @@ def make_lithograph(source, params: LithoParams | None = None, *, printer_profil
     furniture = _furniture(params, sample_per_mm)
     with clock("tactile"):
         tactile = _tactile(mesh, layout, params, furniture, machine.bed_mm,
-                           _key_in_colour(heights, key_overlay, layout, params, max_error))
+                           _key_in_colour(heights, channel_extras.overlay_mm if channel_extras else None, layout, params, max_error))
     later = flattening + list(tactile.placed.notes if tactile.placed else []) + list(relief.notes) + list(tactile.tiles.notes if tactile.tiles else [])
     legibility = dataclasses.replace(legibility, levels_mm=tuple(round(v, 3) for v in relief.levels_mm),
                                      verdicts=tuple(relief.checks) + tuple(legibility.verdicts))  # what the print shows of the picture first
@@ -160,7 +161,8 @@ def make_lithograph(source, params: LithoParams | None = None, *, printer_profil
     if key:
         report = dataclasses.replace(report, key=key)
     return Lithograph(mesh=tactile.mesh, heightmap=heights, params=params, printer=machine, layout=layout, picture=picture,
-                      report=report, furniture=furniture, mask=cleaned.source_mask(), parts=tactile.parts, tiles=tactile.tiles)
+                      report=report, furniture=furniture, mask=cleaned.source_mask(), parts=tactile.parts, tiles=tactile.tiles,
+                      channel_regions=channel_extras.regions if channel_extras else None)
 
 
 @dataclass

@@ -61,9 +61,11 @@ class ColourFacts:
 def colour_facts(rgb: np.ndarray) -> ColourFacts:
     from skimage.color import rgb2hsv
 
-    x = np.clip(np.asarray(rgb, np.float64)[..., :3], 0, 1)
+    x = np.clip(np.asarray(rgb, np.float32)[..., :3], 0, 1)
     lum = x.mean(axis=2)
     chroma = x.max(axis=2) - x.min(axis=2)
+    if float((chroma >= CHROMA).mean()) < GREY_COLOURED_SHARE:  # grey: nothing more to measure
+        return ColourFacts(float((chroma >= CHROMA).mean()), float(np.median(lum)), 0.0, 0.0, 0.0, 0, 0.0, 0.0, 0.0, 0.0, 0)
     med = float(np.median(lum))
     signal = np.abs(lum - med) > 0.1
     signal_chroma = float(np.median(chroma[signal])) if signal.any() else 0.0
@@ -72,8 +74,8 @@ def colour_facts(rgb: np.ndarray) -> ColourFacts:
     white = (lum >= 0.8) & (chroma < 0.1)
     tissue = ~white & ((lum < 0.85) | (chroma >= CHROMA))
     coloured_tissue = tissue & (chroma >= CHROMA)
-    hue = rgb2hsv(x)[..., 0] * 360.0
-    green = float(((hue > 70) & (hue < 170) & coloured_tissue).sum() / max(coloured_tissue.sum(), 1))
+    hue = rgb2hsv(x[coloured_tissue][:, None, :])[:, 0, 0] * 360.0 if coloured_tissue.any() else np.zeros(0)
+    green = float(((hue > 70) & (hue < 170)).sum() / max(coloured_tissue.sum(), 1))
     return ColourFacts(
         coloured_share=float((chroma >= CHROMA).mean()), median_lum=med, signal_chroma=signal_chroma,
         independence=independence, spread=spread, colour_channels=channels, white_share=float(white.mean()),
@@ -85,7 +87,7 @@ def _independence(x: np.ndarray, lum: np.ndarray, where: np.ndarray) -> tuple[fl
     """How much chromaticity varies among pixels of the same brightness, against its total variance."""
     if where.sum() < 50:
         return 0.0, 0.0
-    s = x.sum(axis=2)[where] + 1e-6
+    s = x.sum(axis=2)[where].astype(np.float64) + 1e-6
     rg = np.stack([x[..., 0][where] / s, x[..., 1][where] / s], axis=-1)
     bins = np.clip((lum[where] * 32).astype(int), 0, 31)
     total = float(rg.var(axis=0).sum())

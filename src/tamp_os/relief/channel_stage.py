@@ -197,7 +197,43 @@ def channel_path(source, relief, layout, params, route=None, cleaned=None):
                    f"braille key below the picture."),)
     out = ReliefResult(heights, "channels", reason, None, (), notes)
     overlay = np.vstack([np.zeros_like(rel.heights_mm), strip.overlay_mm[1:, :cols]])
-    return out, grown, strip.entries, overlay
+    return out, grown, strip.entries, ChannelExtras(overlay, region_map(rel))
+
+
+@dataclass(frozen=True)
+class ChannelExtras:
+    """What a channel print hands on beside its heights: the key overlay (two-colour prints) and the
+    picture's region map (the 2-D graphic: 0 background, i = the i-th key entry's region)."""
+
+    overlay_mm: np.ndarray  # (rows, cols) of the whole print, key included
+    regions: np.ndarray  # (picture rows, cols) int32
+
+
+_LAYER_ORDER = ("plateau", "ridges", "dots", "domes")  # as channel_relief stacks them: domes on top
+
+
+def region_map(rel: ChannelRelief) -> np.ndarray:
+    out = np.zeros(rel.heights_mm.shape, np.int32)
+    for i in sorted(range(len(rel.choices)), key=lambda i: _LAYER_ORDER.index(rel.choices[i].encoding)):
+        mask = rel.masks.get(rel.choices[i].name)
+        if mask is not None:
+            out[mask] = i + 1
+    return out
+
+
+PAPER_TEXTURE = {"ridges": "lines", "dots": "dots", "domes": "outline", "plateau": "outline"}
+
+
+def paper_textures(key) -> dict[int, str]:
+    """Region value -> swell-paper texture (outline, dots, lines), each used once: a finger tells three apart."""
+    out, used = {}, set()
+    for i, e in enumerate(key):
+        want = PAPER_TEXTURE.get(e.encoding, "outline")
+        if want in used:
+            want = next((t for t in ("outline", "dots", "lines") if t not in used), want)
+        out[i + 1] = want
+        used.add(want)
+    return out
 
 
 def without_channel_note(picture):

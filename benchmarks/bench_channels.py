@@ -36,7 +36,7 @@ def _structures(values: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
 
 def channel_rows(name: str, source, **kw) -> list[tuple]:
     t = time.perf_counter()
-    litho = make_lithograph(source, channels="auto", **kw)
+    litho = make_lithograph(source, **kw)  # the channel path is the default for these
     dt = time.perf_counter() - t
     r = litho.report
     grown_rows = round((r.relief_mm[1] - (r.relief_mm[1] - _key_depth(litho))) / r.mm_per_px)
@@ -64,7 +64,7 @@ def he_rows() -> list[tuple]:
     path = REAL / "aperio_cmu1_he_skin.svs"
     from tamp_os.vendor_read import read_channels
 
-    litho = make_lithograph(path, channels="auto", width_mm=100)
+    litho = make_lithograph(path, width_mm=100)
     r = litho.report
     rgb = np.stack([c.values for c in read_channels(path)], axis=-1) / 255.0
     rows_picture = round(100 * rgb.shape[0] / rgb.shape[1] / r.mm_per_px) + 1
@@ -85,7 +85,7 @@ def speed() -> tuple[float, float]:
     n, f, s = _synthetic_channels(600, 600)
     rgb = (np.stack([f, s, n], axis=-1) * 230).astype(np.uint8)
     best = {}
-    for label, kw in (("one", {"channel": "blue"}), ("three", {"channels": "auto"})):
+    for label, kw in (("one", {"channel": "blue"}), ("three", {})):
         times = []
         for _ in range(3):
             t = time.perf_counter()
@@ -95,7 +95,32 @@ def speed() -> tuple[float, float]:
     return best["one"], best["three"]
 
 
+def decision_rows() -> list[tuple]:
+    """Every real fixture: does it take the channel path by default, and why (relief/channel_auto.py)."""
+    from tamp_os.params import LithoParams
+    from tamp_os.read import read_image
+    from tamp_os.relief.channel_auto import colour_facts, colour_kind, route
+
+    top = ROOT.parent / "shared" / "fixtures"
+    rows = []
+    for path in sorted(p for p in list(top.iterdir()) + list(REAL.iterdir()) if p.is_file() and p.suffix not in (".md", ".ser")):
+        picture = read_image(path)
+        got = route(path, picture, LithoParams())
+        if got:
+            rows.append((path.name, "channels", got.why))
+        else:
+            sample = picture.file.colour_sample
+            why = colour_kind(colour_facts(sample))[1] if sample is not None else f"{picture.file.channel_count} channel"
+            rows.append((path.name, "luminance", why))
+    return rows
+
+
 def main() -> None:
+    print("| fixture | path by default | why |")
+    print("|---|---|---|")
+    for row in decision_rows():
+        print("| " + " | ".join(row) + " |")
+    print()
     from test_channels import _synthetic_channels
 
     n, f, s = _synthetic_channels()

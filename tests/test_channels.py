@@ -268,3 +268,244 @@ def test_key_labels_mistake_is_one_clear_message():
     rgb = (np.stack(_synthetic_channels(), axis=-1) * 230).astype(np.uint8)
     with pytest.raises(ParameterError, match="key_labels.*NAME=LABEL"):
         make_lithograph(rgb, channels="auto", key_labels="nuclei", width_mm=90)
+
+
+# ---- issue 22, second part: the channel path is automatic -------------------------------------
+
+CHANNEL_FIXTURES = {  # the real files that print channel by channel by default, and why
+    "real/zeiss_dapi_gfp_2ch.czi": "channels", "real/zeiss_airyscan_2ch_t3.czi": "channels",
+    "real/nikon_pbmc_4ch.nd2": "channels", "real/leica_beads_xz_2ch.lif": "channels",
+    "real/aperio_cmu1_he_skin.svs": "stain",
+}
+
+
+def _all_fixtures():
+    from conftest import ROOT
+
+    top = ROOT.parent / "shared" / "fixtures"
+    if not top.is_dir():
+        return []
+    files = [p for p in sorted(top.iterdir()) + sorted((top / "real").iterdir())
+             if p.is_file() and p.suffix not in (".md", ".ser")]  # the .ser is read through its .emi
+    return [str(p.relative_to(top)) for p in files]
+
+
+@pytest.mark.timeout(300)
+@pytest.mark.parametrize("name", _all_fixtures() or ["real/zeiss_dapi_gfp_2ch.czi"])
+def test_automatic_channel_path_on_every_real_fixture(fixture, name):
+    """Multi-channel files and the stained slide take the channel path by default; every grey
+    picture (SEM, TEM, STEM, grey JPEG stored as RGB, z-stacks, maps) stays on its old path."""
+    from tamp_os.params import LithoParams
+    from tamp_os.read import read_image
+    from tamp_os.relief.channel_auto import route
+
+    path = fixture(name)
+    params = LithoParams()
+    try:
+        picture = read_image(path)
+    except Exception as exc:  # a file this machine cannot read is not a decision to check
+        pytest.fail(f"{name}: {exc}")
+    got = route(path, picture, params)
+    assert (got.kind if got else None) == CHANNEL_FIXTURES.get(name), (name, got)
+    # opting out: one channel, or `channels` off
+    assert route(path, picture, params.replace(channels="off")) is None
+    assert route(path, picture, params.replace(channel="0")) is None
+
+
+def _grey_to_lut(grey: np.ndarray, name: str) -> np.ndarray:
+    from matplotlib import colormaps
+
+    g = (grey - grey.min()) / (grey.max() - grey.min())
+    return (colormaps[name](g)[..., :3] * 255).astype(np.uint8)
+
+
+@pytest.mark.timeout(60)
+def test_colour_decision_grey_lut_diagram_composite_stain():
+    import skimage.data
+    from PIL import Image, ImageDraw
+
+    from tamp_os.read import read_array
+    from tamp_os.relief.channel_auto import colour_facts, colour_kind
+
+    def kind(rgb):
+        return colour_kind(colour_facts(read_array(rgb).file.colour_sample))
+
+    camera = skimage.data.camera()
+    assert kind(np.repeat(camera[..., None], 3, axis=2))[0] == "plain"  # R = G = B
+    for lut in ("inferno", "hot", "magma", "viridis", "jet"):  # false-colour SEM: colour follows brightness
+        assert kind(_grey_to_lut(camera.astype(float), lut))[0] == "plain", lut
+    assert "follows its brightness" in kind(_grey_to_lut(camera.astype(float), "inferno"))[1]
+    im = Image.new("RGB", (400, 300), "white")
+    draw = ImageDraw.Draw(im)
+    draw.rectangle([20, 20, 150, 120], fill=(230, 80, 80), outline="black", width=3)
+    draw.ellipse([200, 50, 350, 200], fill=(80, 160, 230), outline="black", width=3)
+    draw.line([10, 250, 390, 250], fill=(40, 160, 60), width=5)
+    got = kind(np.asarray(im))
+    assert got[0] == "plain" and "diagram" in got[1]
+    nuclei, fil, spots = _synthetic_channels()
+    rng = np.random.default_rng(0)
+    composite = np.clip(np.stack([fil, spots, nuclei], axis=-1) * 180 + rng.normal(0, 8, fil.shape + (3,)), 0, 255)
+    assert kind(composite.astype(np.uint8))[0] == "fluorescence"
+    assert kind((composite * 12).astype(np.uint16))[0] == "fluorescence"  # 12-bit data in 16 bits
+    one_colour = np.stack([0 * nuclei, nuclei, 0 * nuclei], axis=-1) * 200
+    assert kind(one_colour.astype(np.uint8))[0] == "plain"  # a single channel stored as RGB
+    assert kind(skimage.data.immunohistochemistry())[0] == "stain"
+    assert kind(skimage.data.astronaut())[0] == "plain"
+
+
+@pytest.mark.timeout(300)
+def test_multichannel_file_prints_channels_by_default_with_honest_notes(fixture):
+    need(liblouis_available(), "liblouis (braille key)")
+    path = fixture("real/zeiss_dapi_gfp_2ch.czi")
+    litho = make_lithograph(path, width_mm=80)
+    r = litho.report
+    assert r.relief_style == "channels" and r.relief_reason.startswith("auto chose channels (the file has 2 channels)")
+    warnings = [str(w) for w in r.warnings]
+    assert not any("using channel 0" in w for w in warnings)  # it used both
+    assert any("printed channel by channel" in w and "channels off" in w for w in warnings), warnings
+    assert [e.encoding for e in r.key] == ["domes", "plateau"]
+    off = make_lithograph(path, width_mm=80, channels="off").report
+    assert off.relief_style != "channels" and not off.key
+    assert any("using channel 0" in str(w) for w in off.warnings)
+    one = make_lithograph(path, width_mm=80, channel="1").report
+    assert one.relief_style != "channels" and not one.key
+    with pytest.raises(ParameterError, match="channel 1 prints one channel and channels DAPI=domes"):
+        make_lithograph(path, width_mm=80, channel="1", channels="DAPI=domes")
+
+
+@pytest.mark.timeout(300)
+def test_grey_pictures_unchanged_by_the_automatic_path(fixture):
+    """A grey picture gives the same heights with `channels` unset as with `channels` off."""
+    for name in ("fept_spheres_sem.png", "real/stem_haadf_sio2_spheres.hspy"):
+        auto = make_lithograph(fixture(name), width_mm=60, preset="low")
+        off = make_lithograph(fixture(name), width_mm=60, preset="low", channels="off")
+        assert auto.report.relief_style != "channels"
+        assert np.array_equal(auto.heightmap, off.heightmap), name
+
+
+@pytest.mark.timeout(60)
+def test_tubes_become_lines_not_domes():
+    """Branched tubes (mitochondria-like) and round blobs of the same width: lines and domes."""
+    from tamp_os.relief.channels import TUBE_ELONGATION, measure_shape, shape_ranking
+
+    rows = cols = 300
+    yy, xx = np.mgrid[0:rows, 0:cols]
+    tubes = np.zeros((rows, cols))
+    for k in range(5):  # wavy tubes 5 px (1.5 mm) wide with a side branch each
+        cy = 30 + 55 * k
+        tubes[np.abs(yy - (cy + 8 * np.sin(xx / 17.0))) < 2.5] = 1.0
+        tubes[(np.abs(xx - (60 + 40 * k)) < 2.5) & (yy > cy) & (yy < cy + 25)] = 1.0
+    blobs = np.zeros((rows, cols))
+    for cy, cx in [(50, 50), (50, 200), (150, 120), (240, 60), (240, 230)]:
+        blobs[(yy - cy) ** 2 + (xx - cx) ** 2 < 15 ** 2] = 1.0
+    shape = measure_shape(tubes, 0.3)
+    assert shape.tube_elongation >= TUBE_ELONGATION and shape_ranking(shape)[0] == "ridges"
+    assert shape_ranking(measure_shape(blobs, 0.3))[0] == "domes"
+    res = channel_relief([ChannelImage("a", tubes), ChannelImage("b", blobs)], mm_per_px=0.3, base_mm=1.0, relief_mm=3.0)
+    assert {c.name: c.encoding for c in res.choices} == {"a": "ridges", "b": "domes"}
+    from scipy import ndimage as ndi
+
+    h = res.heights_mm - 1.0
+    line = (h >= 0.5) & (tubes > 0) & (blobs == 0)
+    assert float(line.sum()) > 0.3 * float(tubes.sum()) * 1.2 / 1.5  # most of each tube is raised as a line
+    from skimage.morphology import skeletonize
+
+    width_mm = 2 * ndi.distance_transform_edt(line)[skeletonize(line)] * 0.3
+    assert 0.9 <= np.median(width_mm) <= 1.8  # raised lines about 1.2 mm wide along each tube, not a texture
+
+
+@pytest.mark.timeout(300)
+def test_real_airyscan_mitochondria_as_lines(fixture):
+    need(liblouis_available(), "liblouis (braille key)")
+    litho = make_lithograph(fixture("real/zeiss_airyscan_2ch_t3.czi"), width_mm=80)
+    enc = {e.label: e.encoding for e in litho.report.key}
+    assert enc == {"diffuse (ChA-T1)": "plateau", "lines (ChA-T2)": "ridges"}  # GFP-mito: never domes
+    assert check_solid(litho.mesh).ok
+
+
+@pytest.mark.timeout(400)
+def test_two_colour_key_braille_and_outlines_on_the_second_part(fixture, tmp_path):
+    need(liblouis_available(), "liblouis (braille key)")
+    from test_multicolour import _one_mesh_object, _parts_by_material, _read_3mf
+
+    from tamp_os.relief.key3d import SWATCH_H_MM
+
+    litho = make_lithograph(fixture("real/zeiss_dapi_gfp_2ch.czi"), width_mm=80, multicolour=True, formats=("3mf",))
+    r = litho.report
+    assert len(litho.parts) == 2 and "key" in litho.parts[1].label
+    litho.save(tmp_path, stem="k")
+    wrapper, model = _read_3mf(tmp_path / "k.3mf")
+    group = model.GetBaseMaterialGroups()
+    assert group.MoveNext()
+    names = {i: group.GetCurrentBaseMaterialGroup().GetName(i) for i in group.GetCurrentBaseMaterialGroup().GetAllPropertyIDs()}
+    parts = {names[k]: mesh for k, (mesh, _) in _parts_by_material(_one_mesh_object(model)).items()}
+    base, raised = parts[litho.parts[0].label], parts[litho.parts[1].label]
+    assert base.is_watertight and raised.is_watertight and raised.volume > 0
+    rows_picture = litho.heightmap.shape[0] - round((r.relief_mm[1] - 80) / r.mm_per_px)
+    spec, b = BrailleSpec(), litho.params.base_mm
+    strip, _ = _key_dots_on_mesh(litho, rows_picture)
+    ox, oy = r.tactile.relief_origin_mm if r.tactile else (0.0, 0.0)
+    xy = np.array([(ox + x, oy + r.relief_mm[1] - ((rows_picture - 1) * r.mm_per_px + y)) for x, y in strip.dot_centres_mm])
+
+    def top_at(mesh, points):
+        """Height of the mesh's top surface above the base at each (x, y): the highest triangle over it."""
+        tri = np.asarray(mesh.vertices)[np.asarray(mesh.faces)]  # (n, 3, 3)
+        a, e1, e2 = tri[:, 0, :2], tri[:, 1, :2] - tri[:, 0, :2], tri[:, 2, :2] - tri[:, 0, :2]
+        det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+        ok = np.abs(det) > 1e-12
+        tops = []
+        for px, py in points:
+            dx, dy = px - a[:, 0], py - a[:, 1]
+            u = np.where(ok, (dx * e2[:, 1] - dy * e2[:, 0]) / np.where(ok, det, 1), -1)
+            v = np.where(ok, (e1[:, 0] * dy - e1[:, 1] * dx) / np.where(ok, det, 1), -1)
+            inside = (u >= -1e-9) & (v >= -1e-9) & (u + v <= 1 + 1e-9)
+            z = tri[inside, 0, 2] + u[inside] * (tri[inside, 1, 2] - tri[inside, 0, 2]) + v[inside] * (tri[inside, 2, 2] - tri[inside, 0, 2])
+            tops.append(z.max() - b if z.size else -1.0)  # no triangle: nothing of this part there
+        return np.array(tops)
+
+    on_raised, on_base = top_at(raised, xy), top_at(base, xy)
+    assert len(on_raised) == sum((ord(c) - 0x2800).bit_count() for e in r.key for c in e.braille)
+    assert min(on_raised) == pytest.approx(spec.dot_height_mm, abs=0.08)  # every key dot is in the second colour
+    assert max(on_base) < 0.1  # and none on the base part: the plate is flat there
+    # each swatch's outline is in the second colour: raised vertices along the swatch's left edge
+    v = np.asarray(raised.vertices)
+    ox = r.tactile.relief_origin_mm[0] if r.tactile else 0.0
+    from tamp_os.relief.key3d import KEY_GAP_MM, OUTLINE_MM
+
+    left = v[(np.abs(v[:, 0] - (ox + KEY_GAP_MM + OUTLINE_MM / 2)) < OUTLINE_MM) & (v[:, 2] > b + 0.5 * spec.dot_height_mm)]
+    assert np.ptp(left[:, 1]) >= SWATCH_H_MM * 0.8
+
+
+@pytest.mark.timeout(300)
+def test_paper_graphic_of_a_channel_print_has_textures_and_a_braille_key(fixture, tmp_path):
+    """Swell paper: one distinct paper texture per channel (outline, dots, lines), the key with a
+    swatch of each and its label in braille, every element at least 3 mm from the others."""
+    need(liblouis_available(), "liblouis (braille key)")
+    import itertools
+
+    from tamp_os.export.tactile2d import save_graphic
+    from tamp_os.outputs import tactile_graphic
+    from tamp_os.tactile.furniture import CLEARANCE_MM
+
+    litho = make_lithograph(fixture("real/nikon_pbmc_4ch.nd2"), width_mm=80)
+    g = tactile_graphic(litho)
+    key = litho.report.key
+    assert len(g.key) == len(key) == 3
+    assert sorted(g.textures.values()) == ["dots", "lines", "outline"]  # three textures, each once
+    assert [row.texture for row in g.key] == [g.textures[i + 1] for i in range(3)]
+    for row, entry in zip(g.key, key):  # the label's braille, wrapped into lines
+        assert "".join(row.label.lines).replace("⠀", "") == entry.braille.replace("⠀", "")
+    assert set(np.unique(g.regions)) <= {0, 1, 2, 3} and g.regions.shape[0] == round(80 / g.mm_per_px)
+    boxes = g.element_boxes()
+
+    def gap(a, b):
+        dx, dy = max(b[0] - a[2], a[0] - b[2], 0), max(b[1] - a[3], a[1] - b[3], 0)
+        return math.hypot(dx, dy)
+
+    for (na, a), (nb, b) in itertools.combinations(boxes.items(), 2):
+        assert gap(a, b) >= CLEARANCE_MM - 1e-6, (na, nb, gap(a, b))
+    for box in boxes.values():  # all on the plate
+        assert box[0] >= 0 and box[1] >= 0 and box[2] <= g.plate_mm[0] and box[3] <= g.plate_mm[1]
+    path = save_graphic(g, tmp_path / "k.svg")
+    svg = path.read_text()
+    assert svg.count("<path") >= 1 and path.stat().st_size > 1000

@@ -144,6 +144,13 @@ def tactile_graphic(litho) -> Graphic2D:
     bar = litho.report.tactile.scale_bar_box_mm if litho.report.tactile else None
     if furniture is not None and bar and furniture.scale_bar_m is None and furniture.sample_m_per_print_mm:
         furniture = dataclasses.replace(furniture, scale_bar_m=(bar[2] - bar[0]) * furniture.sample_m_per_print_mm)
+    channel = getattr(litho, "channel_regions", None)
+    if channel is not None and litho.report.key:  # issue 22: each channel its own paper texture, and the key
+        from .relief.channel_stage import paper_textures
+
+        textures = paper_textures(litho.report.key)
+        key = [(textures[i + 1], e.braille) for i, e in enumerate(litho.report.key)]
+        return layout_graphic(channel, litho.layout.width_mm / channel.shape[1], furniture, textures=textures, key=key)
     return layout_graphic(regions, litho.layout.width_mm / regions.shape[1], furniture)
 
 

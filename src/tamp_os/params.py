@@ -65,9 +65,10 @@ class LithoParams:
     texture_mm: float = _f(0.3, "height of the fine texture kept on the shapes (0 = none)", "mm", 0.0, 2.0)
     level_count: int = _f(3, "plateaus of the levels style", "", 2, 5)
     channel: str = _f("luminance", "luminance, or a channel: a number from 0 or red/green/blue/alpha")
-    channels: str | None = _f(None, "print several channels as textures with a braille key: auto, or NAME=ENCODING pairs "
-                              "such as DAPI=domes,GFP=ridges (encodings: domes, ridges, dots, plateau); also splits stained "
-                              "brightfield (H&E, IHC) by colour deconvolution")
+    channels: str | None = _f(None, "how a picture of several channels prints: auto (the default: a multi-channel file, an RGB "
+                              "fluorescence composite or a stained H&E/IHC slide prints each channel or stain as its own texture "
+                              "with a braille key), off (brightness as one picture, as before), or NAME=ENCODING pairs "
+                              "such as DAPI=domes,GFP=ridges (encodings: domes, ridges, dots, plateau)")
     key_labels: str | None = _f(None, "labels of the channel key, as NAME=LABEL pairs such as DAPI=nuclei,GFP=actin (default: from the channel names)")
     page: int | None = _f(None, "TIFF page or series to read (default: the first, or the data page beside a preview)", "", 0, 100000)
     z_slice: int | None = _f(None, "z-stack slice to use (default: maximum-intensity projection)", "", 0, 100000)

@@ -25,7 +25,8 @@ from .read import Picture, read_array, read_image
 from .relief.legibility import Legibility, assess
 from .relief.layout import Layout, plan_layout
 from .relief.preprocess import Prepared, prepare
-from .relief.channel_stage import channel_path
+from .relief.channel_auto import route as channel_route
+from .relief.channel_stage import channel_path, without_channel_note
 from .relief.styles import ReliefResult, StyleOptions, make_relief
 from .report import Plate, Report
 from .tactile.furniture import Furniture, Placed, add_furniture
@@ -63,6 +64,7 @@ class Lithograph:
     tiles: Tiling | None = None  # bed_mm smaller than the plate: the tiles to write instead of mesh
     description: str | None = None  # a panel's or overview's own description (figure.py), else made from the report
     recipe_params: LithoParams | None = None  # what the recipe records, when not `params` (a figure's panel)
+    channel_regions: np.ndarray | None = None  # a channel print: (picture rows, cols), i = the i-th key entry's region
 
     @property
     def name(self) -> str:
@@ -127,10 +129,13 @@ def make_lithograph(source, params: LithoParams | None = None, *, printer_profil
     with clock("preprocess"):
         prepared = _prepare(cleaned, layout, params)
     with clock("relief"):
-        relief = _relief(prepared, layout, params, machine, _content_hints(cleaned))
-        key = ()
-        if params.channels:  # several channels, or a stained slide, as textures with a braille key (issue 22)
-            relief, layout, key = channel_path(picture.values if isinstance(source, Picture) else source, relief, layout, params)
+        # several channels, or a stained slide, as textures with a braille key (issue 22), else the usual relief
+        route = channel_route(source, picture, params)
+        relief, layout, key, channel_extras = channel_path(picture.values if isinstance(source, Picture) else source,
+                                           lambda: _relief(prepared, layout, params, machine, _content_hints(cleaned)),
+                                           layout, params, route, cleaned)
+        if key:
+            picture = without_channel_note(picture)
         heights = relief.heights_mm
     with clock("legibility"):
         legibility = assess(heights, layout.mm_per_px, nozzle_mm=machine.nozzle_mm, layer_mm=machine.layer_mm,
@@ -147,7 +152,8 @@ def make_lithograph(source, params: LithoParams | None = None, *, printer_profil
     sample_per_mm = metres * prepared.fitted_width_px / layout.width_mm if metres else None
     furniture = _furniture(params, sample_per_mm)
     with clock("tactile"):
-        tactile = _tactile(mesh, layout, params, furniture, machine.bed_mm)
+        tactile = _tactile(mesh, layout, params, furniture, machine.bed_mm,
+                           _key_in_colour(heights, channel_extras.overlay_mm if channel_extras else None, layout, params, max_error))
     later = flattening + list(tactile.placed.notes if tactile.placed else []) + list(relief.notes) + list(tactile.tiles.notes if tactile.tiles else [])
     legibility = dataclasses.replace(legibility, levels_mm=tuple(round(v, 3) for v in relief.levels_mm),
                                      verdicts=tuple(relief.checks) + tuple(legibility.verdicts))  # what the print shows of the picture first
@@ -157,7 +163,8 @@ def make_lithograph(source, params: LithoParams | None = None, *, printer_profil
     if key:
         report = dataclasses.replace(report, key=key)
     return Lithograph(mesh=tactile.mesh, heightmap=heights, params=params, printer=machine, layout=layout, picture=picture,
-                      report=report, furniture=furniture, mask=cleaned.source_mask(), parts=tactile.parts, tiles=tactile.tiles)
+                      report=report, furniture=furniture, mask=cleaned.source_mask(), parts=tactile.parts, tiles=tactile.tiles,
+                      channel_regions=channel_extras.regions if channel_extras else None)
 
 
 @dataclass
@@ -168,14 +175,30 @@ class _Tactile:
     tiles: Tiling | None  # tiles for a bed smaller than the plate (bed_mm)
 
 
+def _key_in_colour(heights, key_overlay, layout: Layout, params: LithoParams, max_error: float):
+    """(relief mesh without the key's braille and outlines, those as a mesh) for a two-colour print of a
+    channel key (issue 22), or None: the second colour carries them, as it carries the caption's braille."""
+    if not params.multicolour or key_overlay is None:
+        return None
+    from .tactile.parts import key_overlay_meshes
+
+    def mesh_of(h):
+        if params.mesher == "adaptive":
+            return adaptive_solid(h, layout.width_mm, layout.depth_mm, max_error)
+        return grid_solid(h, layout.width_mm, layout.depth_mm)
+
+    return key_overlay_meshes(heights, key_overlay, params.base_mm, mesh_of)
+
+
 def _tactile(relief_mesh: Mesh, layout: Layout, params: LithoParams, furniture: Furniture,
-             printer_bed_mm: tuple[float, float] | None = None) -> _Tactile:
+             printer_bed_mm: tuple[float, float] | None = None, key_meshes=None) -> _Tactile:
     """Furniture (plate, braille, scale bar, frame, cut corner), then two-colour parts or tiles: for
     bed_mm, or else for the printer's own bed (printer_table.py) when the plate is larger than it."""
     mesh, placed = relief_mesh, None
     if furniture.wanted or furniture.corner_cut:
         mesh, placed = add_furniture(relief_mesh, layout.width_mm, layout.depth_mm, params.base_mm, furniture)
-    parts = two_colour_parts(relief_mesh, layout.width_mm, layout.depth_mm, params.base_mm, furniture)[0] if params.multicolour else None
+    plain, overlay = key_meshes if key_meshes else (relief_mesh, None)
+    parts = two_colour_parts(plain, layout.width_mm, layout.depth_mm, params.base_mm, furniture, overlay)[0] if params.multicolour else None
     tiles = None
     bed = params.bed_size_mm if params.bed_mm else (printer_bed_mm if not params.multicolour else None)
     if bed:

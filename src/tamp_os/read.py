@@ -59,6 +59,9 @@ class ImageFile:
     wavelengths_nm: list[float | None] = field(default_factory=list)  # per channel: emission, else excitation
     z_step_m: float | None = None
     reader: str = ""  # the library (and version) that decoded the pixels, for provenance
+    # A colour picture's colours, subsampled to at most COLOUR_SAMPLE_PX a side, 0..1 float32: what
+    # the channel path (relief/channel_auto.py) decides by (a stain, a fluorescence composite, or neither).
+    colour_sample: np.ndarray | None = field(default=None, repr=False, compare=False)
 
 
 @dataclass
@@ -652,11 +655,25 @@ def _to_picture(decoded: _Decoded, channel, *, name, sha, path) -> Picture:
         **decoded.facts,
     )
     file.channel_count = file.channel_count or file.channels
+    if array.ndim == 3 and array.shape[-1] >= 3:
+        file.colour_sample = _colour_sample(array)
     values, alpha = _grayscale(array, channel, name)
     values, alpha = _weigh_unknown(file, values, alpha)
     if file.nonfinite_pixels == h * w:
         raise InputError(f"{name}: every pixel is NaN or infinite; there is no image to print.")
     return Picture(values=values, alpha=alpha, file=file)
+
+
+COLOUR_SAMPLE_PX = 512
+
+
+def _colour_sample(array: np.ndarray) -> np.ndarray:
+    """Every k-th pixel of the colour samples (not alpha), at most COLOUR_SAMPLE_PX a side, 0..1."""
+    step = max(1, -(-max(array.shape[:2]) // COLOUR_SAMPLE_PX))
+    rgb = np.nan_to_num(array[::step, ::step, :3].astype(np.float32), nan=0.0, posinf=0.0, neginf=0.0)
+    # 8 bits: full scale; 16-bit and float colour often fills only part of its range (12-bit cameras)
+    top = 255.0 if array.dtype == np.uint8 else float(rgb.max()) if rgb.size else 1.0
+    return np.clip(rgb / np.float32(top if top > 0 else 1.0), 0, 1)
 
 
 def _weigh_unknown(file: ImageFile, values, alpha):

@@ -56,6 +56,18 @@ class ScaleBar2D:
         return self.x0_mm, self.y_mm - TICK_LENGTH_MM / 2, self.x0_mm + self.length_mm, self.y_mm + TICK_LENGTH_MM / 2
 
 
+KEY_SWATCH_MM = (12.0, 9.0)  # a key swatch on paper: room for its outline and a few texture dots or lines
+
+
+@dataclass(frozen=True)
+class KeyRow2D:
+    """One key entry on the page: a swatch (its outline and texture) and its braille label."""
+
+    swatch_box: tuple[float, float, float, float]  # x0, y0, x1, y1 (mm)
+    texture: str  # 'outline', 'dots' or 'lines', as the picture's region it names
+    label: BrailleText
+
+
 @dataclass(frozen=True)
 class Graphic2D:
     """Everything a 2-D tactile graphic shows.
@@ -77,6 +89,7 @@ class Graphic2D:
     corner_cut_mm: float = CORNER_CUT_MM
     spec: BrailleSpec = field(default_factory=BrailleSpec)
     textures: dict[int, str] = field(default_factory=dict)
+    key: tuple[KeyRow2D, ...] = ()  # a channel print's key, below everything else
 
     @property
     def picture_box(self) -> tuple[float, float, float, float]:
@@ -86,7 +99,8 @@ class Graphic2D:
 
     @property
     def braille_dots(self) -> int:
-        return sum(t.dots for t in (self.caption, self.scale_bar.label if self.scale_bar else None) if t)
+        texts = (self.caption, self.scale_bar.label if self.scale_bar else None) + tuple(k.label for k in self.key)
+        return sum(t.dots for t in texts if t)
 
     def element_boxes(self) -> dict[str, tuple[float, float, float, float]]:
         """Bounding boxes of the distinct elements, for checking the clearances between them."""
@@ -96,6 +110,9 @@ class Graphic2D:
             boxes["scale value"] = self.scale_bar.label.box(self.spec)
         if self.caption:
             boxes["caption"] = self.caption.box(self.spec)
+        for i, row in enumerate(self.key):
+            boxes[f"key swatch {i + 1}"] = row.swatch_box
+            boxes[f"key label {i + 1}"] = row.label.box(self.spec)
         return boxes
 
 
@@ -149,7 +166,7 @@ def _rows_below(furniture: Furniture, inner_w: float) -> tuple[list[str], float 
 
 
 def layout_graphic(regions: np.ndarray, mm_per_px: float, furniture: Furniture | None = None,
-                   textures: dict[int, str] | None = None) -> Graphic2D:
+                   textures: dict[int, str] | None = None, key: list[tuple[str, str]] | None = None) -> Graphic2D:
     """Place the picture, scale bar, braille value and caption on a plate, as the 3-D plate does.
 
     Parameters
@@ -157,6 +174,8 @@ def layout_graphic(regions: np.ndarray, mm_per_px: float, furniture: Furniture |
     regions : (rows, cols) int array, 0 = background
     mm_per_px : picture pixel size on paper (mm)
     furniture : caption, braille table, scale bar and frame (frame_mm > 0 draws a frame line)
+    key : (texture, Unicode braille label) per key entry of a channel print, drawn below everything
+        else: a swatch of the texture, CLEARANCE_MM, then the label, each row CLEARANCE_MM apart
     """
     if mm_per_px <= 0 or not np.isfinite(mm_per_px):
         raise ParameterError(f"mm_per_px: must be a positive number; got {mm_per_px}.")
@@ -171,6 +190,8 @@ def layout_graphic(regions: np.ndarray, mm_per_px: float, furniture: Furniture |
     caption_h = block_size_mm(caption_lines, spec)[1]
     heights = [h for h in (max(TICK_LENGTH_MM, label_h) if label_lines else 0.0, caption_h) if h]
     below = side if not heights else (side - BORDER_MM) + sum(CLEARANCE_MM + h for h in heights) + BOTTOM_BORDER_MM
+    key_rows, key_block = _key_rows(key or [], plate_w, spec, BOTTOM_BORDER_MM if heights else side)
+    below += key_block
     plate_d = below + depth + side
     cursor = below - (side - BORDER_MM)  # the lowest edge of the picture or its frame
     scale_bar = caption = None
@@ -187,7 +208,28 @@ def layout_graphic(regions: np.ndarray, mm_per_px: float, furniture: Furniture |
         gap = CLEARANCE_MM + furniture.frame_mm / 2  # the frame line's centre
         frame_box = (side - gap, below - gap, side + width + gap, below + depth + gap)
     return Graphic2D(np.asarray(regions), mm_per_px, (plate_w, plate_d), (side, below), caption, scale_bar,
-                     frame_box, spec=spec, textures=dict(textures or {}))
+                     frame_box, spec=spec, textures=dict(textures or {}), key=key_rows)
+
+
+def _key_rows(key: list[tuple[str, str]], plate_w: float, spec: BrailleSpec, bottom_mm: float):
+    """(KeyRow2D rows stacked upwards from bottom_mm, the depth they add including CLEARANCE_MM above each)."""
+    if not key:
+        return (), 0.0
+    sw, sh = KEY_SWATCH_MM
+    text_x = BORDER_MM + sw + CLEARANCE_MM
+    cells = max(1, int((plate_w - BORDER_MM - text_x - spec.dot_spacing_mm - spec.dot_diameter_mm) // spec.cell_spacing_mm) + 1)
+    laid = []
+    for texture, braille in key:
+        lines = wrap_cells(braille, cells)
+        laid.append((texture, lines, max(sh, block_size_mm(lines, spec)[1])))
+    rows, y = [], bottom_mm
+    for texture, lines, row_h in reversed(laid):  # the first entry on top, read first
+        mid = y + row_h / 2
+        text_h = block_size_mm(lines, spec)[1]
+        rows.append(KeyRow2D((BORDER_MM, mid - sh / 2, BORDER_MM + sw, mid + sh / 2), texture,
+                             BrailleText(tuple(lines), text_x, mid + text_h / 2)))
+        y += row_h + CLEARANCE_MM
+    return tuple(reversed(rows)), y - bottom_mm
 
 
 def page_placement(plate_mm: tuple[float, float], page_size: str | None) -> tuple[tuple[float, float], tuple[float, float]]:

@@ -87,13 +87,38 @@ def _draw_picture(ctx, graphic: Graphic2D) -> None:
 def _draw_braille(ctx, graphic: Graphic2D) -> None:
     """Each braille dot its own filled circle of the spec's base diameter."""
     r = graphic.spec.dot_diameter_mm / 2
-    for text in (graphic.caption, graphic.scale_bar.label if graphic.scale_bar else None):
+    for text in (graphic.caption, graphic.scale_bar.label if graphic.scale_bar else None) + tuple(k.label for k in graphic.key):
         if text is None:
             continue
         for x, y in dot_centres(list(text.lines), graphic.spec, text.left_mm, text.top_mm):
             ctx.new_path()
             ctx.arc(x, y, r, 0, 2 * math.pi)
             ctx.fill()
+
+
+KEY_RASTER_MM = 0.1  # the swatch's texture is laid out on this grid, as the picture's is on its own
+
+
+def _draw_key(ctx, graphic: Graphic2D) -> None:
+    """Each key swatch: its outline, and inside it the texture of the region it names."""
+    for row in graphic.key:
+        x0, y0, x1, y1 = row.swatch_box
+        ctx.new_path()
+        ctx.rectangle(x0, y0, x1 - x0, y1 - y0)
+        ctx.set_line_width(tx.OUTLINE_MM)
+        ctx.stroke()
+        mask = np.ones((round((y1 - y0) / KEY_RASTER_MM), round((x1 - x0) / KEY_RASTER_MM)), bool)
+        if row.texture == "dots":
+            for x, y in tx.texture_dots_mm(mask, KEY_RASTER_MM, (x0, y0)):
+                ctx.new_sub_path()
+                ctx.arc(x, y, tx.DOT_DIAMETER_MM / 2, 0, 2 * math.pi)
+            ctx.fill()
+        elif row.texture == "lines":
+            for a, b in tx.texture_lines_mm(mask, KEY_RASTER_MM, (x0, y0)):
+                ctx.move_to(*a)
+                ctx.line_to(*b)
+            ctx.set_line_width(tx.LINE_WIDTH_MM)
+            ctx.stroke()
 
 
 def _draw_furniture(ctx, graphic: Graphic2D) -> None:
@@ -136,6 +161,7 @@ def _draw(surface, graphic: Graphic2D, offset_mm, page_h_mm: float, unit_scale: 
     ctx.set_line_cap(cairo.LINE_CAP_ROUND)
     _draw_picture(ctx, graphic)
     _draw_braille(ctx, graphic)
+    _draw_key(ctx, graphic)
     _draw_furniture(ctx, graphic)
     surface.show_page()
 

@@ -1,8 +1,9 @@
 """The channel path of the pipeline: read every channel, put each on the print grid, encode it as
 a texture (relief/channels.py) and add a braille key along the bottom margin (relief/key3d.py).
 
-Taken when `channels` is given ("auto" or NAME=ENCODING assignments) and the picture has several
-channels or is a stained brightfield RGB.
+Taken by default when the picture has several channels, or is a fluorescence composite or a
+stained brightfield slide in RGB (relief/channel_auto.py decides); `channels` NAME=ENCODING forces it,
+`channels` off or a single `channel` keeps the luminance path.
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ from .channels import (
     stain_channels,
     stain_relief,
 )
+from .channel_auto import OFF
 from .preprocess import prepare
 
 
@@ -51,6 +53,16 @@ def _raw_channels(source, params) -> list:
     return [("luminance", arr.astype(np.float32), None, None)]
 
 
+def _near_grid(rgb: np.ndarray, layout) -> np.ndarray:
+    """A slide averaged down to about twice the grid (colour deconvolution of millions of pixels
+    the grid will average anyway costs seconds); blocks of whole pixels, so no colour is invented."""
+    f = int(min(rgb.shape[0] / max(layout.rows, 1), rgb.shape[1] / max(layout.cols, 1)) // 2)
+    if f < 2:
+        return rgb
+    h, w = rgb.shape[0] // f * f, rgb.shape[1] // f * f  # under half a grid pitch cut at the far edges
+    return rgb[:h, :w, :3].reshape(h // f, f, w // f, f, 3).mean(axis=(1, 3), dtype=np.float32)
+
+
 def _on_grid(values: np.ndarray, layout, params) -> np.ndarray:
     return prepare(values, None, rows=layout.rows, cols=layout.cols, target_aspect=layout.target_aspect, fit=layout.fit,
                    low_pct=params.stretch_low_pct, high_pct=params.stretch_high_pct, sigma_px=layout.blur_px,
@@ -70,25 +82,51 @@ def _labels(text: str | None) -> dict[str, str]:
 
 
 _ROLE = {"domes": "nuclei", "ridges": "filaments", "dots": "spots", "plateau": "cytoplasm"}
+# An encoding chosen by measured shape says what the shape is, not what biology it might be (the
+# tubes of mitochondria are not "filaments", a dense field of EB3 comets is not "cytoplasm").
+_SHAPE_WORD = {"domes": "round blobs", "ridges": "lines", "dots": "spots", "plateau": "diffuse"}
 
 
-def run(source, layout, params) -> ChannelStage | None:
+def _auto_label(choice) -> str:
+    words = _SHAPE_WORD if choice.why in ("shape", "distinct") else _ROLE
+    return f"{words[choice.encoding]} ({choice.name})"
+
+
+def _as_cleaned(raw: list, cleaned) -> list:
+    """Each channel cropped like the grey picture (its data band) and blank where annotations were removed."""
+    if cleaned is None:
+        return raw
+    top, bottom = cleaned.band.top_rows, cleaned.band.bottom_rows
+    out = []
+    for name, values, ex, em in raw:
+        if values.shape[0] == top + cleaned.values.shape[0] + bottom and values.shape[1] == cleaned.values.shape[1]:
+            values = values[top: values.shape[0] - bottom]
+            if cleaned.mask is not None and cleaned.mask.shape == values.shape and cleaned.mask.any():
+                values = np.where(cleaned.mask, np.float32(np.median(values)), values)  # a scale bar is no channel's structure
+        out.append((name, values, ex, em))
+    return out
+
+
+def run(source, layout, params, route=None, cleaned=None) -> ChannelStage | None:
     """The channel relief, or None when the picture has a single plain channel (the usual path then)."""
-    raw = _raw_channels(source, params)
+    raw = _as_cleaned(_raw_channels(source, params), cleaned)
     names = [r[0] for r in raw]
     rgb = names[:3] == ["red", "green", "blue"]
-    assigned = parse_assignments(params.channels)
+    assigned = parse_assignments(params.channels) if route is None or route.kind == "assigned" else {}
     labels = _labels(params.key_labels)
     mm = layout.mm_per_px
     if rgb:
         stack = np.stack([r[1] for r in raw[:3]], axis=-1)
-        if is_stained_brightfield(stack) and not assigned:
+        stain = route.kind == "stain" if route is not None and route.kind != "assigned" else is_stained_brightfield(stack)
+        if stain and not assigned:
+            stack = _near_grid(stack, layout)
             on_grid = [ChannelImage(c.name, _on_grid(c.image, layout, params)) for c in stain_channels(stack)]
             # stain densities are already 0..1; prepare() stretched them again, which keeps white at 0
             rel = stain_relief(on_grid, mm_per_px=mm, base_mm=params.base_mm, relief_mm=params.relief_mm)
             key = tuple(KeyEntry(labels.get(ch.name.lower(), STAIN_LABEL[ch.name]), ch.encoding) for ch in rel.choices)
             return ChannelStage(rel, key, "stain")
-        if not is_fluorescence_composite(stack) and not assigned:
+        fluorescence = route.kind == "fluorescence" if route is not None and route.kind != "assigned" else is_fluorescence_composite(stack)
+        if not fluorescence and not assigned:
             return None  # an ordinary colour picture
     elif len(raw) < 2:
         if assigned:
@@ -97,8 +135,10 @@ def run(source, layout, params) -> ChannelStage | None:
         return None
     chans = [ChannelImage(n, _on_grid(v, layout, params), ex, em) for n, v, ex, em in raw]
     chans = [c for c in chans if float(c.image.max() - c.image.min()) > 1e-6] or chans  # empty (e.g. unused blue) left out
+    if len(chans) < 2 and not assigned:
+        return None  # one channel with signal: nothing for a key to tell apart
     rel = channel_relief(chans, mm_per_px=mm, base_mm=params.base_mm, relief_mm=params.relief_mm, assigned=assigned)
-    key = tuple(KeyEntry(labels.get(ch.name.lower(), f"{_ROLE[ch.encoding]} ({ch.name})"), ch.encoding) for ch in rel.choices)
+    key = tuple(KeyEntry(labels.get(ch.name.lower(), _auto_label(ch)), ch.encoding) for ch in rel.choices)
     return ChannelStage(rel, key, "fluorescence")
 
 
@@ -107,18 +147,35 @@ def describe_key(key) -> str:
     return "; ".join(f"{e.encoding}: {e.label}" for e in key)
 
 
-def channel_path(source, relief, layout, params):
-    """(relief, layout, key) of the channel print, or the ones given when the picture is not one."""
+def channel_path(source, relief, layout, params, route=None, cleaned=None):
+    """(relief, layout, key, key overlay) of the channel print, or the plain relief when the picture is not one.
+
+    The key overlay is a heightmap (mm above the base, like the relief's) of what a two-colour
+    print makes in its second colour: the key's braille and swatch outlines; None without a key.
+
+    `relief` is the luminance relief, or a function that makes it (only called when needed).
+    `route` (relief/channel_auto.py) says why the picture is printed channel by channel; None with
+    `channels` given explicitly keeps the old opt-in behaviour.
+    """
     import dataclasses
 
     from .key3d import key_strip
     from .styles import ReliefResult
 
-    stage = run(source, layout, params)
+    plain = relief if not callable(relief) else None
+
+    def luminance():
+        return plain if plain is not None else relief()
+
+    asked = bool(params.channels) and str(params.channels).strip().lower() not in OFF
+    stage = run(source, layout, params, route, cleaned) if route is not None or asked else None
     if stage is None:
-        note = Text("`channels`: this picture has one plain channel (not a multi-channel or stained picture); "
-                    "it is printed as usual.")
-        return dataclasses.replace(relief, notes=tuple(relief.notes) + (note,)), layout, ()
+        out = luminance()
+        if asked:  # asked for, not possible
+            note = Text("`channels`: this picture has one plain channel (not a multi-channel or stained picture); "
+                        "it is printed as usual.")
+            out = dataclasses.replace(out, notes=tuple(out.notes) + (note,))
+        return out, layout, (), None
     rel = stage.relief
     strip = key_strip(stage.key, width_mm=layout.width_mm, mm_per_px=layout.mm_per_px, relief_mm=params.relief_mm,
                       table=params.braille_table)
@@ -127,9 +184,63 @@ def channel_path(source, relief, layout, params):
     heights = np.vstack([rel.heights_mm, params.base_mm + key_h[1:]])
     grown = dataclasses.replace(layout, rows=heights.shape[0], depth_mm=layout.depth_mm + (key_h.shape[0] - 1) * layout.mm_per_px)
     what = "stains" if stage.kind == "stain" else "channels"
-    reason = (f"{len(rel.choices)} {what} as textures: {describe_key(strip.entries)} "
+    why = f"auto chose channels ({route.why}): " if route is not None and route.kind != "assigned" else ""
+    reason = (f"{why}{len(rel.choices)} {what} as textures: {describe_key(strip.entries)} "
               f"(encodings from {', '.join(sorted({c.why for c in rel.choices}))}).")
-    notes = tuple(rel.notes) + (Text(f"The plate grew by {grown.depth_mm - layout.depth_mm:.1f} mm along its depth to hold the "
-                                     f"braille key below the picture."),)
+    notes = tuple(rel.notes)
+    if why:
+        how = ("The stains were separated by colour deconvolution" if stage.kind == "stain"
+               else "The picture was printed channel by channel")
+        notes += (Text(f"{how}, each a texture named in the key, because {route.why}; `channel` prints a single "
+                       f"channel, and `channels` off prints the brightness as before."),)
+    notes += (Text(f"The plate grew by {grown.depth_mm - layout.depth_mm:.1f} mm along its depth to hold the "
+                   f"braille key below the picture."),)
     out = ReliefResult(heights, "channels", reason, None, (), notes)
-    return out, grown, strip.entries
+    overlay = np.vstack([np.zeros_like(rel.heights_mm), strip.overlay_mm[1:, :cols]])
+    return out, grown, strip.entries, ChannelExtras(overlay, region_map(rel))
+
+
+@dataclass(frozen=True)
+class ChannelExtras:
+    """What a channel print hands on beside its heights: the key overlay (two-colour prints) and the
+    picture's region map (the 2-D graphic: 0 background, i = the i-th key entry's region)."""
+
+    overlay_mm: np.ndarray  # (rows, cols) of the whole print, key included
+    regions: np.ndarray  # (picture rows, cols) int32
+
+
+_LAYER_ORDER = ("plateau", "ridges", "dots", "domes")  # as channel_relief stacks them: domes on top
+
+
+def region_map(rel: ChannelRelief) -> np.ndarray:
+    out = np.zeros(rel.heights_mm.shape, np.int32)
+    for i in sorted(range(len(rel.choices)), key=lambda i: _LAYER_ORDER.index(rel.choices[i].encoding)):
+        mask = rel.masks.get(rel.choices[i].name)
+        if mask is not None:
+            out[mask] = i + 1
+    return out
+
+
+PAPER_TEXTURE = {"ridges": "lines", "dots": "dots", "domes": "outline", "plateau": "outline"}
+
+
+def paper_textures(key) -> dict[int, str]:
+    """Region value -> swell-paper texture (outline, dots, lines), each used once: a finger tells three apart."""
+    out, used = {}, set()
+    for i, e in enumerate(key):
+        want = PAPER_TEXTURE.get(e.encoding, "outline")
+        if want in used:
+            want = next((t for t in ("outline", "dots", "lines") if t not in used), want)
+        out[i + 1] = want
+        used.add(want)
+    return out
+
+
+def without_channel_note(picture):
+    """The picture without the reader's "using channel 0" note: a print of several channels did not."""
+    import dataclasses
+
+    notes = [n for n in picture.file.notes if "using channel 0" not in str(n)]
+    if len(notes) == len(picture.file.notes):
+        return picture
+    return dataclasses.replace(picture, file=dataclasses.replace(picture.file, notes=notes))

@@ -75,7 +75,7 @@ class ChannelRelief:
 
 def parse_assignments(text: str | None) -> dict[str, str]:
     """`"DAPI=domes,GFP=ridges"` -> {"dapi": "domes", "gfp": "ridges"} (names case-free)."""
-    if not text or text.strip().lower() == "auto":
+    if not text or text.strip().lower() in ("auto", "off", "none", "luminance", "no"):
         return {}
     out = {}
     for part in text.split(","):
@@ -86,7 +86,7 @@ def parse_assignments(text: str | None) -> dict[str, str]:
         if not sep or not name.strip() or enc not in ENCODINGS:
             raise ParameterError(Text(
                 f"`channels`: {part.strip()!r} is not NAME=ENCODING; write e.g. \"DAPI=domes,GFP=ridges\" "
-                f"with an encoding among {', '.join(ENCODINGS)}, or auto."))
+                f"with an encoding among {', '.join(ENCODINGS)}; or auto, or off (brightness as before)."))
         out[name.strip().lower()] = enc
     if len(set(out.values())) > MAX_TEXTURES:
         raise ParameterError(Text(f"`channels`: at most {MAX_TEXTURES} encodings on one print; a finger does not tell more apart."))
@@ -117,6 +117,38 @@ class Shape:
     foreground: float  # share of the picture in the foreground
     structure: float  # contrast of the channel: the spread of its values
     elongation: float = 1.0  # median major / minor axis of the components
+    # Along its skeleton: (length ÷ width) and width (mm) of the median component by area. A
+    # branched tube (mitochondria, a filament network) has a low ellipse ratio but a long skeleton.
+    tube_elongation: float = 1.0
+    tube_width_mm: float = 0.0
+
+
+TUBE_ELONGATION = 5.0  # a component five times longer, along its skeleton, than it is wide is a tube
+TUBE_WIDTH_MM = 3.0  # ... and narrower than about a ridge pitch: felt as a line, not as an area
+
+
+def tube_shape(mask: np.ndarray, mm_per_px: float) -> tuple[float, float]:
+    """(length ÷ width, width in mm) of the area-weighted median component of `mask`, along its skeleton."""
+    labels, n = ndi.label(mask)
+    if n == 0:
+        return 1.0, 0.0
+    skel = morphology.skeletonize(mask)
+    dist = ndi.distance_transform_edt(mask)
+    length = np.bincount(labels[skel], minlength=n + 1)[1:].astype(float)
+    along = np.bincount(labels[skel], dist[skel], minlength=n + 1)[1:]
+    area = np.bincount(labels.ravel(), minlength=n + 1)[1:].astype(float)
+    width = np.maximum(2 * along / np.maximum(length, 1) - 1, 1)  # the distance to the edge, on both sides
+    keep = area >= 4
+    if not keep.any():
+        return 1.0, 0.0
+    elong, width, area = ((length + width) / width)[keep], width[keep], area[keep]
+
+    def median_by_area(x):
+        order = np.argsort(x)
+        cum = np.cumsum(area[order])
+        return float(x[order][np.searchsorted(cum, cum[-1] / 2)])
+
+    return median_by_area(elong), median_by_area(width) * mm_per_px
 
 
 def measure_shape(image: np.ndarray, mm_per_px: float) -> Shape:
@@ -139,13 +171,15 @@ def measure_shape(image: np.ndarray, mm_per_px: float) -> Shape:
     structure = float(np.percentile(img, 99) - np.percentile(img, 50))
     elong = float(np.median([p.axis_major_length / max(p.axis_minor_length, 1.0) for p in big])) if big else 1.0
     del areas
-    return Shape(line_score, diam, solid, fg, structure, elong)
+    return Shape(line_score, diam, solid, fg, structure, elong, *tube_shape(mask, mm_per_px))
 
 
 def shape_ranking(shape: Shape) -> list[str]:
     """Encodings from the most to the least fitting for this measured shape."""
     if shape.foreground > 0.45:
         first = "plateau"  # diffuse: covers much of the picture
+    elif shape.tube_elongation >= TUBE_ELONGATION and shape.tube_width_mm <= TUBE_WIDTH_MM:
+        first = "ridges"  # tubes, branched or not (mitochondria, microtubules): raised lines, never domes
     elif shape.elongation >= 2.5 or (shape.roundness < 0.6 and shape.line_score > 0.35):
         first = "ridges"  # elongated structure: filaments
     elif shape.blob_diam_mm < 2.0:
@@ -229,6 +263,14 @@ def _domes(img: np.ndarray, mask: np.ndarray) -> np.ndarray:
     return np.where(mask, np.sqrt(np.clip(dist / peak_px, 0, 1)), 0.0)
 
 
+LINE_WIDTH_MM = 1.2  # a tube raised as a line: a standard tactile line is 1.0-1.5 mm wide
+
+
+def _is_tubular(mask: np.ndarray, mm_per_px: float) -> bool:
+    elong, width_mm = tube_shape(mask, mm_per_px)
+    return elong >= TUBE_ELONGATION and width_mm <= TUBE_WIDTH_MM
+
+
 def encode(img: np.ndarray, encoding: str, mm_per_px: float, relief_mm: float, angle_deg: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """(relief above the base in mm, mask of the region raised) for one channel."""
     mask = foreground(img)
@@ -236,6 +278,12 @@ def encode(img: np.ndarray, encoding: str, mm_per_px: float, relief_mm: float, a
     if encoding == "domes":
         h = _domes(img, mask)
         return MIN_FEATURE_MM * mask + (top - MIN_FEATURE_MM) * h, mask
+    if encoding == "ridges" and _is_tubular(mask, mm_per_px):
+        # tubes (mitochondria, a filament network) are lines already: each raised along its own
+        # skeleton, LINE_WIDTH_MM wide, not a texture cut by their outline (reads as noise)
+        lines = morphology.skeletonize(mask)
+        lines = ndi.binary_dilation(lines, structure=morphology.disk(max(0, round((LINE_WIDTH_MM / mm_per_px - 1) / 2))))
+        return np.where(lines, top, 0.0), lines
     if encoding == "plateau":
         edge = mask & ~ndi.binary_erosion(mask, iterations=max(1, round(0.5 / mm_per_px)))
         return np.where(edge, OUTLINE_SHARE * relief_mm, np.where(mask, top, 0.0)), mask

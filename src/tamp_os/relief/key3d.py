@@ -27,6 +27,12 @@ class KeyStrip:
     entries: tuple[KeyEntry, ...]  # with braille filled in
     depth_mm: float
     dot_centres_mm: tuple[tuple[float, float], ...]  # braille dots, (x, y) from the strip's top-left, y down
+    # (rows, cols) the part of heights_mm a two-colour print makes in its second colour: the braille
+    # dots and each swatch's outline (0 elsewhere), as the caption's braille is
+    overlay_mm: np.ndarray | None = None
+
+
+OUTLINE_MM = 0.8  # a swatch's raised outline: its outer rim, inside the swatch so the 3 mm gaps stay
 
 
 def _swatch(encoding: str, rows: int, cols: int, mm_per_px: float, relief_mm: float) -> np.ndarray:
@@ -61,11 +67,21 @@ def key_strip(entries: tuple[KeyEntry, ...], *, width_mm: float, mm_per_px: floa
     h = np.zeros((rows, cols))
     yy, xx = np.mgrid[0:rows, 0:cols] * mm_per_px
     centres = []
+    outline = np.zeros((rows, cols))
+    dots = np.zeros((rows, cols))
     r = spec.dot_diameter_mm / 2
     for e, lines, top, row_h in rows_layout:
         r0, c0 = int(round((top + (row_h - SWATCH_H_MM) / 2) / mm_per_px)), round(KEY_GAP_MM / mm_per_px)
         sr, sc = round(SWATCH_H_MM / mm_per_px), round(SWATCH_W_MM / mm_per_px)
-        h[r0:r0 + sr, c0:c0 + sc] = np.maximum(h[r0:r0 + sr, c0:c0 + sc], _swatch(e.encoding, sr, sc, mm_per_px, relief_mm))
+        ring = max(1, round(OUTLINE_MM / mm_per_px))
+        inner = _swatch(e.encoding, sr - 2 * ring, sc - 2 * ring, mm_per_px, relief_mm) if min(sr, sc) > 4 * ring else np.zeros((0, 0))
+        sw = np.full((sr, sc), spec.dot_height_mm)
+        if inner.size:
+            sw[ring:-ring, ring:-ring] = inner
+        outline[r0:r0 + sr, c0:c0 + sc] = spec.dot_height_mm
+        if inner.size:
+            outline[r0 + ring:r0 + sr - ring, c0 + ring:c0 + sc - ring] = 0.0
+        h[r0:r0 + sr, c0:c0 + sc] = np.maximum(h[r0:r0 + sr, c0:c0 + sc], sw)
         # dot_centres works y-up from top_mm; we work y-down from the strip's top, so mirror it
         _, text_h = block_size_mm(lines, spec)
         text_top = top + (row_h - text_h) / 2
@@ -73,5 +89,6 @@ def key_strip(entries: tuple[KeyEntry, ...], *, width_mm: float, mm_per_px: floa
             y_dn = text_top - y_up
             centres.append((x, y_dn))
             d2 = ((xx - x) ** 2 + (yy - y_dn) ** 2) / r ** 2
-            h = np.maximum(h, spec.dot_height_mm * np.sqrt(np.clip(1 - d2, 0, 1)))
-    return KeyStrip(h, tuple(done), rows * mm_per_px - mm_per_px, tuple(centres))
+            dots = np.maximum(dots, spec.dot_height_mm * np.sqrt(np.clip(1 - d2, 0, 1)))
+    h = np.maximum(h, dots)
+    return KeyStrip(h, tuple(done), rows * mm_per_px - mm_per_px, tuple(centres), np.maximum(dots, outline))

@@ -1,0 +1,188 @@
+"""Whether a picture takes the channel path (issue 22), decided from the file and its colours.
+
+A file with several channels (CZI, LIF, ND2, OME-TIFF, ImageJ hyperstack) takes it by default. A
+colour picture takes it only when its colours carry the meaning:
+
+- a fluorescence composite: dark background, and colour that does not follow brightness (nuclei
+  blue and filaments red at the same brightness). A false-colour LUT over a grey picture (jet,
+  inferno, hot...) gives each brightness one colour, so its chromaticity is a function of its
+  luminance: it is a grey picture in disguise;
+- a stained brightfield slide: a white background (glass), tissue in the hues colour deconvolution
+  separates (haematoxylin blue-purple, eosin pink, DAB brown; not green), with continuous texture.
+  A diagram has a white ground and colours too, but a handful of flat fills.
+
+A grey picture stored as RGB (R = G = B) has no chroma and never takes it. `channel` (one channel)
+and `channels` = off keep the picture on the luminance path.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import ParameterError, Text
+
+OFF = ("off", "none", "luminance", "no")
+
+# thresholds, measured on the fixtures (tests/test_channels.py checks each picture's decision)
+GREY_COLOURED_SHARE = 0.01  # under 1 % of the pixels with chroma ≥ CHROMA: a grey picture
+CHROMA = 0.08
+DARK_MEDIAN = 0.2  # fluorescence: the median brightness (0..1) of a dark background
+SIGNAL_CHROMA = 0.2  # ... and its signal clearly coloured
+INDEPENDENCE = 0.5  # ... with colour not a function of brightness (a LUT gives ≈0, a composite ≈1)
+SPREAD = 0.05  # ... and colours that really differ (one colour alone is one channel)
+WHITE_SHARE = 0.15  # stain: at least this share of the slide is white glass (IHC sample 29 %, the SVS 67 %)
+TISSUE_SHARE = 0.02
+TISSUE_CHROMA = 0.12  # median chroma of the tissue (slides 0.21-0.22; a photograph such as skimage's astronaut 0.08)
+GREEN_SHARE = 0.1  # stains are not green (ink, a leaf, a diagram's green fill)
+PALETTE = 12  # colours (16 levels a channel) covering 80 % of the coloured tissue: a diagram has few
+STAIN_INDEPENDENCE = 0.05  # a LUT's colours follow its brightness exactly (≈0.003); a slide's do not
+
+
+@dataclass(frozen=True)
+class ColourFacts:
+    """Measured on a colour picture's sample (0..1 RGB); each number feeds one rule above."""
+
+    coloured_share: float  # share of pixels with chroma (max − min of RGB) ≥ CHROMA
+    median_lum: float
+    signal_chroma: float  # median chroma where the brightness departs from the background's
+    independence: float  # within-brightness-bin chromaticity variance ÷ total (0: colour follows brightness)
+    spread: float  # within-bin chromaticity standard deviation
+    colour_channels: int  # R, G, B with signal of their own (99th percentile ≥ 0.15 over the median)
+    white_share: float  # bright (≥ 0.8), colourless (chroma < 0.1) pixels
+    tissue_share: float
+    tissue_chroma: float
+    green_share: float  # coloured tissue whose hue is green (70–170°)
+    palette: int  # quantised colours covering 80 % of the coloured tissue
+
+
+def colour_facts(rgb: np.ndarray) -> ColourFacts:
+    from skimage.color import rgb2hsv
+
+    x = np.clip(np.asarray(rgb, np.float32)[..., :3], 0, 1)
+    lum = x.mean(axis=2)
+    chroma = x.max(axis=2) - x.min(axis=2)
+    if float((chroma >= CHROMA).mean()) < GREY_COLOURED_SHARE:  # grey: nothing more to measure
+        return ColourFacts(float((chroma >= CHROMA).mean()), float(np.median(lum)), 0.0, 0.0, 0.0, 0, 0.0, 0.0, 0.0, 0.0, 0)
+    med = float(np.median(lum))
+    signal = np.abs(lum - med) > 0.1
+    signal_chroma = float(np.median(chroma[signal])) if signal.any() else 0.0
+    independence, spread = _independence(x, lum, signal & (lum > 0.04))
+    channels = int(sum(float(np.percentile(x[..., i], 99) - np.median(x[..., i])) >= 0.15 for i in range(3)))
+    white = (lum >= 0.8) & (chroma < 0.1)
+    tissue = ~white & ((lum < 0.85) | (chroma >= CHROMA))
+    coloured_tissue = tissue & (chroma >= CHROMA)
+    hue = rgb2hsv(x[coloured_tissue][:, None, :])[:, 0, 0] * 360.0 if coloured_tissue.any() else np.zeros(0)
+    green = float(((hue > 70) & (hue < 170)).sum() / max(coloured_tissue.sum(), 1))
+    return ColourFacts(
+        coloured_share=float((chroma >= CHROMA).mean()), median_lum=med, signal_chroma=signal_chroma,
+        independence=independence, spread=spread, colour_channels=channels, white_share=float(white.mean()),
+        tissue_share=float(tissue.mean()), tissue_chroma=float(np.median(chroma[tissue])) if tissue.any() else 0.0,
+        green_share=green, palette=_palette(x, coloured_tissue))
+
+
+def _independence(x: np.ndarray, lum: np.ndarray, where: np.ndarray) -> tuple[float, float]:
+    """How much chromaticity varies among pixels of the same brightness, against its total variance."""
+    if where.sum() < 50:
+        return 0.0, 0.0
+    s = x.sum(axis=2)[where].astype(np.float64) + 1e-6
+    rg = np.stack([x[..., 0][where] / s, x[..., 1][where] / s], axis=-1)
+    bins = np.clip((lum[where] * 32).astype(int), 0, 31)
+    total = float(rg.var(axis=0).sum())
+    count = np.bincount(bins, minlength=32).astype(float)
+    within = 0.0
+    for k in range(2):  # variance within each bin, by sums: no Python loop over pixels
+        s1 = np.bincount(bins, rg[:, k], minlength=32)
+        s2 = np.bincount(bins, rg[:, k] ** 2, minlength=32)
+        within += float((s2 - s1 ** 2 / np.maximum(count, 1)).sum()) / len(bins)
+    return (within / total if total > 1e-12 else 0.0), float(np.sqrt(max(within, 0.0)))
+
+
+def _palette(x: np.ndarray, where: np.ndarray) -> int:
+    if not where.any():
+        return 0
+    q = (np.clip(x[where], 0, 0.999) * 16).astype(int)
+    counts = np.sort(np.bincount(q[:, 0] * 256 + q[:, 1] * 16 + q[:, 2]))[::-1]
+    return int(np.searchsorted(np.cumsum(counts), 0.8 * counts.sum()) + 1)
+
+
+def colour_kind(facts: ColourFacts) -> tuple[str, str]:
+    """("fluorescence" | "stain" | "plain", the measured reason in words)."""
+    f = facts
+    if f.coloured_share < GREY_COLOURED_SHARE:
+        return "plain", f"a grey picture stored in colour ({100 * f.coloured_share:.1f} % of pixels coloured)"
+    if (f.median_lum < DARK_MEDIAN and f.signal_chroma >= SIGNAL_CHROMA and f.independence >= INDEPENDENCE
+            and f.spread >= SPREAD and f.colour_channels >= 2):
+        return "fluorescence", (f"a fluorescence composite: dark background (median {100 * f.median_lum:.0f} %), "
+                                f"{f.colour_channels} colours carrying their own structure")
+    if (f.white_share >= WHITE_SHARE and f.tissue_share >= TISSUE_SHARE and f.tissue_chroma >= TISSUE_CHROMA
+            and f.green_share < GREEN_SHARE and f.palette >= PALETTE and f.independence >= STAIN_INDEPENDENCE):
+        return "stain", (f"a stained brightfield slide: white background ({100 * f.white_share:.0f} % of the slide), "
+                         f"tissue in stain hues")
+    if f.palette <= 6 and f.median_lum >= DARK_MEDIAN:
+        why = f"a few flat colours ({f.palette}), as in a diagram"
+    elif f.median_lum < DARK_MEDIAN and f.colour_channels < 2:
+        why = "a dark picture in a single colour (one channel)"
+    elif f.independence < STAIN_INDEPENDENCE or (f.median_lum < DARK_MEDIAN and f.independence < INDEPENDENCE):
+        why = "its colour follows its brightness (a false-colour scale over a grey picture)"
+    elif f.palette < PALETTE:
+        why = f"a few flat colours ({f.palette}), as in a diagram"
+    else:
+        why = "neither a fluorescence composite (dark background) nor a stained slide (white background, stain hues)"
+    return "plain", why
+
+
+def channels_mode(text: str | None) -> str:
+    """"auto" (also when unset), "off", or "assigned" (NAME=ENCODING pairs)."""
+    t = (text or "").strip().lower()
+    if not t or t == "auto":
+        return "auto"
+    if t in OFF:
+        return "off"
+    return "assigned"
+
+
+@dataclass(frozen=True)
+class Route:
+    """The channel path is taken: for `kind` "channels" (a multi-channel file), "fluorescence"
+    (an RGB composite split by colour) or "stain" (rgb2hed); `why` says what was measured."""
+
+    kind: str
+    why: str
+
+
+def route(source, picture, params) -> Route | None:
+    """Whether this picture is printed channel by channel (None: the luminance path, as before)."""
+    mode = channels_mode(params.channels)
+    if mode == "off":
+        return None
+    one_channel = str(params.channel).strip().lower() != "luminance"
+    if one_channel:
+        if params.channels and mode != "off":
+            raise ParameterError(Text(
+                f"`channel` {params.channel} prints one channel and `channels` {params.channels} prints several; "
+                f"give one of them (or `channels` off)."), parameter="channels", value=params.channels)
+        return None
+    if mode == "assigned":
+        return Route("assigned", "channels assigned by `channels`")
+    if not isinstance(source, (str, Path, np.ndarray)):
+        return None  # a Picture read before: its channels are gone (only its luminance is kept)
+    file = picture.file
+    if file.channels == 1 and file.channel_count > 1:
+        return Route("channels", f"the file has {file.channel_count} channels")
+    if file.channels >= 3 and file.colour_sample is not None:
+        kind, why = colour_kind(colour_facts(file.colour_sample))
+        if kind != "plain":
+            return Route(kind, f"it is {why}")
+    return None
+
+
+def plain_colour_reason(picture) -> str | None:
+    """Why a colour picture stayed on the luminance path (for the log), or None."""
+    sample = picture.file.colour_sample
+    if sample is None:
+        return None
+    kind, why = colour_kind(colour_facts(sample))
+    return why if kind == "plain" else None

@@ -29,9 +29,9 @@ import numpy as np
 from scipy import ndimage
 from skimage import exposure, filters, segmentation
 
-from .lines import LINE_HEIGHT_MM, LINE_WIDTH_MM, MIN_GAP_MM, Lines, draw_lines, find_lines
+from .lines import LINE_HEIGHT_MM, LINE_WIDTH_MM, MIN_GAP_MM, Lines, draw_lines, find_lines, hessian_ridges
 from .objects import ObjectMap, dome_profile, label_median
-from .population import BACKGROUND_MM, Members, _roundness, find_members
+from .population import BACKGROUND_MM, Members, _roundness, find_members, noise_level
 
 NETWORK_CELLS = 3  # a line network encloses at least this many fingertip-sized regions
 NETWORK_STRENGTH = 20.0  # median ridge response on the lines over its MAD: measured 45-240 on networks, 7 on SEM sphere rims
@@ -182,20 +182,21 @@ def make_content(work: np.ndarray, *, pitch_mm: float, relief_mm: float, width_m
         lo, hi = np.percentile(work[specimen], [1, 99])
         if hi - lo < WEAK_SPREAD:
             return _weak_contrast(work, x, pitch_mm, relief_mm, width_mm, min_area_mm2, polarity, lattice + meta, specimen)
-    lines = find_lines(x, pitch_mm=pitch_mm, min_area_mm2=min_area_mm2)
-    members = find_members(x, pitch_mm=pitch_mm)
+    finder = _Finder(work, pitch_mm, min_area_mm2)
+    lines = finder.lines(polarity.bright)
+    members = finder.members(polarity.bright)
     if polarity.undecided and not _is_population(members, pitch_mm):
         # A mid-grey ground: the side whose members hold more of the detail is the content.
-        other = find_members(1.0 - x, pitch_mm=pitch_mm)
+        other = finder.members(not polarity.bright)
         if other.energy > members.energy:
             polarity = polarity.flipped(f"members of the other side hold more of the detail ({other.energy:.0%} against {members.energy:.0%})")
             x, members = 1.0 - x, other
-            lines = find_lines(x, pitch_mm=pitch_mm, min_area_mm2=min_area_mm2)
+            lines = finder.lines(polarity.bright)
     network = _is_network(lines) and not _members_explain(members, lines, pitch_mm)
     if not network:
         # A network of the other polarity (dark lines between bright grains whose own brightness
         # varies, so the ground did not look empty) is content too: lines read better than cells.
-        other = find_lines(1.0 - x, pitch_mm=pitch_mm, min_area_mm2=min_area_mm2)
+        other = finder.lines(not polarity.bright)
         if _is_network(other):
             lines, network = other, True
             polarity = Polarity(not polarity.bright, polarity.ground,
@@ -216,6 +217,35 @@ def make_content(work: np.ndarray, *, pitch_mm: float, relief_mm: float, width_m
         return None
     return _weak_contrast(work, x, pitch_mm, relief_mm, width_mm, min_area_mm2, polarity, lattice + meta,
                           None if specimen.all() else specimen, grains=False)
+
+
+class _Finder:
+    """Lines and members of either polarity of one picture, each found once: the ridge filters
+    and the noise level serve both polarities (the Hessian of 1 - x is minus that of x)."""
+
+    def __init__(self, work: np.ndarray, pitch_mm: float, min_area_mm2: float):
+        self.work, self.pitch_mm, self.min_area_mm2 = work, pitch_mm, min_area_mm2
+        self.noise = noise_level(work.astype(np.float32))
+        self._ridges: tuple[np.ndarray, np.ndarray] | None = None
+        self._lines: dict[bool, Lines] = {}
+        self._members: dict[bool, Members] = {}
+
+    def picture(self, bright: bool) -> np.ndarray:
+        return self.work if bright else 1.0 - self.work
+
+    def lines(self, bright: bool) -> Lines:
+        """Lines brighter than both sides in the picture (bright) or in its inverse."""
+        if bright not in self._lines:
+            if self._ridges is None:
+                self._ridges = hessian_ridges(self.work, self.pitch_mm)
+            self._lines[bright] = find_lines(self.picture(bright), pitch_mm=self.pitch_mm, min_area_mm2=self.min_area_mm2,
+                                             response=self._ridges[0 if bright else 1], noise=self.noise)
+        return self._lines[bright]
+
+    def members(self, bright: bool) -> Members:
+        if bright not in self._members:
+            self._members[bright] = find_members(self.picture(bright), pitch_mm=self.pitch_mm, noise=self.noise)
+        return self._members[bright]
 
 
 def _is_network(lines: Lines) -> bool:

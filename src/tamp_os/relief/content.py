@@ -26,11 +26,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.fft
 from scipy import ndimage
 from skimage import exposure, filters, segmentation
 
 from .lines import LINE_HEIGHT_MM, LINE_WIDTH_MM, MIN_GAP_MM, Lines, draw_lines, find_lines, hessian_ridges
-from .objects import ObjectMap, dome_profile, label_median
+from .objects import ObjectMap, dome_profile, label_max, label_median
 from .population import BACKGROUND_MM, Members, _roundness, find_members, noise_level
 
 NETWORK_CELLS = 3  # a line network encloses at least this many fingertip-sized regions
@@ -146,7 +147,9 @@ def lattice_period(work: np.ndarray, pitch_mm: float) -> Period | None:
     rows, cols = work.shape
     detail = work - ndimage.gaussian_filter(work, 4.0 / pitch_mm, mode="nearest")
     window = np.outer(np.hanning(rows), np.hanning(cols)).astype(np.float32)
-    power = np.abs(np.fft.rfft2(detail * window)) ** 2
+    # scipy.fft keeps float32 (numpy's FFT works in float64): half the work, the same peak.
+    spectrum = scipy.fft.rfft2(detail * window)
+    power = spectrum.real**2 + spectrum.imag**2
     fy = np.fft.fftfreq(rows)[:, None]
     fx = np.fft.rfftfreq(cols)[None, :]
     freq = np.hypot(fy, fx) / pitch_mm  # cycles per mm
@@ -417,9 +420,7 @@ def member_tops(heights_mm: np.ndarray, labels: np.ndarray, mm_per_px: float, ri
     mask = labels > 0
     dist, (iy, ix) = ndimage.distance_transform_edt(~mask, return_indices=True)
     owner = np.where((~mask) & (dist * mm_per_px <= ring_mm), labels[iy, ix], 0)
-    top = np.full(n + 1, -np.inf)
-    np.maximum.at(top, labels.ravel(), heights_mm.ravel())
-    top = top[1:]
+    top = label_max(heights_mm, labels, n, -np.inf)[1:]
     ring = label_median(heights_mm, owner, n)
     ring = np.where(np.isfinite(ring), ring, float(np.median(heights_mm[~mask])) if (~mask).any() else 0.0)
     return top - ring

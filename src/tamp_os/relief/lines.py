@@ -32,7 +32,7 @@ import numpy as np
 from scipy import ndimage
 from skimage import filters, morphology
 
-from .objects import label_median
+from .objects import label_max, label_median
 from .population import _label_percentile, noise_level
 from .scales import disk
 
@@ -125,8 +125,7 @@ def find_lines(bright01: np.ndarray, *, pitch_mm: float, min_area_mm2: float = 6
     count = int((area >= min_px).sum())
     # Inscribed radius of each cell: the deepest point of the distance to the lines.
     dist = ndimage.distance_transform_edt(~drawn)
-    reach = np.zeros(area.size)
-    np.maximum.at(reach, cells.ravel(), dist.ravel())
+    reach = label_max(dist, cells, area.size - 1)
     gap_mm = 2 * reach * pitch_mm
     narrow = (gap_mm < MIN_GAP_MM) & (area > 0)
     narrow[0] = False

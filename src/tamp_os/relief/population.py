@@ -19,7 +19,7 @@ from scipy import ndimage
 from skimage import morphology, segmentation
 
 from .hull import solid_enough
-from .objects import _h_maxima, inner_outline, label_median
+from .objects import _h_maxima, inner_outline, label_max, label_median
 
 BACKGROUND_MM = 12.0  # members up to about this wide are measured against the ground around them
 NOISE_SIGMAS = 3.0  # a member's peak stands this many noise deviations above its neck (swept on the benchmark: 3 or 5)
@@ -95,8 +95,7 @@ def find_members(bright01: np.ndarray, *, pitch_mm: float, noise: float | None =
     # Basins only where the top-hat reaches h (fewer pixels for the watershed, the costly step on
     # textured pictures); a member whose peak is under 2h is then cut at h, not at half its peak.
     basins = segmentation.watershed(-top, seeds, mask=top >= h)
-    peak = np.zeros(n + 1)
-    np.maximum.at(peak, basins.ravel(), top.ravel())
+    peak = label_max(top, basins, n)
     # Each member at half its own peak: dim and bright members get their true size.
     labels = np.where((basins > 0) & (top >= 0.5 * peak[basins]), basins, 0)
     labels = _split_touching(_filled(_merge_shallow(_largest_parts(labels), top)), NECK_MM / pitch_mm)
@@ -195,8 +194,7 @@ def _merge_shallow(labels: np.ndarray, top: np.ndarray) -> np.ndarray:
     n = int(labels.max())
     if n < 2:
         return labels
-    peak = np.zeros(n + 1)
-    np.maximum.at(peak, labels.ravel(), top.ravel())
+    peak = label_max(top, labels, n)
     parent = np.arange(n + 1)
 
     def root(k):
@@ -217,8 +215,7 @@ def _merge_shallow(labels: np.ndarray, top: np.ndarray) -> np.ndarray:
     if not keys:
         return labels
     pair, where = np.unique(np.concatenate(keys), return_inverse=True)
-    saddle = np.full(pair.size, -1.0)
-    np.maximum.at(saddle, where, np.concatenate(levels))
+    saddle = label_max(np.concatenate(levels), where.reshape(-1), pair.size - 1, -1.0)
     x_of, y_of = pair // (n + 1), pair % (n + 1)
     shallow = saddle >= SADDLE_SHARE * np.minimum(peak[x_of], peak[y_of])
     for x, y in zip(x_of[shallow].tolist(), y_of[shallow].tolist()):
@@ -236,14 +233,19 @@ def _filled(labels: np.ndarray) -> np.ndarray:
     holes, n = ndimage.label(ndimage.binary_fill_holes(labels > 0) & (labels == 0))
     if n == 0:
         return labels
-    grown = segmentation.expand_labels(labels, distance=max(labels.shape))
-    owner = np.zeros(n + 1, np.int64)
-    owner[holes.ravel()] = grown.ravel()
-    hole_area = np.bincount(holes.ravel(), minlength=n + 1)
+    out = labels.copy()
     member_area = np.bincount(labels.ravel(), minlength=int(labels.max()) + 1)
-    small = hole_area <= member_area[owner]
-    small[0] = False
-    return np.where(small[holes], grown, labels)
+    # Each hole's nearest members, in its box one pixel wider (the members around a hole border
+    # it there): a distance transform of the boxes, not of the whole picture.
+    for k, box in enumerate(ndimage.find_objects(holes), 1):
+        box = tuple(slice(max(0, b.start - 1), b.stop + 1) for b in box)
+        window = labels[box]
+        _, (iy, ix) = ndimage.distance_transform_edt(window == 0, return_indices=True)
+        hole = holes[box] == k
+        nearest = window[iy[hole], ix[hole]]
+        if hole.sum() <= member_area[nearest[-1]]:  # the member around it (its last pixel's nearest, as before)
+            out[box][hole] = nearest
+    return out
 
 
 def _split_touching(labels: np.ndarray, depth_px: float) -> np.ndarray:

@@ -48,6 +48,8 @@ MEMBER_ROUND_MM = 10.0  # dome shoulders (as the objects style); wider members g
 EMPTY_GROUND_SHARE = 0.5  # a bright ground this share of the picture lies within 0.06 of is empty (paper, brightfield)
 ELECTRON_EMPTY_SHARE = 0.8  # with an electron signal, only a bright ground this empty is the ground
 WEAK_SPREAD = 0.3  # a specimen whose 1st-99th percentiles span less than this (beside a mount) has weak contrast
+GRAIN_LEVELS = 3  # weak-contrast grains become at most this many plateaus
+GRAIN_STEP_MM = 0.5  # and the plateaus stand at least this far apart (a step fingers tell apart)
 EMPTY_MOUNT_SHARE = 0.05  # a dark, featureless area covering at least this share is the mount
 
 
@@ -102,6 +104,7 @@ class ContentMade:
     reason: str
     notes: tuple[str, ...]
     line_mask: np.ndarray | None = None
+    levels: int = 0  # grains as plateaus: how many grey levels
 
 
 def content_polarity(work: np.ndarray, pitch_mm: float, within: np.ndarray | None = None, signal: str | None = None) -> Polarity:
@@ -364,6 +367,7 @@ def find_specimen(work: np.ndarray, pitch_mm: float) -> np.ndarray:
 def _weak_contrast(work, x, pitch_mm, relief_mm, width_mm, min_area_mm2, polarity, extra, specimen=None, grains=True) -> ContentMade:
     """Weak contrast: local equalisation inside the specimen, then its grains outlined as raised
     lines (when `grains` and their boundaries form a network), else the fingertip-scale shape."""
+    from .levels import plateau_classes
     from .styles import StyleOptions, large_shape
 
     specimen = find_specimen(work, pitch_mm) if specimen is None else specimen
@@ -387,6 +391,23 @@ def _weak_contrast(work, x, pitch_mm, relief_mm, width_mm, min_area_mm2, polarit
         profile = np.where(specimen, made.relief01, 0.0)
         return ContentMade(profile.astype(np.float32), "grains", None, made.reason, made.notes, lines.skeleton)
     shape = large_shape(equal, pitch_mm, StyleOptions())
+    if grains and specimen.any() and not specimen.all():
+        # Weak contrast on a specimen against an empty mount, no outlines: the grains differ in
+        # grey level, so after the local equalisation they become distinct plateaus (the mount
+        # stays at the base, every grain stands above it by at least one step).
+        count = GRAIN_LEVELS if relief_mm / GRAIN_LEVELS >= GRAIN_STEP_MM else 2
+        inside_shape = np.where(specimen, shape, float(np.median(shape[specimen])))
+        classes = plateau_classes(inside_shape, count, pitch_mm=pitch_mm, nozzle_mm=0.4, min_area_mm2=min_area_mm2)
+        used = np.unique(classes[specimen])
+        if used.size >= 2:
+            rank = np.zeros(count, np.float32)
+            rank[used] = np.arange(1, used.size + 1, dtype=np.float32) / used.size
+            profile = np.where(specimen, rank[classes], 0.0).astype(np.float32)
+            step_mm = relief_mm / used.size
+            reason = (f"content: weak contrast (the specimen spans {spread:.2f} of the range; {where}): after local equalisation "
+                      f"its grains fall into {used.size} grey levels, raised as plateaus {step_mm:.1f} mm apart above the mount; "
+                      f"{polarity.reason}{extra}")
+            return ContentMade(profile, "grains", None, reason, (), None, int(used.size))
     shape = np.where(specimen, shape, 0.0).astype(np.float32)
     reason = (f"content: no population and no line network; contrast equalised locally ({where}) and its "
               f"fingertip-scale shape raised; {polarity.reason}{extra}")
@@ -404,6 +425,8 @@ def check_sentences(heights_mm: np.ndarray, made: ContentMade, mm_per_px: float,
             return (f"Found {n} member{'s' * (n != 1)}, all raised at least {lifts.min():.1f} mm above the ground around them.",)
         return (f"Found {n} members; {felt} stand at least 0.5 mm above the ground around them, {n - felt} do not "
                 f"(lowest {lifts.min():.1f} mm).",)
+    if made.kind == "grains" and made.levels:
+        return (f"Grains: {made.levels} levels, raised as plateaus above the mount.",)
     if made.line_mask is not None and made.line_mask.any():
         on = heights_mm[made.line_mask]
         off = heights_mm[~ndimage.binary_dilation(made.line_mask, iterations=3)]

@@ -75,7 +75,8 @@ def local_tophat(bright01: np.ndarray, pitch_mm: float, width_mm: float = BACKGR
     return np.maximum(bright01 - np.minimum(ground, bright01), 0.0).astype(np.float32)
 
 
-def find_members(bright01: np.ndarray, *, pitch_mm: float, noise: float | None = None) -> Members:
+def find_members(bright01: np.ndarray, *, pitch_mm: float, noise: float | None = None,
+                 background_mm: float = BACKGROUND_MM) -> Members:
     """Members of a population in a 0..1 picture where content is bright (flip it first if not).
 
     Parameters
@@ -83,10 +84,11 @@ def find_members(bright01: np.ndarray, *, pitch_mm: float, noise: float | None =
     bright01 : (rows, cols) float, 0..1, content bright (the working grid).
     pitch_mm : grid pitch in mm per pixel.
     noise : the picture's noise_level, if known (the same for both polarities).
+    background_mm : members up to about this wide are measured against the ground around them.
     """
     image = ndimage.gaussian_filter(bright01.astype(np.float32), 0.6, mode="nearest")
     noise = noise_level(bright01.astype(np.float32)) if noise is None else noise
-    top = local_tophat(image, pitch_mm)
+    top = local_tophat(image, pitch_mm, background_mm)
     h = max(NOISE_SIGMAS * noise, MIN_CONTRAST)
     seeds, n = ndimage.label(morphology.h_maxima(top, h) & (top >= h))
     empty = Members(np.zeros(image.shape, np.int32), 0, np.zeros(0), noise)

@@ -13,8 +13,14 @@ from conftest import need_module
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import ndimage
+from synthetic_content import (
+    dark_line_network,
+    dim_and_bright_beads,
+    dot_lattice,
+    faint_grains,
+    line_diagram,
+)
 
-from synthetic_content import dark_line_network, dim_and_bright_beads, dot_lattice, faint_grains, line_diagram
 from tamp_os.relief.content import ContentHints
 from tamp_os.relief.legibility import assess
 from tamp_os.relief.preprocess import prepare

@@ -30,9 +30,24 @@ import scipy.fft
 from scipy import ndimage
 from skimage import exposure, filters, segmentation
 
-from .lines import LINE_HEIGHT_MM, LINE_WIDTH_MM, MIN_GAP_MM, Lines, draw_lines, find_lines, hessian_ridges
+from .lines import (
+    LINE_HEIGHT_MM,
+    LINE_WIDTH_MM,
+    MIN_GAP_MM,
+    Lines,
+    draw_lines,
+    find_lines,
+    hessian_ridges,
+)
 from .objects import ObjectMap, dome_profile, label_max, label_median
-from .population import BACKGROUND_MM, Members, _roundness, find_members, local_tophat, noise_level
+from .population import (
+    BACKGROUND_MM,
+    Members,
+    _roundness,
+    find_members,
+    local_tophat,
+    noise_level,
+)
 
 NETWORK_CELLS = 3  # a line network encloses at least this many fingertip-sized regions
 NETWORK_STRENGTH = 20.0  # median ridge response on the lines over its MAD: measured 45-240 on networks, 7 on SEM sphere rims

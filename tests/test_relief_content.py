@@ -4,11 +4,23 @@ Every figure is measured on the heights in mm against the picture's truth, not a
 style says it found.
 """
 
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
+from conftest import need_module
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from scipy import ndimage
+from synthetic_content import (
+    dark_line_network,
+    dim_and_bright_beads,
+    dot_lattice,
+    faint_grains,
+    line_diagram,
+)
 
-from synthetic_content import dark_line_network, dim_and_bright_beads, dot_lattice, faint_grains, line_diagram
 from tamp_os.relief.content import ContentHints
 from tamp_os.relief.legibility import assess
 from tamp_os.relief.preprocess import prepare
@@ -187,3 +199,72 @@ def test_the_check_counts_a_feelable_lattice_as_pattern_and_a_fine_one_as_roughn
         assert not any("larger detail_mm" in v for v in report.verdicts)
     else:
         assert report.period_mm is None and "felt as roughness" in said
+
+
+@pytest.mark.timeout(60)
+def test_auto_takes_the_faint_grains_as_plateaus_above_the_mount_and_says_how_many_levels():
+    truth = faint_grains()
+    made = make_relief(prep(truth.image), style="auto", mm_per_px=pitch(truth.image), base_mm=BASE, relief_mm=RELIEF, layer_mm=0.12)
+    assert made.style == "content" and "grains" in made.reason, made.reason
+    h = made.heights_mm
+    mount = ndimage.binary_erosion(truth.grains == 0, iterations=3)
+    assert np.percentile(h[mount], 99) <= BASE + 0.05
+    # Every grain stands on a plateau at least one 0.5 mm step above the mount; at least two levels in use.
+    inner = ndimage.binary_erosion(truth.grains > 0, iterations=3)
+    assert np.percentile(h[inner], 5) >= BASE + 0.5
+    levels = np.unique(np.round(h[inner], 1))
+    assert sum((np.round(h[inner], 1) == v).mean() > 0.05 for v in levels) >= 2
+    assert any(c.startswith("Grains: ") and "levels" in c for c in made.checks), made.checks
+
+
+@pytest.mark.timeout(60)
+def test_both_polarities_ridges_from_one_hessian_match_the_inverted_picture():
+    from tamp_os.relief.lines import hessian_ridges, ridge_response
+
+    truth = dark_line_network()
+    image, mm = prep(truth.image), pitch(truth.image)
+    bright, dark = hessian_ridges(image, mm)
+    np.testing.assert_allclose(bright, ridge_response(image, mm), atol=1e-6)
+    # Up to the truncated kernel's answer on a constant (scipy's second-derivative kernels sum to
+    # about 2e-4, not 0): negligible beside the lines' response (its 99th percentile is ~0.2).
+    np.testing.assert_allclose(dark, ridge_response(1.0 - image, mm), atol=1e-3)
+    assert np.percentile(dark, 99) > 0.1
+    assert dark[truth.lines].mean() > 5 * bright[truth.lines].mean()  # the network's lines are dark
+
+
+@pytest.mark.timeout(120)
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), sigma=st.floats(0.5, 3.0), level=st.floats(0.45, 0.62))
+def test_the_bounding_octagon_holds_every_pixel_of_the_hull(seed, sigma, level):
+    from tamp_os.relief.hull import convex_hull_mask, octagon_px
+
+    rng = np.random.default_rng(seed)
+    labels, n = ndimage.label(ndimage.gaussian_filter(rng.random((24, 24)), sigma) > level)
+    if n == 0:
+        return
+    boxes = ndimage.find_objects(labels)
+    which = np.ones(n + 1, bool)
+    which[0] = False
+    bound = octagon_px(labels, which, boxes)
+    for k in range(1, n + 1):
+        box = boxes[k - 1]
+        hull = int(convex_hull_mask(labels[box] == k).sum())
+        assert int((labels == k).sum()) <= hull <= bound[k] <= (box[0].stop - box[0].start) * (box[1].stop - box[1].start)
+
+
+@pytest.mark.timeout(120)
+def test_a_dense_sem_particle_field_has_nine_in_ten_particles_felt(fixture):
+    """SiO2 35kx (README: rounded particles 0.3-0.6 um, many touching): particles by Otsu after a
+    2 px Gaussian, split by a distance watershed (benchmarks/content_truth.py), rows above the
+    databar box; at least 90 % stand 0.5 mm over a 1.5 mm ring on the auto relief."""
+    tifffile = need_module("tifffile")
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    from content_metrics import members_felt
+    from content_truth import _case, _members_by_threshold
+
+    values = tifffile.imread(fixture("real/sem_fei_sio2_particles_35kx.tif")).astype(np.float32)
+    values = (values[..., 0] if values.ndim == 3 else values)[:418]
+    case = _case("35kx", values, members=_members_by_threshold(values, 2.0, 9, 120))
+    made = make_relief(case.image01, style="auto", mm_per_px=case.mm_per_px, base_mm=BASE, relief_mm=RELIEF, layer_mm=0.12)
+    assert made.style == "content"
+    assert members_felt(made.heights_mm, case.truth.members, case.mm_per_px) >= 0.9

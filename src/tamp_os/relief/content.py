@@ -26,12 +26,28 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.fft
 from scipy import ndimage
 from skimage import exposure, filters, segmentation
 
-from .lines import LINE_HEIGHT_MM, LINE_WIDTH_MM, MIN_GAP_MM, Lines, draw_lines, find_lines
-from .objects import ObjectMap, dome_profile, label_median
-from .population import BACKGROUND_MM, Members, _roundness, find_members
+from .lines import (
+    LINE_HEIGHT_MM,
+    LINE_WIDTH_MM,
+    MIN_GAP_MM,
+    Lines,
+    draw_lines,
+    find_lines,
+    hessian_ridges,
+)
+from .objects import ObjectMap, dome_profile, label_max, label_median
+from .population import (
+    BACKGROUND_MM,
+    Members,
+    _roundness,
+    find_members,
+    local_tophat,
+    noise_level,
+)
 
 NETWORK_CELLS = 3  # a line network encloses at least this many fingertip-sized regions
 NETWORK_STRENGTH = 20.0  # median ridge response on the lines over its MAD: measured 45-240 on networks, 7 on SEM sphere rims
@@ -42,11 +58,14 @@ POPULATION_ROUNDNESS = 0.7
 POPULATION_SPREAD = 2.5
 MIN_FELT_MM = 2.0  # members narrower than this are drawn this wide when few
 FEW_MEMBERS = 60
+DENSE_COVER = 0.4  # more members than FEW_MEMBERS covering this share: a dense field (SEM particle layers), measured 0.48 on SiO2 35kx, 0.33 on the STEM spheres (all found)
 MIN_PITCH_MM = 2.5  # a lattice finer than this on the print is felt as roughness
 MEMBER_ROUND_MM = 10.0  # dome shoulders (as the objects style); wider members get rounded plateaus
 EMPTY_GROUND_SHARE = 0.5  # a bright ground this share of the picture lies within 0.06 of is empty (paper, brightfield)
 ELECTRON_EMPTY_SHARE = 0.8  # with an electron signal, only a bright ground this empty is the ground
 WEAK_SPREAD = 0.3  # a specimen whose 1st-99th percentiles span less than this (beside a mount) has weak contrast
+GRAIN_LEVELS = 3  # weak-contrast grains become at most this many plateaus
+GRAIN_STEP_MM = 0.5  # and the plateaus stand at least this far apart (a step fingers tell apart)
 EMPTY_MOUNT_SHARE = 0.05  # a dark, featureless area covering at least this share is the mount
 
 
@@ -101,6 +120,7 @@ class ContentMade:
     reason: str
     notes: tuple[str, ...]
     line_mask: np.ndarray | None = None
+    levels: int = 0  # grains as plateaus: how many grey levels
 
 
 def content_polarity(work: np.ndarray, pitch_mm: float, within: np.ndarray | None = None, signal: str | None = None) -> Polarity:
@@ -146,7 +166,9 @@ def lattice_period(work: np.ndarray, pitch_mm: float) -> Period | None:
     rows, cols = work.shape
     detail = work - ndimage.gaussian_filter(work, 4.0 / pitch_mm, mode="nearest")
     window = np.outer(np.hanning(rows), np.hanning(cols)).astype(np.float32)
-    power = np.abs(np.fft.rfft2(detail * window)) ** 2
+    # scipy.fft keeps float32 (numpy's FFT works in float64): half the work, the same peak.
+    spectrum = scipy.fft.rfft2(detail * window)
+    power = spectrum.real**2 + spectrum.imag**2
     fy = np.fft.fftfreq(rows)[:, None]
     fx = np.fft.rfftfreq(cols)[None, :]
     freq = np.hypot(fy, fx) / pitch_mm  # cycles per mm
@@ -182,20 +204,21 @@ def make_content(work: np.ndarray, *, pitch_mm: float, relief_mm: float, width_m
         lo, hi = np.percentile(work[specimen], [1, 99])
         if hi - lo < WEAK_SPREAD:
             return _weak_contrast(work, x, pitch_mm, relief_mm, width_mm, min_area_mm2, polarity, lattice + meta, specimen)
-    lines = find_lines(x, pitch_mm=pitch_mm, min_area_mm2=min_area_mm2)
-    members = find_members(x, pitch_mm=pitch_mm)
+    finder = _Finder(work, pitch_mm, min_area_mm2)
+    lines = finder.lines(polarity.bright)
+    members = finder.members(polarity.bright)
     if polarity.undecided and not _is_population(members, pitch_mm):
         # A mid-grey ground: the side whose members hold more of the detail is the content.
-        other = find_members(1.0 - x, pitch_mm=pitch_mm)
+        other = finder.members(not polarity.bright)
         if other.energy > members.energy:
             polarity = polarity.flipped(f"members of the other side hold more of the detail ({other.energy:.0%} against {members.energy:.0%})")
             x, members = 1.0 - x, other
-            lines = find_lines(x, pitch_mm=pitch_mm, min_area_mm2=min_area_mm2)
+            lines = finder.lines(polarity.bright)
     network = _is_network(lines) and not _members_explain(members, lines, pitch_mm)
     if not network:
         # A network of the other polarity (dark lines between bright grains whose own brightness
         # varies, so the ground did not look empty) is content too: lines read better than cells.
-        other = find_lines(1.0 - x, pitch_mm=pitch_mm, min_area_mm2=min_area_mm2)
+        other = finder.lines(not polarity.bright)
         if _is_network(other):
             lines, network = other, True
             polarity = Polarity(not polarity.bright, polarity.ground,
@@ -204,8 +227,8 @@ def make_content(work: np.ndarray, *, pitch_mm: float, relief_mm: float, width_m
     if network:
         return _as_lines(lines, pitch_mm, relief_mm, width_mm, polarity, lattice + meta, "lines")
     if _is_population(members, pitch_mm):
-        return _as_members(members.labels, pitch_mm, relief_mm, polarity, lattice + meta,
-                           f"{members.count} members found by local contrast (each against the ground around it, cut at half its own peak; "
+        return _as_members(members.labels, pitch_mm, relief_mm, polarity, lattice + meta, picture=finder.picture(polarity.bright),
+                           what=f"{members.count} members found by local contrast (each against the ground around it, cut at half its own peak; "
                            f"dimmest {np.min(members.contrast):.2f}, brightest {np.max(members.contrast):.2f} of the range)")
     # Objects wider than the local ground (the FePt spheres) are found by the edges around them.
     big = _large_edge_objects(found() if callable(found) else found, pitch_mm)
@@ -216,6 +239,35 @@ def make_content(work: np.ndarray, *, pitch_mm: float, relief_mm: float, width_m
         return None
     return _weak_contrast(work, x, pitch_mm, relief_mm, width_mm, min_area_mm2, polarity, lattice + meta,
                           None if specimen.all() else specimen, grains=False)
+
+
+class _Finder:
+    """Lines and members of either polarity of one picture, each found once: the ridge filters
+    and the noise level serve both polarities (the Hessian of 1 - x is minus that of x)."""
+
+    def __init__(self, work: np.ndarray, pitch_mm: float, min_area_mm2: float):
+        self.work, self.pitch_mm, self.min_area_mm2 = work, pitch_mm, min_area_mm2
+        self.noise = noise_level(work.astype(np.float32))
+        self._ridges: tuple[np.ndarray, np.ndarray] | None = None
+        self._lines: dict[bool, Lines] = {}
+        self._members: dict[bool, Members] = {}
+
+    def picture(self, bright: bool) -> np.ndarray:
+        return self.work if bright else 1.0 - self.work
+
+    def lines(self, bright: bool) -> Lines:
+        """Lines brighter than both sides in the picture (bright) or in its inverse."""
+        if bright not in self._lines:
+            if self._ridges is None:
+                self._ridges = hessian_ridges(self.work, self.pitch_mm)
+            self._lines[bright] = find_lines(self.picture(bright), pitch_mm=self.pitch_mm, min_area_mm2=self.min_area_mm2,
+                                             response=self._ridges[0 if bright else 1], noise=self.noise)
+        return self._lines[bright]
+
+    def members(self, bright: bool) -> Members:
+        if bright not in self._members:
+            self._members[bright] = find_members(self.picture(bright), pitch_mm=self.pitch_mm, noise=self.noise)
+        return self._members[bright]
 
 
 def _is_network(lines: Lines) -> bool:
@@ -262,7 +314,7 @@ def _lattice_words(period: Period | None, width_mm: float) -> str:
             f"at a print width of {width_mm * MIN_PITCH_MM / period.pitch_mm:.0f} mm")
 
 
-def _as_members(labels: np.ndarray, pitch_mm, relief_mm, polarity, extra, what) -> ContentMade:
+def _as_members(labels: np.ndarray, pitch_mm, relief_mm, polarity, extra, what, picture: np.ndarray | None = None) -> ContentMade:
     count = int(labels.max())
     area = np.bincount(labels.ravel(), minlength=count + 1)[1:]
     diam = 2 * np.sqrt(area / np.pi) * pitch_mm
@@ -281,6 +333,19 @@ def _as_members(labels: np.ndarray, pitch_mm, relief_mm, polarity, extra, what) 
     if int(labels.max()) < before:
         notes.append(f"content: {before - int(labels.max())} members too thin to carry a dome were left flat.")
     domes = dome_profile(labels, pitch_mm=pitch_mm, round_mm=MEMBER_ROUND_MM)
+    count = int(labels.max())
+    cover = float((labels > 0).mean())
+    if picture is not None and count > FEW_MEMBERS and cover >= DENSE_COVER:
+        # A dense field: the members the segmentation could not part lie in the gaps between the
+        # found ones, so each point also rises by its own local contrast (a top-hat three members
+        # wide, full lift at its 95th percentile): a texture of small domes under the found ones.
+        diam = float(np.median(2 * np.sqrt(np.bincount(labels.ravel())[1:] / np.pi))) * pitch_mm
+        texture = local_tophat(picture.astype(np.float32), pitch_mm, max(3 * diam, 2 * MIN_FELT_MM))
+        scale = float(np.percentile(texture, 95))
+        if scale > 0:
+            domes = np.maximum(domes, np.clip(texture / scale, 0.0, 1.0)).astype(np.float32)
+            notes.append(f"content: a dense field ({count} members over {cover:.0%} of the picture): the members not parted "
+                         f"from their neighbours rise by their local contrast, as a texture of small domes.")
     reason = f"content: {what}; each raised as a dome by the same lift, touching ones apart by a groove; {polarity.reason}{extra}"
     return ContentMade(domes, "members", labels, reason, tuple(notes))
 
@@ -331,6 +396,7 @@ def find_specimen(work: np.ndarray, pitch_mm: float) -> np.ndarray:
 def _weak_contrast(work, x, pitch_mm, relief_mm, width_mm, min_area_mm2, polarity, extra, specimen=None, grains=True) -> ContentMade:
     """Weak contrast: local equalisation inside the specimen, then its grains outlined as raised
     lines (when `grains` and their boundaries form a network), else the fingertip-scale shape."""
+    from .levels import plateau_classes
     from .styles import StyleOptions, large_shape
 
     specimen = find_specimen(work, pitch_mm) if specimen is None else specimen
@@ -354,6 +420,23 @@ def _weak_contrast(work, x, pitch_mm, relief_mm, width_mm, min_area_mm2, polarit
         profile = np.where(specimen, made.relief01, 0.0)
         return ContentMade(profile.astype(np.float32), "grains", None, made.reason, made.notes, lines.skeleton)
     shape = large_shape(equal, pitch_mm, StyleOptions())
+    if grains and specimen.any() and not specimen.all():
+        # Weak contrast on a specimen against an empty mount, no outlines: the grains differ in
+        # grey level, so after the local equalisation they become distinct plateaus (the mount
+        # stays at the base, every grain stands above it by at least one step).
+        count = GRAIN_LEVELS if relief_mm / GRAIN_LEVELS >= GRAIN_STEP_MM else 2
+        inside_shape = np.where(specimen, shape, float(np.median(shape[specimen])))
+        classes = plateau_classes(inside_shape, count, pitch_mm=pitch_mm, nozzle_mm=0.4, min_area_mm2=min_area_mm2)
+        used = np.unique(classes[specimen])
+        if used.size >= 2:
+            rank = np.zeros(count, np.float32)
+            rank[used] = np.arange(1, used.size + 1, dtype=np.float32) / used.size
+            profile = np.where(specimen, rank[classes], 0.0).astype(np.float32)
+            step_mm = relief_mm / used.size
+            reason = (f"content: weak contrast (the specimen spans {spread:.2f} of the range; {where}): after local equalisation "
+                      f"its grains fall into {used.size} grey levels, raised as plateaus {step_mm:.1f} mm apart above the mount; "
+                      f"{polarity.reason}{extra}")
+            return ContentMade(profile, "grains", None, reason, (), None, int(used.size))
     shape = np.where(specimen, shape, 0.0).astype(np.float32)
     reason = (f"content: no population and no line network; contrast equalised locally ({where}) and its "
               f"fingertip-scale shape raised; {polarity.reason}{extra}")
@@ -371,6 +454,8 @@ def check_sentences(heights_mm: np.ndarray, made: ContentMade, mm_per_px: float,
             return (f"Found {n} member{'s' * (n != 1)}, all raised at least {lifts.min():.1f} mm above the ground around them.",)
         return (f"Found {n} members; {felt} stand at least 0.5 mm above the ground around them, {n - felt} do not "
                 f"(lowest {lifts.min():.1f} mm).",)
+    if made.kind == "grains" and made.levels:
+        return (f"Grains: {made.levels} levels, raised as plateaus above the mount.",)
     if made.line_mask is not None and made.line_mask.any():
         on = heights_mm[made.line_mask]
         off = heights_mm[~ndimage.binary_dilation(made.line_mask, iterations=3)]
@@ -387,9 +472,7 @@ def member_tops(heights_mm: np.ndarray, labels: np.ndarray, mm_per_px: float, ri
     mask = labels > 0
     dist, (iy, ix) = ndimage.distance_transform_edt(~mask, return_indices=True)
     owner = np.where((~mask) & (dist * mm_per_px <= ring_mm), labels[iy, ix], 0)
-    top = np.full(n + 1, -np.inf)
-    np.maximum.at(top, labels.ravel(), heights_mm.ravel())
-    top = top[1:]
+    top = label_max(heights_mm, labels, n, -np.inf)[1:]
     ring = label_median(heights_mm, owner, n)
     ring = np.where(np.isfinite(ring), ring, float(np.median(heights_mm[~mask])) if (~mask).any() else 0.0)
     return top - ring

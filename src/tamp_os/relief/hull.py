@@ -82,13 +82,55 @@ def labelled_hulls(
 def solid_enough(labels: np.ndarray, candidates: np.ndarray, min_solidity: float) -> np.ndarray:
     """`candidates` (bool per label 0..n) less the labels whose solidity is under min_solidity.
 
-    Solidity is at least area / bounding-box area, so the hull, the costly part, is drawn
-    only for the labels where that bound leaves doubt.
+    Solidity is at least area / bounding-box area, and at least area / bounding-octagon area
+    (see octagon_px), so the hull, the costly part, is drawn only for the labels where both
+    bounds leave doubt.
     """
     area = np.bincount(labels.ravel(), minlength=candidates.size)
     boxes = ndimage.find_objects(labels, max_label=candidates.size - 1)
     box_area = np.array([1] + [(b[0].stop - b[0].start) * (b[1].stop - b[1].start) if b else 1 for b in boxes])
+    doubt = candidates & (area < min_solidity * box_area)
+    if doubt.any():
+        doubt &= area < min_solidity * octagon_px(labels, doubt, boxes)
     out = candidates.copy()
-    for k, _, _, solidity in labelled_hulls(labels, candidates & (area < min_solidity * box_area), boxes):
+    for k, _, _, solidity in labelled_hulls(labels, doubt, boxes):
         out[k] = solidity >= min_solidity
+    return out
+
+
+def octagon_px(labels: np.ndarray, which: np.ndarray, boxes: list) -> np.ndarray:
+    """Per label (index 0 = background): the pixels of its bounding octagon (box and diagonal
+    extents), which hold every pixel of its convex hull as convex_hull_mask draws it (a hull
+    pixel's centre lies within half a pixel of the label's extents in r, c, r + c and r - c,
+    and those are whole numbers); for labels not in `which`, or whose corner cuts overlap, the
+    box's pixels. A bound the hull's count never exceeds, for all labels in one pass."""
+    n = which.size - 1
+    out = np.array([1] + [(b[0].stop - b[0].start) * (b[1].stop - b[1].start) if b else 1 for b in boxes], np.float64)
+    rows, cols = np.nonzero(which[labels])
+    if rows.size == 0:
+        return out
+    lab = labels[rows, cols].astype(np.intp)
+    big = np.iinfo(np.int64).max
+    s, d = rows + cols, rows - cols
+    s_min = np.full(n + 1, big)
+    s_max = np.full(n + 1, -big)
+    d_min = np.full(n + 1, big)
+    d_max = np.full(n + 1, -big)
+    np.minimum.at(s_min, lab, s)
+    np.maximum.at(s_max, lab, s)
+    np.minimum.at(d_min, lab, d)
+    np.maximum.at(d_max, lab, d)
+    for k in np.flatnonzero(which[1:]) + 1:
+        b = boxes[k - 1]
+        if b is None:
+            continue
+        r0, r1, c0, c1 = b[0].start, b[0].stop - 1, b[1].start, b[1].stop - 1
+        h, w = r1 - r0 + 1, c1 - c0 + 1
+        # Corner cuts: lattice points of the box beyond each diagonal extent (right triangles).
+        cut = np.array([s_min[k] - (r0 + c0), (r1 + c1) - s_max[k], d_min[k] - (r0 - c1), (r1 - c0) - d_max[k]])
+        tl, br, tr, bl = cut  # r + c small: top left; large: bottom right; r - c small: top right; large: bottom left
+        if cut.min() < 0 or cut.max() > min(h, w) or tl + tr > w or bl + br > w or tl + bl > h or tr + br > h \
+                or tl + br > h + w - 1 or tr + bl > h + w - 1:
+            continue  # the cuts would overlap: keep the box's count
+        out[k] = h * w - float(np.sum(cut * (cut + 1) // 2))
     return out

@@ -32,7 +32,7 @@ import numpy as np
 from scipy import ndimage
 from skimage import filters, morphology
 
-from .objects import label_median
+from .objects import label_max, label_median
 from .population import _label_percentile, noise_level
 from .scales import disk
 
@@ -70,13 +70,7 @@ def ridge_response(bright01: np.ndarray, pitch_mm: float, method: str = "hessian
     if method == "hessian":
         # Sato's measure at one scale: the Hessian's most negative eigenvalue (a bright line's
         # curvature across it), from three Gaussian derivative filters in float32.
-        sigma = max(0.7, RIDGE_SIGMA_MM / pitch_mm)
-        img = bright01.astype(np.float32)
-        hyy = ndimage.gaussian_filter(img, sigma, order=(2, 0), mode="reflect")
-        hxx = ndimage.gaussian_filter(img, sigma, order=(0, 2), mode="reflect")
-        hxy = ndimage.gaussian_filter(img, sigma, order=(1, 1), mode="reflect")
-        low = (hyy + hxx) / 2 - np.sqrt(((hyy - hxx) / 2) ** 2 + hxy * hxy)
-        return np.maximum(-low, 0.0) * sigma * sigma
+        return hessian_ridges(bright01, pitch_mm)[0]
     if method == "sato":
         return filters.sato(bright01, sigmas=sigmas, black_ridges=False, mode="reflect")
     if method == "meijering":
@@ -87,17 +81,36 @@ def ridge_response(bright01: np.ndarray, pitch_mm: float, method: str = "hessian
     raise ValueError(method)
 
 
-def find_lines(bright01: np.ndarray, *, pitch_mm: float, min_area_mm2: float = 6.0, method: str = "hessian") -> Lines:
-    """The line network of a 0..1 picture whose lines are bright (the working grid)."""
+def hessian_ridges(image01: np.ndarray, pitch_mm: float) -> tuple[np.ndarray, np.ndarray]:
+    """The one-scale Hessian ridge response of a picture's bright lines and of its dark lines,
+    from one set of derivative filters: the Hessian of 1 - image is minus the image's, so the
+    dark lines' response is the largest eigenvalue where the bright lines' is minus the smallest."""
+    sigma = max(0.7, RIDGE_SIGMA_MM / pitch_mm)
+    img = image01.astype(np.float32)
+    hyy = ndimage.gaussian_filter(img, sigma, order=(2, 0), mode="reflect")
+    hxx = ndimage.gaussian_filter(img, sigma, order=(0, 2), mode="reflect")
+    hxy = ndimage.gaussian_filter(img, sigma, order=(1, 1), mode="reflect")
+    mean = (hyy + hxx) / 2
+    root = np.sqrt(((hyy - hxx) / 2) ** 2 + hxy * hxy)
+    scale = np.float32(sigma * sigma)
+    return np.maximum(root - mean, 0.0) * scale, np.maximum(mean + root, 0.0) * scale
+
+
+def find_lines(bright01: np.ndarray, *, pitch_mm: float, min_area_mm2: float = 6.0, method: str = "hessian",
+               response: np.ndarray | None = None, noise: float | None = None) -> Lines:
+    """The line network of a 0..1 picture whose lines are bright (the working grid). `response`
+    (the ridge response, from hessian_ridges) and `noise` (noise_level of the picture), when
+    given, are not computed again: the content style asks for both polarities of one picture."""
     image = bright01.astype(np.float32)
-    response = ridge_response(image, pitch_mm, method)
+    if response is None:
+        response = ridge_response(image, pitch_mm, method)
     med = float(np.median(response))
     mad = float(np.median(np.abs(response - med))) * 1.4826 + 1e-9
     thresh = max(filters.threshold_otsu(response) if np.ptp(response) > 0 else np.inf, med + 3 * mad)
     # And above the picture's own noise: a ridge filter answers on pure noise too. (A hysteresis
     # threshold down to median + 3-20 MADs was measured too: it lifts the Al2O3 boundaries'
     # recall only from 0.14 to 0.20 and halves the membranes' precision, so a plain threshold.)
-    thresh = max(thresh, 3 * noise_level(image))
+    thresh = max(thresh, 3 * (noise_level(image) if noise is None else noise))
     mask = response > thresh
     skeleton = morphology.skeletonize(mask)
     skeleton = _drop_short(skeleton, MIN_PIECE_MM / pitch_mm)
@@ -112,8 +125,7 @@ def find_lines(bright01: np.ndarray, *, pitch_mm: float, min_area_mm2: float = 6
     count = int((area >= min_px).sum())
     # Inscribed radius of each cell: the deepest point of the distance to the lines.
     dist = ndimage.distance_transform_edt(~drawn)
-    reach = np.zeros(area.size)
-    np.maximum.at(reach, cells.ravel(), dist.ravel())
+    reach = label_max(dist, cells, area.size - 1)
     gap_mm = 2 * reach * pitch_mm
     narrow = (gap_mm < MIN_GAP_MM) & (area > 0)
     narrow[0] = False

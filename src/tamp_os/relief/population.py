@@ -19,7 +19,7 @@ from scipy import ndimage
 from skimage import morphology, segmentation
 
 from .hull import solid_enough
-from .objects import _h_maxima, inner_outline, label_median
+from .objects import _h_maxima, inner_outline, label_max, label_median
 
 BACKGROUND_MM = 12.0  # members up to about this wide are measured against the ground around them
 NOISE_SIGMAS = 3.0  # a member's peak stands this many noise deviations above its neck (swept on the benchmark: 3 or 5)
@@ -75,17 +75,20 @@ def local_tophat(bright01: np.ndarray, pitch_mm: float, width_mm: float = BACKGR
     return np.maximum(bright01 - np.minimum(ground, bright01), 0.0).astype(np.float32)
 
 
-def find_members(bright01: np.ndarray, *, pitch_mm: float) -> Members:
+def find_members(bright01: np.ndarray, *, pitch_mm: float, noise: float | None = None,
+                 background_mm: float = BACKGROUND_MM) -> Members:
     """Members of a population in a 0..1 picture where content is bright (flip it first if not).
 
     Parameters
     ----------
     bright01 : (rows, cols) float, 0..1, content bright (the working grid).
     pitch_mm : grid pitch in mm per pixel.
+    noise : the picture's noise_level, if known (the same for both polarities).
+    background_mm : members up to about this wide are measured against the ground around them.
     """
     image = ndimage.gaussian_filter(bright01.astype(np.float32), 0.6, mode="nearest")
-    noise = noise_level(bright01.astype(np.float32))
-    top = local_tophat(image, pitch_mm)
+    noise = noise_level(bright01.astype(np.float32)) if noise is None else noise
+    top = local_tophat(image, pitch_mm, background_mm)
     h = max(NOISE_SIGMAS * noise, MIN_CONTRAST)
     seeds, n = ndimage.label(morphology.h_maxima(top, h) & (top >= h))
     empty = Members(np.zeros(image.shape, np.int32), 0, np.zeros(0), noise)
@@ -94,8 +97,7 @@ def find_members(bright01: np.ndarray, *, pitch_mm: float) -> Members:
     # Basins only where the top-hat reaches h (fewer pixels for the watershed, the costly step on
     # textured pictures); a member whose peak is under 2h is then cut at h, not at half its peak.
     basins = segmentation.watershed(-top, seeds, mask=top >= h)
-    peak = np.zeros(n + 1)
-    np.maximum.at(peak, basins.ravel(), top.ravel())
+    peak = label_max(top, basins, n)
     # Each member at half its own peak: dim and bright members get their true size.
     labels = np.where((basins > 0) & (top >= 0.5 * peak[basins]), basins, 0)
     labels = _split_touching(_filled(_merge_shallow(_largest_parts(labels), top)), NECK_MM / pitch_mm)
@@ -194,8 +196,7 @@ def _merge_shallow(labels: np.ndarray, top: np.ndarray) -> np.ndarray:
     n = int(labels.max())
     if n < 2:
         return labels
-    peak = np.zeros(n + 1)
-    np.maximum.at(peak, labels.ravel(), top.ravel())
+    peak = label_max(top, labels, n)
     parent = np.arange(n + 1)
 
     def root(k):
@@ -204,21 +205,25 @@ def _merge_shallow(labels: np.ndarray, top: np.ndarray) -> np.ndarray:
             k = parent[k]
         return k
 
+    # The saddle of each touching pair: the highest of min(top) over the pixel pairs joining them
+    # (one sort over pair keys, not a loop over pixels).
+    keys, levels = [], []
     for a, b, ta, tb in ((labels[:, 1:], labels[:, :-1], top[:, 1:], top[:, :-1]), (labels[1:], labels[:-1], top[1:], top[:-1])):
         touch = (a != b) & (a > 0) & (b > 0)
-        if not touch.any():
-            continue
-        pa, pb, level = a[touch], b[touch], np.minimum(ta[touch], tb[touch])
-        saddle: dict[tuple[int, int], float] = {}
-        for x, y, v in zip(pa.tolist(), pb.tolist(), level.tolist()):
-            key = (x, y) if x < y else (y, x)
-            if v > saddle.get(key, -1.0):
-                saddle[key] = v
-        for (x, y), v in saddle.items():
-            if v >= SADDLE_SHARE * min(peak[x], peak[y]):
-                rx, ry = root(x), root(y)
-                if rx != ry:
-                    parent[max(rx, ry)] = min(rx, ry)
+        if touch.any():
+            pa, pb = a[touch].astype(np.int64), b[touch].astype(np.int64)
+            keys.append(np.minimum(pa, pb) * (n + 1) + np.maximum(pa, pb))
+            levels.append(np.minimum(ta[touch], tb[touch]))
+    if not keys:
+        return labels
+    pair, where = np.unique(np.concatenate(keys), return_inverse=True)
+    saddle = label_max(np.concatenate(levels), where.reshape(-1), pair.size - 1, -1.0)
+    x_of, y_of = pair // (n + 1), pair % (n + 1)
+    shallow = saddle >= SADDLE_SHARE * np.minimum(peak[x_of], peak[y_of])
+    for x, y in zip(x_of[shallow].tolist(), y_of[shallow].tolist()):
+        rx, ry = root(x), root(y)
+        if rx != ry:
+            parent[max(rx, ry)] = min(rx, ry)
     roots = np.array([root(k) for k in range(n + 1)])
     return roots[labels].astype(labels.dtype)
 
@@ -230,19 +235,25 @@ def _filled(labels: np.ndarray) -> np.ndarray:
     holes, n = ndimage.label(ndimage.binary_fill_holes(labels > 0) & (labels == 0))
     if n == 0:
         return labels
-    grown = segmentation.expand_labels(labels, distance=max(labels.shape))
-    owner = np.zeros(n + 1, np.int64)
-    owner[holes.ravel()] = grown.ravel()
-    hole_area = np.bincount(holes.ravel(), minlength=n + 1)
+    out = labels.copy()
     member_area = np.bincount(labels.ravel(), minlength=int(labels.max()) + 1)
-    small = hole_area <= member_area[owner]
-    small[0] = False
-    return np.where(small[holes], grown, labels)
+    # Each hole's nearest members, in its box one pixel wider (the members around a hole border
+    # it there): a distance transform of the boxes, not of the whole picture.
+    for k, box in enumerate(ndimage.find_objects(holes), 1):
+        box = tuple(slice(max(0, b.start - 1), b.stop + 1) for b in box)
+        window = labels[box]
+        _, (iy, ix) = ndimage.distance_transform_edt(window == 0, return_indices=True)
+        hole = holes[box] == k
+        nearest = window[iy[hole], ix[hole]]
+        if hole.sum() <= member_area[nearest[-1]]:  # the member around it (its last pixel's nearest, as before)
+            out[box][hole] = nearest
+    return out
 
 
 def _split_touching(labels: np.ndarray, depth_px: float) -> np.ndarray:
     """Split members whose tops merged (touching beads, both saturated) at their necks: a
-    watershed of the distance to the outside, one basin per maximum `depth_px` above its neck."""
+    watershed of the distance to the outside, one basin per maximum `depth_px` above its neck.
+    Only members holding two maxima or more are flooded (most hold one: nothing to split)."""
     if labels.max() == 0:
         return labels
     inside = (labels > 0) & ~inner_outline(labels)
@@ -252,7 +263,16 @@ def _split_touching(labels: np.ndarray, depth_px: float) -> np.ndarray:
     markers, n = ndimage.label(marks & inside)
     if n == 0:
         return labels
-    parts = segmentation.watershed(-dist, markers, mask=labels > 0)
+    # Members with two markers or more: the only ones a watershed can split.
+    owner = np.zeros(n + 1, np.int64)
+    owner[markers.ravel()] = labels.ravel()
+    per_member = np.bincount(owner[1:], minlength=int(labels.max()) + 1)
+    per_member[0] = 0
+    several = per_member >= 2
+    if not several.any():
+        return labels
+    split = several[labels]
+    parts = segmentation.watershed(-dist, np.where(split, markers, 0), mask=split)
     # A new label for every (member, basin) pair; pixels no basin reached keep their member.
     pair = labels.astype(np.int64) * (n + 1) + parts
     _, out = np.unique(pair, return_inverse=True)

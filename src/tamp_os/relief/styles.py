@@ -177,7 +177,7 @@ def make_relief(
     return ReliefResult(heights, style, reason or made.summary, labels, levels, made.notes)
 
 
-_KIND_WORDS = {"members": "a population of members found", "lines": "a line network found", "grains": "grains outlined"}
+_KIND_WORDS = {"members": "a population of members found", "lines": "a line network found", "grains": "grains found by their weak contrast"}
 
 
 def _content(image01, grid, work, found, *, mm_per_px, base_mm, relief_mm, layer_mm, options, hints,

@@ -45,7 +45,7 @@ def pictures():
         if path.suffix.lower() in (".md",):
             continue
         try:
-            litho = make_lithograph(path, mesher="grid", scale_bar="off")
+            litho = make_lithograph(path, mesher="grid", scale_bar="off", channels="off")  # brightness styles compared
         except Exception as exc:  # an unreadable fixture is reported, not fatal
             print(f"<!-- {path.name}: {exc} -->")
             continue
@@ -53,7 +53,7 @@ def pictures():
     import skimage.data
 
     for name in SKIMAGE:
-        litho = make_lithograph(np.asarray(getattr(skimage.data, name)()), mesher="grid")
+        litho = make_lithograph(np.asarray(getattr(skimage.data, name)()), mesher="grid", channels="off")
         yield name, (litho.heightmap - BASE) / RELIEF, litho.layout.mm_per_px, None, litho.report.uniform
     for syn in all_synthetic(192, 256):
         rows, cols = syn.image.shape

@@ -69,6 +69,14 @@ def test_panel_parameter_is_none_for_every_panel_and_the_labels_otherwise():
     assert panel_parameter((), ("a",)) is None
 
 
+@pytest.mark.timeout(10)
+def test_a_panel_too_small_to_print_on_its_own_is_said_so():
+    from tamp_os.figure import MIN_PANEL_PX
+
+    assert PanelFound("a", "left", (0, 0, MIN_PANEL_PX, 300), "t.png").printable
+    assert not PanelFound("b", "right", (0, 0, 300, MIN_PANEL_PX - 1), "t.png").printable
+
+
 @settings(max_examples=60, deadline=None)
 @given(st.lists(st.booleans(), min_size=4, max_size=4))
 def test_what_is_ticked_is_what_make_figure_prints(ticks):

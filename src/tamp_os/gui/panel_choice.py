@@ -35,6 +35,13 @@ class PanelFound:
         """'Panel b (top right)': the checkbox's label and the results' heading."""
         return f"Panel {self.label} ({self.where})"
 
+    @property
+    def printable(self) -> bool:
+        """Large enough to print on its own plate (figure.MIN_PANEL_PX); a smaller one shows only on the overview."""
+        from ..figure import MIN_PANEL_PX
+
+        return min(self.box_px[2], self.box_px[3]) >= MIN_PANEL_PX
+
 
 def find_panels(values: np.ndarray, thumbs: Path, index: int) -> tuple[PanelFound, ...]:
     """The panels of a figure (none for a single picture), each with its thumbnail written to

@@ -246,8 +246,9 @@ def overview_description(name: str, layout: PanelLayout, printed: list[str], not
     parts.append("Each panel is a raised frame with its label in braille inside its top-left corner and a low, "
                  "blurred relief of its content; the caption along the bottom reads overview.")
     if printed:
-        parts.append(f"Panel{'s' if len(printed) > 1 else ''} {', '.join(printed)} {'have' if len(printed) > 1 else 'has'} "
-                     f"{'their' if len(printed) > 1 else 'its'} own plate{'s' if len(printed) > 1 else ''}, at full size, named after the label.")
+        # "can be": the overview is the same file whichever panels a run prints (see make_figure).
+        parts.append(f"Panel{'s' if len(printed) > 1 else ''} {', '.join(printed)} {'can each' if len(printed) > 1 else 'can'} be printed "
+                     f"on {'a plate of its own' if len(printed) > 1 else 'its own plate'}, at full size, named after the label.")
     inferred = [p.label for p in layout.panels if p.label.isalpha() and not p.letter_read]
     if inferred:
         parts.append(f"The letter{'s' if len(inferred) > 1 else ''} {', '.join(inferred)} did not read on the figure and "

@@ -43,7 +43,8 @@ FIELDS = {f.name: f for f in (
     Field("scene", "Scene or series", "Leave empty for the first scene of a multi-scene file; else a number from 0.", "numeric"),
     Field("panels", "Panels of a figure", "auto finds the panels of a multi-panel figure and prints each, plus an overview; "
           "off prints it whole; or a grid of rows x columns such as 2x2."),
-    Field("panel", "Panels to print", "Leave empty for every panel, or give their letters, such as b,c."),
+    Field("panel", "Panels to print", "With a grid above (such as 2x2): the cells to print by number in reading order, "
+          "such as 1,3; leave empty for every cell. With auto, tick each figure's panels under Your images instead."),
 )}
 TEXT_FIELDS = ("caption", "pixel_size", "scale_bar", "bed_mm", "channel", "panels", "panel")
 # The relief styles in the web app's words: what each is for.

@@ -69,6 +69,9 @@ class Result:
     relief_style: str = ""
     relief_reason: str = ""
     touch: list[str] = field(default_factory=list)  # what a finger will find
+    prints: list = field(default_factory=list)  # a figure's prints (panel_choice.PrintShown), the overview first
+    figure_files: list[OutputFile] = field(default_factory=list)  # a figure's own files (all pages, its recipe)
+    left_out: list[str] = field(default_factory=list)  # a figure's panels found but not printed on their own
 
 
 @dataclass
@@ -185,7 +188,8 @@ class JobStore:
             names = job.download_names()
             for name in names:
                 z.write(job.out / name, name)
-            z.writestr("README.txt", readme_text(names))
+            where = {f"{Path(r.name).stem}.{p.key}": p.where for r in job.results for p in r.prints if p.where}
+            z.writestr("README.txt", readme_text(names, where))
         job.delete_after = time.time() + self.grace_s
         return buf.getvalue()
 
@@ -209,6 +213,7 @@ FILE_PURPOSES = (
     (".3mf", "for your slicer (PrusaSlicer, OrcaSlicer, Bambu Studio): the print with its print settings"),
     (".stl", "for any slicer: the solid to print"),
     (".gcode", "for the printer it was sliced for: send it to the printer (if it says 'for estimates only', slice the 3MF instead)"),
+    (".pages.pdf", "for swell paper or a braille embosser: every page of the figure, the overview first, then each panel"),
     (".pdf", "for swell paper or a braille embosser: the flat tactile graphic, to print on paper"),
     (".svg", "for swell paper or a braille embosser: the flat tactile graphic, to edit or print"),
     (".glb", "a 3D view: opens in a web browser's 3D viewer or any glTF viewer"),
@@ -218,14 +223,18 @@ FILE_PURPOSES = (
 )
 
 
-def readme_text(names: list[str]) -> str:
-    """README.txt for the zip: each file and what it is for (3MF to your slicer, PDF to swell paper, ...)."""
+def readme_text(names: list[str], where: dict[str, str] | None = None) -> str:
+    """README.txt for the zip: each file and what it is for (3MF to your slicer, PDF to swell paper, ...);
+    a figure's files say which are the overview and which each panel (`where`: 'NAME.panel-b' -> 'top right')."""
+    from .panel_choice import readme_note
+
     lines = ["Your tactile lithographs, made by TAMP-OS.", "", "What each file is for:", ""]
     for name in names:
         purpose = next((text for suffix, text in FILE_PURPOSES if name.endswith(suffix)), "an output of TAMP-OS")
         tile = re.search(r"\.tile-(\d+)-(\d+)\.", name)
         if tile:
             purpose += f" (tile in row {tile.group(1)} from the far edge, column {tile.group(2)} from the left)"
+        purpose += readme_note(name, where or {}, names)
         lines.append(f"{name}: {purpose}.")
     lines += ["", "A 3MF file tells PrusaSlicer and OrcaSlicer the layer height the relief was designed for; in Bambu Studio "
               "choose it yourself (the description says which)."]
@@ -235,11 +244,14 @@ def readme_text(names: list[str]) -> str:
 def convert(job: WebJob, upload: Upload) -> Result:
     from ..report import web_summary_lines
     from .forms import label_of, web_words
+    from .panel_choice import figure_prints, panel_parameter
 
     params = job.params.replace(preset=upload.override) if upload.override else job.params
     texts = {key: value for key, value in (("caption", upload.caption), ("subject", upload.subject)) if value}
     if texts:  # this image's own caption and subject, never another image's
         params = params.replace(**texts)
+    if upload.panels and params.panels == "auto":  # this figure's own panels, as ticked on the settings page
+        params = params.replace(panel=panel_parameter(upload.panels, upload.panel_choice))
     stem = Path(upload.name).stem
     try:
         from .workers import read_memory_gb, shared_pool  # one bad upload costs one message, never the server
@@ -257,6 +269,10 @@ def convert(job: WebJob, upload: Upload) -> Result:
         model_glb=f"{stem}{PREVIEW_SUFFIX}", summary=web_summary_lines(report, label_of),
         relief_style=report.relief_style, relief_reason=report.relief_reason, touch=[web_words(v) for v in made.touch()],
     )
+    result.prints = figure_prints(made, upload.panels, lambda p: OutputFile(p.name, p.stat().st_size))
+    result.figure_files = [OutputFile(p.name, p.stat().st_size) for p in made.figure_files]
+    printed = {each.suffix[len(".panel-"):] for each in made.panels}
+    result.left_out = [p.label for p in upload.panels if made.panels and p.label not in printed]
     write_png(job.out / result.heightmap_png, to_uint8(made.litho.heightmap))
     try:
         from ..render import View, render_views

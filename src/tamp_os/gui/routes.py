@@ -15,6 +15,7 @@ from ..params import FORMATS, LithoParams
 from ..printers import PRESETS
 from .forms import FIELDS, FLAGS, NUMBER_FIELDS, STYLE_CHOICES, TEXT_FIELDS, params_from_form
 from .jobs import WebJob, safe_name
+from .panel_choice import choice_errors, chosen_panels, global_panel_error
 from .security import only_text_fields
 from .uploads import inspect_upload
 
@@ -106,9 +107,14 @@ def add_job_routes(app: FastAPI, web) -> None:
             upload.override = choice if choice in PRESETS else ""
             upload.caption = (form.get(f"caption_{i}") or "").strip()[:MAX_TEXT_CHARS]
             upload.subject = (form.get(f"subject_{i}") or "").strip()[:MAX_TEXT_CHARS]
+            upload.panel_choice = chosen_panels(form, i, upload.panels)  # this figure's own panels
         params, errors = params_from_form(form)
-        if params is None:
-            return settings_page(web, request, job, 400, form_values(job.params, form), errors.by_field)
+        mode = params.panels if params else (form.get("panels") or "").strip().lower() or "auto"
+        # Page order in the summary: the figures' checkboxes come before the customize fields.
+        by_field = {**choice_errors(job.uploads, mode), **(errors.by_field if params is None else {})}
+        by_field.update({k: v for k, v in global_panel_error(mode, (form.get("panel") or "").strip()).items() if k not in by_field})
+        if by_field:
+            return settings_page(web, request, job, 400, form_values(job.params, form), by_field)
         if form.get("action") == "update":
             job.params = params  # the page comes back with focus on the control that was used
             return settings_page(web, request, job, values=form_values(params, form), focus="update")
@@ -182,7 +188,7 @@ def add_file_routes(app: FastAPI, web) -> None:
     @app.get("/jobs/{job_id}/thumbs/{name}")
     async def thumb(job_id: str, name: str):
         job = web.store.get(job_id)
-        if job is None or name not in {u.thumb for u in job.uploads}:
+        if job is None or name not in {u.thumb for u in job.uploads} | {p.thumb for u in job.uploads for p in u.panels}:
             return missing()
         return FileResponse(job.thumbs / name, media_type="image/png")
 

@@ -7,6 +7,7 @@ So the header's claim is priced in decoded bytes first, with a lower cap than th
 
 from __future__ import annotations
 
+import logging
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -15,6 +16,8 @@ import numpy as np
 
 from ..errors import InputError, TampError
 from ..files import write_png
+
+log = logging.getLogger(__name__)
 
 THUMB_PX = 160
 TIFF_MAGIC = (b"II*\x00", b"MM\x00*", b"II+\x00", b"MM\x00+")
@@ -39,6 +42,8 @@ class Upload:
     subject: str = ""  # what this image shows, for its description
     time_points: int = 1  # time points of a series: a time choice applies when more than one
     scenes: int = 1  # scenes or series of a multi-scene file
+    panels: tuple = ()  # a figure's panels found at upload (panel_choice.PanelFound); () for one picture
+    panel_choice: tuple[str, ...] | None = None  # the panels ticked; None: every panel
 
 
 def decoded_bytes(path: Path) -> tuple[int, int, int] | None:
@@ -130,7 +135,8 @@ def inspect_upload(path: Path, name: str, thumbs: Path, index: int, max_decoded_
     except TampError as exc:
         raise InputError(plain_error(exc, path, name)) from None
     return Upload(name, path, seen.width, seen.height, seen.suggested, seen.reason, seen.thumb, contents=seen.contents,
-                  channels=seen.channels, z_slices=seen.z_slices, time_points=seen.time_points, scenes=seen.scenes)
+                  channels=seen.channels, z_slices=seen.z_slices, time_points=seen.time_points, scenes=seen.scenes,
+                  panels=seen.panels)
 
 
 @dataclass(frozen=True)
@@ -147,6 +153,7 @@ class Inspected:
     z_slices: int
     time_points: int
     scenes: int
+    panels: tuple = ()  # panel_choice.PanelFound of a figure
 
 
 def inspect_in_worker(path: Path, thumbs: Path, index: int, max_decoded_mb: float, max_memory_gb: float) -> Inspected:
@@ -163,9 +170,16 @@ def inspect_in_worker(path: Path, thumbs: Path, index: int, max_decoded_mb: floa
     thumb = f"{index}.png"
     write_png(thumbs / thumb, thumbnail(picture.values))
     axes = picture.file.axes or {}
+    try:
+        from .panel_choice import find_panels
+
+        panels = find_panels(picture.values, thumbs, index)
+    except Exception:  # the panels are a choice offered, not the upload: it stays, printed as auto decides
+        log.warning("panel detection failed on %s", path.name, exc_info=True)
+        panels = ()
     return Inspected(picture.file.width, picture.file.height, suggestion.preset, suggestion.reason, thumb,
                      contents_words(picture.file), max(int(picture.file.channel_count or 1), int(picture.file.channels or 1)),
-                     int(axes.get("Z", 1)), int(axes.get("T", 1)), int(axes.get("scenes", 1)))
+                     int(axes.get("Z", 1)), int(axes.get("T", 1)), int(axes.get("scenes", 1)), panels)
 
 
 def contents_words(file) -> str:

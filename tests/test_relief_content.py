@@ -268,3 +268,21 @@ def test_a_dense_sem_particle_field_has_nine_in_ten_particles_felt(fixture):
     made = make_relief(case.image01, style="auto", mm_per_px=case.mm_per_px, base_mm=BASE, relief_mm=RELIEF, layer_mm=0.12)
     assert made.style == "content"
     assert members_felt(made.heights_mm, case.truth.members, case.mm_per_px) >= 0.9
+
+
+@pytest.mark.timeout(120)
+def test_line_diagram_through_the_whole_pipeline_raises_its_strokes():
+    """A drawing whose strokes enclose only two regions (no network) is still line art on empty
+    paper: through make_lithograph (stretch, blur, Medium grid) its strokes stand up as lines and
+    the paper lies at the base (before, the paper was raised and the strokes were grooves)."""
+    from skimage.transform import resize
+
+    from tamp_os import make_lithograph
+
+    truth = line_diagram()
+    litho = make_lithograph(truth.image, scale_bar="off")
+    h = litho.heightmap - litho.params.base_mm
+    strokes = resize(truth.lines.astype(float), h.shape, order=0) > 0.5
+    paper = resize((ndimage.distance_transform_edt(~(truth.lines | truth.text)) > 4).astype(float), h.shape, order=0) > 0.5
+    assert litho.report.relief_style == "content" and "line art" in litho.report.relief_reason
+    assert np.median(h[strokes]) >= 0.8 and np.percentile(h[paper], 99) <= 0.05

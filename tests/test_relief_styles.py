@@ -225,7 +225,7 @@ def prepared(path):
 
     fields = {f.name for f in dataclasses.fields(LithoParams)}
     style = {"relief_style": "reference"} if "relief_style" in fields else {}
-    litho = make_lithograph(path, mesher="grid", scale_bar="off", **style)
+    litho = make_lithograph(path, mesher="grid", scale_bar="off", channels="off", **style)  # the brightness picture
     image01 = (litho.heightmap - litho.params.base_mm) / litho.params.relief_mm
     return image01.astype(np.float32), litho.layout.mm_per_px, litho.report.uniform
 

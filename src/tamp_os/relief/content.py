@@ -50,6 +50,7 @@ from .population import (
 )
 
 NETWORK_CELLS = 3  # a line network encloses at least this many fingertip-sized regions
+LINE_ART_MM = 40.0  # strokes on empty paper this long in all (on the print) are a drawing to raise as lines
 NETWORK_STRENGTH = 20.0  # median ridge response on the lines over its MAD: measured 45-240 on networks, 7 on SEM sphere rims
 MAX_LINE_COVER = 0.45  # drawn lines covering more than this are no network but a texture
 MIN_MEMBERS = 2
@@ -95,6 +96,7 @@ class Polarity:
     ground: float  # the ground's brightness, 0..1
     reason: str
     undecided: bool = False  # a mid-grey ground: the members' evidence may turn it over
+    empty: bool = False  # an empty bright ground (paper, brightfield): strokes on it are line art
 
     def flipped(self, why: str) -> "Polarity":
         side = "bright" if not self.bright else "dark"
@@ -157,7 +159,7 @@ def content_polarity(work: np.ndarray, pitch_mm: float, within: np.ndarray | Non
         return Polarity(bright, mode, reason, undecided=True)
     reason = (f"the ground is the most common brightness ({mode:.2f} of the range: {why}), so the "
               f"{'bright' if bright else 'dark'} parts are raised and the ground sits at the base")
-    return Polarity(bright, mode, reason)
+    return Polarity(bright, mode, reason, empty=mode >= 0.6 and not bright)
 
 
 def lattice_period(work: np.ndarray, pitch_mm: float) -> Period | None:
@@ -230,6 +232,12 @@ def make_content(work: np.ndarray, *, pitch_mm: float, relief_mm: float, width_m
         return _as_members(members.labels, pitch_mm, relief_mm, polarity, lattice + meta, picture=finder.picture(polarity.bright),
                            what=f"{members.count} members found by local contrast (each against the ground around it, cut at half its own peak; "
                            f"dimmest {np.min(members.contrast):.2f}, brightest {np.max(members.contrast):.2f} of the range)")
+    if _is_line_art(lines, polarity, specimen):
+        # Strokes on empty paper (a diagram, a drawing) are raised as lines however few regions
+        # they enclose: tactile graphics raise the lines, never groove them.
+        return _as_lines(lines, pitch_mm, relief_mm, width_mm, polarity, lattice + meta, "lines",
+                         what=f"line art: {lines.length_mm:.0f} mm of strokes on an empty ground "
+                              f"(ridge strength {lines.strength:.0f} × noise)")
     # Objects wider than the local ground (the FePt spheres) are found by the edges around them.
     big = _large_edge_objects(found() if callable(found) else found, pitch_mm)
     if big is not None:
@@ -272,6 +280,12 @@ class _Finder:
 
 def _is_network(lines: Lines) -> bool:
     return lines.cell_count >= NETWORK_CELLS and lines.cover <= MAX_LINE_COVER and lines.strength >= NETWORK_STRENGTH
+
+
+def _is_line_art(lines: Lines, polarity: Polarity, specimen: np.ndarray) -> bool:
+    """Strong thin strokes on an empty bright ground, long enough to follow by touch."""
+    return (polarity.empty and lines.strength >= NETWORK_STRENGTH and lines.cover <= MAX_LINE_COVER
+            and lines.length_mm >= LINE_ART_MM)
 
 
 def _is_population(members: Members, pitch_mm: float) -> bool:

@@ -20,7 +20,6 @@ from .errors import ExportError, InputError, ParameterError
 from .export import check_export, save_mesh
 from .files import to_uint8, write_png, write_text
 from .export.graphic2d import Graphic2D, layout_graphic, page_placement, regions_from_image
-from .export.tactile2d import save_graphic
 from .formats import GRAPHIC_FORMATS
 from .params import LithoParams
 from .printers import PrinterProfile
@@ -75,7 +74,10 @@ def save(litho, target, formats=None, stem: str | None = None) -> list[Path]:
     else:
         check_export(litho.mesh, [folder / f"{stem}.{fmt}" for fmt in meshes])
         written = [path for path, _ in write_meshes(litho.mesh, folder, stem, meshes, meta).values()]
-    written += [save_graphic(graphic, folder / f"{stem}.{fmt}", litho.params.page_size, meta) for fmt in graphics]
+    if graphics:
+        from .export.tactile2d import save_graphic  # cairo's writer, imported only for PDF/SVG
+
+        written += [save_graphic(graphic, folder / f"{stem}.{fmt}", litho.params.page_size, meta) for fmt in graphics]
     if litho.params.save_masks and litho.mask is not None:
         written.append(write_png(folder / f"{stem}.annotations.png", to_uint8(litho.mask, 0.0, 1.0)))
     written.append(write_text(folder / f"{stem}.description.txt", meta["description"] + "\n"))

@@ -25,7 +25,6 @@ from .read import Picture, read_array, read_image
 from .relief.legibility import Legibility, assess
 from .relief.layout import Layout, plan_layout
 from .relief.preprocess import Prepared, prepare
-from .relief.channel_stage import channel_path
 from .relief.styles import ReliefResult, StyleOptions, make_relief
 from .report import Plate, Report
 from .tactile.furniture import Furniture, Placed, add_furniture
@@ -128,6 +127,8 @@ def make_lithograph(source, params: LithoParams | None = None, *, printer_profil
         relief = _relief(prepared, layout, params, machine, _content_hints(cleaned))
         key = ()
         if params.channels:  # several channels, or a stained slide, as textures with a braille key (issue 22)
+            from .relief.channel_stage import channel_path  # imported only when asked: skimage.color and more
+
             relief, layout, key = channel_path(picture.values if isinstance(source, Picture) else source, relief, layout, params)
         heights = relief.heights_mm
     with clock("legibility"):

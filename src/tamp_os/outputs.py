@@ -12,6 +12,7 @@ import os
 import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -19,12 +20,14 @@ import numpy as np
 from .errors import ExportError, InputError, ParameterError
 from .export import check_export, save_mesh
 from .files import to_uint8, write_png, write_text
-from .export.graphic2d import Graphic2D, layout_graphic, page_placement, regions_from_image
 from .formats import GRAPHIC_FORMATS
 from .params import LithoParams
 from .printers import PrinterProfile
 from .report import describe
 from .version import __version__
+
+if TYPE_CHECKING:  # the 2-D graphics code is imported only when a PDF or SVG is written
+    from .export.graphic2d import Graphic2D
 
 RECIPE_SUFFIX = ".tamp.json"
 PARALLEL_WRITE_TRIANGLES = 100_000
@@ -68,6 +71,8 @@ def save(litho, target, formats=None, stem: str | None = None) -> list[Path]:
     # The mesh as written, every format's own limits and the graphics' page are checked before any file is written.
     graphic = tactile_graphic(litho) if graphics else None
     if graphic is not None:
+        from .export.graphic2d import page_placement
+
         page_placement(graphic.plate_mm, litho.params.page_size)
     if litho.tiles or litho.parts:  # several solids (export/multipart.py)
         written = _write_multipart(litho, folder, stem, meshes, meta)
@@ -132,6 +137,8 @@ def tactile_graphic(litho) -> Graphic2D:
     """The lithograph as a 2-D tactile graphic: its relief as at most three regions that differ by
     touch (the levels style's plateaus, the objects found, or thresholds of the heights), with the
     same caption, scale bar and cut corner as the 3-D plate."""
+    from .export.graphic2d import layout_graphic, regions_from_image  # only for PDF/SVG
+
     relief = (litho.heightmap - litho.params.base_mm) / litho.params.relief_mm
     legibility = litho.report.legibility
     objects = litho.report.relief_style == "objects" and legibility is not None and legibility.object_count

@@ -174,15 +174,27 @@ def write_meshes(mesh, folder: Path, stem: str, formats: list[str], meta: dict) 
 
 @functools.lru_cache(maxsize=1)
 def dependency_versions() -> dict[str, str]:
-    from importlib.metadata import PackageNotFoundError, version
+    from importlib.metadata import PackageNotFoundError, distribution
 
     out = {}
     for name in ("numpy", "scipy", "scikit-image", "tifffile", "pillow", "trimesh", "lib3mf"):
         try:
-            out[name] = version(name)
+            out[name] = _version_of(distribution(name))
         except PackageNotFoundError:
             out[name] = "not installed"
     return out
+
+
+def _version_of(dist) -> str:
+    """`dist.version`, read from the metadata's header lines: `version()` parses the whole file as
+    e-mail (about 5 ms a package, a tenth of writing the files at Medium)."""
+    text = dist.read_text("METADATA") or dist.read_text("PKG-INFO") or ""
+    for line in text.splitlines():
+        if not line.strip():
+            break  # the headers end at the first blank line
+        if line.lower().startswith("version:"):
+            return line.split(":", 1)[1].strip()
+    return dist.version
 
 
 def file_sha256(path: Path) -> str:

@@ -12,6 +12,7 @@ import os
 import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -19,13 +20,14 @@ import numpy as np
 from .errors import ExportError, InputError, ParameterError
 from .export import check_export, save_mesh
 from .files import to_uint8, write_png, write_text
-from .export.graphic2d import Graphic2D, layout_graphic, page_placement, regions_from_image
-from .export.tactile2d import save_graphic
 from .formats import GRAPHIC_FORMATS
 from .params import LithoParams
 from .printers import PrinterProfile
 from .report import describe
 from .version import __version__
+
+if TYPE_CHECKING:  # the 2-D graphics code is imported only when a PDF or SVG is written
+    from .export.graphic2d import Graphic2D
 
 RECIPE_SUFFIX = ".tamp.json"
 PARALLEL_WRITE_TRIANGLES = 100_000
@@ -69,13 +71,18 @@ def save(litho, target, formats=None, stem: str | None = None) -> list[Path]:
     # The mesh as written, every format's own limits and the graphics' page are checked before any file is written.
     graphic = tactile_graphic(litho) if graphics else None
     if graphic is not None:
+        from .export.graphic2d import page_placement
+
         page_placement(graphic.plate_mm, litho.params.page_size)
     if litho.tiles or litho.parts:  # several solids (export/multipart.py)
         written = _write_multipart(litho, folder, stem, meshes, meta)
     else:
         check_export(litho.mesh, [folder / f"{stem}.{fmt}" for fmt in meshes])
         written = [path for path, _ in write_meshes(litho.mesh, folder, stem, meshes, meta).values()]
-    written += [save_graphic(graphic, folder / f"{stem}.{fmt}", litho.params.page_size, meta) for fmt in graphics]
+    if graphics:
+        from .export.tactile2d import save_graphic  # cairo's writer, imported only for PDF/SVG
+
+        written += [save_graphic(graphic, folder / f"{stem}.{fmt}", litho.params.page_size, meta) for fmt in graphics]
     if litho.params.save_masks and litho.mask is not None:
         written.append(write_png(folder / f"{stem}.annotations.png", to_uint8(litho.mask, 0.0, 1.0)))
     written.append(write_text(folder / f"{stem}.description.txt", meta["description"] + "\n"))
@@ -130,6 +137,8 @@ def tactile_graphic(litho) -> Graphic2D:
     """The lithograph as a 2-D tactile graphic: its relief as at most three regions that differ by
     touch (the levels style's plateaus, the objects found, or thresholds of the heights), with the
     same caption, scale bar and cut corner as the 3-D plate."""
+    from .export.graphic2d import layout_graphic, regions_from_image  # only for PDF/SVG
+
     relief = (litho.heightmap - litho.params.base_mm) / litho.params.relief_mm
     legibility = litho.report.legibility
     objects = litho.report.relief_style == "objects" and legibility is not None and legibility.object_count
@@ -172,15 +181,27 @@ def write_meshes(mesh, folder: Path, stem: str, formats: list[str], meta: dict) 
 
 @functools.lru_cache(maxsize=1)
 def dependency_versions() -> dict[str, str]:
-    from importlib.metadata import PackageNotFoundError, version
+    from importlib.metadata import PackageNotFoundError, distribution
 
     out = {}
     for name in ("numpy", "scipy", "scikit-image", "tifffile", "pillow", "trimesh", "lib3mf"):
         try:
-            out[name] = version(name)
+            out[name] = _version_of(distribution(name))
         except PackageNotFoundError:
             out[name] = "not installed"
     return out
+
+
+def _version_of(dist) -> str:
+    """`dist.version`, read from the metadata's header lines: `version()` parses the whole file as
+    e-mail (about 5 ms a package, a tenth of writing the files at Medium)."""
+    text = dist.read_text("METADATA") or dist.read_text("PKG-INFO") or ""
+    for line in text.splitlines():
+        if not line.strip():
+            break  # the headers end at the first blank line
+        if line.lower().startswith("version:"):
+            return line.split(":", 1)[1].strip()
+    return dist.version
 
 
 def file_sha256(path: Path) -> str:

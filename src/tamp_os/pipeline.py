@@ -26,7 +26,6 @@ from .relief.legibility import Legibility, assess
 from .relief.layout import Layout, plan_layout
 from .relief.preprocess import Prepared, prepare
 from .relief.channel_auto import route as channel_route
-from .relief.channel_stage import channel_path, without_channel_note
 from .relief.styles import ReliefResult, StyleOptions, make_relief
 from .report import Plate, Report
 from .tactile.furniture import Furniture, Placed, add_furniture
@@ -131,11 +130,16 @@ def make_lithograph(source, params: LithoParams | None = None, *, printer_profil
     with clock("relief"):
         # several channels, or a stained slide, as textures with a braille key (issue 22), else the usual relief
         route = channel_route(source, picture, params)
-        relief, layout, key, channel_extras = channel_path(picture.values if isinstance(source, Picture) else source,
-                                           lambda: _relief(prepared, layout, params, machine, _content_hints(cleaned)),
-                                           layout, params, route, cleaned)
-        if key:
-            picture = without_channel_note(picture)
+        if route is None and not params.channels:
+            relief, key, channel_extras = _relief(prepared, layout, params, machine, _content_hints(cleaned)), (), None
+        else:
+            from .relief.channel_stage import channel_path, without_channel_note  # only when used: skimage.color and more
+
+            relief, layout, key, channel_extras = channel_path(picture.values if isinstance(source, Picture) else source,
+                                                lambda: _relief(prepared, layout, params, machine, _content_hints(cleaned)),
+                                                layout, params, route, cleaned)
+            if key:
+                picture = without_channel_note(picture)
         heights = relief.heights_mm
     with clock("legibility"):
         legibility = assess(heights, layout.mm_per_px, nozzle_mm=machine.nozzle_mm, layer_mm=machine.layer_mm,

@@ -517,19 +517,24 @@ def _open_pillow(stream):
     """
     from PIL import Image, UnidentifiedImageError
 
-    Image.preinit()  # the common formats first, in the order Image.open tries them
-    Image.init()  # then every other plugin; both are cheap after the first call
     prefix = stream.read(16)
-    for fmt in Image.ID:
-        factory, accept = Image.OPEN[fmt]
-        accepted = True if accept is None else accept(prefix)
-        if not accepted or isinstance(accepted, str):  # a str explains a refusal
-            continue
-        stream.seek(0)
-        try:
-            return factory(stream, "")
-        except (SyntaxError, IndexError, TypeError, struct.error):
-            continue
+    tried: set[str] = set()
+    # The common formats first, in the order Image.open tries them; only when none of them opens the
+    # file, every other plugin too (as Image.open does: importing all ~45 plugins costs 0.05-0.2 s).
+    # init() only appends to Image.ID, so the formats are tried in the same order either way.
+    for load_plugins in (Image.preinit, Image.init):
+        load_plugins()
+        for fmt in [f for f in Image.ID if f not in tried]:
+            tried.add(fmt)
+            factory, accept = Image.OPEN[fmt]
+            accepted = True if accept is None else accept(prefix)
+            if not accepted or isinstance(accepted, str):  # a str explains a refusal
+                continue
+            stream.seek(0)
+            try:
+                return factory(stream, "")
+            except (SyntaxError, IndexError, TypeError, struct.error):
+                continue
     raise UnidentifiedImageError("cannot identify image file")
 
 

@@ -95,9 +95,10 @@ def clean_picture(picture: Picture, *, pixel_size_m: float | None, remove_annota
     alpha = None if picture.alpha is None else picture.alpha[rows]
     if not remove_annotations:
         return Cleaned(values, alpha, size, band, [], None, instrument)
-    removal = marks.remove_annotations(values)
-    if size.metres is None:  # OCR of a scale bar's label (Tesseract, ~0.1 s) runs beside the relief on the other core
-        size = _reader().submit(_scale_from_bars, picture.values, band, values, removal.annotations, size)
+    mask, found = marks.detect_annotations(values)
+    if size.metres is None:  # OCR of a scale bar's label (Tesseract, ~0.1 s) runs beside the inpainting and relief on the other core
+        size = _reader().submit(_scale_from_bars, picture.values, band, values, found, size)
+    removal = marks.Removal(marks.inpaint(values, mask), mask, found)  # what marks.remove_annotations does
     return Cleaned(removal.values, alpha, size, band, removal.annotations, removal.mask, instrument)
 
 

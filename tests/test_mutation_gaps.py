@@ -635,10 +635,13 @@ class _Table:
     """A stand-in liblouis binding: letters a-c to cells, anything else to an escape."""
 
     dotsIO, ucBrl = 4, 8
-    cells = {"a": "⠁", "b": "⠃", "c": "⠉", " ": " "}
+    cells = {"a": "⠁", "b": "⠃", "c": "⠉", "q": "⠟", " ": " "}
 
     @classmethod
     def translateString(cls, tables, text, mode=0):
+        assert tables == ["t.ctb"] and mode == cls.dotsIO | cls.ucBrl
+        if text == "qq":  # a pair the table cannot write, though each letter alone it can
+            return "\u2804\u2873\u282d"
         return "".join(cls.cells.get(ch, "\u2804\u2873\u282d") for ch in text)
 
 
@@ -690,7 +693,8 @@ def test_an_unknown_table_names_the_closest(monkeypatch):
             return self.name
 
     monkeypatch.setattr(braille_tables, "table_exists", lambda table: False)
-    monkeypatch.setattr(braille_tables, "closest_tables", lambda table: [Close("en-ueb-g1.ctb"), Close("en-ueb-g2.ctb")])
+    monkeypatch.setattr(braille_tables, "closest_tables",
+                        lambda table: [Close("en-ueb-g1.ctb"), Close("en-ueb-g2.ctb")] if table == "en-ueb.ctb" else [])
     with pytest.raises(ParameterError, match=r"The closest are: en-ueb-g1\.ctb; en-ueb-g2\.ctb\. Give"):
         braille.check_table_name("en-ueb.ctb")
 
@@ -754,3 +758,49 @@ def test_faces_that_collapse_once_written_are_left_out_of_the_edge_count():
     check = check_as_written(Mesh(v, faces))
     assert check.closed and check.manifold and check.degenerate_faces == 2
     assert check.problems == ["2 faces have an area of at most 1e-08 mm² (slivers)"]
+
+
+def test_a_combination_the_table_cannot_write_is_refused_without_a_name(monkeypatch):
+    from tamp_os.errors import ParameterError
+    from tamp_os.tactile import braille
+
+    monkeypatch.setattr(braille, "check_table_name", lambda table: None)
+    with pytest.raises(ParameterError, match="the braille table t.ctb cannot write some characters \\(liblouis"):
+        braille.to_braille("qq", "t.ctb", translator=braille.Liblouis(binding=_Table), what="caption")
+
+
+def test_refusals_name_text_by_default_and_the_install_hint():
+    from tamp_os.errors import MissingDependencyError, ParameterError
+    from tamp_os.tactile.braille import INSTALL_HINT, Liblouis, is_unicode_braille, to_braille
+
+    with pytest.raises(ParameterError, match="^text: control characters"):
+        to_braille("a\tb")
+    with pytest.raises(MissingDependencyError) as caught:
+        Liblouis(binding=None, command=None).translate("a", "t.ctb")
+    assert INSTALL_HINT in str(caught.value) and "liblouis-bin" in INSTALL_HINT
+    assert not is_unicode_braille("⠁X") and not is_unicode_braille("X")
+
+
+def test_the_command_output_keeps_trailing_blanks_and_survives_bad_bytes(tmp_path):
+    from tamp_os.tactile.braille import Liblouis
+
+    script = tmp_path / "lou"
+    script.write_text("#!/bin/sh\ncat > /dev/null\nprintf 'A  \\n'\n")
+    script.chmod(0o755)
+    assert Liblouis(command=str(script)).translate("a  ", "t") == "⠁\u2800\u2800"  # the spaces are cells
+    script.write_text("#!/bin/sh\ncat > /dev/null\nprintf 'A\\377B\\177\\n'\n")  # not UTF-8, and a DEL
+    assert Liblouis(command=str(script)).translate("ab", "t") == "⠁⠃⠸"  # bad bytes dropped; DEL folds onto '_'
+
+
+def test_the_binding_is_found_in_debians_dist_packages(monkeypatch):
+    import sys
+    from pathlib import Path
+
+    from tamp_os.tactile.braille import _load_binding
+
+    need(Path("/usr/lib/python3/dist-packages/louis/__init__.py").is_file() or
+         Path("/usr/local/lib/python3/dist-packages/louis/__init__.py").is_file(), "python3-louis (apt-get install python3-louis)")
+    monkeypatch.setitem(sys.modules, "louis", None)  # `import louis` fails, as in a virtual environment
+    louis = _load_binding()
+    assert louis is not None and "dist-packages" in louis.__file__
+    assert louis.translateString(["en-ueb-g1.ctb"], "abc", mode=louis.dotsIO | louis.ucBrl) == "⠁⠃⠉"

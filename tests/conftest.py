@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-FIXTURES = ROOT.parent / "shared" / "fixtures"
+# TAMP_FIXTURES: for runs from a copy of the tree (mutation testing runs the tests from mutants/).
+FIXTURES = Path(os.environ.get("TAMP_FIXTURES") or ROOT.parent / "shared" / "fixtures")
 STRICT = os.environ.get("TAMP_STRICT") == "1"
 # Offscreen rendering for tests that render in this process (the CLI and web app set it themselves).
 os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")

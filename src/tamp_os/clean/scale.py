@@ -172,7 +172,8 @@ def _imagej(inp: _Inputs, warnings: list[str]) -> Found:
     ij = inp.metadata.get("imagej_metadata")
     if not ij or "unit" not in ij:
         return None
-    unit = unit_factor_m(str(ij["unit"]).replace("\\u00B5", "µ"))
+    unit_text = str(ij["unit"]).replace("\\u00B5", "µ")  # ImageJ writes µ as a \u00B5 escape
+    unit = unit_factor_m(unit_text)
     res = inp.tiff_tags.get(282)  # XResolution: pixels per unit
     if unit is None or res is None:
         return None
@@ -180,7 +181,7 @@ def _imagej(inp: _Inputs, warnings: list[str]) -> Found:
         per_unit = res[0] / res[1] if isinstance(res, tuple) else float(res)
     except (TypeError, ZeroDivisionError, IndexError):
         per_unit = 0
-    return (unit / per_unit if per_unit and per_unit > 0 else None), f"ImageJ resolution ({ij['unit']})"
+    return (unit / per_unit if per_unit and per_unit > 0 else None), f"ImageJ resolution ({unit_text})"
 
 
 def _ome(inp: _Inputs, warnings: list[str]) -> Found:

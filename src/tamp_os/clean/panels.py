@@ -22,17 +22,14 @@ When fewer than two panels are found, the figure is whole and `reason` says why.
 
 from __future__ import annotations
 
-import os
 import re
-import shutil
-import subprocess
-import tempfile
 import time
 from dataclasses import dataclass, field, replace
-from pathlib import Path
 
 import numpy as np
 from scipy import ndimage
+
+from . import ocr
 
 GUTTER_TOL = 0.03  # a gutter pixel is within this share of the range from pure white or black
 LINE_SHARE = 0.98  # share of a line's pixels that must be gutter colour for the line to be gutter
@@ -46,7 +43,7 @@ MAX_DETECT_PIXELS = 25e6  # larger figures are looked at every few pixels
 SIZE_TOL = 0.02  # widths and pitches agree within this share
 LETTER_WHITELIST = "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ()"
 OCR_LINE_PX = 30  # glyph height on the page Tesseract reads
-MAX_SINGLE_CALLS = 8  # glyphs read one by one at most (each call 0.1–0.3 s)
+MAX_SINGLE_CALLS = 8  # glyphs read one by one at most (each 30 ms in process, 0.4 s by the command)
 GRID = re.compile(r"^\s*([1-9][0-9]?)\s*[x×]\s*([1-9][0-9]?)\s*$")
 
 Box = tuple[int, int, int, int]  # x, y, w, h in source pixels
@@ -138,6 +135,8 @@ def detect_panels(values: np.ndarray, rgb: np.ndarray | None = None, *, read_let
     read_letters : read panel letters by OCR (Tesseract); off, panels are numbered.
     """
     start = time.perf_counter()
+    if read_letters:
+        ocr.preload()  # the OCR model loads in the background while the gutters are searched
     h, w = values.shape
     step = int(np.ceil(np.sqrt(h * w / MAX_DETECT_PIXELS)))
     if step > 1:
@@ -581,7 +580,7 @@ def _labels(values: np.ndarray, mask: np.ndarray, boxes: list[Box], read_letters
     numbers = [str(i + 1) for i in range(n)]
     if not read_letters:
         return numbers, [False] * n, []
-    if shutil.which("tesseract") is None:
+    if ocr.backend() is None:
         return numbers, [False] * n, ["panel letters are not read without Tesseract (apt-get install tesseract-ocr); the panels are numbered 1 to "
                                        f"{n} in reading order"]
     lo, hi = float(values.min()), float(values.max())
@@ -762,18 +761,7 @@ def _page(ink: np.ndarray):
 
 
 def _tesseract(canvas, psm: str) -> str | None:
-    exe = shutil.which("tesseract")
-    with tempfile.TemporaryDirectory(prefix="tamp-panels-") as tmp:
-        path = Path(tmp) / "letters.png"
-        canvas.save(path)
-        command = [exe, str(path), "stdout", "--psm", psm, "-l", "eng", "-c", f"tessedit_char_whitelist={LETTER_WHITELIST}"]
-        # One thread: Tesseract's OpenMP threads slow a page this small down, most on a busy machine.
-        env = {**os.environ, "OMP_THREAD_LIMIT": "1"}
-        try:
-            done = subprocess.run(command, capture_output=True, text=True, encoding="utf-8", errors="replace", timeout=60, env=env)
-        except (OSError, subprocess.TimeoutExpired):
-            return None
-    return done.stdout if done.returncode == 0 else None
+    return ocr.read_text(canvas, int(psm), LETTER_WHITELIST)
 
 
 def _ocr_lines(inks: list[np.ndarray]) -> list[str]:

@@ -17,6 +17,7 @@ import shutil
 import subprocess
 import tempfile
 import threading
+import time
 from pathlib import Path
 
 log = logging.getLogger(__name__)
@@ -27,7 +28,7 @@ TESSDATA_DIRS = ("/usr/share/tesseract-ocr/5/tessdata", "/usr/share/tesseract-oc
 LANGUAGE = "eng"
 
 _lock = threading.Lock()  # one API object, used by one thread at a time (libtesseract is not reentrant)
-_state: dict[str, object] = {}  # "api": the loaded API, or "failed": why it could not load
+_state: dict[str, object] = {}  # "api": the loaded API and "seconds" its load, or "failed": why it could not load
 _loader: threading.Thread | None = None
 
 
@@ -80,13 +81,14 @@ def _load() -> dict[str, object]:
     folder = tessdata_dir()
     if folder is None:
         return {"failed": f"no {LANGUAGE}.traineddata found (apt-get install tesseract-ocr-eng)"}
+    start = time.perf_counter()
     try:
         # LSTM only: the one engine the packaged models always carry (Debian's eng has no legacy model).
         api = tesserocr.PyTessBaseAPI(path=str(folder) + os.sep, lang=LANGUAGE, oem=tesserocr.OEM.LSTM_ONLY)
     except RuntimeError as error:
         return {"failed": f"tesserocr could not load the {LANGUAGE} model in {folder}: {error}"}
     log.debug("OCR in process: tesserocr %s, model in %s", tesserocr.tesseract_version().splitlines()[0], folder)
-    return {"api": api}
+    return {"api": api, "seconds": time.perf_counter() - start}
 
 
 def read_text(image, psm: int, whitelist: str) -> str | None:

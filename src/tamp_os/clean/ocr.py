@@ -32,6 +32,18 @@ _state: dict[str, object] = {}  # "api": the loaded API and "seconds" its load, 
 _loader: threading.Thread | None = None
 
 
+def _after_fork() -> None:
+    """A forked child (batch workers) starts afresh: the parent's lock may have been held, or its
+    load half done, by a thread the child does not have."""
+    global _lock, _loader
+    _lock, _loader = threading.Lock(), None
+    _state.clear()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_after_fork)
+
+
 def tessdata_dir() -> Path | None:
     """The folder holding LANGUAGE.traineddata: TESSDATA_PREFIX when set, else the usual places."""
     prefix = os.environ.get("TESSDATA_PREFIX")

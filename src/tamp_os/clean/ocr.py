@@ -2,9 +2,11 @@
 
 Why tesserocr (the in-process libtesseract API) first: a `tesseract` command spends 0.4-0.6 s
 starting and loading its model for every call, against 25-40 ms for a read through tesserocr,
-whose model loads once per process (about 0.6 s, started in the background by `preload` while
-the caller does other work) and then stays (benchmarks/bench_panels.py measures both). Its
-manylinux wheel bundles libtesseract, so nothing is built; the model files come from the system's
+whose model loads once per process (0.2-0.5 s) and then stays (benchmarks/bench_panels.py
+measures both). Loading it in a background thread while the gutters are searched was measured
+and dropped: the first figure of a process took 0.43-0.82 s so (median 0.53) against 0.23-0.69 s
+(median 0.38) loading it when first needed, on the 2 shared cores (the two compete for them, and
+the gutter search, now 80 ms, leaves little to hide the load behind). Its manylinux wheel bundles libtesseract, so nothing is built; the model files come from the system's
 tesseract-ocr-eng package, the same that the command reads. The command line is the fallback
 only when tesserocr or a model for it is missing.
 """
@@ -29,14 +31,13 @@ LANGUAGE = "eng"
 
 _lock = threading.Lock()  # one API object, used by one thread at a time (libtesseract is not reentrant)
 _state: dict[str, object] = {}  # "api": the loaded API and "seconds" its load, or "failed": why it could not load
-_loader: threading.Thread | None = None
 
 
 def _after_fork() -> None:
     """A forked child (batch workers) starts afresh: the parent's lock may have been held, or its
     load half done, by a thread the child does not have."""
-    global _lock, _loader
-    _lock, _loader = threading.Lock(), None
+    global _lock
+    _lock = threading.Lock()
     _state.clear()
 
 
@@ -58,19 +59,6 @@ def backend() -> str | None:
     if _api() is not None:
         return "tesserocr"
     return "command" if shutil.which("tesseract") else None
-
-
-def preload() -> None:
-    """Start loading the in-process model in a background thread (returns at once), so that a
-    caller can find panel boxes meanwhile; a read then waits only for what is left of the load."""
-    global _loader
-    if _state or _loader is not None:
-        return
-    with _lock:
-        if _state or _loader is not None:
-            return
-        _loader = threading.Thread(target=_api, name="tamp-ocr-load", daemon=True)
-        _loader.start()
 
 
 def _api():

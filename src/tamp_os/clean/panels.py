@@ -137,8 +137,6 @@ def detect_panels(values: np.ndarray, rgb: np.ndarray | None = None, *, read_let
     read_letters : read panel letters by OCR (Tesseract); off, panels are numbered.
     """
     start = time.perf_counter()
-    if read_letters:
-        ocr.preload()  # the OCR model loads in the background while the gutters are searched
     h, w = values.shape
     step = int(np.ceil(np.sqrt(h * w / MAX_DETECT_PIXELS)))
     small = values[::step, ::step] if step > 1 else values

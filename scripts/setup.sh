@@ -5,7 +5,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-# python3-venv for .venv; libcairo2-dev + pkg-config to build pycairo; poppler-utils (pdfinfo, pdftoppm) to check PDFs; Mesa EGL/GL for PyVista offscreen; GLU and X client libraries that the gmsh wheel links.
+# python3-venv for .venv; tesseract-ocr-eng holds the model that both the tesseract command and tesserocr (the ocr extra) read; libcairo2-dev + pkg-config to build pycairo; poppler-utils (pdfinfo, pdftoppm) to check PDFs; Mesa EGL/GL for PyVista offscreen; GLU and X client libraries that the gmsh wheel links.
 APT_PACKAGES="python3-venv liblouis-bin liblouis-data python3-louis prusa-slicer chromium tesseract-ocr tesseract-ocr-eng fonts-dejavu-core libegl1 libgl1 libglu1-mesa libxcursor1 libxft2 libxinerama1 libcairo2-dev pkg-config poppler-utils nodejs npm"
 missing=""
 for pkg in $APT_PACKAGES; do
@@ -35,8 +35,8 @@ stamp=.venv/.tamp-installed
 if [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ] || [ scripts/setup.sh -nt "$stamp" ]; then
   echo "setup: installing the tamp-os package and its Python dependencies into .venv"
   .venv/bin/python -m pip install -q --upgrade pip 2>&1 | grep -v "^WARNING: Location" || true
-  .venv/bin/python -m pip install -q -e ".[test,dm,vendor]" 2>&1 | grep -v "^WARNING: Location" || true
-  .venv/bin/python -c "import tamp_os, lib3mf, trimesh, tifffile, czifile, liffile, nd2, mrcfile, zarr, h5py" 
+  .venv/bin/python -m pip install -q -e ".[test,dm,vendor,ocr]" 2>&1 | grep -v "^WARNING: Location" || true
+  .venv/bin/python -c "import tamp_os, lib3mf, trimesh, tifffile, czifile, liffile, nd2, mrcfile, zarr, h5py, tesserocr" 
   touch "$stamp"
 fi
 

@@ -22,17 +22,14 @@ When fewer than two panels are found, the figure is whole and `reason` says why.
 
 from __future__ import annotations
 
-import os
 import re
-import shutil
-import subprocess
-import tempfile
 import time
 from dataclasses import dataclass, replace
-from pathlib import Path
 
 import numpy as np
 from scipy import ndimage
+
+from . import ocr
 
 GUTTER_TOL = 0.03  # a gutter pixel is within this share of the range from pure white or black
 LINE_SHARE = 0.98  # share of a line's pixels that must be gutter colour for the line to be gutter
@@ -42,11 +39,11 @@ TEXT_SIDE_SHARE = 0.12  # text strips are thinner than this share of the figure'
 BAND_WIDTH_SHARE = 0.5  # a data band is at least this share of its panel's width
 MAX_DEPTH = 6  # cuts nested at most this deep (a grid of grids)
 MIN_PANEL_SHARE = 0.05  # a panel's shorter side is at least this share of the figure's shorter side
-MAX_DETECT_PIXELS = 25e6  # larger figures are looked at every few pixels
+MAX_DETECT_PIXELS = 3.2e6  # larger figures are cut on every few pixels, then the edges found at full resolution
 SIZE_TOL = 0.02  # widths and pitches agree within this share
 LETTER_WHITELIST = "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ()"
 OCR_LINE_PX = 30  # glyph height on the page Tesseract reads
-MAX_SINGLE_CALLS = 8  # glyphs read one by one at most (each call 0.1–0.3 s)
+MAX_SINGLE_CALLS = 8  # glyphs read one by one at most (each 30 ms in process, 0.4 s by the command)
 GRID = re.compile(r"^\s*([1-9][0-9]?)\s*[x×]\s*([1-9][0-9]?)\s*$")
 
 Box = tuple[int, int, int, int]  # x, y, w, h in source pixels
@@ -129,8 +126,10 @@ class PanelLayout:
 def detect_panels(values: np.ndarray, rgb: np.ndarray | None = None, *, read_letters: bool = True) -> PanelLayout:
     """The panels of a figure, or why it is one picture.
 
-    Figures above MAX_DETECT_PIXELS are looked at every few pixels (a 400 Mpx scan would need
-    0.8 GB of masks otherwise); the boxes are then exact to that step.
+    Figures above MAX_DETECT_PIXELS are cut on every few pixels (a 4000 × 3000 figure on every
+    second: 4 times less to look at, the bulk of the time), each panel's edges then found again
+    at full resolution in the few rows and columns around them; letters are read at full
+    resolution.
 
     values : (H, W) float image (any range; NaN = unknown, never gutter).
     rgb : optional (H, W, 3) colour image of the same figure: a gutter pixel must then be white
@@ -140,16 +139,16 @@ def detect_panels(values: np.ndarray, rgb: np.ndarray | None = None, *, read_let
     start = time.perf_counter()
     h, w = values.shape
     step = int(np.ceil(np.sqrt(h * w / MAX_DETECT_PIXELS)))
-    if step > 1:
-        small = detect_panels(values[::step, ::step], None if rgb is None else rgb[::step, ::step], read_letters=read_letters)
-        return _scaled(small, step, w, h, time.perf_counter() - start)
-    masks = _gutter_masks(values, rgb)
-    if masks is None:
+    small = values[::step, ::step] if step > 1 else values
+    small_rgb = rgb[::step, ::step] if step > 1 and rgb is not None and rgb.ndim == 3 else rgb
+    limits = _gutter_limits(small, small_rgb)
+    if limits is None:
         return PanelLayout(False, reason="the figure is uniform, so it has no panels", figure_px=(w, h), seconds=time.perf_counter() - start)
+    masks = _masks_within(limits, small, small_rgb)
     best: tuple[list[Box], list[str], str, list[str]] | None = None
     reasons = []
     for colour, mask in masks.items():
-        boxes, how, notes, failure = _layout_in(mask, values)
+        boxes, how, notes, failure = _layout_in(mask, small, step)
         if boxes is None:
             reasons.append(failure)
             continue
@@ -159,23 +158,64 @@ def detect_panels(values: np.ndarray, rgb: np.ndarray | None = None, *, read_let
         reason = _why_whole(reasons)
         return PanelLayout(False, reason=reason, figure_px=(w, h), seconds=time.perf_counter() - start)
     boxes, how, colour, notes = best
+    if step > 1:
+        boxes = _refined(values, rgb, limits, colour, boxes, how, step)
     order, rows = reading_order(boxes)
     boxes, how = [boxes[i] for i in order], [how[i] for i in order]
-    labels, read, letter_notes = _labels(values, masks[colour], boxes, read_letters)
+    labels, read, letter_notes = _labels(values, None, boxes, read_letters, limits)
     panels = tuple(Panel(b, lab, r, hw) for b, lab, r, hw in zip(boxes, labels, read, how))
     sentence = f"{len(panels)} panels found from {colour} gutters" + (
         "" if all(x == "gutters" for x in how) else " and the regularity of the layout")
     return PanelLayout(True, panels, rows, colour, sentence, tuple(notes + letter_notes), (w, h), time.perf_counter() - start)
 
 
-def _scaled(layout: PanelLayout, step: int, w: int, h: int, seconds: float) -> PanelLayout:
-    """A layout found on every step-th pixel, in the full figure's pixels."""
-    def up(box: Box) -> Box:
-        x, y, bw, bh = (v * step for v in box)
-        return (x, y, min(bw, w - x), min(bh, h - y))
+def _refined(values: np.ndarray, rgb: np.ndarray | None, limits: "_Limits", colour: str, boxes: list[Box], how: list[str],
+             step: int) -> list[Box]:
+    """Boxes found on every step-th pixel (in source pixels, exact to `step`), their edges found
+    again at full resolution: each edge is the first line that is not gutter, looking inward
+    from `step` pixels outside it. A panel found from its neighbours (its edges are gutter
+    colour) takes the edges of the panels it lines up with, else keeps the coarse ones."""
+    H, W = values.shape
+    coarse = [(x, y, x + bw, y + bh) for x, y, bw, bh in ((v * step for v in b) for b in boxes)]
+    coarse = [(x0, y0, min(W, x1), min(H, y1)) for x0, y0, x1, y1 in coarse]
+    fine = {}
+    for i, (x0, y0, x1, y1) in enumerate(coarse):
+        if how[i] != "gutters":
+            continue
+        for _ in range(2):  # the rows' shares depend on the columns, and back
+            y0, y1 = _edges(values, rgb, limits, colour, (y0, y1), (x0, x1), step, axis=0)
+            x0, x1 = _edges(values, rgb, limits, colour, (x0, x1), (y0, y1), step, axis=1)
+        fine[i] = (x0, y0, x1, y1)
+    same = {}  # coarse edge -> the fine one, per side, from the panels refined
+    for i, box in fine.items():
+        for side in range(4):
+            same.setdefault((side, coarse[i][side]), box[side])
+    out = []
+    for i, box in enumerate(coarse):
+        x0, y0, x1, y1 = fine.get(i) or tuple(same.get((side, v), v) for side, v in enumerate(box))
+        out.append((x0, y0, x1 - x0, y1 - y0))
+    return out
 
-    panels = tuple(replace(p, box_px=up(p.box_px)) for p in layout.panels)
-    return replace(layout, panels=panels, figure_px=(w, h), seconds=seconds)
+
+def _edges(values, rgb, limits: "_Limits", colour: str, span: tuple[int, int], across: tuple[int, int], step: int,
+           axis: int) -> tuple[int, int]:
+    """The start and stop of a box along one axis (0: rows, 1: columns) at full resolution,
+    searched within `step` lines of the coarse ones; lines taken over `across` only."""
+    a, b = span
+    n = values.shape[axis]
+
+    def lines(lo: int, hi: int) -> np.ndarray:
+        index = (slice(lo, hi), slice(*across)) if axis == 0 else (slice(*across), slice(lo, hi))
+        band = _masks_within(limits, values[index], None if rgb is None or rgb.ndim != 3 else rgb[index], colour)[colour]
+        return _lines(band, axis)
+
+    lo, hi = max(0, a - step), min(n, a + step)
+    flags = np.flatnonzero(~lines(lo, hi)) if hi > lo else np.array([], int)
+    start = lo + int(flags[0]) if flags.size else a
+    lo, hi = max(0, b - step), min(n, b + step)
+    flags = np.flatnonzero(~lines(lo, hi)) if hi > lo else np.array([], int)
+    stop = lo + int(flags[-1]) + 1 if flags.size else b
+    return (start, stop) if stop > start else (a, b)
 
 
 def forced_grid(values: np.ndarray, grid: str, *, read_letters: bool = True) -> PanelLayout:
@@ -283,7 +323,25 @@ def reading_order(boxes: list[Box]) -> tuple[list[int], tuple[tuple[int, ...], .
 # Gutters and the XY cut
 
 
+@dataclass(frozen=True)
+class _Limits:
+    """What counts as gutter colour: grey values within `tol` of the figure's lowest and highest
+    (and, for a colour figure, every channel within `ctol` of its lowest and highest)."""
+
+    lo: float
+    hi: float
+    tol: float
+    clo: float | None = None
+    chi: float | None = None
+    ctol: float | None = None
+
+
 def _gutter_masks(values: np.ndarray, rgb: np.ndarray | None) -> dict[str, np.ndarray] | None:
+    limits = _gutter_limits(values, rgb)
+    return None if limits is None else _masks_within(limits, values, rgb)
+
+
+def _gutter_limits(values: np.ndarray, rgb: np.ndarray | None) -> _Limits | None:
     lo, hi = float(values.min()), float(values.max())
     if not (np.isfinite(lo) and np.isfinite(hi)):  # only then the slower pass that skips NaN and inf
         finite = np.isfinite(values)
@@ -292,16 +350,27 @@ def _gutter_masks(values: np.ndarray, rgb: np.ndarray | None) -> dict[str, np.nd
         lo, hi = float(values[finite].min()), float(values[finite].max())
     if not hi > lo:
         return None
-    tol = GUTTER_TOL * (hi - lo)
-    with np.errstate(invalid="ignore"):
-        white, black = values >= hi - tol, values <= lo + tol
     if rgb is not None and rgb.ndim == 3 and rgb.shape[:2] == values.shape:
         c = rgb[..., :3].astype(np.float32)
         clo, chi = float(np.nanmin(c)), float(np.nanmax(c))
-        ctol = GUTTER_TOL * max(chi - clo, 1e-12)
-        white &= (c >= chi - ctol).all(axis=2)
-        black &= (c <= clo + ctol).all(axis=2)
-    return {"white": white, "black": black}
+        return _Limits(lo, hi, GUTTER_TOL * (hi - lo), clo, chi, GUTTER_TOL * max(chi - clo, 1e-12))
+    return _Limits(lo, hi, GUTTER_TOL * (hi - lo))
+
+
+def _masks_within(limits: _Limits, values: np.ndarray, rgb: np.ndarray | None, only: str | None = None) -> dict[str, np.ndarray]:
+    """The white and black gutter masks (or only one of them)."""
+    out = {}
+    c = rgb[..., :3].astype(np.float32) if limits.ctol is not None and rgb is not None and rgb.ndim == 3 else None
+    with np.errstate(invalid="ignore"):
+        if only in (None, "white"):
+            out["white"] = values >= limits.hi - limits.tol
+            if c is not None:
+                out["white"] &= (c >= limits.chi - limits.ctol).all(axis=2)
+        if only in (None, "black"):
+            out["black"] = values <= limits.lo + limits.tol
+            if c is not None:
+                out["black"] &= (c <= limits.clo + limits.ctol).all(axis=2)
+    return out
 
 
 def _border_colour(masks: dict[str, np.ndarray]) -> str:
@@ -403,8 +472,9 @@ def _classify(mask: np.ndarray, box, fig_short: int, fig_area: int) -> _Leaf:
     return _Leaf(box, "text" if thin else "other", share)
 
 
-def _layout_in(mask: np.ndarray, values: np.ndarray):
-    """(boxes, how each was found, notes, None) for one gutter colour, or (None, None, None, why not)."""
+def _layout_in(mask: np.ndarray, values: np.ndarray, step: int = 1):
+    """(boxes, how each was found, notes, None) for one gutter colour, or (None, None, None, why not).
+    `step`: the mask is of every step-th pixel (the notes say source pixels)."""
     h, w = mask.shape
     min_gap = max(2, round(0.0015 * max(h, w)))
     min_side = max(8, round(0.02 * min(h, w)))
@@ -429,9 +499,9 @@ def _layout_in(mask: np.ndarray, values: np.ndarray):
         if lf.area >= 0.25 * typical:
             panels.append(lf)
             how[id(lf)] = "content"
-            notes.append(f"the panel at {_where(lf.box)} has mostly background along its edges; its box is where its content ends")
+            notes.append(f"the panel at {_where(lf.box, step)} has mostly background along its edges; its box is where its content ends")
         else:
-            notes.append(f"a small piece at {_where(lf.box)} (a legend or a colour bar?) is not a panel and is not printed")
+            notes.append(f"a small piece at {_where(lf.box, step)} (a legend or a colour bar?) is not a panel and is not printed")
     if texts:
         notes.append(f"{len(texts)} strip{'s' if len(texts) != 1 else ''} of text (title, labels) between the panels "
                      f"{'are' if len(texts) != 1 else 'is'} not printed")
@@ -441,8 +511,8 @@ def _layout_in(mask: np.ndarray, values: np.ndarray):
     return boxes, [how[id(p)] for p in panels], notes, None
 
 
-def _where(box) -> str:
-    x0, y0, x1, y1 = box
+def _where(box, step: int = 1) -> str:
+    x0, y0, x1, y1 = (v * step for v in box)
     return f"x {x0}–{x1 - 1}, y {y0}–{y1 - 1}"
 
 
@@ -575,18 +645,23 @@ class _Glyphs:
     distance: float  # from the panel's corner, in px
 
 
-def _labels(values: np.ndarray, mask: np.ndarray, boxes: list[Box], read_letters: bool) -> tuple[list[str], list[bool], list[str]]:
-    """Labels for the panels in reading order, whether each was read, and notes."""
+def _labels(values: np.ndarray, mask: np.ndarray | None, boxes: list[Box], read_letters: bool,
+            limits: _Limits | None = None) -> tuple[list[str], list[bool], list[str]]:
+    """Labels for the panels in reading order, whether each was read, and notes. `limits`: the
+    figure's range when known (finding it again costs 30 ms on 12 Mpx)."""
     n = len(boxes)
     numbers = [str(i + 1) for i in range(n)]
     if not read_letters:
         return numbers, [False] * n, []
-    if shutil.which("tesseract") is None:
+    if ocr.backend() is None:
         return numbers, [False] * n, ["panel letters are not read without Tesseract (apt-get install tesseract-ocr); the panels are numbered 1 to "
                                        f"{n} in reading order"]
-    lo, hi = float(values.min()), float(values.max())
-    if not (np.isfinite(lo) and np.isfinite(hi)):
-        lo, hi = float(np.nanmin(values)), float(np.nanmax(values))
+    if limits is not None:
+        lo, hi = limits.lo, limits.hi
+    else:
+        lo, hi = float(values.min()), float(values.max())
+        if not (np.isfinite(lo) and np.isfinite(hi)):
+            lo, hi = float(np.nanmin(values)), float(np.nanmax(values))
     labels = _read_letters(_Scaled(values, lo, hi), boxes)
     return _consistent(labels, n)
 
@@ -676,40 +751,63 @@ def _corner_glyphs(scaled: "_Scaled | np.ndarray", box: Box, others: list[Box] =
     x, y, w, h = box
     side = min(w, h)
     reach_in, reach_out = max(12, int(0.25 * side)), max(8, int(0.2 * side))
+    # Large panels are searched on every d-th pixel (the smallest glyph still 8 samples high: the
+    # search, not the OCR, was the bulk of reading letters on a 4000 × 3000 figure); the glyphs
+    # found are cut from the full resolution for the OCR.
+    d = max(1, max(8, int(0.015 * side)) // 8)
     found: list[_Glyphs] = []
     for cx, cy, sx, sy in ((x, y, 1, 1), (x + w, y, -1, 1), (x, y + h, 1, -1)):
         xa, xb = sorted((cx - sx * reach_out, cx + sx * reach_in))
         ya, yb = sorted((cy - sy * reach_out, cy + sy * reach_in))
         xa, ya, xb, yb = max(0, xa), max(0, ya), min(W, xb), min(H, yb)
-        window = scaled[ya:yb, xa:xb]
+        window = scaled[ya:yb:d, xa:xb:d]
         if window.size == 0:
             continue
-        window = _grey_others(window, xa, ya, others)
-        for ink, (gy, gx) in _isolated_glyphs(window, side):
-            found.append(_Glyphs(ink, float(np.hypot(xa + gx - cx, ya + gy - cy))))
+        window = _grey_others(window, xa, ya, others, d)
+        for ink, (gy, gx), bbox, dark in _isolated_glyphs(window, side / d):
+            if d > 1:
+                ink = _full_crop(scaled, others, xa, ya, d, bbox, dark)
+            found.append(_Glyphs(ink, float(np.hypot(xa + d * gx - cx, ya + d * gy - cy))))
         if found:
             break
     return found
 
 
-def _grey_others(window: np.ndarray, xa: int, ya: int, others: list[Box]) -> np.ndarray:
-    """The window with the parts of other panels greyed out (neither ink nor ground), so that a
-    corner's search reaching into the gutter never reads a neighbour's letter."""
+def _full_crop(scaled, others: list[Box], xa: int, ya: int, d: int, bbox, dark: bool) -> np.ndarray:
+    """The ink of a glyph group found on every d-th pixel, at full resolution: the group's box
+    widened by the d-1 pixels it may reach between samples, cut to where the ink is."""
+    H, W = scaled.shape
+    r0, r1, c0, c1 = bbox
+    fr0, fc0 = max(0, ya + d * r0 - (d - 1)), max(0, xa + d * c0 - (d - 1))
+    fr1, fc1 = min(H, ya + d * (r1 - 1) + d), min(W, xa + d * (c1 - 1) + d)
+    window = _grey_others(scaled[fr0:fr1, fc0:fc1], fc0, fr0, others)
+    ink = window <= 0.3 if dark else window >= 0.7
+    rows, cols = np.flatnonzero(ink.any(axis=1)), np.flatnonzero(ink.any(axis=0))
+    if rows.size == 0:
+        return ink
+    return ink[rows[0]:rows[-1] + 1, cols[0]:cols[-1] + 1]
+
+
+def _grey_others(window: np.ndarray, xa: int, ya: int, others: list[Box], d: int = 1) -> np.ndarray:
+    """The window (of every d-th pixel from xa, ya) with the parts of other panels greyed out
+    (neither ink nor ground), so that a corner's search reaching into the gutter never reads a
+    neighbour's letter."""
     out = None
     for x, y, w, h in others:
-        c0, c1 = max(0, x - xa), min(window.shape[1], x + w - xa)
-        r0, r1 = max(0, y - ya), min(window.shape[0], y + h - ya)
+        c0, c1 = max(0, -(-(x - xa) // d)), min(window.shape[1], -(-(x + w - xa) // d))
+        r0, r1 = max(0, -(-(y - ya) // d)), min(window.shape[0], -(-(y + h - ya) // d))
         if c1 > c0 and r1 > r0:
             out = window.copy() if out is None else out
             out[r0:r1, c0:c1] = 0.5
     return window if out is None else out
 
 
-def _isolated_glyphs(window: np.ndarray, side: int):
+def _isolated_glyphs(window: np.ndarray, side: float):
     """Groups of glyph-sized strokes of one polarity whose surroundings are plainly the other:
-    yields (ink crop, (row, col) of the group's centre in the window)."""
+    yields (ink crop, (row, col) of the group's centre in the window, its box (r0, r1, c0, c1),
+    dark ink)."""
     min_h, max_h = max(8, int(0.015 * side)), max(12, int(0.3 * side))
-    for ink_mask, ground in ((window <= 0.3, window >= 0.7), (window >= 0.7, window <= 0.3)):
+    for dark, (ink_mask, ground) in ((True, (window <= 0.3, window >= 0.7)), (False, (window >= 0.7, window <= 0.3))):
         labels, n = ndimage.label(ink_mask, structure=np.ones((3, 3), bool))  # anti-aliased strokes meet at corners
         if n == 0:
             continue
@@ -731,7 +829,7 @@ def _isolated_glyphs(window: np.ndarray, side: int):
         for group in _group_glyphs(parts):
             r0, r1 = min(p[0] for p in group), max(p[1] for p in group)
             c0, c1 = min(p[2] for p in group), max(p[3] for p in group)
-            yield ink_mask[r0:r1, c0:c1], ((r0 + r1) / 2, (c0 + c1) / 2)
+            yield ink_mask[r0:r1, c0:c1], ((r0 + r1) / 2, (c0 + c1) / 2), (r0, r1, c0, c1), dark
 
 
 def _group_glyphs(parts):
@@ -762,18 +860,7 @@ def _page(ink: np.ndarray):
 
 
 def _tesseract(canvas, psm: str) -> str | None:
-    exe = shutil.which("tesseract")
-    with tempfile.TemporaryDirectory(prefix="tamp-panels-") as tmp:
-        path = Path(tmp) / "letters.png"
-        canvas.save(path)
-        command = [exe, str(path), "stdout", "--psm", psm, "-l", "eng", "-c", f"tessedit_char_whitelist={LETTER_WHITELIST}"]
-        # One thread: Tesseract's OpenMP threads slow a page this small down, most on a busy machine.
-        env = {**os.environ, "OMP_THREAD_LIMIT": "1"}
-        try:
-            done = subprocess.run(command, capture_output=True, text=True, encoding="utf-8", errors="replace", timeout=60, env=env)
-        except (OSError, subprocess.TimeoutExpired):
-            return None
-    return done.stdout if done.returncode == 0 else None
+    return ocr.read_text(canvas, int(psm), LETTER_WHITELIST)
 
 
 def _ocr_lines(inks: list[np.ndarray]) -> list[str]:

@@ -535,17 +535,17 @@ def test_last_resort_handler_prints_one_line_and_the_traceback_with_debug(tmp_pa
 
 @pytest.mark.timeout(120)
 def test_one_inputs_os_error_does_not_stop_the_others(tmp_path, capsys, monkeypatch):
-    import tamp_os.convert
+    import tamp_os.figure
 
     good, bad = small_png(tmp_path / "good.png"), small_png(tmp_path / "bad.png", seed=2)
-    real = tamp_os.convert.make_lithograph
+    real = tamp_os.figure.make_figure  # what convert() calls for each input
 
     def sometimes(source, *args, **kwargs):
         if Path(str(source)).name == "bad.png":
             raise OSError(5, "Input/output error", str(source))
         return real(source, *args, **kwargs)
 
-    monkeypatch.setattr(tamp_os.convert, "make_lithograph", sometimes)
+    monkeypatch.setattr(tamp_os.figure, "make_figure", sometimes)
     code, out, err = run(capsys, "convert", bad, good, "-o", tmp_path / "out")
     assert code == 1 and "Traceback" not in err
     assert "bad.png: Input/output error" in err and (tmp_path / "out" / "good.stl").is_file()

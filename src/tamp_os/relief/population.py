@@ -19,7 +19,7 @@ from scipy import ndimage
 from skimage import morphology, segmentation
 
 from .hull import solid_enough
-from .objects import _h_maxima, inner_outline, label_max, label_median
+from .objects import _h_maxima, inner_outline, label_max, label_median, sorted_by_label
 
 BACKGROUND_MM = 12.0  # members up to about this wide are measured against the ground around them
 NOISE_SIGMAS = 3.0  # a member's peak stands this many noise deviations above its neck (swept on the benchmark: 3 or 5)
@@ -281,13 +281,7 @@ def _split_touching(labels: np.ndarray, depth_px: float) -> np.ndarray:
 
 
 def _label_percentile(values: np.ndarray, labels: np.ndarray, n: int, pct: float) -> np.ndarray:
-    flat = labels.ravel()
-    inside = flat > 0
-    lab, val = flat[inside], values.ravel()[inside]
-    order = np.lexsort((val, lab))
-    lab, val = lab[order], val[order]
-    counts = np.bincount(lab, minlength=n + 1)[1:]
-    starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    val, starts, counts = sorted_by_label(values, labels, n)
     out = np.full(n, np.nan)
     has = counts > 0
     out[has] = val[starts[has] + ((counts[has] - 1) * pct / 100).astype(np.int64)]

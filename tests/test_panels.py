@@ -122,18 +122,24 @@ def test_bundled_sample_images_are_not_split(name):
 
 @pytest.mark.timeout(300)
 @settings(max_examples=25, deadline=None)
-@given(rows=st.integers(1, 3), cols=st.integers(1, 3), gutter=st.integers(3, 30), ph=st.integers(60, 160), pw=st.integers(60, 160),
-       black=st.booleans(), seed=st.integers(0, 1000))
-def test_any_regular_grid_is_found_exactly(rows, cols, gutter, ph, pw, black, seed):
-    n = rows * cols
+def _regular_grid(rows, cols, gutter, ph, pw, black, seed):
+    """An equal grid of textured panels on a white or black gutter, and the true boxes (x, y, w, h)."""
     H, W = rows * ph + (rows + 1) * gutter, cols * pw + (cols + 1) * gutter
     image = np.full((H, W), 0 if black else 255, np.uint8)
     truth = []
-    for i in range(n):
+    for i in range(rows * cols):
         r, c = divmod(i, cols)
         x, y = gutter + c * (pw + gutter), gutter + r * (ph + gutter)
         image[y:y + ph, x:x + pw] = synthetic_texture(ph, pw, seed + i)
         truth.append((x, y, pw, ph))
+    return image, truth
+
+
+@given(rows=st.integers(1, 3), cols=st.integers(1, 3), gutter=st.integers(3, 30), ph=st.integers(60, 160), pw=st.integers(60, 160),
+       black=st.booleans(), seed=st.integers(0, 1000))
+def test_any_regular_grid_is_found_exactly(rows, cols, gutter, ph, pw, black, seed):
+    n = rows * cols
+    image, truth = _regular_grid(rows, cols, gutter, ph, pw, black, seed)
     layout = detect_panels(image.astype(np.float32), read_letters=False)
     if n == 1:
         assert not layout.split
@@ -483,16 +489,9 @@ def test_a_grid_cut_on_every_few_pixels_is_refined_exactly(rows, cols, gutter, p
     from tamp_os.clean import panels
 
     n = rows * cols
-    H, W = rows * ph + (rows + 1) * gutter, cols * pw + (cols + 1) * gutter
-    image = np.full((H, W), 0 if black else 255, np.uint8)
-    truth = []
-    for i in range(n):
-        r, c = divmod(i, cols)
-        x, y = gutter + c * (pw + gutter), gutter + r * (ph + gutter)
-        image[y:y + ph, x:x + pw] = synthetic_texture(ph, pw, seed + i)
-        truth.append((x, y, pw, ph))
+    image, truth = _regular_grid(rows, cols, gutter, ph, pw, black, seed)
     saved = panels.MAX_DETECT_PIXELS
-    panels.MAX_DETECT_PIXELS = 1.001 * H * W / step ** 2  # (hypothesis runs many examples in one test: no monkeypatch fixture)
+    panels.MAX_DETECT_PIXELS = 1.001 * image.size / step ** 2  # (hypothesis runs many examples in one test: no monkeypatch fixture)
     try:
         layout = detect_panels(image.astype(np.float32), read_letters=False)
     finally:

@@ -120,3 +120,16 @@ def browser():
         b = p.chromium.launch(executable_path=CHROMIUM, args=LAUNCH_ARGS)
         yield b
         b.close()
+
+
+def tab_to(page, predicate, limit=120):
+    """Press Tab until the focused element satisfies `predicate` (its id, text and outline style),
+    checking that focus is visible there; fail when `limit` presses do not reach it."""
+    for _ in range(limit):
+        page.keyboard.press("Tab")
+        info = page.evaluate("() => ({id: document.activeElement.id, text: document.activeElement.textContent.trim(),"
+                             " outline: getComputedStyle(document.activeElement).outlineStyle})")
+        if predicate(info):
+            assert info["outline"] != "none", f"no visible focus on {info}"
+            return info
+    raise AssertionError("could not reach the control by Tab")

@@ -16,7 +16,7 @@ from PIL import Image
 
 from conftest import need
 from gui_support import (audit, browser, form_token, generate_and_wait, new_job, no_sideways_scroll, png_bytes,
-                         screenshot, start_server, stop_server)
+                         screenshot, start_server, stop_server, tab_to)
 
 VIEWPORTS = {  # name: (browser context options)
     "1280": {"viewport": {"width": 1280, "height": 900}},
@@ -183,17 +183,7 @@ def test_the_same_flow_by_keyboard_alone_keeps_focus_on_the_progress_page(server
     url, _ = server
     page.goto(url)
 
-    def tab_to(predicate, limit=80):
-        for _ in range(limit):
-            page.keyboard.press("Tab")
-            info = page.evaluate("() => ({id: document.activeElement.id, text: document.activeElement.textContent.trim(),"
-                                 " outline: getComputedStyle(document.activeElement).outlineStyle})")
-            if predicate(info):
-                assert info["outline"] != "none", f"no visible focus on {info}"
-                return info
-        raise AssertionError("could not reach the control by Tab")
-
-    tab_to(lambda i: i["id"] == "images")
+    tab_to(page, lambda i: i["id"] == "images", limit=80)
     # Space on a focused file input opens the chooser; headless Chromium now and then ignores the
     # first key press right after load, so press it again (still keyboard only) if nothing opened.
     from playwright.sync_api import TimeoutError as PlaywrightTimeout
@@ -206,13 +196,13 @@ def test_the_same_flow_by_keyboard_alone_keeps_focus_on_the_progress_page(server
         except PlaywrightTimeout:
             assert attempt < 2, "the file chooser never opened from the keyboard"
     chooser.value.set_files([str(fixture("fept_spheres_sem.png")), str(fixture("test_tiff_Zeiss_SEM_1k.tif"))])
-    tab_to(lambda i: i["text"] == "Add images")
+    tab_to(page, lambda i: i["text"] == "Add images", limit=80)
     page.keyboard.press("Enter")
     page.wait_for_selector("text=Step 2 of 3", timeout=60000)
-    tab_to(lambda i: i["id"].startswith("preset-"))
+    tab_to(page, lambda i: i["id"].startswith("preset-"), limit=80)
     page.keyboard.press("ArrowLeft")  # arrow keys move within the radio group: Medium -> Low
     assert page.evaluate("document.activeElement.id") == "preset-low"
-    tab_to(lambda i: i["text"] == "Generate")
+    tab_to(page, lambda i: i["text"] == "Generate", limit=80)
     page.keyboard.press("Enter")
     page.wait_for_selector("#progress")
     page.evaluate("window.stillTheSamePage = true")  # gone if the page reloads
@@ -231,7 +221,7 @@ def test_the_same_flow_by_keyboard_alone_keeps_focus_on_the_progress_page(server
     assert any(t.startswith("Converting") for t in announced), announced
     assert page.locator("#job-status").get_attribute("role") == "status"
     assert page.locator("#job-status").inner_text().startswith("Done: 2 of 2 converted")
-    tab_to(lambda i: i["text"] == "Download everything (zip)")
+    tab_to(page, lambda i: i["text"] == "Download everything (zip)", limit=80)
     with page.expect_download(timeout=60000) as download:
         page.keyboard.press("Enter")
     mesh, names = zip_stl(download.value.path())

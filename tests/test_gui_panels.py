@@ -19,7 +19,7 @@ from PIL import Image
 
 from conftest import need
 from figures import grid_white_boxes, save, synthetic_texture
-from gui_support import audit, browser, form_token, png_bytes, screenshot, start_server, stop_server  # noqa: F401 (fixture)
+from gui_support import audit, browser, form_token, png_bytes, screenshot, start_server, stop_server, tab_to  # noqa: F401 (fixture)
 from tamp_os.clean.panels import Panel, PanelLayout
 from tamp_os.gui.panel_choice import (PANEL_THUMB_PX, PanelFound, checkbox_id, choice_errors, chosen_panels, find_panels,
                                       global_panel_error, panel_parameter, readme_note)
@@ -184,19 +184,8 @@ def test_off_or_a_grid_is_not_contradicted_by_the_checkboxes(server, images):
         assert "checked" in kept and "checked" not in re.search(r'<input type="checkbox" id="panel_0_b"[^>]*>', auto.text).group(0)
 
 
-def _tab_to(page, predicate, limit=120):
-    for _ in range(limit):
-        page.keyboard.press("Tab")
-        info = page.evaluate("() => ({id: document.activeElement.id, text: document.activeElement.textContent.trim(),"
-                             " outline: getComputedStyle(document.activeElement).outlineStyle})")
-        if predicate(info):
-            assert info["outline"] != "none", f"no visible focus on {info}"
-            return info
-    raise AssertionError("could not reach the control by Tab")
-
-
 def _space_toggles(page, box_id: str) -> None:
-    _tab_to(page, lambda i: i["id"] == box_id)
+    tab_to(page, lambda i: i["id"] == box_id)
     before = page.is_checked(f"#{box_id}")
     page.keyboard.press("Space")
     assert page.is_checked(f"#{box_id}") != before
@@ -209,7 +198,7 @@ def test_choose_a_figures_panels_by_keyboard_and_get_only_those(server, browser,
 
     page = browser.new_context(accept_downloads=True).new_page()
     page.goto(server)
-    _tab_to(page, lambda i: i["id"] == "images")
+    tab_to(page, lambda i: i["id"] == "images")
     for attempt in range(3):  # see test_gui.py: the first key press after load is now and then lost
         try:
             with page.expect_file_chooser(timeout=5000) as chooser:
@@ -218,7 +207,7 @@ def test_choose_a_figures_panels_by_keyboard_and_get_only_those(server, browser,
         except PlaywrightTimeout:
             assert attempt < 2, "the file chooser never opened from the keyboard"
     chooser.value.set_files([str(p) for p in images])
-    _tab_to(page, lambda i: i["text"] == "Add images")
+    tab_to(page, lambda i: i["text"] == "Add images")
     page.keyboard.press("Enter")
     page.wait_for_selector("h1:has-text('Step 2 of 3')", timeout=90000)
 
@@ -244,7 +233,7 @@ def test_choose_a_figures_panels_by_keyboard_and_get_only_those(server, browser,
     # None ticked: one error in the summary, which takes the focus and links to the first checkbox.
     for label in "abcd":
         _space_toggles(page, f"panel_0_{label}")
-    _tab_to(page, lambda i: i["text"] == "Generate")
+    tab_to(page, lambda i: i["text"] == "Generate")
     with page.expect_navigation():
         page.keyboard.press("Enter")
     assert page.title().startswith("Error:")
@@ -260,7 +249,7 @@ def test_choose_a_figures_panels_by_keyboard_and_get_only_those(server, browser,
     for label in "abd":
         _space_toggles(page, f"panel_0_{label}")
     assert [page.is_checked(f"#panel_0_{label}") for label in "abcd"] == [True, True, False, True]
-    _tab_to(page, lambda i: i["text"] == "Generate")
+    tab_to(page, lambda i: i["text"] == "Generate")
     page.keyboard.press("Enter")
     page.wait_for_selector("h1:has-text('Your lithographs')", timeout=300000)
     page.wait_for_timeout(500)  # the focus move to the results heading
@@ -281,7 +270,7 @@ def test_choose_a_figures_panels_by_keyboard_and_get_only_those(server, browser,
     audit(page, "results of a figure and a picture")
     screenshot(page, "panels-3-results")
 
-    _tab_to(page, lambda i: i["text"] == "Download everything (zip)")
+    tab_to(page, lambda i: i["text"] == "Download everything (zip)")
     with page.expect_download(timeout=60000) as download:
         page.keyboard.press("Enter")
     with zipfile.ZipFile(download.value.path()) as z:

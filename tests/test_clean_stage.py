@@ -41,6 +41,35 @@ def test_fept_label_box_is_the_bar(fixture):
     assert found.pixel_size.metres == pytest.approx(4e-6 / 158, rel=0.05)
 
 
+@pytest.mark.timeout(120)
+@pytest.mark.parametrize("name, bar_m, bar_px", [("sem_fei_sio2_particles_10kx.tif", 5e-6, 116), ("sem_fei_sio2_particles_35kx.tif", 2e-6, 162)])
+def test_fei_databar_box_removed_whole_and_its_bar_read(fixture, name, bar_m, bar_px):
+    """The FEI XL databar (fixtures README): a black box at rows 423-462, columns 43-618, white
+    words, the bar on its top edge with its label beside it. The whole box goes (not only the
+    bar), and the label beside the bar gives the scale."""
+    need(shutil.which("tesseract") is not None, "Tesseract OCR (apt-get install tesseract-ocr)")
+    cleaned = clean_picture(read_image(fixture(f"real/{name}")), pixel_size_m=None, remove_annotations=True)
+    boxes = [(a.rows, a.cols) for a in cleaned.annotations]
+    assert boxes == [((423, 463), (43, 619))]
+    assert cleaned.mask[423:463, 43:619].all() and not cleaned.mask[:400].any()
+    assert cleaned.pixel_size.provenance == "scale bar label"
+    assert cleaned.pixel_size.metres == pytest.approx(bar_m / bar_px, rel=0.03)
+
+
+@pytest.mark.timeout(60)
+def test_saturated_disc_on_black_is_picture_not_a_box():
+    """Two-tone counts as a box only inside a rectangular frame: a saturated bead on a black
+    ground (its bounding box's corners are the ground) stays in the picture."""
+    from tamp_os.clean.annotations import detect_annotations
+
+    yy, xx = np.mgrid[:200, :300]
+    values = np.full((200, 300), 0.0, np.float32)
+    values[60:200, 150:300] = 0.5  # some picture, so that black and white are both extremes
+    values[(yy - 60) ** 2 + (xx - 70) ** 2 < 30 ** 2] = 1.0
+    mask, found = detect_annotations(values)
+    assert not mask[40:80, 50:90].any() and found == []
+
+
 @pytest.mark.timeout(60)
 def test_natural_pictures_get_no_scale_and_no_warning():
     import skimage.data

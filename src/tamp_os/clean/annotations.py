@@ -70,7 +70,8 @@ def detect_annotations(values: np.ndarray) -> tuple[np.ndarray, list[Annotation]
         return mask, found
     h, w = values.shape
     tolerance = 0.02 * (hi - lo)
-    for saturated in (values >= hi - tolerance, values <= lo + tolerance):  # white, then black marks
+    white, black = values >= hi - tolerance, values <= lo + tolerance
+    for saturated, other in ((white, black), (black, white)):  # white marks, then black ones
         found_before = len(found)
         labels, n = ndimage.label(saturated)
         if n == 0:
@@ -85,7 +86,13 @@ def detect_annotations(values: np.ndarray) -> tuple[np.ndarray, list[Annotation]
                 found.append(Annotation("arrow", (sl[0].start, sl[0].stop), (sl[1].start, sl[1].stop)))
                 mask[sl] |= solid
                 continue
-            region = ndimage.binary_fill_holes(solid)
+            # A label box is two-tone: its colour and its text's, the opposite extreme. Text or a
+            # scale bar touching the box's edge is no hole, so it counts with the box here (a
+            # databar of white words on black, FEI XL style, has its bar on the top edge).
+            # Only a component whose four edges are mostly its own colour is taken so: a
+            # rectangle's border, not a bright disc on a dark ground (its corners are the ground).
+            framed = min(solid[0].mean(), solid[-1].mean(), solid[:, 0].mean(), solid[:, -1].mean()) >= 0.6
+            region = ndimage.binary_fill_holes(solid | other[sl] if framed else solid)
             fill = region.sum() / (bh * bw)
             if fill < 0.95 or min(bh, bw) < 3:
                 continue
@@ -125,8 +132,14 @@ def _mark_glyphs(saturated: np.ndarray, mask: np.ndarray, labelled: list[Annotat
     return glyphs
 
 
+def _inside(a: Annotation, b: Annotation) -> bool:
+    return a is not b and b.rows[0] <= a.rows[0] and a.rows[1] <= b.rows[1] and b.cols[0] <= a.cols[0] and a.cols[1] <= b.cols[1]
+
+
 def _merge_text(found: list[Annotation]) -> list[Annotation]:
-    """Report text glyphs as one entry per bar/box rather than one per letter."""
+    """Report text glyphs as one entry per bar/box rather than one per letter, and nothing that
+    lies inside a box (its letters and bar are removed with it)."""
+    found = [a for a in found if not any(_inside(a, b) for b in found if b.kind == "box")]
     boxes = [a for a in found if a.kind != "text"]
     texts = [a for a in found if a.kind == "text"]
     if texts:

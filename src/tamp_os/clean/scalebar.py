@@ -191,7 +191,34 @@ def find_bars(ink: np.ndarray, min_length_px: int = 20) -> list[Bar]:
         for block in (_text_block(text, own_rows[0] - 1, -1, cols, limit), _text_block(text, own_rows[-1] + 1, 1, cols, limit)):
             if block is not None and _looks_like_text(text[block[0] : block[1], cols]):
                 bars.append(Bar(length, block, (cols.start, cols.stop)))
+        rows = (int(own_rows[0]), int(own_rows[-1]) + 1)
+        for side in (_side_block(text, rows, c1, 1, length), _side_block(text, rows, c0 - 1, -1, length)):
+            if side is not None and _looks_like_text(text[rows[0] : rows[1], side[0] : side[1]]):
+                bars.append(Bar(length, _grow_rows(text, *rows, slice(*side)), side))
     return bars
+
+
+def _side_block(ink: np.ndarray, rows: tuple[int, int], start: int, step: int, length: int) -> tuple[int, int] | None:
+    """Columns of the words beside a bar, on its own line (FEI and many SEM databars write
+    "|----|  5 µm"): the first inked columns within half the bar's length of its end, up to a
+    blank run as wide as the line is tall (the space between a label and the next field)."""
+    inked = ink[rows[0] : rows[1]].any(axis=0)
+    gap_px = max(4, rows[1] - rows[0])
+    c, blank = start + step, 0
+    while 0 <= c < ink.shape[1] and not inked[c]:
+        c, blank = c + step, blank + 1
+        if blank > length // 2:
+            return None
+    if not 0 <= c < ink.shape[1]:
+        return None
+    first, last, blank = c, c, 0
+    while 0 <= c < ink.shape[1] and blank <= gap_px and abs(c - first) <= 2 * length:
+        if inked[c]:
+            last, blank = c, 0
+        else:
+            blank += 1
+        c += step
+    return (min(first, last), max(first, last) + 1)
 
 
 def _looks_like_text(block: np.ndarray) -> bool:
@@ -252,7 +279,8 @@ def scale_from_bars(regions: list[np.ndarray], boxes: list[np.ndarray], strips: 
         candidates += [(ink, bar) for bar in find_bars(ink)]
     for box in boxes:
         ink = ink_of(box)
-        inside = find_bars(ink, box.shape[1] // 3)
+        # A bar fills much of a small label box; in a wide databar box it is one field of several.
+        inside = find_bars(ink, min(box.shape[1] // 3, max(20, 2 * box.shape[0])))
         if not inside and _one_short_line(ink):  # the label box is the bar
             inside = [Bar(box.shape[1], (0, box.shape[0]), (0, box.shape[1]))]
         candidates += [(ink, bar) for bar in inside]

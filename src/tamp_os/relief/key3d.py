@@ -88,7 +88,11 @@ def key_strip(entries: tuple[KeyEntry, ...], *, width_mm: float, mm_per_px: floa
         for x, y_up in dot_centres(lines, spec, text_left_mm, 0.0):
             y_dn = text_top - y_up
             centres.append((x, y_dn))
-            d2 = ((xx - x) ** 2 + (yy - y_dn) ** 2) / r ** 2
-            dots = np.maximum(dots, spec.dot_height_mm * np.sqrt(np.clip(1 - d2, 0, 1)))
+            # only the grid points within the dot's radius can be raised: work on that window
+            y0, y1 = max(0, int((y_dn - r) / mm_per_px) - 1), min(rows, int((y_dn + r) / mm_per_px) + 2)
+            x0, x1 = max(0, int((x - r) / mm_per_px) - 1), min(cols, int((x + r) / mm_per_px) + 2)
+            d2 = ((xx[y0:y1, x0:x1] - x) ** 2 + (yy[y0:y1, x0:x1] - y_dn) ** 2) / r ** 2
+            win = dots[y0:y1, x0:x1]
+            np.maximum(win, spec.dot_height_mm * np.sqrt(np.clip(1 - d2, 0, 1)), out=win)
     h = np.maximum(h, dots)
     return KeyStrip(h, tuple(done), rows * mm_per_px - mm_per_px, tuple(centres), np.maximum(dots, outline))

@@ -509,3 +509,119 @@ def test_paper_graphic_of_a_channel_print_has_textures_and_a_braille_key(fixture
     path = save_graphic(g, tmp_path / "k.svg")
     svg = path.read_text()
     assert svg.count("<path") >= 1 and path.stat().st_size > 1000
+
+
+# ---- key labels that fit: at most two braille lines each, a bounded key depth ----------------
+
+def _read_key_braille_on_mesh(litho, rows_picture, strip):
+    """Each key entry's braille read from the mesh: every dot position of every cell in its braille
+    box sampled on the mesh (raised: above half the dot height), decoded to Unicode cells, lines
+    joined by a blank cell; and the number of lines."""
+    from tamp_os.tactile.braille import BLANK, DOT_POSITION
+
+    r, spec = litho.report, BrailleSpec()
+    mm = r.mm_per_px
+    ox, oy = r.tactile.relief_origin_mm if r.tactile else (0.0, 0.0)
+    v = litho.mesh.vertices
+    base = litho.params.base_mm
+    rad = spec.dot_diameter_mm / 2
+
+    def raised(x, y_dn):
+        X, Y = ox + x, oy + r.relief_mm[1] - ((rows_picture - 1) * mm + y_dn)
+        near = v[np.hypot(v[:, 0] - X, v[:, 1] - Y) < 0.6]
+        return len(near) > 0 and near[:, 2].max() - base > spec.dot_height_mm / 2
+
+    out = []
+    for _, (x0, y0, x1, y1) in strip.boxes_mm:
+        n_lines = round((y1 - y0 - spec.cell_height_mm) / spec.line_spacing_mm) + 1
+        n_cells = round((x1 - x0 - spec.dot_spacing_mm - spec.dot_diameter_mm) / spec.cell_spacing_mm) + 1
+        lines = []
+        for i in range(n_lines):
+            cells = ""
+            for j in range(n_cells):
+                bits = sum(1 << (d - 1) for d, (col, row) in DOT_POSITION.items() if d <= 6 and raised(
+                    x0 + rad + j * spec.cell_spacing_mm + col * spec.dot_spacing_mm,
+                    y0 + rad + i * spec.line_spacing_mm + row * spec.dot_spacing_mm))
+                cells += chr(0x2800 + bits)
+            lines.append(cells.rstrip(BLANK))
+        out.append((BLANK.join(lines), n_lines))
+    return out
+
+
+def _gap_mm(a, b):
+    dx = max(b[0] - a[2], a[0] - b[2], 0.0)
+    dy = max(b[1] - a[3], a[1] - b[3], 0.0)
+    return math.hypot(dx, dy)
+
+
+@pytest.mark.timeout(300)
+def test_real_nd2_key_labels_fit_two_lines_read_back_from_the_mesh(fixture):
+    need(liblouis_available(), "liblouis (braille key)")
+    from tamp_os.relief.key3d import MAX_LABEL_LINES, key_depth_bound_mm, key_strip
+    from tamp_os.tactile.braille import to_braille
+
+    litho = make_lithograph(fixture("real/nikon_pbmc_4ch.nd2"), width_mm=80)
+    r = litho.report
+    grew = float(next(str(w) for w in r.warnings if "grew by" in str(w)).split("grew by ")[1].split(" mm")[0])
+    assert grew <= key_depth_bound_mm(len(r.key)) + r.mm_per_px
+    rows_picture = litho.heightmap.shape[0] - round(grew / r.mm_per_px)
+    strip = key_strip(r.key, width_mm=r.relief_mm[0], mm_per_px=r.mm_per_px, relief_mm=litho.params.relief_mm,
+                      table=litho.params.braille_table)
+    assert strip.depth_mm == pytest.approx(grew, abs=r.mm_per_px)
+    read = _read_key_braille_on_mesh(litho, rows_picture, strip)
+    for e, (cells, n_lines) in zip(r.key, read):
+        assert n_lines <= MAX_LABEL_LINES
+        assert cells == e.braille == to_braille(e.braille_label, litho.params.braille_table)
+        assert "BP" not in e.braille_label  # the filter is not written in braille...
+    labels = {e.label for e in r.key}
+    assert {"spots (FITC BP)", "diffuse (TRITC BP)"} <= labels  # ...the full name stays in the report
+    assert "spots (FITC BP)" in r.relief_reason and any("shorter labels" in str(w) for w in r.warnings)
+    boxes = [b for pair in strip.boxes_mm for b in pair]
+    assert min(_gap_mm(a, b) for i, a in enumerate(boxes) for b in boxes[i + 1:]) >= KEY_GAP_MM - 1e-9
+
+
+@pytest.mark.timeout(120)
+def test_synthetic_long_names_shortened_or_cut_to_two_lines_and_two_columns_on_a_wide_plate():
+    need(liblouis_available(), "liblouis (braille key)")
+    from tamp_os.relief.channels import KeyEntry
+    from tamp_os.relief.key3d import SWATCH_H_MM as SWATCH_H_MM_
+    from tamp_os.relief.key3d import key_depth_bound_mm, key_strip
+    from tamp_os.relief.key_labels import label_forms
+    from tamp_os.tactile.braille import to_braille
+
+    spec = BrailleSpec()
+    two_lines_mm = spec.line_spacing_mm + spec.cell_height_mm
+    long_name = "Hoechst 33342 HyD 2 Leica/BP 460/50"
+    entries = (
+        KeyEntry(f"nuclei ({long_name})", "domes", key_forms=label_forms("nuclei", long_name)),
+        KeyEntry("mitochondria stained with a tetramethylrhodamine ester dye, imaged live", "ridges"),  # the user's words
+        KeyEntry("spots (Alexa Fluor 647 BP 690/50)", "dots", key_forms=label_forms("spots", "Alexa Fluor 647 BP 690/50")),
+    )
+    for width in (70.0, 100.0, 250.0):
+        strip = key_strip(entries, width_mm=width, mm_per_px=0.4, relief_mm=3.0, table="en-ueb-g2.ctb")
+        assert strip.depth_mm <= key_depth_bound_mm(len(entries)) + 0.4
+        for e, (swatch, text) in zip(strip.entries, strip.boxes_mm):
+            assert text[3] - text[1] <= two_lines_mm + 1e-9  # at most two braille lines
+            assert text[2] <= width - KEY_GAP_MM + 1e-9 and swatch[0] >= KEY_GAP_MM - 1e-9
+            assert "HyD" not in e.braille_label and "460" not in e.braille_label and "690" not in e.braille_label
+            full = to_braille(e.braille_label, "en-ueb-g2.ctb")
+            if e.key_forms:  # a form of the channel's name, written whole
+                assert e.braille == full
+            else:  # the user's own words: whole, or their first two lines
+                assert e.braille == full or full.replace("\u2800", "").startswith(e.braille.replace("\u2800", ""))
+        assert "Hoechst" in strip.entries[0].braille_label
+        if width == 70.0:  # the user's long words do not fit two lines there: cut, not a third line
+            assert strip.entries[1].braille != to_braille(strip.entries[1].label, "en-ueb-g2.ctb")
+        boxes = [b for pair in strip.boxes_mm for b in pair]
+        assert min(_gap_mm(a, b) for i, a in enumerate(boxes) for b in boxes[i + 1:]) >= KEY_GAP_MM - 1e-9
+    # four short labels on a wide plate: two columns, read row by row, half as deep as one column
+    four = tuple(KeyEntry(f"{role} ({dye})", enc, key_forms=label_forms(role, dye)) for role, dye, enc in
+                 (("nuclei", "DAPI", "domes"), ("lines", "GFP", "ridges"), ("spots", "Cy5", "dots"), ("diffuse", "RFP", "plateau")))
+    wide = key_strip(four, width_mm=250.0, mm_per_px=0.4, relief_mm=3.0, table="en-ueb-g2.ctb")
+    lefts = [sw[0] for sw, _ in wide.boxes_mm]
+    assert lefts[0] == lefts[2] < 250.0 / 2 < lefts[1] == lefts[3]
+    one_line_row = max(SWATCH_H_MM_, spec.cell_height_mm) + KEY_GAP_MM
+    assert wide.depth_mm == pytest.approx(KEY_GAP_MM + 2 * one_line_row, abs=0.4)  # to the grid step
+    assert [e.braille_label for e in wide.entries] == [e.label for e in four]  # nothing shortened: room enough
+    boxes = [b for pair in wide.boxes_mm for b in pair]
+    assert min(_gap_mm(a, b) for i, a in enumerate(boxes) for b in boxes[i + 1:]) >= KEY_GAP_MM - 1e-9

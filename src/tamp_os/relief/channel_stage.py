@@ -27,6 +27,7 @@ from .channels import (
     stain_relief,
 )
 from .channel_auto import OFF
+from .key_labels import label_forms
 from .preprocess import prepare
 
 
@@ -87,9 +88,13 @@ _ROLE = {"domes": "nuclei", "ridges": "filaments", "dots": "spots", "plateau": "
 _SHAPE_WORD = {"domes": "round blobs", "ridges": "lines", "dots": "spots", "plateau": "diffuse"}
 
 
-def _auto_label(choice) -> str:
+def _entry(choice, labels: dict[str, str]) -> KeyEntry:
+    given = labels.get(choice.name.lower())
+    if given is not None:  # the user's own words, written as given
+        return KeyEntry(given, choice.encoding)
     words = _SHAPE_WORD if choice.why in ("shape", "distinct") else _ROLE
-    return f"{words[choice.encoding]} ({choice.name})"
+    role = words[choice.encoding]
+    return KeyEntry(f"{role} ({choice.name})", choice.encoding, key_forms=label_forms(role, choice.name))
 
 
 def _as_cleaned(raw: list, cleaned) -> list:
@@ -138,7 +143,7 @@ def run(source, layout, params, route=None, cleaned=None) -> ChannelStage | None
     if len(chans) < 2 and not assigned:
         return None  # one channel with signal: nothing for a key to tell apart
     rel = channel_relief(chans, mm_per_px=mm, base_mm=params.base_mm, relief_mm=params.relief_mm, assigned=assigned)
-    key = tuple(KeyEntry(labels.get(ch.name.lower(), _auto_label(ch)), ch.encoding) for ch in rel.choices)
+    key = tuple(_entry(ch, labels) for ch in rel.choices)
     return ChannelStage(rel, key, "fluorescence")
 
 
@@ -159,6 +164,7 @@ def channel_path(source, relief, layout, params, route=None, cleaned=None):
     """
     import dataclasses
 
+    from ..tactile.braille import to_braille
     from .key3d import key_strip
     from .styles import ReliefResult
 
@@ -193,6 +199,14 @@ def channel_path(source, relief, layout, params, route=None, cleaned=None):
                else "The picture was printed channel by channel")
         notes += (Text(f"{how}, each a texture named in the key, because {route.why}; `channel` prints a single "
                        f"channel, and `channels` off prints the brightness as before."),)
+    short = [e for e in strip.entries if e.braille_label and e.braille_label != e.label]
+    if short:
+        notes += (Text("The key writes shorter labels in braille, to fit its lines: "
+                       + "; ".join(f"{e.braille_label!r} for {e.label!r}" for e in short) + "."),)
+    cut = [e.label for e in strip.entries if e.braille != to_braille(e.braille_label, params.braille_table, what="key_labels")]
+    if cut:
+        notes += (Text(f"The key's braille for {', '.join(map(repr, cut))} is cut to two lines; give a shorter label "
+                       f"with `key_labels`."),)
     notes += (Text(f"The plate grew by {grown.depth_mm - layout.depth_mm:.1f} mm along its depth to hold the "
                    f"braille key below the picture."),)
     out = ReliefResult(heights, "channels", reason, None, (), notes)

@@ -55,6 +55,11 @@ class KeyEntry:
     label: str
     encoding: str
     braille: str = ""
+    # what the braille writes when the label is too long for a key line ("spots (FITC)" for
+    # "spots (FITC BP)"); "" until the key is laid out (relief/key3d.py)
+    braille_label: str = ""
+    # the forms the key may write, fullest first, the last the dye alone (relief/key_labels.py); () = the label
+    key_forms: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)

@@ -97,24 +97,36 @@ def _entry(choice, labels: dict[str, str]) -> KeyEntry:
     return KeyEntry(f"{role} ({choice.name})", choice.encoding, key_forms=label_forms(role, choice.name))
 
 
-def _as_cleaned(raw: list, cleaned) -> list:
-    """Each channel cropped like the grey picture (its data band) and blank where annotations were removed."""
+def _as_cleaned(raw: list, cleaned) -> tuple[list, list]:
+    """Each channel cropped like the grey picture (its data band) and blank where annotations were
+    removed: those found on the grey picture (channel 0, or an RGB picture's luminance) from every
+    channel, and those found on each channel alone (a label burnt into one channel) from that
+    channel; with a note for each of the latter. Annotations kept (`keep_annotations`): cropped only."""
+    from ..clean.annotations import detect_annotations
+
     if cleaned is None:
-        return raw
+        return raw, []
     top, bottom = cleaned.band.top_rows, cleaned.band.bottom_rows
-    out = []
+    out, notes = [], []
     for name, values, ex, em in raw:
         if values.shape[0] == top + cleaned.values.shape[0] + bottom and values.shape[1] == cleaned.values.shape[1]:
             values = values[top: values.shape[0] - bottom]
-            if cleaned.mask is not None and cleaned.mask.shape == values.shape and cleaned.mask.any():
-                values = np.where(cleaned.mask, np.float32(np.median(values)), values)  # a scale bar is no channel's structure
+            if cleaned.mask is not None and cleaned.mask.shape == values.shape:
+                own, found = detect_annotations(values)
+                new = own & ~cleaned.mask
+                if found and new.any():
+                    notes.append(Text(f"Removed from the channel {name!r} alone (a mark burnt into it): "
+                                      f"{'; '.join(a.describe() for a in found)}."))
+                mask = cleaned.mask | own
+                if mask.any():
+                    values = np.where(mask, np.float32(np.median(values)), values)  # a scale bar is no channel's structure
         out.append((name, values, ex, em))
-    return out
+    return out, notes
 
 
 def run(source, layout, params, route=None, cleaned=None) -> ChannelStage | None:
     """The channel relief, or None when the picture has a single plain channel (the usual path then)."""
-    raw = _as_cleaned(_raw_channels(source, params), cleaned)
+    raw, cleaning_notes = _as_cleaned(_raw_channels(source, params), cleaned)
     names = [r[0] for r in raw]
     rgb = names[:3] == ["red", "green", "blue"]
     assigned = parse_assignments(params.channels) if route is None or route.kind == "assigned" else {}
@@ -128,6 +140,7 @@ def run(source, layout, params, route=None, cleaned=None) -> ChannelStage | None
             on_grid = [ChannelImage(c.name, _on_grid(c.image, layout, params)) for c in stain_channels(stack)]
             # stain densities are already 0..1; prepare() stretched them again, which keeps white at 0
             rel = stain_relief(on_grid, mm_per_px=mm, base_mm=params.base_mm, relief_mm=params.relief_mm)
+            rel.notes[:0] = cleaning_notes
             key = tuple(KeyEntry(labels.get(ch.name.lower(), STAIN_LABEL[ch.name]), ch.encoding) for ch in rel.choices)
             return ChannelStage(rel, key, "stain")
         fluorescence = route.kind == "fluorescence" if route is not None and route.kind != "assigned" else is_fluorescence_composite(stack)
@@ -142,7 +155,9 @@ def run(source, layout, params, route=None, cleaned=None) -> ChannelStage | None
     chans = [c for c in chans if float(c.image.max() - c.image.min()) > 1e-6] or chans  # empty (e.g. unused blue) left out
     if len(chans) < 2 and not assigned:
         return None  # one channel with signal: nothing for a key to tell apart
-    rel = channel_relief(chans, mm_per_px=mm, base_mm=params.base_mm, relief_mm=params.relief_mm, assigned=assigned)
+    rel = channel_relief(chans, mm_per_px=mm, base_mm=params.base_mm, relief_mm=params.relief_mm, assigned=assigned,
+                         section=route.section if route is not None else "")
+    rel.notes[:0] = cleaning_notes
     key = tuple(_entry(ch, labels) for ch in rel.choices)
     return ChannelStage(rel, key, "fluorescence")
 

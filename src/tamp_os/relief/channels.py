@@ -160,8 +160,9 @@ def tube_shape(mask: np.ndarray, mm_per_px: float) -> tuple[float, float]:
 _EIGHT = np.ones((3, 3), bool)  # components as skimage.measure.label finds them in 2-D (8-connected)
 
 
-def component_stats(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(labels, area px, major ÷ minor axis) of each 8-connected component of `mask`, index i = label i + 1.
+def component_stats(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(labels, area px, major ÷ minor axis, extent along rows ÷ along columns) of each 8-connected
+    component of `mask`, index i = label i + 1.
 
     One labelled pass: areas and second moments by np.bincount over the component's pixels (the
     axes of the ellipse with the same second moments, as skimage's regionprops defines them; the
@@ -178,7 +179,8 @@ def component_stats(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarra
     c = np.bincount(lab, dc * dc, minlength=n) / area
     half, root = (a + c) / 2, np.sqrt(((a - c) / 2) ** 2 + b ** 2)
     major, minor = 4 * np.sqrt(np.maximum(half + root, 0)), 4 * np.sqrt(np.maximum(half - root, 0))
-    return labels, area, major / np.maximum(minor, 1.0)
+    pixel = 1 / 12  # the variance of one pixel's extent: a one-pixel line is not infinitely thin
+    return labels, area, major / np.maximum(minor, 1.0), np.sqrt((a + pixel) / (c + pixel))
 
 
 def _solidity(labels: np.ndarray, which: np.ndarray) -> np.ndarray:
@@ -207,7 +209,7 @@ def measure_shape(image: np.ndarray, mm_per_px: float, mask: np.ndarray | None =
     sigma_px = max(1.0, 0.6 / mm_per_px)
     ridge = filters.sato(img, sigmas=[sigma_px], black_ridges=False)
     line_score = float((ridge[mask] > 0.5 * np.percentile(ridge[mask], 95)).mean()) if ridge[mask].max() > 0 else 0.0
-    labels, area, ratio = component_stats(mask)
+    labels, area, ratio, _ = component_stats(mask)
     big = area >= 4
     diam = float(np.median(np.sqrt(4 * area[big] / np.pi))) * mm_per_px if big.any() else 0.0
     structure = float(np.percentile(img, 99) - np.percentile(img, 50))
@@ -218,6 +220,36 @@ def measure_shape(image: np.ndarray, mm_per_px: float, mask: np.ndarray | None =
     if shape_ranking(shape)[0] == shape_ranking(dataclasses.replace(shape, roundness=1.0))[0]:
         return dataclasses.replace(shape, roundness=float("nan"))  # it decides nothing here
     return dataclasses.replace(shape, roundness=float(np.median(_solidity(labels, np.flatnonzero(big) + 1))))
+
+
+AXIAL_STRETCH_MAX = 4.0  # a confocal's axial PSF is 2-4x longer than its lateral one (more is a real structure)
+AXIAL_STRETCH_MIN = 1.2  # less is no stretch worth correcting
+
+
+def axial_stretch(masks: list[np.ndarray]) -> float:
+    """In an axial section (rows along Z), how much longer along the rows than across them its
+    structures are: the median, over the components of every channel (area ≥ 4 px), of their
+    extent along rows ÷ along columns, from 1 (no stretch) to AXIAL_STRETCH_MAX. Points imaged
+    side-on are stretched along Z by the optical PSF (and by a coarser Z step); every structure
+    of the section shares that stretch."""
+    ratios = []
+    for mask in masks:
+        _, area, _, along = component_stats(mask)
+        ratios.append(along[area >= 4])
+    ratios = np.concatenate(ratios) if ratios else np.zeros(0)
+    if not len(ratios):
+        return 1.0
+    return float(np.clip(np.median(ratios), 1.0, AXIAL_STRETCH_MAX))
+
+
+def squeeze_rows(image: np.ndarray, stretch: float) -> np.ndarray:
+    """`image` with its rows shrunk by `stretch` (an axial section's Z stretch undone), for measuring shapes."""
+    if stretch <= 1.0:
+        return image
+    from skimage.transform import resize
+
+    rows = max(4, round(image.shape[0] / stretch))
+    return resize(np.asarray(image, np.float64), (rows, image.shape[1]), order=1, anti_aliasing=True, preserve_range=True)
 
 
 def shape_ranking(shape: Shape) -> list[str]:
@@ -255,9 +287,10 @@ def foreground(img: np.ndarray) -> np.ndarray:
 
 def choose(channels: list[ChannelImage], assigned: dict[str, str], mm_per_px: float,
            max_channels: int = DEFAULT_MAX_CHANNELS,
-           masks: dict[str, np.ndarray] | None = None) -> tuple[list[ChannelChoice], list[str]]:
+           masks: dict[str, np.ndarray] | None = None, stretch: float = 1.0) -> tuple[list[ChannelChoice], list[str]]:
     """An encoding for each channel kept; a note when some are left out. `masks`: each channel's
-    foreground() by name, when already found."""
+    foreground() by name, when already found. `stretch` > 1: an axial section, its shapes measured
+    with the rows shrunk by it (squeeze_rows), so points the PSF drew long are not taken for lines."""
     notes = []
     if assigned:
         keep = [c for c in channels if c.name.lower() in assigned]
@@ -268,7 +301,10 @@ def choose(channels: list[ChannelImage], assigned: dict[str, str], mm_per_px: fl
                 f"{', '.join(c.name for c in channels)}."))
         return [ChannelChoice(c.name, assigned[c.name.lower()], "asked") for c in keep], notes
     masks = masks or {}
-    shapes = {c.name: measure_shape(c.image, mm_per_px, masks.get(c.name)) for c in channels}
+    if stretch > 1.0:
+        shapes = {c.name: measure_shape(squeeze_rows(c.image, stretch), mm_per_px) for c in channels}
+    else:
+        shapes = {c.name: measure_shape(c.image, mm_per_px, masks.get(c.name)) for c in channels}
     kept = channels
     if len(channels) > max_channels:
         kept = sorted(channels, key=lambda c: -shapes[c.name].structure)[:max_channels]
@@ -350,8 +386,12 @@ def encode(img: np.ndarray, encoding: str, mm_per_px: float, relief_mm: float, a
 
 
 def channel_relief(channels: list[ChannelImage], *, mm_per_px: float, base_mm: float, relief_mm: float,
-                   assigned: dict[str, str] | None = None, max_channels: int = DEFAULT_MAX_CHANNELS) -> ChannelRelief:
+                   assigned: dict[str, str] | None = None, max_channels: int = DEFAULT_MAX_CHANNELS,
+                   section: str = "") -> ChannelRelief:
     """Heights in mm (base included) where each chosen channel's region carries its texture.
+
+    `section` "XZ" (or "YZ"): the picture is an axial section, its rows along Z; shapes are
+    measured with the Z stretch its points share undone (axial_stretch), and a note says so.
 
     Where regions overlap the higher layer wins (domes over dots over ridges over plateau), so
     nuclei are never hidden by cytoplasm.
@@ -361,7 +401,19 @@ def channel_relief(channels: list[ChannelImage], *, mm_per_px: float, base_mm: f
                                   f"≥{MIN_FEATURE_MM:g} mm); use at least 1.7 mm."))
     # found once: the shape measures and the encoders share it
     found = {c.name: foreground(c.image) for c in channels if not assigned or c.name.lower() in assigned}
-    choices, notes = choose(channels, assigned or {}, mm_per_px, max_channels, found)
+    notes = []
+    stretch = axial_stretch(list(found.values())) if section and not assigned else 1.0
+    if section:
+        notes.append(Text(
+            f"The picture is an {section} section (a side view: its rows run along Z, the optical axis). "
+            + (f"Its structures are {stretch:.1f}× longer along Z than across, as the optical blur along the axis "
+               f"draws points; their shapes were measured with Z shrunk by that, so round objects (beads, nuclei) "
+               f"are not taken for lines." if stretch >= AXIAL_STRETCH_MIN else
+               "Its structures are not stretched along Z; their shapes were measured as they are.")))
+    if stretch < AXIAL_STRETCH_MIN:
+        stretch = 1.0
+    choices, chose_notes = choose(channels, assigned or {}, mm_per_px, max_channels, found, stretch)
+    notes += chose_notes
     by_name = {c.name: c for c in channels}
     heights = np.zeros(channels[0].image.shape)
     masks = {}

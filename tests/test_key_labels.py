@@ -22,3 +22,12 @@ def test_label_forms_fullest_first_dye_last_no_acquisition_words():
     assert all("BP" not in f for f in forms)
     assert [len(f) for f in forms] == sorted((len(f) for f in forms), reverse=True)
     assert label_forms("nuclei", "DAPI")[-1] == "DAPI" and len(set(label_forms("nuclei", "DAPI"))) == 3
+
+
+@pytest.mark.parametrize("short, compact", [("Alexa Fluor 647", "AF647"), ("Alexa 488", "AF488"), ("alexa-594", "AF594"),
+                                            ("FITC", "FITC"), ("Alexa Fluor", "Alexa Fluor")])
+def test_compact_dye_is_the_usual_abbreviation_and_last_among_the_forms(short, compact):
+    from tamp_os.relief.key_labels import compact_dye
+
+    assert compact_dye(short) == compact
+    assert label_forms("lines", short)[-1] == compact

@@ -94,7 +94,7 @@ def _entry(choice, labels: dict[str, str]) -> KeyEntry:
         return KeyEntry(given, choice.encoding)
     words = _SHAPE_WORD if choice.why in ("shape", "distinct") else _ROLE
     role = words[choice.encoding]
-    return KeyEntry(f"{role} ({choice.name})", choice.encoding, key_forms=label_forms(role, choice.name))
+    return KeyEntry(f"{role} ({choice.name})", choice.encoding, key_forms=label_forms(role, choice.name), key_role=role)
 
 
 def _as_cleaned(raw: list, cleaned) -> tuple[list, list]:

@@ -60,6 +60,7 @@ class KeyEntry:
     braille_label: str = ""
     # the forms the key may write, fullest first, the last the dye alone (relief/key_labels.py); () = the label
     key_forms: tuple[str, ...] = ()
+    key_role: str = ""  # the role words the forms begin with ("nuclei"): on two lines, the first line
 
 
 @dataclass(frozen=True)

@@ -63,31 +63,39 @@ class _Placed:
 
 
 def _fit(entry: KeyEntry, table: str, max_cells: int) -> tuple[str, str, list[str], int]:
-    """(form written, its braille, its lines, how much was lost: 0 nothing, 1 the role word, 2 cut).
+    """(form written, its braille, its lines, what was lost: 0 nothing, 1 the role word, 2 a word
+    split across the lines, 3 the end cut off).
 
-    The fullest form with its role word on one line, else the fullest with it on two lines, else
-    the dye alone; never a word split across lines, except, when nothing fits, the shortest form
-    cut to two lines."""
+    The fullest form with its role word on one line; else, on two lines, the shortest with its role
+    word first (the name on its own line needs no parentheses: "nuclei" / "DAPI"); else the dye
+    alone. Only when even that does not fit two lines whole is a word split across them, and only
+    when it needs more than two lines is its end cut off."""
     forms = tuple(entry.key_forms) or (entry.label,)
+    role = to_braille(entry.key_role, table, what="key_labels") if entry.key_role else ""
     wrapped = []
     for form in forms:
         braille = to_braille(form, table, what="key_labels")
         whole = all(len(word) <= max_cells for word in braille.split(BLANK))
-        wrapped.append((form, braille, wrap_cells(braille, max_cells), whole))
+        lines = wrap_cells(braille, max_cells)
+        rest = braille[len(role) + 1:]
+        if (len(lines) > 1 and role and braille.startswith(role + BLANK) and len(role) <= max_cells
+                and len(wrap_cells(rest, max_cells)) == 1):
+            lines = [role, rest]  # the role on the first line, the name on the second
+        wrapped.append((form, braille, lines, whole))
     with_role = wrapped[:-1] if len(wrapped) > 1 else wrapped
-    for most_lines, lost in ((1, 0), (MAX_LABEL_LINES, 0)):
-        for form, braille, lines, whole in with_role:
+    for most_lines, order in ((1, with_role), (MAX_LABEL_LINES, with_role[::-1])):
+        for form, braille, lines, whole in order:
             if whole and len(lines) <= most_lines:
-                return form, braille, lines, lost
+                return form, braille, lines, 0
     form, braille, lines, whole = wrapped[-1]
-    if whole and len(lines) <= MAX_LABEL_LINES:
-        return form, braille, lines, int(len(wrapped) > 1)
-    return form, BLANK.join(lines[:MAX_LABEL_LINES]), lines[:MAX_LABEL_LINES], 2
+    if len(lines) <= MAX_LABEL_LINES:
+        return form, braille, lines, int(len(wrapped) > 1) if whole else 2
+    return form, BLANK.join(lines[:MAX_LABEL_LINES]), lines[:MAX_LABEL_LINES], 3
 
 
 def _layout(entries, table: str, spec: BrailleSpec, width_mm: float, columns: int):
     """Entries placed in `columns` columns, read row by row; (placed, depth in mm, what each label lost
-    (sorted, worst first: 2 cut, 1 the role word, 0 nothing))."""
+    (_fit's codes, worst first))."""
     col_w = (width_mm - KEY_GAP_MM) / columns  # each column: gap, swatch, gap, braille; the next column's gap closes it
     placed, loss, y = [], [], KEY_GAP_MM
     for start in range(0, len(entries), columns):
@@ -97,7 +105,7 @@ def _layout(entries, table: str, spec: BrailleSpec, width_mm: float, columns: in
             text_w = (left + col_w) - (left + KEY_GAP_MM + SWATCH_W_MM + KEY_GAP_MM)
             max_cells = int((text_w - spec.dot_spacing_mm - spec.dot_diameter_mm) // spec.cell_spacing_mm) + 1
             if max_cells < 1:
-                return [], math.inf, [3] * len(entries)
+                return [], math.inf, [4] * len(entries)
             form, braille, lines, lost = _fit(e, table, max_cells)
             loss.append(lost)
             done = dataclasses.replace(e, braille=braille, braille_label=form)

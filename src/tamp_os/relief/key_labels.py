@@ -36,12 +36,18 @@ def short_channel_name(name: str) -> str:
 _BAND = re.compile(r"\b\d{3}\s*[-/]\s*\d{2,3}(?:\s*nm)?\b|\b(?:bp|lp|sp)\b", re.IGNORECASE)
 
 
+def compact_dye(short: str) -> str:
+    """The dye's usual short writing: "Alexa Fluor 647" and "Alexa 647" -> "AF647"; others as they are."""
+    return re.sub(r"^alexa(?:\s*fluor)?[\s-]*(\d{3})$", r"AF\1", short.strip(), flags=re.IGNORECASE)
+
+
 def label_forms(role: str, name: str) -> tuple[str, ...]:
     """The forms a key line may write for "role (name)", fullest first, without repeats; the dye
-    alone is last. Acquisition words are never written: "spots (FITC)" is the fullest for "FITC BP"."""
+    alone (compact_dye) is last. Acquisition words are never written: "spots (FITC)" is the
+    fullest for "FITC BP"."""
     short = short_channel_name(name)
     out: list[str] = []
-    for f in (f"{role} ({short})", f"{role} {short}", short):
+    for f in (f"{role} ({short})", f"{role} {short}", f"{role} {compact_dye(short)}", compact_dye(short)):
         if f not in out:
             out.append(f)
     return tuple(out)

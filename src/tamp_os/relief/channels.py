@@ -405,12 +405,14 @@ def channel_relief(channels: list[ChannelImage], *, mm_per_px: float, base_mm: f
     notes = []
     stretch = axial_stretch(list(found.values())) if section and not assigned else 1.0
     if section:
-        notes.append(Text(
-            f"The picture is an {section} section (a side view: its rows run along Z, the optical axis). "
-            + (f"Its structures are {stretch:.1f}× longer along Z than across, as the optical blur along the axis "
-               f"draws points; their shapes were measured with Z shrunk by that, so round objects (beads, nuclei) "
-               f"are not taken for lines." if stretch >= AXIAL_STRETCH_MIN else
-               "Its structures are not stretched along Z; their shapes were measured as they are.")))
+        said = f"The picture is an {section} section (a side view: its rows run along Z, the optical axis)."
+        if stretch >= AXIAL_STRETCH_MIN:
+            said += (f" Its structures are {stretch:.1f}× longer along Z than across, as the optical blur along the axis "
+                     f"draws points; their shapes were measured with Z shrunk by that, so round objects (beads, nuclei) "
+                     f"are not taken for lines.")
+        elif not assigned:
+            said += " Its structures are not stretched along Z; their shapes were measured as they are."
+        notes.append(Text(said))
     if stretch < AXIAL_STRETCH_MIN:
         stretch = 1.0
     choices, chose_notes = choose(channels, assigned or {}, mm_per_px, max_channels, found, stretch)

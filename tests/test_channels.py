@@ -509,3 +509,234 @@ def test_paper_graphic_of_a_channel_print_has_textures_and_a_braille_key(fixture
     path = save_graphic(g, tmp_path / "k.svg")
     svg = path.read_text()
     assert svg.count("<path") >= 1 and path.stat().st_size > 1000
+
+
+# ---- key labels that fit: at most two braille lines each, a bounded key depth ----------------
+
+def _read_key_braille_on_mesh(litho, rows_picture, strip):
+    """Each key entry's braille read from the mesh: every dot position of every cell in its braille
+    box sampled on the mesh (raised: above half the dot height), decoded to Unicode cells, lines
+    joined by a blank cell; and the number of lines."""
+    from tamp_os.tactile.braille import BLANK, DOT_POSITION
+
+    r, spec = litho.report, BrailleSpec()
+    mm = r.mm_per_px
+    ox, oy = r.tactile.relief_origin_mm if r.tactile else (0.0, 0.0)
+    v = litho.mesh.vertices
+    base = litho.params.base_mm
+    rad = spec.dot_diameter_mm / 2
+
+    def raised(x, y_dn):
+        X, Y = ox + x, oy + r.relief_mm[1] - ((rows_picture - 1) * mm + y_dn)
+        near = v[np.hypot(v[:, 0] - X, v[:, 1] - Y) < 0.6]
+        return len(near) > 0 and near[:, 2].max() - base > spec.dot_height_mm / 2
+
+    out = []
+    for _, (x0, y0, x1, y1) in strip.boxes_mm:
+        n_lines = round((y1 - y0 - spec.cell_height_mm) / spec.line_spacing_mm) + 1
+        n_cells = round((x1 - x0 - spec.dot_spacing_mm - spec.dot_diameter_mm) / spec.cell_spacing_mm) + 1
+        lines = []
+        for i in range(n_lines):
+            cells = ""
+            for j in range(n_cells):
+                bits = sum(1 << (d - 1) for d, (col, row) in DOT_POSITION.items() if d <= 6 and raised(
+                    x0 + rad + j * spec.cell_spacing_mm + col * spec.dot_spacing_mm,
+                    y0 + rad + i * spec.line_spacing_mm + row * spec.dot_spacing_mm))
+                cells += chr(0x2800 + bits)
+            lines.append(cells.rstrip(BLANK))
+        out.append((BLANK.join(lines), n_lines))
+    return out
+
+
+def _gap_mm(a, b):
+    dx = max(b[0] - a[2], a[0] - b[2], 0.0)
+    dy = max(b[1] - a[3], a[1] - b[3], 0.0)
+    return math.hypot(dx, dy)
+
+
+@pytest.mark.timeout(300)
+def test_real_nd2_key_labels_fit_two_lines_read_back_from_the_mesh(fixture):
+    need(liblouis_available(), "liblouis (braille key)")
+    from tamp_os.relief.key3d import MAX_LABEL_LINES, key_depth_bound_mm, key_strip
+    from tamp_os.tactile.braille import to_braille
+
+    litho = make_lithograph(fixture("real/nikon_pbmc_4ch.nd2"), width_mm=80)
+    r = litho.report
+    grew = float(next(str(w) for w in r.warnings if "grew by" in str(w)).split("grew by ")[1].split(" mm")[0])
+    assert grew <= key_depth_bound_mm(len(r.key)) + r.mm_per_px
+    rows_picture = litho.heightmap.shape[0] - round(grew / r.mm_per_px)
+    strip = key_strip(r.key, width_mm=r.relief_mm[0], mm_per_px=r.mm_per_px, relief_mm=litho.params.relief_mm,
+                      table=litho.params.braille_table)
+    assert strip.depth_mm == pytest.approx(grew, abs=r.mm_per_px)
+    read = _read_key_braille_on_mesh(litho, rows_picture, strip)
+    for e, (cells, n_lines) in zip(r.key, read):
+        assert n_lines <= MAX_LABEL_LINES
+        assert cells == e.braille == to_braille(e.braille_label, litho.params.braille_table)
+        assert "BP" not in e.braille_label  # the filter is not written in braille...
+    labels = {e.label for e in r.key}
+    assert {"spots (FITC BP)", "diffuse (TRITC BP)"} <= labels  # ...the full name stays in the report
+    assert "spots (FITC BP)" in r.relief_reason and any("shorter labels" in str(w) for w in r.warnings)
+    boxes = [b for pair in strip.boxes_mm for b in pair]
+    assert min(_gap_mm(a, b) for i, a in enumerate(boxes) for b in boxes[i + 1:]) >= KEY_GAP_MM - 1e-9
+
+
+@pytest.mark.timeout(120)
+def test_synthetic_long_names_shortened_or_cut_to_two_lines_and_two_columns_on_a_wide_plate():
+    need(liblouis_available(), "liblouis (braille key)")
+    from tamp_os.relief.channels import KeyEntry
+    from tamp_os.relief.key3d import SWATCH_H_MM as SWATCH_H_MM_
+    from tamp_os.relief.key3d import key_depth_bound_mm, key_strip
+    from tamp_os.relief.key_labels import label_forms
+    from tamp_os.tactile.braille import to_braille
+
+    spec = BrailleSpec()
+    two_lines_mm = spec.line_spacing_mm + spec.cell_height_mm
+    long_name = "Hoechst 33342 HyD 2 Leica/BP 460/50"
+    entries = (
+        KeyEntry(f"nuclei ({long_name})", "domes", key_forms=label_forms("nuclei", long_name)),
+        KeyEntry("mitochondria stained with a tetramethylrhodamine ester dye, imaged live", "ridges"),  # the user's words
+        KeyEntry("spots (Alexa Fluor 647 BP 690/50)", "dots", key_forms=label_forms("spots", "Alexa Fluor 647 BP 690/50")),
+    )
+    for width in (70.0, 100.0, 250.0):
+        strip = key_strip(entries, width_mm=width, mm_per_px=0.4, relief_mm=3.0, table="en-ueb-g2.ctb")
+        assert strip.depth_mm <= key_depth_bound_mm(len(entries)) + 0.4
+        for e, (swatch, text) in zip(strip.entries, strip.boxes_mm):
+            assert text[3] - text[1] <= two_lines_mm + 1e-9  # at most two braille lines
+            assert text[2] <= width - KEY_GAP_MM + 1e-9 and swatch[0] >= KEY_GAP_MM - 1e-9
+            assert "HyD" not in e.braille_label and "460" not in e.braille_label and "690" not in e.braille_label
+            full = to_braille(e.braille_label, "en-ueb-g2.ctb")
+            if e.key_forms:  # a form of the channel's name, written whole
+                assert e.braille == full
+            else:  # the user's own words: whole, or their first two lines
+                assert e.braille == full or full.replace("\u2800", "").startswith(e.braille.replace("\u2800", ""))
+        assert "Hoechst" in strip.entries[0].braille_label
+        if width == 70.0:  # the user's long words do not fit two lines there: cut, not a third line
+            assert strip.entries[1].braille != to_braille(strip.entries[1].label, "en-ueb-g2.ctb")
+        boxes = [b for pair in strip.boxes_mm for b in pair]
+        assert min(_gap_mm(a, b) for i, a in enumerate(boxes) for b in boxes[i + 1:]) >= KEY_GAP_MM - 1e-9
+    # four short labels on a wide plate: two columns, read row by row, half as deep as one column
+    four = tuple(KeyEntry(f"{role} ({dye})", enc, key_forms=label_forms(role, dye)) for role, dye, enc in
+                 (("nuclei", "DAPI", "domes"), ("lines", "GFP", "ridges"), ("spots", "Cy5", "dots"), ("diffuse", "RFP", "plateau")))
+    wide = key_strip(four, width_mm=250.0, mm_per_px=0.4, relief_mm=3.0, table="en-ueb-g2.ctb")
+    lefts = [sw[0] for sw, _ in wide.boxes_mm]
+    assert lefts[0] == lefts[2] < 250.0 / 2 < lefts[1] == lefts[3]
+    one_line_row = max(SWATCH_H_MM_, spec.cell_height_mm) + KEY_GAP_MM
+    assert wide.depth_mm == pytest.approx(KEY_GAP_MM + 2 * one_line_row, abs=0.4)  # to the grid step
+    assert [e.braille_label for e in wide.entries] == [e.label for e in four]  # nothing shortened: room enough
+    boxes = [b for pair in wide.boxes_mm for b in pair]
+    assert min(_gap_mm(a, b) for i, a in enumerate(boxes) for b in boxes[i + 1:]) >= KEY_GAP_MM - 1e-9
+
+
+# ---- axial sections: points the PSF drew long along Z are still round objects -----------------
+
+def _xz_beads_and_a_layer(rows=240, cols=240, stretch=3.0):
+    """An XZ section: beads 4 px across, drawn `stretch` times longer along Z (rows), and a
+    second channel with two thin layers along X (a coverslip and a membrane, seen side-on)."""
+    yy, xx = np.mgrid[0:rows, 0:cols]
+    beads = np.zeros((rows, cols))
+    rng = np.random.default_rng(5)
+    for cy, cx in rng.integers(30, rows - 30, size=(25, 2)):
+        beads = np.maximum(beads, np.exp(-((xx - cx) ** 2 / (2 * 2.5 ** 2) + (yy - cy) ** 2 / (2 * (2.5 * stretch) ** 2))))
+    layer = np.zeros((rows, cols))
+    for y0 in (60, 170):
+        layer[np.abs(yy - y0) < 2] = 1.0
+    return beads, layer
+
+
+@pytest.mark.timeout(60)
+def test_axial_section_beads_are_not_lines_and_layers_stay_lines():
+    from tamp_os.relief.channels import axial_stretch, foreground
+
+    beads, layer = _xz_beads_and_a_layer()
+    chans = [ChannelImage("channel 0", beads), ChannelImage("channel 1", layer)]
+    as_top_view = channel_relief(chans, mm_per_px=0.4, base_mm=1.0, relief_mm=3.0)
+    side = channel_relief(chans, mm_per_px=0.4, base_mm=1.0, relief_mm=3.0, section="XZ")
+    assert {c.name: c.encoding for c in as_top_view.choices}["channel 0"] == "ridges"  # what went wrong before
+    got = {c.name: c.encoding for c in side.choices}
+    assert got["channel 0"] in ("domes", "dots") and got["channel 1"] == "ridges"
+    stretch = axial_stretch([foreground(beads), foreground(layer)])
+    assert 2.0 <= stretch <= 4.0  # drawn 3x longer; the Otsu outline of a Gaussian is a little rounder
+    assert any("XZ section" in str(n) and "longer along Z" in str(n) for n in side.notes)
+    # a section whose structures are not stretched is measured as it is, and says so
+    plain = channel_relief([ChannelImage("a", _synthetic_channels()[0]), ChannelImage("b", _synthetic_channels()[2])],
+                           mm_per_px=0.3, base_mm=1.0, relief_mm=3.0, section="XZ")
+    assert any("not stretched" in str(n) for n in plain.notes)
+
+
+@pytest.mark.timeout(300)
+def test_real_leica_xz_beads_print_as_domes_or_dots_and_the_report_says_xz(fixture):
+    need(liblouis_available(), "liblouis (braille key)")
+    path = fixture("real/leica_beads_xz_2ch.lif")
+    for scene in (None, 2):  # `xzt` (the default) and `xz`, the 512x512 section
+        litho = make_lithograph(path, width_mm=100, scene=scene)
+        r = litho.report
+        assert sorted(e.encoding for e in r.key) == ["domes", "dots"], [(e.label, e.encoding) for e in r.key]
+        assert any("XZ section" in str(w) for w in r.warnings)
+        h = litho.heightmap - litho.params.base_mm
+        # the beads stand: every channel's structures raised at least 0.5 mm (as the benchmark measures)
+        from skimage import filters
+        from skimage.transform import resize
+
+        from tamp_os.relief import channel_stage
+
+        grew = float(next(str(w) for w in r.warnings if "grew by" in str(w)).split("grew by ")[1].split(" mm")[0])
+        pic = h[: h.shape[0] - round(grew / r.mm_per_px)]
+        for _, values, _, _ in channel_stage._raw_channels(path, litho.params):
+            v = resize(values.astype(np.float64), pic.shape, anti_aliasing=True)
+            s = v > filters.threshold_otsu(v)
+            assert float((pic[s] >= 0.5).mean()) > 0.8
+
+
+# ---- annotations burnt into one channel ---------------------------------------------------------
+
+@pytest.mark.timeout(300)
+def test_label_burnt_into_channel_1_only_is_removed_from_it_and_channel_0_keeps_its_nucleus(tmp_path):
+    need(liblouis_available(), "liblouis (braille key)")
+    import tifffile
+    from PIL import Image, ImageDraw
+
+    n, f, s = _synthetic_channels(300, 300)
+    yy, xx = np.mgrid[0:300, 0:300]
+    under = (yy - 276) ** 2 + (xx - 240) ** 2 < 11 ** 2  # a nucleus of channel 0 under channel 1's label
+    ch0 = ((np.maximum(n, under) * 200) + 10).astype(np.uint16)
+    ch1 = (s * 180 + f * 120 + 10).astype(np.uint16)
+    box = Image.fromarray(np.zeros((300, 300), np.uint8))
+    draw = ImageDraw.Draw(box)
+    draw.rectangle([190, 262, 290, 290], fill=255)  # a white label box with dark text, as a viewer burns it in
+    draw.text((196, 268), "GFP 10 um", fill=0)
+    label = np.asarray(box) > 128
+    ch1 = np.where(label, 4095, ch1).astype(np.uint16)  # the camera's white, only in channel 1
+    path = tmp_path / "two_channels.tif"
+    tifffile.imwrite(path, np.stack([ch0, ch1]), imagej=True, metadata={"axes": "CYX"})
+
+    litho = make_lithograph(path, width_mm=90)
+    r = litho.report
+    assert r.relief_style == "channels" and len(r.key) == 2
+    assert any("'channel 1' alone" in str(w) and "box" in str(w) for w in r.warnings)
+    pic = litho.heightmap[: round(90 / r.mm_per_px) + 1] - litho.params.base_mm
+    k = pic.shape[0] / 300
+
+    def grid(mask):
+        from skimage.transform import resize
+
+        return resize(mask.astype(float), pic.shape, order=0) > 0.5
+
+    box_on_grid = grid(label) & ~grid(ndi_dilate(under, 8))  # the label's box, away from the nucleus under it
+    assert float((pic[box_on_grid] >= 0.5).mean()) < 0.02  # no raised block where the label was
+    assert pic[round(276 * k), round(240 * k)] >= 1.0  # channel 0's nucleus under it still stands
+    # elsewhere the print is the one the same picture makes without the label
+    clean = tmp_path / "two_channels_no_label.tif"
+    tifffile.imwrite(clean, np.stack([ch0, np.where(label, (s * 180 + f * 120 + 10), ch1).astype(np.uint16)]),
+                     imagej=True, metadata={"axes": "CYX"})
+    plain = make_lithograph(clean, width_mm=90)
+    assert not any("alone" in str(w) for w in plain.report.warnings)
+    other = plain.heightmap[: pic.shape[0]] - litho.params.base_mm
+    away = ~grid(ndi_dilate(label, 6))
+    assert float((np.abs(pic - other)[away] > 0.05).mean()) < 0.01
+    assert float((pic[away & grid((s + f) > 0)] >= 0.5).mean()) > 0.5  # and channel 1's structures stand there
+
+
+def ndi_dilate(mask, px):
+    from scipy import ndimage as ndi
+
+    return ndi.binary_dilation(mask, iterations=px)

@@ -151,6 +151,15 @@ class Route:
 
     kind: str
     why: str
+    section: str = ""  # "XZ" or "YZ" when the picture is an axial section (its rows run along Z), else ""
+
+
+def axial_section(picture) -> str:
+    """"XZ" (or "YZ") when the file says the picture's rows run along Z (a side view), else ""."""
+    axes = (picture.file.metadata.get("vendor") or {}).get("picture_axes") if picture is not None else None
+    if isinstance(axes, dict) and axes.get("rows") == "Z":
+        return f"{axes.get('columns', 'X')}Z"
+    return ""
 
 
 def route(source, picture, params) -> Route | None:
@@ -165,13 +174,14 @@ def route(source, picture, params) -> Route | None:
                 f"`channel` {params.channel} prints one channel and `channels` {params.channels} prints several; "
                 f"give one of them (or `channels` off)."), parameter="channels", value=params.channels)
         return None
+    section = axial_section(picture)
     if mode == "assigned":
-        return Route("assigned", "channels assigned by `channels`")
+        return Route("assigned", "channels assigned by `channels`", section)
     if not isinstance(source, (str, Path, np.ndarray)):
         return None  # a Picture read before: its channels are gone (only its luminance is kept)
     file = picture.file
     if file.channels == 1 and file.channel_count > 1:
-        return Route("channels", f"the file has {file.channel_count} channels")
+        return Route("channels", f"the file has {file.channel_count} channels", section)
     if file.channels >= 3 and file.colour_sample is not None:
         kind, why = colour_kind(colour_facts(file.colour_sample))
         if kind != "plain":

@@ -27,6 +27,7 @@ from .channels import (
     stain_relief,
 )
 from .channel_auto import OFF
+from .key_labels import label_forms
 from .preprocess import prepare
 
 
@@ -87,29 +88,45 @@ _ROLE = {"domes": "nuclei", "ridges": "filaments", "dots": "spots", "plateau": "
 _SHAPE_WORD = {"domes": "round blobs", "ridges": "lines", "dots": "spots", "plateau": "diffuse"}
 
 
-def _auto_label(choice) -> str:
+def _entry(choice, labels: dict[str, str]) -> KeyEntry:
+    given = labels.get(choice.name.lower())
+    if given is not None:  # the user's own words, written as given
+        return KeyEntry(given, choice.encoding)
     words = _SHAPE_WORD if choice.why in ("shape", "distinct") else _ROLE
-    return f"{words[choice.encoding]} ({choice.name})"
+    role = words[choice.encoding]
+    return KeyEntry(f"{role} ({choice.name})", choice.encoding, key_forms=label_forms(role, choice.name), key_role=role)
 
 
-def _as_cleaned(raw: list, cleaned) -> list:
-    """Each channel cropped like the grey picture (its data band) and blank where annotations were removed."""
+def _as_cleaned(raw: list, cleaned) -> tuple[list, list]:
+    """Each channel cropped like the grey picture (its data band) and blank where annotations were
+    removed: those found on the grey picture (channel 0, or an RGB picture's luminance) from every
+    channel, and those found on each channel alone (a label burnt into one channel) from that
+    channel; with a note for each of the latter. Annotations kept (`keep_annotations`): cropped only."""
+    from ..clean.annotations import detect_annotations
+
     if cleaned is None:
-        return raw
+        return raw, []
     top, bottom = cleaned.band.top_rows, cleaned.band.bottom_rows
-    out = []
+    out, notes = [], []
     for name, values, ex, em in raw:
         if values.shape[0] == top + cleaned.values.shape[0] + bottom and values.shape[1] == cleaned.values.shape[1]:
             values = values[top: values.shape[0] - bottom]
-            if cleaned.mask is not None and cleaned.mask.shape == values.shape and cleaned.mask.any():
-                values = np.where(cleaned.mask, np.float32(np.median(values)), values)  # a scale bar is no channel's structure
+            if cleaned.mask is not None and cleaned.mask.shape == values.shape:
+                own, found = detect_annotations(values)
+                new = own & ~cleaned.mask
+                if found and new.any():
+                    notes.append(Text(f"Removed from the channel {name!r} alone (a mark burnt into it): "
+                                      f"{'; '.join(a.describe() for a in found)}."))
+                mask = cleaned.mask | own
+                if mask.any():
+                    values = np.where(mask, np.float32(np.median(values)), values)  # a scale bar is no channel's structure
         out.append((name, values, ex, em))
-    return out
+    return out, notes
 
 
 def run(source, layout, params, route=None, cleaned=None) -> ChannelStage | None:
     """The channel relief, or None when the picture has a single plain channel (the usual path then)."""
-    raw = _as_cleaned(_raw_channels(source, params), cleaned)
+    raw, cleaning_notes = _as_cleaned(_raw_channels(source, params), cleaned)
     names = [r[0] for r in raw]
     rgb = names[:3] == ["red", "green", "blue"]
     assigned = parse_assignments(params.channels) if route is None or route.kind == "assigned" else {}
@@ -123,6 +140,7 @@ def run(source, layout, params, route=None, cleaned=None) -> ChannelStage | None
             on_grid = [ChannelImage(c.name, _on_grid(c.image, layout, params)) for c in stain_channels(stack)]
             # stain densities are already 0..1; prepare() stretched them again, which keeps white at 0
             rel = stain_relief(on_grid, mm_per_px=mm, base_mm=params.base_mm, relief_mm=params.relief_mm)
+            rel.notes[:0] = cleaning_notes
             key = tuple(KeyEntry(labels.get(ch.name.lower(), STAIN_LABEL[ch.name]), ch.encoding) for ch in rel.choices)
             return ChannelStage(rel, key, "stain")
         fluorescence = route.kind == "fluorescence" if route is not None and route.kind != "assigned" else is_fluorescence_composite(stack)
@@ -137,8 +155,10 @@ def run(source, layout, params, route=None, cleaned=None) -> ChannelStage | None
     chans = [c for c in chans if float(c.image.max() - c.image.min()) > 1e-6] or chans  # empty (e.g. unused blue) left out
     if len(chans) < 2 and not assigned:
         return None  # one channel with signal: nothing for a key to tell apart
-    rel = channel_relief(chans, mm_per_px=mm, base_mm=params.base_mm, relief_mm=params.relief_mm, assigned=assigned)
-    key = tuple(KeyEntry(labels.get(ch.name.lower(), _auto_label(ch)), ch.encoding) for ch in rel.choices)
+    rel = channel_relief(chans, mm_per_px=mm, base_mm=params.base_mm, relief_mm=params.relief_mm, assigned=assigned,
+                         section=route.section if route is not None else "")
+    rel.notes[:0] = cleaning_notes
+    key = tuple(_entry(ch, labels) for ch in rel.choices)
     return ChannelStage(rel, key, "fluorescence")
 
 
@@ -159,6 +179,7 @@ def channel_path(source, relief, layout, params, route=None, cleaned=None):
     """
     import dataclasses
 
+    from ..tactile.braille import to_braille
     from .key3d import key_strip
     from .styles import ReliefResult
 
@@ -193,6 +214,14 @@ def channel_path(source, relief, layout, params, route=None, cleaned=None):
                else "The picture was printed channel by channel")
         notes += (Text(f"{how}, each a texture named in the key, because {route.why}; `channel` prints a single "
                        f"channel, and `channels` off prints the brightness as before."),)
+    short = [e for e in strip.entries if e.braille_label and e.braille_label != e.label]
+    if short:
+        notes += (Text("The key writes shorter labels in braille, to fit its lines: "
+                       + "; ".join(f"{e.braille_label!r} for {e.label!r}" for e in short) + "."),)
+    cut = [e.label for e in strip.entries if e.braille != to_braille(e.braille_label, params.braille_table, what="key_labels")]
+    if cut:
+        notes += (Text(f"The key's braille for {', '.join(map(repr, cut))} is cut to two lines; give a shorter label "
+                       f"with `key_labels`."),)
     notes += (Text(f"The plate grew by {grown.depth_mm - layout.depth_mm:.1f} mm along its depth to hold the "
                    f"braille key below the picture."),)
     out = ReliefResult(heights, "channels", reason, None, (), notes)

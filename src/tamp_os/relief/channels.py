@@ -9,6 +9,7 @@ against a blob detector's). H&E / IHC brightfield slides are split by colour dec
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import re
 from dataclasses import dataclass, field
@@ -54,6 +55,12 @@ class KeyEntry:
     label: str
     encoding: str
     braille: str = ""
+    # what the braille writes when the label is too long for a key line ("spots (FITC)" for
+    # "spots (FITC BP)"); "" until the key is laid out (relief/key3d.py)
+    braille_label: str = ""
+    # the forms the key may write, fullest first, the last the dye alone (relief/key_labels.py); () = the label
+    key_forms: tuple[str, ...] = ()
+    key_role: str = ""  # the role words the forms begin with ("nuclei"): on two lines, the first line
 
 
 @dataclass(frozen=True)
@@ -113,7 +120,7 @@ class Shape:
 
     line_score: float  # share of the foreground whose ridge-filter response dominates
     blob_diam_mm: float  # median equivalent diameter of foreground components
-    roundness: float  # median area / convex area of the components
+    roundness: float  # median area / convex area of the components (NaN: not measured, it decided nothing)
     foreground: float  # share of the picture in the foreground
     structure: float  # contrast of the channel: the spread of its values
     elongation: float = 1.0  # median major / minor axis of the components
@@ -151,27 +158,99 @@ def tube_shape(mask: np.ndarray, mm_per_px: float) -> tuple[float, float]:
     return median_by_area(elong), median_by_area(width) * mm_per_px
 
 
-def measure_shape(image: np.ndarray, mm_per_px: float) -> Shape:
-    from skimage import measure
+_EIGHT = np.ones((3, 3), bool)  # components as skimage.measure.label finds them in 2-D (8-connected)
 
+
+def component_stats(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(labels, area px, major ÷ minor axis, extent along rows ÷ along columns) of each 8-connected
+    component of `mask`, index i = label i + 1.
+
+    One labelled pass: areas and second moments by np.bincount over the component's pixels (the
+    axes of the ellipse with the same second moments, as skimage's regionprops defines them; the
+    minor axis counted at least one pixel long).
+    """
+    labels, n = ndi.label(mask, structure=_EIGHT)
+    rr, cc = np.nonzero(labels)
+    lab = labels[rr, cc] - 1
+    area = np.bincount(lab, minlength=n).astype(float)
+    dr = rr - np.bincount(lab, rr, minlength=n)[lab] / area[lab]
+    dc = cc - np.bincount(lab, cc, minlength=n)[lab] / area[lab]
+    a = np.bincount(lab, dr * dr, minlength=n) / area
+    b = np.bincount(lab, dr * dc, minlength=n) / area
+    c = np.bincount(lab, dc * dc, minlength=n) / area
+    half, root = (a + c) / 2, np.sqrt(((a - c) / 2) ** 2 + b ** 2)
+    major, minor = 4 * np.sqrt(np.maximum(half + root, 0)), 4 * np.sqrt(np.maximum(half - root, 0))
+    pixel = 1 / 12  # the variance of one pixel's extent: a one-pixel line is not infinitely thin
+    return labels, area, major / np.maximum(minor, 1.0), np.sqrt((a + pixel) / (c + pixel))
+
+
+def _solidity(labels: np.ndarray, which: np.ndarray) -> np.ndarray:
+    """Area ÷ convex-hull area of the components numbered in `which` (labels 1..n)."""
+    from skimage.morphology import convex_hull_image
+
+    boxes = ndi.find_objects(labels)
+    out = []
+    for i in which:
+        box = labels[boxes[i - 1]] == i
+        out.append(box.sum() / convex_hull_image(box).sum())
+    return np.array(out, float)
+
+
+def measure_shape(image: np.ndarray, mm_per_px: float, mask: np.ndarray | None = None) -> Shape:
+    """The channel's measured shape; `mask` is its foreground() when already found.
+
+    Roundness (median solidity, a convex hull per component) is measured only when it decides the
+    encoding (shape_ranking); otherwise it is NaN: not measured.
+    """
     img = image.astype(np.float64)
-    mask = foreground(img)
+    mask = foreground(img) if mask is None else mask
     fg = float(mask.mean())
     if not mask.any():
         return Shape(0.0, 0.0, 0.0, 0.0, 0.0)
     sigma_px = max(1.0, 0.6 / mm_per_px)
     ridge = filters.sato(img, sigmas=[sigma_px], black_ridges=False)
     line_score = float((ridge[mask] > 0.5 * np.percentile(ridge[mask], 95)).mean()) if ridge[mask].max() > 0 else 0.0
-    labels = measure.label(mask)
-    props = measure.regionprops(labels)
-    areas = np.array([p.area for p in props], float)
-    big = [p for p in props if p.area >= 4]
-    diam = float(np.median([p.equivalent_diameter_area for p in big])) * mm_per_px if big else 0.0
-    solid = float(np.median([p.solidity for p in big])) if big else 0.0
+    labels, area, ratio, _ = component_stats(mask)
+    big = area >= 4
+    diam = float(np.median(np.sqrt(4 * area[big] / np.pi))) * mm_per_px if big.any() else 0.0
     structure = float(np.percentile(img, 99) - np.percentile(img, 50))
-    elong = float(np.median([p.axis_major_length / max(p.axis_minor_length, 1.0) for p in big])) if big else 1.0
-    del areas
-    return Shape(line_score, diam, solid, fg, structure, elong, *tube_shape(mask, mm_per_px))
+    elong = float(np.median(ratio[big])) if big.any() else 1.0
+    shape = Shape(line_score, diam, 0.0, fg, structure, elong, *tube_shape(mask, mm_per_px))
+    if not big.any():
+        return shape
+    if shape_ranking(shape)[0] == shape_ranking(dataclasses.replace(shape, roundness=1.0))[0]:
+        return dataclasses.replace(shape, roundness=float("nan"))  # it decides nothing here
+    return dataclasses.replace(shape, roundness=float(np.median(_solidity(labels, np.flatnonzero(big) + 1))))
+
+
+AXIAL_STRETCH_MAX = 4.0  # a confocal's axial PSF is 2-4x longer than its lateral one (more is a real structure)
+AXIAL_STRETCH_MIN = 1.2  # less is no stretch worth correcting
+
+
+def axial_stretch(masks: list[np.ndarray]) -> float:
+    """In an axial section (rows along Z), how much longer along the rows than across them its
+    structures are: the median, over the components of every channel (area ≥ 4 px), of their
+    extent along rows ÷ along columns, from 1 (no stretch) to AXIAL_STRETCH_MAX. Points imaged
+    side-on are stretched along Z by the optical PSF (and by a coarser Z step); every structure
+    of the section shares that stretch."""
+    ratios = []
+    for mask in masks:
+        _, area, _, along = component_stats(mask)
+        ratios.append(along[area >= 4])
+    ratios = np.concatenate(ratios) if ratios else np.zeros(0)
+    if not len(ratios):
+        return 1.0
+    return float(np.clip(np.median(ratios), 1.0, AXIAL_STRETCH_MAX))
+
+
+def squeeze_rows(image: np.ndarray, stretch: float) -> np.ndarray:
+    """`image` with its rows shrunk by `stretch` (an axial section's Z stretch undone), for measuring shapes."""
+    if stretch <= 1.0:
+        return image
+    from skimage.transform import resize
+
+    rows = max(4, round(image.shape[0] / stretch))
+    return resize(np.asarray(image, np.float64), (rows, image.shape[1]), order=1, anti_aliasing=True, preserve_range=True)
 
 
 def shape_ranking(shape: Shape) -> list[str]:
@@ -198,6 +277,7 @@ def by_shape(shape: Shape) -> str:
 
 def foreground(img: np.ndarray) -> np.ndarray:
     """Where the channel has signal: Otsu threshold of the lightly smoothed channel, small specks dropped."""
+    img = np.asarray(img, np.float64)  # one definition, whatever the channel's dtype
     if float(img.max() - img.min()) < 1e-6:
         return np.zeros(img.shape, bool)
     smooth = filters.gaussian(img, 1.0)
@@ -207,8 +287,11 @@ def foreground(img: np.ndarray) -> np.ndarray:
 
 
 def choose(channels: list[ChannelImage], assigned: dict[str, str], mm_per_px: float,
-           max_channels: int = DEFAULT_MAX_CHANNELS) -> tuple[list[ChannelChoice], list[str]]:
-    """An encoding for each channel kept; a note when some are left out."""
+           max_channels: int = DEFAULT_MAX_CHANNELS,
+           masks: dict[str, np.ndarray] | None = None, stretch: float = 1.0) -> tuple[list[ChannelChoice], list[str]]:
+    """An encoding for each channel kept; a note when some are left out. `masks`: each channel's
+    foreground() by name, when already found. `stretch` > 1: an axial section, its shapes measured
+    with the rows shrunk by it (squeeze_rows), so points the PSF drew long are not taken for lines."""
     notes = []
     if assigned:
         keep = [c for c in channels if c.name.lower() in assigned]
@@ -218,7 +301,11 @@ def choose(channels: list[ChannelImage], assigned: dict[str, str], mm_per_px: fl
                 f"`channels`: no channel named {', '.join(unknown)} in this picture; its channels are "
                 f"{', '.join(c.name for c in channels)}."))
         return [ChannelChoice(c.name, assigned[c.name.lower()], "asked") for c in keep], notes
-    shapes = {c.name: measure_shape(c.image, mm_per_px) for c in channels}
+    masks = masks or {}
+    if stretch > 1.0:
+        shapes = {c.name: measure_shape(squeeze_rows(c.image, stretch), mm_per_px) for c in channels}
+    else:
+        shapes = {c.name: measure_shape(c.image, mm_per_px, masks.get(c.name)) for c in channels}
     kept = channels
     if len(channels) > max_channels:
         kept = sorted(channels, key=lambda c: -shapes[c.name].structure)[:max_channels]
@@ -271,9 +358,11 @@ def _is_tubular(mask: np.ndarray, mm_per_px: float) -> bool:
     return elong >= TUBE_ELONGATION and width_mm <= TUBE_WIDTH_MM
 
 
-def encode(img: np.ndarray, encoding: str, mm_per_px: float, relief_mm: float, angle_deg: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
-    """(relief above the base in mm, mask of the region raised) for one channel."""
-    mask = foreground(img)
+def encode(img: np.ndarray, encoding: str, mm_per_px: float, relief_mm: float, angle_deg: float = 0.0,
+           mask: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(relief above the base in mm, mask of the region raised) for one channel; `mask` is its
+    foreground() when already found."""
+    mask = foreground(img) if mask is None else mask
     top = TOP_SHARE[encoding] * relief_mm
     if encoding == "domes":
         h = _domes(img, mask)
@@ -298,8 +387,12 @@ def encode(img: np.ndarray, encoding: str, mm_per_px: float, relief_mm: float, a
 
 
 def channel_relief(channels: list[ChannelImage], *, mm_per_px: float, base_mm: float, relief_mm: float,
-                   assigned: dict[str, str] | None = None, max_channels: int = DEFAULT_MAX_CHANNELS) -> ChannelRelief:
+                   assigned: dict[str, str] | None = None, max_channels: int = DEFAULT_MAX_CHANNELS,
+                   section: str = "") -> ChannelRelief:
     """Heights in mm (base included) where each chosen channel's region carries its texture.
+
+    `section` "XZ" (or "YZ"): the picture is an axial section, its rows along Z; shapes are
+    measured with the Z stretch its points share undone (axial_stretch), and a note says so.
 
     Where regions overlap the higher layer wins (domes over dots over ridges over plateau), so
     nuclei are never hidden by cytoplasm.
@@ -307,7 +400,23 @@ def channel_relief(channels: list[ChannelImage], *, mm_per_px: float, base_mm: f
     if relief_mm * min(TOP_SHARE.values()) < MIN_FEATURE_MM and relief_mm < 1.7:
         raise ParameterError(Text(f"`relief_mm` {relief_mm:g} mm is too low for channel textures (each needs "
                                   f"≥{MIN_FEATURE_MM:g} mm); use at least 1.7 mm."))
-    choices, notes = choose(channels, assigned or {}, mm_per_px, max_channels)
+    # found once: the shape measures and the encoders share it
+    found = {c.name: foreground(c.image) for c in channels if not assigned or c.name.lower() in assigned}
+    notes = []
+    stretch = axial_stretch(list(found.values())) if section and not assigned else 1.0
+    if section:
+        said = f"The picture is an {section} section (a side view: its rows run along Z, the optical axis)."
+        if stretch >= AXIAL_STRETCH_MIN:
+            said += (f" Its structures are {stretch:.1f}× longer along Z than across, as the optical blur along the axis "
+                     f"draws points; their shapes were measured with Z shrunk by that, so round objects (beads, nuclei) "
+                     f"are not taken for lines.")
+        elif not assigned:
+            said += " Its structures are not stretched along Z; their shapes were measured as they are."
+        notes.append(Text(said))
+    if stretch < AXIAL_STRETCH_MIN:
+        stretch = 1.0
+    choices, chose_notes = choose(channels, assigned or {}, mm_per_px, max_channels, found, stretch)
+    notes += chose_notes
     by_name = {c.name: c for c in channels}
     heights = np.zeros(channels[0].image.shape)
     masks = {}
@@ -315,7 +424,7 @@ def channel_relief(channels: list[ChannelImage], *, mm_per_px: float, base_mm: f
     line_picture = np.max([by_name[ch.name].image for ch in choices], axis=0) if choices else heights
     angle = ridge_angle_unlike(line_picture)
     for ch in order:
-        h, mask = encode(by_name[ch.name].image, ch.encoding, mm_per_px, relief_mm, angle)
+        h, mask = encode(by_name[ch.name].image, ch.encoding, mm_per_px, relief_mm, angle, found[ch.name])
         heights = np.where(mask, h, heights) if ch.encoding == "domes" else np.maximum(heights, h)
         masks[ch.name] = mask
     return ChannelRelief(base_mm + heights, choices, masks, notes)

@@ -88,7 +88,8 @@ def open_lif(path, scene: int | None) -> Stack:
         scene_name=im.name, channels=channels, pixel_size_m=(px_x, px_y or px_x) if px_x else None,
         pixel_size_key=key if px_x else "", z_step_m=_step_m(coords, stack_axis, sizes["Z"]) if stack_axis else None,
         z_key=f"coordinates of {stack_axis}" if stack_axis else "", time_step_s=t_step,
-        samples=sizes_all.get("S", 1), metadata={"lif_images": [i.name for i in images], "lif_axes": "".join(dims)},
+        samples=sizes_all.get("S", 1), metadata={"lif_images": [i.name for i in images], "lif_axes": "".join(dims),
+                  "picture_axes": {"rows": row_axis, "columns": col_axis}},  # an XZ scan: rows along Z
         notes=notes, close=lif.close,
     )
 

@@ -298,7 +298,7 @@ def _relief(prepared: Prepared, layout: Layout, params: LithoParams, machine: Pr
                            nozzle_mm=machine.nozzle_mm)
     return make_relief(prepared.image, style=params.relief_style, mm_per_px=layout.mm_per_px, base_mm=params.base_mm,
                        relief_mm=params.relief_mm, layer_mm=machine.layer_mm if params.quantize else None,
-                       options=options, uniform=prepared.uniform, hints=hints)
+                       options=options, uniform=prepared.uniform, hints=hints, fine=prepared.finer)
 
 
 def _furniture(params: LithoParams, sample_per_mm: float | None) -> Furniture:

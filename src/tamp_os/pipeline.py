@@ -366,7 +366,7 @@ def _report(picture, cleaned, prepared, layout, params, machine, mesh, placed, m
         scale=scale_sentence(scale.metres, source_px_per_print_mm) if scale.metres else "no physical scale is known",
         tactile=_tactile_report(placed),
         crop=cleaned.band,
-        annotations=tuple(cleaned.annotations),
+        annotations=tuple(cleaned.annotations_with_text),
         warnings=tuple(_warnings(picture, cleaned, prepared, layout, params, later)),
         timings_s={k: round(v, 4) for k, v in timings.items()},
         relief_style=relief.style,

@@ -17,9 +17,11 @@ class Annotation(Facts):
     kind: str  # "box" (label or scale-bar box), "bar" (thin scale bar), "text"
     rows: tuple[int, int]  # first row, one past the last
     cols: tuple[int, int]
+    text: str | None = None  # a text label's words as OCR read them, "" when unreadable, None when not read
 
     def describe(self) -> str:
-        return f"{self.kind} at rows {self.rows[0]}–{self.rows[1] - 1}, columns {self.cols[0]}–{self.cols[1] - 1}"
+        words = "" if self.text is None else f" '{self.text}'" if self.text else " (unreadable)"
+        return f"{self.kind}{words} at rows {self.rows[0]}–{self.rows[1] - 1}, columns {self.cols[0]}–{self.cols[1] - 1}"
 
 
 def is_arrow(solid: np.ndarray, image_size_px: int) -> bool:

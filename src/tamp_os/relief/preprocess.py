@@ -112,8 +112,8 @@ class Prepared:
     flip_x: bool = False
 
     def finer(self, cols: int) -> np.ndarray | None:
-        """The picture `cols` wide (at most the source's own width) on the output grid's aspect,
-        stretched, inverted and mirrored as `image` is but neither blurred nor renormalised: lines
+        """The picture `cols` wide on the output grid's aspect (or the source itself when it is
+        no wider), stretched, inverted and mirrored as `image` is but neither blurred nor renormalised: lines
         thinner than a print pixel, which the print grid's resampling and blur fade, are still
         there. None when the picture is uniform or was prepared without its source."""
         if self.fitted is None or self.uniform:
@@ -121,6 +121,10 @@ class Prepared:
         out_rows, out_cols = self.image.shape
         cols = int(min(cols, self.fitted.shape[1]))
         rows = max(2, round((out_rows - 1) * (cols - 1) / max(out_cols - 1, 1)) + 1)
+        if cols == self.fitted.shape[1]:
+            # The source itself (its aspect differs from the grid's by the grid's rounding at
+            # most): a resample by a few rows would smear one-pixel lines.
+            rows = self.fitted.shape[0]
         image = resample(self.fitted, rows, cols)
         if self.invert:
             image = 1.0 - image

@@ -89,7 +89,11 @@ def find_labels(values: np.ndarray, exclude: np.ndarray | None = None) -> tuple[
         c0, c1 = min(c.start for c in cols), max(c.stop for c in cols)
         if c1 - c0 < 1.5 * (r1 - r0):  # a word is wider than tall
             continue
-        mask[r0:r1, c0:c1] |= np.isin(parts[r0:r1, c0:c1], members)
+        # With the marks that lie wholly inside the label (the dots of i and j, punctuation).
+        inside = np.unique(parts[r0:r1, c0:c1])
+        inside = [j for j in inside if j > 0 and boxes[j - 1][0].start >= r0 and boxes[j - 1][0].stop <= r1
+                  and boxes[j - 1][1].start >= c0 and boxes[j - 1][1].stop <= c1]
+        mask[r0:r1, c0:c1] |= np.isin(parts[r0:r1, c0:c1], np.union1d(members, inside))
         found.append(Annotation("text", (r0, r1), (c0, c1)))
     log.debug("text labels on paper: %d glyphs, %d labels", int(glyph.sum()), len(found))
     if found:

@@ -12,7 +12,9 @@ empty space as the ground. This style reads the picture on the working grid and 
    other styles find when they are too large for a local background): every member a dome of
    the same full lift, touching members apart by a groove, small ones drawn at a feelable size
    when few;
-4. else weak contrast: the specimen is found against an empty mount, its contrast is equalised
+4. else a line network too thin for the working grid, found on a finer grid made from the
+   source before the print grid's blur (lines.fine_lines), when its regions tile the picture;
+5. else weak contrast: the specimen is found against an empty mount, its contrast is equalised
    locally (CLAHE over a tenth of the field) and its grains are outlined by raised lines when
    their boundaries form a network; anything else gets the structure style's shape.
 

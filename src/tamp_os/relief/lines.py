@@ -21,7 +21,11 @@ skeleton within 1 mm of a true line; CPU time per picture):
 The one-scale Hessian is Sato's measure at the one scale the print needs, written as three
 Gaussian derivative filters: as good as sato and 2-40x cheaper. (The top-hat is as fast and more
 precise on the membranes, but it answers on any narrow bright blob and closes 6 of the membranes'
-cells where the Hessian closes 16.) None finds the Al2O3 grain boundaries, which the preparation's blur fades.
+cells where the Hessian closes 16.) None finds the Al2O3 grain boundaries on the print grid: a dark
+core between bright rims, under a print pixel wide, which the grid's resampling and blur cancel.
+`fine_lines` looks for them on a 0.1 mm grid made from the source before the blur (the same
+Hessian at the boundaries' own width, a hysteresis threshold), and draws what it finds on the
+working grid: there they enclose 140-160 regions and stand +0.96 mm over them (benchmark).
 """
 
 from __future__ import annotations

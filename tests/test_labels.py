@@ -2,20 +2,16 @@
 by OCR and listed by their words in the description; only confident readings are given."""
 
 import shutil
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 from conftest import need
 from scipy import ndimage
+from synthetic_content import line_diagram
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from synthetic_content import line_diagram  # noqa: E402
-
-from tamp_os.clean import labels as labels_module  # noqa: E402
-from tamp_os.clean import ocr  # noqa: E402
-from tamp_os.clean.labels import find_labels, read_labels  # noqa: E402
+from tamp_os.clean import labels as labels_module
+from tamp_os.clean import ocr
+from tamp_os.clean.labels import find_labels, read_labels
 
 WORDS = (("Nucleus", 30, 160), ("Membrane", 250, 40), ("Golgi", 360, 250))  # (word, x, y) on a 480 x 320 diagram
 
@@ -120,8 +116,8 @@ def test_through_the_pipeline_the_words_leave_the_relief_and_the_description_nam
 @pytest.mark.timeout(120)
 def test_a_picture_without_labels_reads_nothing(monkeypatch):
     """No OCR for a picture without text labels: the conversion of a micrograph pays nothing."""
-    import tamp_os.clean.stage as stage
     from tamp_os import make_lithograph
+    from tamp_os.clean import stage
 
     def refuse(*_args):
         raise AssertionError("OCR asked for a picture without labels")

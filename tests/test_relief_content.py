@@ -311,7 +311,7 @@ def test_boundaries_under_a_print_pixel_wide_are_found_before_the_blur_and_raise
 
     truth = thin_boundary_grains()
     prepared, lines, grains, mm = _fine_case(truth)
-    kw = dict(style="auto", mm_per_px=mm, base_mm=BASE, relief_mm=RELIEF, layer_mm=0.12)
+    kw = {"style": "auto", "mm_per_px": mm, "base_mm": BASE, "relief_mm": RELIEF, "layer_mm": 0.12}
     blind = make_relief(prepared.image, **kw)
     assert lines_over_enclosed(blind.heights_mm, lines, mm) < 0.5  # the print grid alone loses them
     made = make_relief(prepared.image, fine=prepared.finer, **kw)
@@ -374,7 +374,7 @@ def test_a_portrait_or_a_fundus_keeps_its_choice_though_the_fine_grid_finds_outl
     truth = type("T", (), {"image": picture.astype(np.float32), "lines": np.zeros(picture.shape, bool),
                            "grains": np.zeros(picture.shape, np.int32)})()
     prepared, _, _, mm = _fine_case(truth)
-    kw = dict(style="auto", mm_per_px=mm, base_mm=BASE, relief_mm=RELIEF, layer_mm=0.12)
+    kw = {"style": "auto", "mm_per_px": mm, "base_mm": BASE, "relief_mm": RELIEF, "layer_mm": 0.12}
     assert prepared.finer(1001).shape[1] >= 2 * prepared.image.shape[1]  # the fine grid is looked at
     with_fine = make_relief(prepared.image, fine=prepared.finer, **kw)
     without = make_relief(prepared.image, **kw)

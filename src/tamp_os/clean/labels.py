@@ -76,7 +76,7 @@ def find_labels(values: np.ndarray, exclude: np.ndarray | None = None) -> tuple[
     # Glyphs on one line: joined across gaps narrower than their height, not across lines.
     tall = int(np.median(heights[glyph[1:]]))
     joined = ndimage.binary_dilation(glyphs, structure=np.ones((max(1, tall // 3), max(3, tall)), bool))
-    groups, m = ndimage.label(joined)
+    groups, _ = ndimage.label(joined)
     found = []
     for k, sl in enumerate(ndimage.find_objects(groups), start=1):
         members = np.unique(parts[sl][(groups[sl] == k) & glyphs[sl]])

@@ -309,7 +309,7 @@ def _fine_network(fine, shape: tuple[int, int], pitch_mm: float, width_mm: float
     as FINE_PITCH_MM allows (the fine grid must be at least twice as fine), or no network."""
     if fine is None:
         return None
-    want = int(round(width_mm / FINE_PITCH_MM)) + 1
+    want = round(width_mm / FINE_PITCH_MM) + 1
     if want < 2 * shape[1]:
         return None
     picture = fine(want)

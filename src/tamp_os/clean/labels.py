@@ -112,8 +112,15 @@ def read_labels(values: np.ndarray, annotations: list[Annotation]) -> list[Annot
             out.append(a)
             continue
         # Two renderings (smooth grey, and sharp black and white): small bitmap letters read
-        # with confidence in one or the other; the more confident reading is taken.
-        readings = [r for r in (ocr.read_line(image) for image in _for_ocr(values, a)) if r is not None]
+        # with confidence in one or the other; the second is read only when the first is not
+        # confident, and the more confident reading is taken.
+        readings = []
+        for image in _for_ocr(values, a):
+            reading = ocr.read_line(image)
+            if reading is not None:
+                readings.append(reading)
+                if reading[1] >= MIN_CONFIDENCE:
+                    break
         text = UNREADABLE
         if readings:
             words, confidence = max(readings, key=lambda r: r[1])

@@ -93,6 +93,21 @@ def test_solid_blobs_in_a_row_and_pictures_without_paper_have_no_labels():
     assert not labels_module.on_paper(texture) and find_labels(texture)[1] == []
 
 
+@pytest.mark.timeout(60)
+def test_letter_like_marks_inside_a_textured_stain_are_not_labels():
+    """A brightfield slide is mostly empty paper too, but its marks sit in mid-grey tissue: the
+    same word drawn inside a textured patch is left to the picture, the words on paper are found."""
+    image, _ = diagram_with_words()
+    rng = np.random.default_rng(3)
+    stained = image.copy()
+    patch = (slice(230, 300), slice(330, 470))  # around "Golgi"
+    texture = 0.55 + 0.2 * ndimage.gaussian_filter(rng.standard_normal((70, 140)), 1.5).astype(np.float32)
+    stained[patch] = np.where(image[patch] < 0.5, image[patch], texture)
+    found = find_labels(stained)[1]
+    assert len(found) == len(WORDS) - 1
+    assert not any(a.rows[0] >= 230 and a.cols[0] >= 330 for a in found)
+
+
 @pytest.mark.timeout(180)
 def test_through_the_pipeline_the_words_leave_the_relief_and_the_description_names_them(monkeypatch):
     _need_ocr()

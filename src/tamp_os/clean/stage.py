@@ -16,7 +16,7 @@ from . import annotations as marks
 from .annotations import Annotation
 from .band import Band, band_from_metadata, detect_info_band
 from .instrument import Instrument, read_instrument
-from .labels import find_labels, read_labels
+from .labels import find_labels, on_paper, read_labels
 from .scale import PixelSize, read_pixel_size
 from .scalebar import scale_from_bars
 
@@ -107,8 +107,9 @@ def clean_picture(picture: Picture, *, pixel_size_m: float | None, remove_annota
     alpha = None if picture.alpha is None else picture.alpha[rows]
     if not remove_annotations:
         return Cleaned(values, alpha, size, band, [], None, instrument)
-    mask, found = marks.detect_annotations(values)
-    words_mask, words = find_labels(values, mask)  # a diagram's printed words (empty paper only)
+    paper = on_paper(values)  # a diagram or drawing: its arrows and strokes are content, its words are labels
+    mask, found = marks.detect_annotations(values, arrows=not paper)
+    words_mask, words = find_labels(values, mask) if paper else (None, [])
     if words:
         mask = mask | words_mask
         found = found + words

@@ -141,6 +141,7 @@ def make_lithograph(source, params: LithoParams | None = None, *, printer_profil
             if key:
                 picture = without_channel_note(picture)
         heights = relief.heights_mm
+        prepared = dataclasses.replace(prepared, fitted=None, fitted_alpha=None)  # the source copy served the relief: free it
     with clock("legibility"):
         legibility = assess(heights, layout.mm_per_px, nozzle_mm=machine.nozzle_mm, layer_mm=machine.layer_mm,
                             objects=relief.objects, style=relief.style)

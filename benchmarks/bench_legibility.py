@@ -181,7 +181,8 @@ def content_table(png_dir: Path | None):
         for _ in range(3):
             for style in STYLES:
                 start = time.process_time()
-                made[style] = make_relief(case.image01, style=style, mm_per_px=mm, base_mm=BASE, relief_mm=RELIEF, layer_mm=LAYER)
+                made[style] = make_relief(case.image01, style=style, mm_per_px=mm, base_mm=BASE, relief_mm=RELIEF, layer_mm=LAYER,
+                                          fine=case.fine)
                 best[style] = min(best[style], time.process_time() - start)
         extra.append(best["content"] - best["reference"])
         for style in STYLES:

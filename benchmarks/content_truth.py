@@ -30,13 +30,15 @@ class Case:
     truth: Truth | None  # on the same grid; None when the picture was skipped
     skipped: str = ""  # why, when skipped
     how: str = ""  # how the truth was made
+    fine: object = None  # Prepared.finer: the picture without the print grid's blur, as the pipeline passes it
 
 
-def _prepared(values: np.ndarray) -> tuple[np.ndarray, float]:
+def _prepared(values: np.ndarray):
+    """(image on the Medium grid, mm per px, Prepared.finer)."""
     rows = max(2, round(values.shape[0] * (COLS - 1) / (values.shape[1] - 1)) )
-    image = prepare(values.astype(np.float32), None, rows=rows, cols=COLS, target_aspect=(rows - 1) / (COLS - 1), fit="stretch",
-                    low_pct=2, high_pct=98, sigma_px=1.2, invert=False, flip_x=False).image
-    return image, WIDTH_MM / (COLS - 1)
+    prepared = prepare(values.astype(np.float32), None, rows=rows, cols=COLS, target_aspect=(rows - 1) / (COLS - 1), fit="stretch",
+                       low_pct=2, high_pct=98, sigma_px=1.2, invert=False, flip_x=False)
+    return prepared.image, WIDTH_MM / (COLS - 1), prepared.finer
 
 
 def _to_grid(a: np.ndarray | None, shape) -> np.ndarray | None:
@@ -79,10 +81,10 @@ def _no_short(skeleton: np.ndarray, min_px: int) -> np.ndarray:
 
 
 def _case(name, values, members=None, lines=None, how="", grains=None) -> Case:
-    image, mm = _prepared(values)
+    image, mm, finer = _prepared(values)
     truth = Truth(name, image, members=_to_grid(members, image.shape), lines=None if lines is None else _to_grid(lines.astype(np.uint8), image.shape) > 0,
                   grains=_to_grid(grains, image.shape))
-    return Case(name, image, mm, truth, how=how)
+    return Case(name, image, mm, truth, how=how, fine=finer)
 
 
 def _skip(name, why) -> Case:

@@ -197,3 +197,18 @@ def test_luminance_weights_and_alpha_weighting(tmp_path):
     np.testing.assert_allclose(pic.values[1], [0.299 * 200, 0.587 * 200, 0.114 * 200], rtol=1e-5)
     np.testing.assert_allclose(pic.alpha[0], 0.2, rtol=1e-6)
     np.testing.assert_allclose(pic.alpha[1:], 1.0)
+
+
+def test_a_diagrams_strokes_stay_and_its_words_go():
+    """On empty paper, drawn strokes are the picture (a noisy stroke's darkest fragment once passed
+    for an arrow and was inpainted, opening the drawn box); the printed words are removed."""
+    from synthetic_content import line_diagram
+
+    from tamp_os.read import read_array
+
+    truth = line_diagram()
+    cleaned = clean_picture(read_array((truth.image * 255).astype(np.uint8)), pixel_size_m=None, remove_annotations=True)
+    assert sorted(a.kind for a in cleaned.annotations) == ["text"] * 3
+    assert not cleaned.mask[truth.lines].any()
+    assert cleaned.mask[truth.text].all()
+    assert np.median(cleaned.values[truth.text]) > 200  # inpainted with the paper around them

@@ -19,6 +19,7 @@ from synthetic_content import (
     dot_lattice,
     faint_grains,
     line_diagram,
+    thin_boundary_grains,
 )
 
 from tamp_os.relief.content import ContentHints
@@ -272,17 +273,133 @@ def test_a_dense_sem_particle_field_has_nine_in_ten_particles_felt(fixture):
 
 @pytest.mark.timeout(120)
 def test_line_diagram_through_the_whole_pipeline_raises_its_strokes():
-    """A drawing whose strokes enclose only two regions (no network) is still line art on empty
-    paper: through make_lithograph (stretch, blur, Medium grid) its strokes stand up as lines and
-    the paper lies at the base (before, the paper was raised and the strokes were grooves)."""
+    """A drawing whose strokes enclose only two regions (no network: the diagram with its circle
+    opened at the top) is still line art on empty paper: through make_lithograph (stretch, blur,
+    Medium grid) its strokes stand up as lines and the paper lies at the base (before, the paper
+    was raised and the strokes were grooves)."""
     from skimage.transform import resize
 
     from tamp_os import make_lithograph
 
     truth = line_diagram()
-    litho = make_lithograph(truth.image, scale_bar="off")
+    gap = truth.lines & (np.arange(truth.image.shape[1]) >= 140)[None, :] & (np.arange(truth.image.shape[0]) < 50)[:, None]
+    lines = truth.lines & ~gap
+    image = np.where(gap, np.median(truth.image), truth.image).astype(np.float32)
+    litho = make_lithograph(image, scale_bar="off")
     h = litho.heightmap - litho.params.base_mm
-    strokes = resize(truth.lines.astype(float), h.shape, order=0) > 0.5
+    strokes = resize(lines.astype(float), h.shape, order=0) > 0.5
     paper = resize((ndimage.distance_transform_edt(~(truth.lines | truth.text)) > 4).astype(float), h.shape, order=0) > 0.5
     assert litho.report.relief_style == "content" and "line art" in litho.report.relief_reason
     assert np.median(h[strokes]) >= 0.8 and np.percentile(h[paper], 99) <= 0.05
+
+
+def _fine_case(truth, cols=250):
+    """The picture prepared on the Medium grid (cols across 100 mm), its Prepared, and the truth
+    lines on that grid."""
+    rows = round((truth.image.shape[0] - 1) * (cols - 1) / (truth.image.shape[1] - 1)) + 1
+    prepared = prepare(truth.image, None, rows=rows, cols=cols, target_aspect=(rows - 1) / (cols - 1), fit="stretch",
+                       low_pct=2.0, high_pct=98.0, sigma_px=1.2, invert=False, flip_x=False)
+    zoom = (rows / truth.image.shape[0], cols / truth.image.shape[1])
+    lines = ndimage.zoom(truth.lines.astype(np.uint8), zoom, order=0, grid_mode=True, mode="grid-constant") > 0
+    grains = ndimage.zoom(truth.grains, zoom, order=0, grid_mode=True, mode="grid-constant")
+    return prepared, lines, grains, 100.0 / (cols - 1)
+
+
+@pytest.mark.timeout(120)
+def test_boundaries_under_a_print_pixel_wide_are_found_before_the_blur_and_raised_as_closed_lines():
+    """Grain boundaries whose dark core and bright rims cancel on the Medium grid (as the Al2O3
+    SEM picture's): lost there, found on the fine grid, drawn as tactile lines that keep the
+    grains apart."""
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    from content_metrics import lines_over_enclosed
+
+    truth = thin_boundary_grains()
+    prepared, lines, grains, mm = _fine_case(truth)
+    kw = {"style": "auto", "mm_per_px": mm, "base_mm": BASE, "relief_mm": RELIEF, "layer_mm": 0.12}
+    blind = make_relief(prepared.image, **kw)
+    assert lines_over_enclosed(blind.heights_mm, lines, mm) < 0.5  # the print grid alone loses them
+    made = make_relief(prepared.image, fine=prepared.finer, **kw)
+    assert made.style == "content" and "thinner than the print grid" in made.reason, made.reason
+    h = made.heights_mm
+    assert lines_over_enclosed(h, lines, mm) >= 0.5
+    top = float(np.median(h[lines]) - BASE)
+    assert 0.8 <= top <= 1.2  # a tactile line's height
+    # Closed regions stay closed: most grains' interiors lie in a low region of their own.
+    low, _ = ndimage.label(h < BASE + 0.5)
+    own = 0
+    ids = [g for g in np.unique(grains) if g > 0 and (ndimage.binary_erosion(grains == g, iterations=4)).sum() > 40]
+    where = {}
+    for g in ids:
+        inner = ndimage.binary_erosion(grains == g, iterations=4)
+        region = np.bincount(low[inner]).argmax()
+        where.setdefault(region, []).append(g)
+    own = sum(len(v) for k, v in where.items() if k > 0 and len(v) == 1)
+    assert own >= 0.7 * len(ids), (own, len(ids))
+
+
+@pytest.mark.timeout(180)
+def test_the_al2o3_grain_boundaries_become_a_raised_network_and_the_report_says_where_they_separate(fixture):
+    """The Al2O3 SE picture (README: ~100 grains outlined by thin boundaries): auto takes the
+    network found before the blur; lines stand at least 0.5 mm over what they enclose (truth:
+    white top-hat, benchmarks/content_truth.py); lines too close to feel apart are merged and
+    the note names a print width wider than this one."""
+    czifile = need_module("czifile")
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    import re
+
+    from content_metrics import lines_over_enclosed
+    from content_truth import _case, _no_short
+    from skimage import filters, morphology
+
+    values = np.squeeze(czifile.imread(fixture("real/zeiss_sem_al2o3_grains.czi"))).astype(np.float32)
+    hat = morphology.white_tophat(filters.gaussian(values, 2, preserve_range=True), morphology.disk(8))
+    truth_lines = ndimage.binary_dilation(_no_short(morphology.skeletonize(hat > filters.threshold_otsu(hat)), 40), iterations=2)
+    case = _case("al2o3", values, lines=truth_lines)
+    made = make_relief(case.image01, style="auto", mm_per_px=case.mm_per_px, base_mm=BASE, relief_mm=RELIEF, layer_mm=0.12,
+                       fine=case.fine)
+    assert made.style == "content" and "thinner than the print grid" in made.reason, made.reason
+    assert lines_over_enclosed(made.heights_mm, case.truth.lines, case.mm_per_px) >= 0.5
+    regions = int(re.search(r"enclosing (\d+) regions", made.reason).group(1))
+    assert regions >= 50  # README: about 100 grains larger than 400 px²
+    note = next(n for n in made.notes if "cannot separate" in n)
+    assert int(re.search(r"print width of about (\d+) mm", note).group(1)) > 100
+
+
+@pytest.mark.timeout(120)
+@pytest.mark.parametrize("name", ["camera", "retina"])
+def test_a_portrait_or_a_fundus_keeps_its_choice_though_the_fine_grid_finds_outlines(name):
+    """Outlines the fine grid finds in a portrait or a fundus do not tile the picture (its sky or
+    background is one region): auto chooses as without the fine grid."""
+    import skimage.data
+    from skimage.color import rgb2gray
+
+    picture = np.asarray(getattr(skimage.data, name)(), np.float32)
+    picture = rgb2gray(picture / 255.0) if picture.ndim == 3 else picture / 255.0
+    truth = type("T", (), {"image": picture.astype(np.float32), "lines": np.zeros(picture.shape, bool),
+                           "grains": np.zeros(picture.shape, np.int32)})()
+    prepared, _, _, mm = _fine_case(truth)
+    kw = {"style": "auto", "mm_per_px": mm, "base_mm": BASE, "relief_mm": RELIEF, "layer_mm": 0.12}
+    assert prepared.finer(1001).shape[1] >= 2 * prepared.image.shape[1]  # the fine grid is looked at
+    with_fine = make_relief(prepared.image, fine=prepared.finer, **kw)
+    without = make_relief(prepared.image, **kw)
+    assert (with_fine.style, with_fine.reason) == (without.style, without.reason)
+
+
+@pytest.mark.timeout(60)
+@pytest.mark.parametrize("spacing_px", [6, 9, 12])
+def test_the_print_width_at_which_merged_lines_separate_opens_their_gap_to_a_fingers_width(spacing_px):
+    """A grid of lines spacing_px apart: scaled by separate_at, the gap between drawn lines
+    (centre distance minus the drawn width) reaches MIN_GAP_MM, to within a grid pixel."""
+    from tamp_os.relief.lines import LINE_WIDTH_MM, MIN_GAP_MM, network_of
+
+    mm = 0.4
+    skeleton = np.zeros((10 * spacing_px + 1, 13 * spacing_px + 1), bool)  # whole cells, closed at the border
+    skeleton[::spacing_px] = True
+    skeleton[:, ::spacing_px] = True
+    lines = network_of(skeleton, pitch_mm=mm, min_area_mm2=6.0, strength=50.0)
+    centre_mm = spacing_px * mm
+    if centre_mm - LINE_WIDTH_MM >= MIN_GAP_MM:
+        assert lines.separate_at == 1.0 and not lines.merged.any()
+    else:
+        assert lines.merged.any()
+        assert abs(lines.separate_at * centre_mm - LINE_WIDTH_MM - MIN_GAP_MM) <= 2 * mm

@@ -785,7 +785,7 @@ def cmd_info(args) -> int:
                          scene=args.scene)  # the same size guard as convert
     s = picture.file
     cleaned = clean_picture(picture, pixel_size_m=pixel_size_m, remove_annotations=True)
-    scale, crop, found = cleaned.pixel_size, cleaned.band.as_dict(), cleaned.annotations
+    scale, crop, found = cleaned.pixel_size, cleaned.band.as_dict(), cleaned.annotations_with_text
     meta_found = sorted(k for k in s.metadata if not k.startswith("_"))
     facts = {
         "file": s.path,

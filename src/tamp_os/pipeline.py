@@ -141,6 +141,7 @@ def make_lithograph(source, params: LithoParams | None = None, *, printer_profil
             if key:
                 picture = without_channel_note(picture)
         heights = relief.heights_mm
+        prepared = dataclasses.replace(prepared, fitted=None, fitted_alpha=None)  # the source copy served the relief: free it
     with clock("legibility"):
         legibility = assess(heights, layout.mm_per_px, nozzle_mm=machine.nozzle_mm, layer_mm=machine.layer_mm,
                             objects=relief.objects, style=relief.style)
@@ -298,7 +299,7 @@ def _relief(prepared: Prepared, layout: Layout, params: LithoParams, machine: Pr
                            nozzle_mm=machine.nozzle_mm)
     return make_relief(prepared.image, style=params.relief_style, mm_per_px=layout.mm_per_px, base_mm=params.base_mm,
                        relief_mm=params.relief_mm, layer_mm=machine.layer_mm if params.quantize else None,
-                       options=options, uniform=prepared.uniform, hints=hints)
+                       options=options, uniform=prepared.uniform, hints=hints, fine=prepared.finer)
 
 
 def _furniture(params: LithoParams, sample_per_mm: float | None) -> Furniture:
@@ -366,7 +367,7 @@ def _report(picture, cleaned, prepared, layout, params, machine, mesh, placed, m
         scale=scale_sentence(scale.metres, source_px_per_print_mm) if scale.metres else "no physical scale is known",
         tactile=_tactile_report(placed),
         crop=cleaned.band,
-        annotations=tuple(cleaned.annotations),
+        annotations=tuple(cleaned.annotations_with_text),
         warnings=tuple(_warnings(picture, cleaned, prepared, layout, params, later)),
         timings_s={k: round(v, 4) for k, v in timings.items()},
         relief_style=relief.style,

@@ -242,13 +242,29 @@ ANNOTATION_KINDS = {"box": "a label or scale-bar box", "bar": "a scale bar", "te
 
 
 def annotation_words(annotation: Annotation, width_px: int, height_px: int) -> str:
-    """An annotation in plain words, by where it sat: 'a label or scale-bar box near the bottom left'."""
+    """An annotation in plain words, by where it sat: 'a label or scale-bar box near the bottom
+    left', "a text label 'nucleus' near the top right"."""
+    words = "" if annotation.text is None else f" '{annotation.text}'" if annotation.text else " (unreadable)"
+    return f"{ANNOTATION_KINDS.get(annotation.kind, annotation.kind)}{words} near the {annotation_place(annotation, width_px, height_px)}"
+
+
+def annotation_place(annotation: Annotation, width_px: int, height_px: int) -> str:
+    """Where an annotation sat in the picture: 'bottom left', 'top', 'centre'."""
     (r0, r1), (c0, c1) = annotation.rows, annotation.cols
     row, col = (r0 + r1 - 1) / 2 / max(height_px, 1), (c0 + c1 - 1) / 2 / max(width_px, 1)
     vertical = "top" if row < 1 / 3 else "bottom" if row > 2 / 3 else "middle"
     horizontal = "left" if col < 1 / 3 else "right" if col > 2 / 3 else "centre"
-    where = "the centre" if (vertical, horizontal) == ("middle", "centre") else f"the {vertical} {horizontal}".replace("middle ", "")
-    return f"{ANNOTATION_KINDS.get(annotation.kind, annotation.kind)} near {where}"
+    return "centre" if (vertical, horizontal) == ("middle", "centre") else f"{vertical} {horizontal}".replace("middle ", "")
+
+
+def labels_sentence(annotations, width_px: int, height_px: int) -> str | None:
+    """"Labels removed: 'cell A' (bottom left), unreadable (top right)." for the removed text
+    labels that were read (labels.read_labels), or None when there are none."""
+    read = [a for a in annotations if a.kind == "text" and a.text is not None]
+    if not read:
+        return None
+    items = [(f"'{a.text}'" if a.text else "unreadable") + f" ({annotation_place(a, width_px, height_px)})" for a in read]
+    return f"Text label{'s' * (len(items) != 1)} removed from the relief: " + ", ".join(items) + "."
 
 
 def web_summary_lines(report: Report, namer=None) -> list[str]:
@@ -316,6 +332,9 @@ def describe(report: Report, params: LithoParams, source_name: str) -> str:
     layout = _layout_sentence(report)
     if layout:
         parts.append(layout)
+    labels = labels_sentence(report.annotations, *report.source_px)
+    if labels:
+        parts.append(labels)
     if report.pixel_size_m:
         parts.append(f"Scale: {report.scale}.")
     if t and t.scale_bar_box_mm:

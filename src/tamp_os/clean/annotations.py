@@ -17,9 +17,11 @@ class Annotation(Facts):
     kind: str  # "box" (label or scale-bar box), "bar" (thin scale bar), "text"
     rows: tuple[int, int]  # first row, one past the last
     cols: tuple[int, int]
+    text: str | None = None  # a text label's words as OCR read them, "" when unreadable, None when not read
 
     def describe(self) -> str:
-        return f"{self.kind} at rows {self.rows[0]}–{self.rows[1] - 1}, columns {self.cols[0]}–{self.cols[1] - 1}"
+        words = "" if self.text is None else f" '{self.text}'" if self.text else " (unreadable)"
+        return f"{self.kind}{words} at rows {self.rows[0]}–{self.rows[1] - 1}, columns {self.cols[0]}–{self.cols[1] - 1}"
 
 
 def is_arrow(solid: np.ndarray, image_size_px: int) -> bool:
@@ -54,8 +56,9 @@ def is_arrow(solid: np.ndarray, image_size_px: int) -> bool:
     return head >= 2.0 * shaft_width and tail <= 1.5 * shaft_width + 1
 
 
-def detect_annotations(values: np.ndarray) -> tuple[np.ndarray, list[Annotation]]:
-    """Mask of burned-in annotations inside the picture, and what they are.
+def detect_annotations(values: np.ndarray, arrows: bool = True) -> tuple[np.ndarray, list[Annotation]]:
+    """Mask of burned-in annotations inside the picture, and what they are (`arrows`: look for
+    drawn arrows too; a diagram's arrows and strokes are its content, not marks on it).
 
     Scale-bar and label boxes: saturated (white or black) regions that, with holes (their text)
     filled, are nearly perfect rectangles and do hold text. Thin bars: saturated rectangles at
@@ -82,7 +85,7 @@ def detect_annotations(values: np.ndarray) -> tuple[np.ndarray, list[Annotation]
             if bh * bw < 60 or bh * bw > 0.08 * h * w or bh >= 0.5 * h or bw >= 0.9 * w:
                 continue
             solid = labels[sl] == i
-            if is_arrow(solid, max(h, w)):
+            if arrows and is_arrow(solid, max(h, w)):
                 found.append(Annotation("arrow", (sl[0].start, sl[0].stop), (sl[1].start, sl[1].stop)))
                 mask[sl] |= solid
                 continue

@@ -106,7 +106,32 @@ def read_text(image, psm: int, whitelist: str) -> str | None:
     return _command(image, psm, whitelist)
 
 
-def _command(image, psm: int, whitelist: str) -> str | None:
+def read_line(image) -> tuple[str, float] | None:
+    """One line of text on a PIL image (page segmentation mode 7, any character) and Tesseract's
+    mean word confidence, 0-100; None when OCR is missing or failed."""
+    api = _api()
+    if api is not None:
+        with _lock:
+            api.SetPageSegMode(7)
+            api.SetVariable("tessedit_char_whitelist", "")
+            api.SetImage(image)
+            text = api.GetUTF8Text()
+            confidence = float(api.MeanTextConf())
+            api.Clear()
+        return text.strip(), confidence
+    tsv = _command(image, 7, "", "tsv")
+    if tsv is None:
+        return None
+    words, confidences = [], []
+    for row in tsv.splitlines()[1:]:  # level page block par line word left top width height conf text
+        cells = row.split("\t")
+        if len(cells) == 12 and cells[0] == "5" and cells[11].strip():
+            words.append(cells[11].strip())
+            confidences.append(float(cells[10]))
+    return " ".join(words), (sum(confidences) / len(confidences) if confidences else 0.0)
+
+
+def _command(image, psm: int, whitelist: str, output: str = "") -> str | None:
     exe = shutil.which("tesseract")
     if exe is None:
         return None
@@ -114,6 +139,7 @@ def _command(image, psm: int, whitelist: str) -> str | None:
         path = Path(tmp) / "text.png"
         image.save(path)
         command = [exe, str(path), "stdout", "--psm", str(psm), "-l", LANGUAGE, "-c", f"tessedit_char_whitelist={whitelist}"]
+        command += [output] if output else []
         # One thread: Tesseract's OpenMP threads slow a page this small down, most on a busy machine.
         env = {**os.environ, "OMP_THREAD_LIMIT": "1"}
         try:

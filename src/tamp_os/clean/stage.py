@@ -16,6 +16,7 @@ from . import annotations as marks
 from .annotations import Annotation
 from .band import Band, band_from_metadata, detect_info_band
 from .instrument import Instrument, read_instrument
+from .labels import find_labels, on_paper, read_labels
 from .scale import PixelSize, read_pixel_size
 from .scalebar import scale_from_bars
 
@@ -35,6 +36,8 @@ class Cleaned:
     annotations : burned-in annotations removed (empty when removal is off).
     mask : (H', W) bool where annotations were removed, or None when removal is off.
     instrument : magnification, kV and detector when the file records them, else None.
+    annotations_read : the annotations with their text labels read by OCR, or its Future while
+        they are being read (read `annotations_with_text`, which waits), or None: none to read.
     """
 
     values: np.ndarray
@@ -44,6 +47,15 @@ class Cleaned:
     annotations: list[Annotation]
     mask: np.ndarray | None
     instrument: Instrument | None = None
+    annotations_read: "list[Annotation] | Future[list[Annotation]] | None" = None
+
+    @property
+    def annotations_with_text(self) -> list[Annotation]:
+        """The annotations, each text label with its words (labels.read_labels)."""
+        found = self.annotations_read
+        if found is None:
+            return self.annotations
+        return found.result() if isinstance(found, Future) else found
 
     @property
     def pixel_size(self) -> PixelSize:
@@ -95,11 +107,18 @@ def clean_picture(picture: Picture, *, pixel_size_m: float | None, remove_annota
     alpha = None if picture.alpha is None else picture.alpha[rows]
     if not remove_annotations:
         return Cleaned(values, alpha, size, band, [], None, instrument)
-    mask, found = marks.detect_annotations(values)
+    paper = on_paper(values)  # a diagram or drawing: its arrows and strokes are content, its words are labels
+    mask, found = marks.detect_annotations(values, arrows=not paper)
+    words_mask, words = find_labels(values, mask) if paper else (None, [])
+    if words:
+        mask = mask | words_mask
+        found = found + words
+    # Every removed text label is read (OCR) on the thread that reads scale bars, beside the relief.
+    read = _reader().submit(read_labels, values, found) if any(a.kind == "text" for a in found) else None
     if size.metres is None:  # OCR of a scale bar's label (Tesseract, ~0.1 s) runs beside the inpainting and relief on the other core
         size = _reader().submit(_scale_from_bars, picture.values, band, values, found, size)
     removal = marks.Removal(marks.inpaint(values, mask), mask, found)  # what marks.remove_annotations does
-    return Cleaned(removal.values, alpha, size, band, removal.annotations, removal.mask, instrument)
+    return Cleaned(removal.values, alpha, size, band, removal.annotations, removal.mask, instrument, read)
 
 
 @functools.lru_cache(maxsize=1)

@@ -12,7 +12,9 @@ empty space as the ground. This style reads the picture on the working grid and 
    other styles find when they are too large for a local background): every member a dome of
    the same full lift, touching members apart by a groove, small ones drawn at a feelable size
    when few;
-4. else weak contrast: the specimen is found against an empty mount, its contrast is equalised
+4. else a line network too thin for the working grid, found on a finer grid made from the
+   source before the print grid's blur (lines.fine_lines), when its regions tile the picture;
+5. else weak contrast: the specimen is found against an empty mount, its contrast is equalised
    locally (CLAHE over a tenth of the field) and its grains are outlined by raised lines when
    their boundaries form a network; anything else gets the structure style's shape.
 
@@ -23,6 +25,7 @@ the print with what was found ("found 10 members, all raised at least 1.0 mm").
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass
 
 import numpy as np
@@ -31,12 +34,14 @@ from scipy import ndimage
 from skimage import exposure, filters, segmentation
 
 from .lines import (
+    FINE_PITCH_MM,
     LINE_HEIGHT_MM,
     LINE_WIDTH_MM,
     MIN_GAP_MM,
     Lines,
     draw_lines,
     find_lines,
+    fine_lines,
     hessian_ridges,
 )
 from .objects import ObjectMap, dome_profile, label_max, label_median
@@ -49,9 +54,14 @@ from .population import (
     noise_level,
 )
 
+log = logging.getLogger(__name__)
+
 NETWORK_CELLS = 3  # a line network encloses at least this many fingertip-sized regions
 LINE_ART_MM = 40.0  # strokes on empty paper this long in all (on the print) are a drawing to raise as lines
 NETWORK_STRENGTH = 20.0  # median ridge response on the lines over its MAD: measured 45-240 on networks, 7 on SEM sphere rims
+FINE_NETWORK_CELLS = 10  # a network found on the fine grid encloses at least this many regions
+FINE_STRENGTH = 8.0  # and its lines' median response stands this many robust deviations above the fine grid's
+FINE_MAX_CELL_SHARE = 0.15  # and no region holds more of the enclosed area than this (a network tiles the picture)
 MAX_LINE_COVER = 0.45  # drawn lines covering more than this are no network but a texture
 MIN_MEMBERS = 2
 POPULATION_ENERGY = 0.6
@@ -187,12 +197,16 @@ def lattice_period(work: np.ndarray, pitch_mm: float) -> Period | None:
 
 
 def make_content(work: np.ndarray, *, pitch_mm: float, relief_mm: float, width_mm: float, found,
-                 min_area_mm2: float, hints: ContentHints | None = None, fallback: bool = True) -> ContentMade | None:
+                 min_area_mm2: float, hints: ContentHints | None = None, fallback: bool = True,
+                 fine=None) -> ContentMade | None:
     """The content relief on the working grid (see the module's notes). `found`: the edge-enclosed
     objects (an ObjectMap, or a function that finds them: only asked for when needed). `hints`:
     file metadata that helps the choice (detector, signal), said in the reason. Without
     `fallback`, None when the picture holds no population, no line network and no weak-contrast
-    specimen (auto then chooses among the other styles, and the shape is not made for nothing)."""
+    specimen (auto then chooses among the other styles, and the shape is not made for nothing).
+    `fine`: a function of a column count giving the picture without the print grid's blur
+    (Prepared.finer), where lines under a print pixel wide are looked for when nothing else was
+    found (fine_lines)."""
     specimen = find_specimen(work, pitch_mm)
     if not specimen.any():  # no specimen found (a picture all mount, or flat): the whole picture is the specimen
         specimen = np.ones_like(specimen)
@@ -243,6 +257,16 @@ def make_content(work: np.ndarray, *, pitch_mm: float, relief_mm: float, width_m
     if big is not None:
         return _as_members(big, pitch_mm, relief_mm, polarity, lattice + meta,
                            f"{int(big.max())} objects outlined by edges, wider than the {BACKGROUND_MM:g} mm local ground")
+    thin = _fine_network(fine, work.shape, pitch_mm, width_mm, min_area_mm2)
+    if thin is not None:
+        bright, fine_pitch_mm, found_lines = thin
+        side = "bright" if bright else "dark"
+        polarity = Polarity(bright, polarity.ground, f"the {side} lines form the network, so they are raised and the regions "
+                                                    f"they enclose sit at the base")
+        return _as_lines(found_lines, pitch_mm, relief_mm, width_mm, polarity, lattice + meta, "lines",
+                         what=(f"a network of {side} lines thinner than the print grid, found on a {fine_pitch_mm:.2f} mm grid "
+                               f"before the print's blur, enclosing {found_lines.cell_count} regions ({found_lines.length_mm:.0f} mm "
+                               f"of line, ridge strength {found_lines.strength:.0f} × noise)"))
     if not fallback:
         return None
     return _weak_contrast(work, x, pitch_mm, relief_mm, width_mm, min_area_mm2, polarity, lattice + meta,
@@ -276,6 +300,42 @@ class _Finder:
         if bright not in self._members:
             self._members[bright] = find_members(self.picture(bright), pitch_mm=self.pitch_mm, noise=self.noise)
         return self._members[bright]
+
+
+def _fine_network(fine, shape: tuple[int, int], pitch_mm: float, width_mm: float,
+                  min_area_mm2: float) -> tuple[bool, float, Lines] | None:
+    """(bright, the fine grid's pitch, the lines on the working grid) of the strongest line
+    network found on the fine grid, or None: no fine picture, the working grid already as fine
+    as FINE_PITCH_MM allows (the fine grid must be at least twice as fine), or no network."""
+    if fine is None:
+        return None
+    want = round(width_mm / FINE_PITCH_MM) + 1
+    if want < 2 * shape[1]:
+        return None
+    picture = fine(want)
+    if picture is None or picture.shape[1] < 2 * shape[1]:
+        return None
+    fine_pitch_mm = width_mm / (picture.shape[1] - 1)
+    found = fine_lines(picture, fine_pitch_mm=fine_pitch_mm, work_shape=shape, pitch_mm=pitch_mm, min_area_mm2=min_area_mm2)
+    for bright, lines in found.items():
+        log.debug("fine lines (%s, %.2f mm grid): %d regions, strength %.1f, cover %.2f", "bright" if bright else "dark",
+                  fine_pitch_mm, lines.cell_count, lines.strength, lines.cover)
+    best = [(lines.strength, bright) for bright, lines in found.items() if _is_fine_network(lines)]
+    if not best:
+        return None
+    bright = max(best)[1]
+    return bright, fine_pitch_mm, found[bright]
+
+
+def _is_fine_network(lines: Lines) -> bool:
+    """Many regions, lines clear of the noise, and regions that tile the picture: no one of them
+    holds more than FINE_MAX_CELL_SHARE of it (measured: the Al2O3 grains 0.05, where a portrait's
+    sky, a fundus's background or an SEM field's ground, whose outlines the fine grid finds too,
+    hold 0.26-0.99)."""
+    if lines.cell_count < FINE_NETWORK_CELLS or lines.cover > MAX_LINE_COVER or lines.strength < FINE_STRENGTH:
+        return False
+    area = np.bincount(lines.cells.ravel())[1:]
+    return bool(area.size) and float(area.max()) <= FINE_MAX_CELL_SHARE * float(area.sum())
 
 
 def _is_network(lines: Lines) -> bool:

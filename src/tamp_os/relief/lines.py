@@ -21,7 +21,11 @@ skeleton within 1 mm of a true line; CPU time per picture):
 The one-scale Hessian is Sato's measure at the one scale the print needs, written as three
 Gaussian derivative filters: as good as sato and 2-40x cheaper. (The top-hat is as fast and more
 precise on the membranes, but it answers on any narrow bright blob and closes 6 of the membranes'
-cells where the Hessian closes 16.) None finds the Al2O3 grain boundaries, which the preparation's blur fades.
+cells where the Hessian closes 16.) None finds the Al2O3 grain boundaries on the print grid: a dark
+core between bright rims, under a print pixel wide, which the grid's resampling and blur cancel.
+`fine_lines` looks for them on a 0.1 mm grid made from the source before the blur (the same
+Hessian at the boundaries' own width, a hysteresis threshold), and draws what it finds on the
+working grid: there they enclose 140-160 regions and stand +0.96 mm over them (benchmark).
 """
 
 from __future__ import annotations
@@ -43,6 +47,9 @@ MIN_PIECE_MM = 4.0  # loose line pieces shorter than this are noise or texture
 RIDGE_SIGMAS_MM = (0.4, 0.8)
 RIDGE_SIGMA_MM = 0.5  # the one scale of the default ridge measure (lines 0.5–2 mm wide on the print)
 STEP_MARGIN = 0.02  # a line stands at least this far (0..1 of the range) above the brighter side of its band
+FINE_PITCH_MM = 0.1  # lines too thin for the working grid are looked for on a grid this fine (or the source's, if coarser)
+FINE_SIGMA_MM = 0.1  # the Hessian's scale there: a grain boundary's own width
+FINE_LOW_MADS, FINE_HIGH_MADS = 4.0, 10.0  # the hysteresis threshold on the fine ridge response
 RIDGE_METHODS = ("hessian", "sato", "meijering", "tophat")
 
 
@@ -81,11 +88,11 @@ def ridge_response(bright01: np.ndarray, pitch_mm: float, method: str = "hessian
     raise ValueError(method)
 
 
-def hessian_ridges(image01: np.ndarray, pitch_mm: float) -> tuple[np.ndarray, np.ndarray]:
+def hessian_ridges(image01: np.ndarray, pitch_mm: float, sigma_mm: float = RIDGE_SIGMA_MM) -> tuple[np.ndarray, np.ndarray]:
     """The one-scale Hessian ridge response of a picture's bright lines and of its dark lines,
     from one set of derivative filters: the Hessian of 1 - image is minus the image's, so the
     dark lines' response is the largest eigenvalue where the bright lines' is minus the smallest."""
-    sigma = max(0.7, RIDGE_SIGMA_MM / pitch_mm)
+    sigma = max(0.7, sigma_mm / pitch_mm)
     img = image01.astype(np.float32)
     hyy = ndimage.gaussian_filter(img, sigma, order=(2, 0), mode="reflect")
     hxx = ndimage.gaussian_filter(img, sigma, order=(0, 2), mode="reflect")
@@ -115,6 +122,14 @@ def find_lines(bright01: np.ndarray, *, pitch_mm: float, min_area_mm2: float = 6
     skeleton = morphology.skeletonize(mask)
     skeleton = _drop_short(skeleton, MIN_PIECE_MM / pitch_mm)
     skeleton = _brighter_than_both_sides(skeleton, image, pitch_mm)
+    on = response[skeleton]
+    strength = float((np.median(on) - med) / mad) if on.size else 0.0
+    return network_of(skeleton, pitch_mm=pitch_mm, min_area_mm2=min_area_mm2, strength=strength)
+
+
+def network_of(skeleton: np.ndarray, *, pitch_mm: float, min_area_mm2: float, strength: float) -> Lines:
+    """The Lines of a skeleton on the working grid: the regions it encloses when drawn
+    LINE_WIDTH_MM wide, those too narrow to feel (merged) and the width at which they would not be."""
     length_mm = float(skeleton.sum() * pitch_mm * 1.12)  # diagonal steps: ~1.12 px per pixel of skeleton
     half = LINE_WIDTH_MM / 2 / pitch_mm
     drawn = _dilate(skeleton, half)
@@ -133,11 +148,52 @@ def find_lines(bright01: np.ndarray, *, pitch_mm: float, min_area_mm2: float = 6
     cells_gap = np.sort(gap_mm[area > 0])
     separate_at = 1.0
     if cells_gap.size:
+        # Scaling the print by k scales the distance between line centres (gap + line width)
+        # but not the drawn width: the gap reaches MIN_GAP_MM at k = (MIN_GAP + w) / (gap + w).
         tenth = float(cells_gap[int(0.1 * (cells_gap.size - 1))])
-        separate_at = max(1.0, MIN_GAP_MM / max(tenth, 1e-6))
-    on = response[skeleton]
-    strength = float((np.median(on) - med) / mad) if on.size else 0.0
+        separate_at = max(1.0, (MIN_GAP_MM + LINE_WIDTH_MM) / (tenth + LINE_WIDTH_MM))
     return Lines(skeleton, cells.astype(np.int32), count, length_mm, float(drawn.mean()), merged, separate_at, strength)
+
+
+def fine_lines(fine01: np.ndarray, *, fine_pitch_mm: float, work_shape: tuple[int, int], pitch_mm: float,
+               min_area_mm2: float) -> dict[bool, Lines]:
+    """Line networks found on a grid finer than the working grid (the source before the print
+    grid's resampling and blur, which fade lines under a print pixel wide: the Al2O3 grain
+    boundaries), drawn on the working grid; {True: bright lines, False: dark lines}.
+
+    The one-scale Hessian at FINE_SIGMA_MM (a boundary's own width), a hysteresis threshold in
+    robust deviations of the response (FINE_LOW_MADS to FINE_HIGH_MADS: a line's faint stretches
+    stay joined to its strong ones), pieces shorter than MIN_PIECE_MM dropped; each remaining
+    fine pixel marks the working-grid pixel it falls in, and that mask is thinned to the skeleton
+    the print draws LINE_WIDTH_MM wide."""
+    ridges = hessian_ridges(fine01, fine_pitch_mm, FINE_SIGMA_MM)
+    rows, cols = fine01.shape
+    out = {}
+    for bright, response in ((True, ridges[0]), (False, ridges[1])):
+        sample = response[::4, ::4]  # the median and deviation of a sixteenth: the same to 1 %, a fifth of the time
+        med = float(np.median(sample))
+        mad = float(np.median(np.abs(sample - med))) * 1.4826 + 1e-9
+        # Hysteresis in one labelling: pieces above the low threshold that reach the high one
+        # somewhere and span at least MIN_PIECE_MM (the larger side of their box stands for length).
+        low = response > med + FINE_LOW_MADS * mad
+        parts, n = ndimage.label(low, structure=np.ones((3, 3)))
+        mask = low
+        if n:
+            peak = label_max(np.where(low, response, 0).astype(np.float32), parts, n)
+            boxes = ndimage.find_objects(parts)
+            extent = np.array([0] + [max(b[0].stop - b[0].start, b[1].stop - b[1].start) for b in boxes])
+            keep = (extent >= MIN_PIECE_MM / fine_pitch_mm) & (peak >= med + FINE_HIGH_MADS * mad)
+            keep[0] = False
+            mask = keep[parts]
+        on = response[mask]
+        strength = float((np.median(on) - med) / mad) if on.size else 0.0
+        fy, fx = np.nonzero(mask)
+        coarse = np.zeros(work_shape, bool)
+        coarse[np.rint(fy * ((work_shape[0] - 1) / max(rows - 1, 1))).astype(np.intp),
+               np.rint(fx * ((work_shape[1] - 1) / max(cols - 1, 1))).astype(np.intp)] = True
+        skeleton = _drop_short(morphology.skeletonize(coarse), MIN_PIECE_MM / pitch_mm)
+        out[bright] = network_of(skeleton, pitch_mm=pitch_mm, min_area_mm2=min_area_mm2, strength=strength)
+    return out
 
 
 def draw_lines(lines: Lines, pitch_mm: float) -> np.ndarray:

@@ -8,7 +8,7 @@ Row 0 stays the top of the image here; mesh.py places it at the far edge of the 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy import ndimage
@@ -104,6 +104,35 @@ class Prepared:
     stretch_source_range: tuple[float, float]  # source values mapped to 0 and 1
     uniform: bool  # every usable source pixel had the same value
     fitted_width_px: float  # source pixels across the picture after padding or cropping to the aspect
+    # The stretched source fitted to the aspect, before resampling and blur (and its alpha, and
+    # whether the picture is inverted or mirrored): `finer` draws the picture on a finer grid from it.
+    fitted: np.ndarray | None = field(default=None, repr=False, compare=False)
+    fitted_alpha: np.ndarray | None = field(default=None, repr=False, compare=False)
+    invert: bool = False
+    flip_x: bool = False
+
+    def finer(self, cols: int) -> np.ndarray | None:
+        """The picture `cols` wide on the output grid's aspect (or the source itself when it is
+        no wider), stretched, inverted and mirrored as `image` is but neither blurred nor renormalised: lines
+        thinner than a print pixel, which the print grid's resampling and blur fade, are still
+        there. None when the picture is uniform or was prepared without its source."""
+        if self.fitted is None or self.uniform:
+            return None
+        out_rows, out_cols = self.image.shape
+        cols = int(min(cols, self.fitted.shape[1]))
+        rows = max(2, round((out_rows - 1) * (cols - 1) / max(out_cols - 1, 1)) + 1)
+        if cols == self.fitted.shape[1]:
+            # The source itself (its aspect differs from the grid's by the grid's rounding at
+            # most): a resample by a few rows would smear one-pixel lines.
+            rows = self.fitted.shape[0]
+        image = resample(self.fitted, rows, cols)
+        if self.invert:
+            image = 1.0 - image
+        if self.fitted_alpha is not None:
+            image = image * np.clip(resample(self.fitted_alpha, rows, cols), 0.0, 1.0)
+        if self.flip_x:
+            image = image[:, ::-1]
+        return np.ascontiguousarray(image, dtype=np.float32)
 
 
 def prepare(
@@ -124,6 +153,7 @@ def prepare(
     blur by `sigma_px` grid pixels, invert and mirror as asked. See `Prepared` for the result."""
     image, (low, high), uniform = stretch(values, alpha, low_pct, high_pct)
     image, alpha = fit_aspect(image, alpha, target_aspect, fit)
+    fitted, fitted_alpha = image, alpha
     fitted_width_px = image.shape[1]
     image = resample(image, rows, cols)
     image = blur(image, sigma_px)
@@ -135,4 +165,5 @@ def prepare(
         image = image * np.clip(resample(alpha, rows, cols), 0.0, 1.0)
     if flip_x:
         image = image[:, ::-1]
-    return Prepared(np.ascontiguousarray(image, dtype=np.float32), (low, high), uniform, fitted_width_px)
+    return Prepared(np.ascontiguousarray(image, dtype=np.float32), (low, high), uniform, fitted_width_px,
+                    fitted, fitted_alpha, invert, flip_x)

@@ -114,6 +114,7 @@ def make_relief(
     options: StyleOptions = StyleOptions(),
     uniform: bool = False,
     hints=None,
+    fine=None,
 ) -> ReliefResult:
     """Heights in mm from the prepared image, in the given relief style.
 
@@ -128,6 +129,9 @@ def make_relief(
     uniform : the picture is uniform (prepare's info['uniform']): every style gives a flat plate.
     hints : content.ContentHints (detector, signal) from the file's metadata, or None; the content
         style reads its polarity from it and says it in its reason.
+    fine : a function of a column count giving the picture that wide without the print grid's
+        blur (`preprocess.Prepared.finer`), or None; the content style looks there for lines too
+        thin for the print grid (grain boundaries under a print pixel wide).
 
     Returns
     -------
@@ -153,7 +157,7 @@ def make_relief(
         # auto tries the content translation first: the benchmark (README, relief styles) shows
         # it ahead wherever it finds members, a line network or grains; elsewhere auto picks as before.
         content, kind = _content(image01, grid, work, objects_found, mm_per_px=mm_per_px, base_mm=base_mm, relief_mm=relief_mm,
-                                 layer_mm=layer_mm, options=options, hints=hints, fallback=style == "content")
+                                 layer_mm=layer_mm, options=options, hints=hints, fallback=style == "content", fine=fine)
         if style == "content":
             return content
         if content is not None and kind != "shape":
@@ -181,7 +185,7 @@ _KIND_WORDS = {"members": "a population of members found", "lines": "a line netw
 
 
 def _content(image01, grid, work, found, *, mm_per_px, base_mm, relief_mm, layer_mm, options, hints,
-             fallback=True) -> tuple[ReliefResult | None, str]:
+             fallback=True, fine=None) -> tuple[ReliefResult | None, str]:
     """The content style (content.py) brought back to the output grid, and the kind of content it
     found. Members reach the full relief; lines stop at LINE_HEIGHT_MM (a tactile line's height),
     so they are not stretched."""
@@ -189,7 +193,7 @@ def _content(image01, grid, work, found, *, mm_per_px, base_mm, relief_mm, layer
 
     width_mm = (image01.shape[1] - 1) * mm_per_px
     made = make_content(work, pitch_mm=grid.pitch_mm, relief_mm=relief_mm, width_mm=width_mm, found=found,
-                        min_area_mm2=options.min_area_mm2, hints=hints, fallback=fallback)
+                        min_area_mm2=options.min_area_mm2, hints=hints, fallback=fallback, fine=fine)
     if made is None:
         return None, "shape"
     relief01 = np.clip(grid.up(made.relief01), 0.0, 1.0)

@@ -99,3 +99,28 @@ def test_one_object_stands():
     assert litho.report.legibility["object_count"] == 1
     assert "One object found in the picture stands up" in text
     assert not re.search(r"\b1 object stand\b|\bone object stand\b", text)
+
+
+@pytest.mark.timeout(120)
+def test_content_prints_say_what_they_raise_not_brightness():
+    """A dark line network raised as lines must not be described as 'the bright parts raised' or
+    as texture with nothing to find; a population says domes by the same lift, and the members'
+    count is said once (the content check), not again by a second, different measure."""
+    from synthetic_content import dark_line_network, dim_and_bright_beads
+
+    from tamp_os.report import describe
+
+    lines = make_lithograph(dark_line_network().image, width_mm=100, relief_style="content")
+    assert lines.report.content_kind == "lines" and lines.report.as_dict()["content_kind"] == "lines"
+    text = describe(lines.report, lines.params, "lines.png")
+    assert "raised lines about 1 mm high" in text and "areas they enclose stay low" in text
+    assert "bright parts" not in text and "felt as texture" not in text
+
+    beads = make_lithograph(dim_and_bright_beads().image, width_mm=100, relief_style="content")
+    text = describe(beads.report, beads.params, "beads.png")
+    assert beads.report.content_kind == "members"
+    assert "dome by the same lift" in text and "bright parts" not in text
+    assert len(re.findall(r"Found \d+ members?", text)) == 1 and "objects stand" not in text
+
+    plain = make_lithograph(dark_line_network().image, width_mm=100, relief_style="structure")
+    assert plain.report.content_kind == "" and "content_kind" not in plain.report.as_dict()

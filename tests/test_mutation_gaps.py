@@ -370,6 +370,8 @@ def test_object_verdicts_singular_plural_low_and_high():
         "1 object stands 1 mm (median; lowest 1 mm) above the ground around it.")
     assert _verdicts(object_count=3, object_lift_mm=2.0, lowest_lift_mm=1.5)[2] == (
         "3 objects stand 2 mm (median; lowest 1.5 mm) above the ground around them.")
+    # The content style says its members' height once, in its own check ("Found 3 members, all raised ...").
+    assert not any("objects stand" in v for v in _verdicts(object_count=3, object_lift_mm=2.0, lowest_lift_mm=1.5, style="content"))
 
 
 MM = 0.4

@@ -372,6 +372,7 @@ def _report(picture, cleaned, prepared, layout, params, machine, mesh, placed, m
         timings_s={k: round(v, 4) for k, v in timings.items()},
         relief_style=relief.style,
         relief_reason=relief.reason,
+        content_kind=relief.content_kind,
         legibility=legibility,
         instrument=cleaned.instrument,
         source_px=(picture.file.width, picture.file.height),

@@ -109,6 +109,7 @@ class Report:
     print: Printing | None = None  # slicing results; `with_printing` makes the report of a sliced print
     relief_style: str = "reference"  # the style that made the heights (auto resolved)
     relief_reason: str = ""  # why that style, or what it did, in one sentence
+    content_kind: str = ""  # the content style: "members", "lines", "grains" or "shape" (what it raised)
     legibility: Legibility | None = None  # figures and verdicts
     instrument: Instrument | None = None  # magnification, kv, detector, signal, source when the file records them
     source_px: tuple[int, int] = (0, 0)  # the source image's width and height (where annotations were)
@@ -138,6 +139,8 @@ class Report:
             d["panels"] = self.panels.as_dict()
         for key in ("print_mm", "relief_mm", "grid"):
             d[key] = list(d[key])
+        if not self.content_kind:  # only content prints say it (other recipes keep their keys)
+            del d["content_kind"]
         if self.print is None:
             del d["print"]
         else:
@@ -402,10 +405,30 @@ def _layout_sentence(report: Report) -> str | None:
         return None
     from .layout_words import layout_sentence
 
+    if report.content_kind in ("lines", "grains"):
+        return None  # a network or plateaus tiling the picture: the sentence before says what to find
     layout = report.layout
     noun = {"objects": "dome", "levels": "raised area"}.get(report.relief_style, "raised shape")
+    if report.content_kind == "members":  # a piece is one dome, or touching members grouped
+        same = report.legibility is not None and report.legibility.object_count == len(layout.pieces)
+        noun = "dome" if same else "raised group"
+
     counted = report.relief_style == "objects" and report.legibility is not None and report.legibility.object_count == len(layout.pieces)
     return layout_sentence(layout, noun, counted=counted)
+
+
+# What the content style raised (relief/content.py), said as tactile graphics describe it.
+_CONTENT_RAISED = {
+    "members": ("Every member of the population found in the picture (particles, beads, cells or nuclei, dim or "
+                "bright alike) stands up as a dome by the same lift, up to {up} above a flat ground; touching "
+                "members are parted by a groove."),
+    "lines": ("The picture's lines (boundaries, membranes or drawn strokes, whether dark or bright in the image) "
+              "stand up as raised lines about {line_mm} mm high over a flat ground; the areas they enclose stay low."),
+    "grains": ("The grains, told apart by their weak contrast, stand up as a few flat plateaus above the mount, "
+               "up to {up} above the base; the empty mount stays at the base."),
+    "shape": ("The picture's shape at fingertip scale is raised, its contrast evened out locally, up to {up} above "
+              "the base; the empty background stays at the base."),
+}
 
 
 def _what_is_raised(report: Report, params: LithoParams) -> str:
@@ -429,6 +452,10 @@ def _what_is_raised(report: Report, params: LithoParams) -> str:
         entries = "; ".join(f"{e.encoding}: {e.label}" for e in report.key)
         return (f"Each channel or stain of the picture is its own texture ({entries}), up to {up} above the base. "
                 f"Below the picture, along the near margin, a key shows a swatch of each texture with its label in braille.")
+    if report.relief_style == "content" and report.content_kind in _CONTENT_RAISED:
+        from .relief.lines import LINE_HEIGHT_MM
+
+        return _CONTENT_RAISED[report.content_kind].format(up=up, line_mm=f"{LINE_HEIGHT_MM:g}", raised=raised)
     if report.relief_style == "structure":
         return (f"The {raised} parts of the image are raised, up to {up} above the base, simplified to shapes a "
                 f"fingertip can follow; finer detail is kept only as a low texture.")

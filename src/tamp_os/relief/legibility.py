@@ -234,7 +234,7 @@ def verdicts(f: dict, nozzle_mm: float, style: str | None = None) -> tuple[str, 
                 f"a finger may not find {'it' if n == 1 else 'them'}; "
                 + ("try a taller `relief_mm`." if style in ("objects", "content") else "try `relief_style` objects.")
             ))
-        else:
+        elif style != "content":  # the content style's own check says how high its members stand (once)
             out.append(f"{n} object{'s' * (n != 1)} stand{'s' * (n == 1)} {lift:.2g} mm (median; lowest {low:.2g} mm) above the "
                        f"ground around {'it' if n == 1 else 'them'}.")
     out.append(f"The steepest slope is {f['steepest_slope_deg']:.0f} degrees.")

@@ -68,6 +68,8 @@ class ReliefResult:
     notes : further sentences for the report (adjustments made, nothing found...).
     checks : sentences comparing the print with what was found in the picture ("Found 10 members,
         all raised at least 1.0 mm..."), for the legibility check (content style).
+    content_kind : what the content style raised: "members", "lines", "grains" or "shape" ("" for
+        the other styles), so the description can say it in words.
     """
 
     heights_mm: np.ndarray
@@ -77,6 +79,7 @@ class ReliefResult:
     levels_mm: tuple[float, ...] = ()
     notes: tuple[str, ...] = field(default_factory=tuple)
     checks: tuple[str, ...] = field(default_factory=tuple)
+    content_kind: str = ""
 
     @property
     def object_count(self) -> int:
@@ -162,7 +165,7 @@ def make_relief(
             return content
         if content is not None and kind != "shape":
             return ReliefResult(content.heights_mm, "content", f"auto chose content ({_KIND_WORDS[kind]}): {content.reason}",
-                                content.objects, (), content.notes, content.checks)
+                                content.objects, (), content.notes, content.checks, content.content_kind)
     found = objects_found()
     if style == "auto":
         style, reason = choose_style(work, pitch_mm=grid.pitch_mm, options=options, found=found)
@@ -207,7 +210,7 @@ def _content(image01, grid, work, found, *, mm_per_px, base_mm, relief_mm, layer
     # The check reads the heights on the working grid, where the members and lines were found
     # (at 4096² a distance transform of the full grid alone would cost a second).
     checks = check_sentences(grid.down(heights).astype(np.float64), made, grid.pitch_mm, base_mm)
-    return ReliefResult(heights, "content", made.reason, labels, (), made.notes, checks), made.kind
+    return ReliefResult(heights, "content", made.reason, labels, (), made.notes, checks, made.kind), made.kind
 
 
 def _full_span(relief01: np.ndarray) -> np.ndarray:

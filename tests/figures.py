@@ -21,7 +21,7 @@ FIXTURES = Path(__file__).resolve().parents[1].parent / "shared" / "fixtures"
 @dataclass(frozen=True)
 class Figure:
     name: str
-    image: np.ndarray  # (rows, cols) uint8
+    image: np.ndarray  # (rows, cols) uint8, or (rows, cols, 3) for a colour figure
     boxes: list[tuple[int, int, int, int]]  # x, y, w, h of each panel, in reading order
     letters: list[str | None]  # the letter printed on each panel (None: no letter)
 
@@ -90,6 +90,25 @@ def grid_white_boxes(panels: list[np.ndarray], cols: int, gutter: int = 24, lett
             _letter_in_box(canvas, x, y, letters[i], size)
         boxes.append((x, y, pw, ph))
     return Figure("grid_white", np.asarray(canvas), boxes, list(letters) if letters else [None] * len(panels))
+
+
+def grid_colour(panels: list[np.ndarray], cols: int, gutter: int = 24, letters="abcd", size: int = 36) -> Figure:
+    """Equal panels, colour (rows, cols, 3) or grey (rows, cols), uint8, in a grid on white, lower-case
+    letters in white boxes at each top-left; the picture is RGB (rows, cols, 3)."""
+    ph, pw = panels[0].shape[:2]
+    rows = (len(panels) + cols - 1) // cols
+    H, W = rows * ph + (rows + 1) * gutter, cols * pw + (cols + 1) * gutter
+    canvas = Image.new("RGB", (W, H), (255, 255, 255))
+    boxes = []
+    for i, panel in enumerate(panels):
+        r, c = divmod(i, cols)
+        x, y = gutter + c * (pw + gutter), gutter + r * (ph + gutter)
+        canvas.paste(Image.fromarray(panel).convert("RGB"), (x, y))
+        draw, pad = ImageDraw.Draw(canvas), size // 4
+        draw.rectangle([x, y, x + size + pad, y + size + 2 * pad], fill=(255, 255, 255))
+        draw.text((x + pad, y + pad // 2), letters[i], fill=(0, 0, 0), font=font(size))
+        boxes.append((x, y, pw, ph))
+    return Figure("grid_colour", np.asarray(canvas), boxes, list(letters[:len(panels)]))
 
 
 def row_on_black(panels: list[np.ndarray], gutter: int = 20, top: int = 60, letters="ABC", size: int = 40) -> Figure:

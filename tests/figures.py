@@ -67,6 +67,35 @@ def dark_fluorescence(rows: int, cols: int, seed: int) -> np.ndarray:
     return (np.clip(image, 0, 1) * 255).astype(np.uint8)
 
 
+def fluorescence_composite(rows: int, cols: int, seed: int = 0) -> np.ndarray:
+    """An RGB fluorescence composite, uint8 (rows, cols, 3): on a black ground, red filaments (long
+    thin lines), green spots and blue round nuclei, with a little noise (as test_channels makes)."""
+    yy, xx = np.mgrid[0:rows, 0:cols]
+    s = min(rows, cols) / 300
+    nuclei = np.zeros((rows, cols))
+    for cy, cx in [(0.2, 0.2), (0.2, 0.67), (0.67, 0.33), (0.73, 0.8)]:
+        nuclei[(yy - cy * rows) ** 2 + (xx - cx * cols) ** 2 < (25 * s) ** 2] = 1.0
+    fil = np.zeros((rows, cols))
+    for k in range(6):
+        fil[np.abs(yy - (0.4 * xx + (30 + 45 * k) * s)) < 2.0 * s] = 1.0
+    rng = np.random.default_rng(seed + 3)
+    spots = np.zeros((rows, cols))
+    for cy, cx in zip(rng.integers(10, rows - 10, 60), rng.integers(10, cols - 10, 60)):
+        spots[(yy - cy) ** 2 + (xx - cx) ** 2 < (2.5 * s) ** 2] = 1.0
+    noise = np.random.default_rng(seed).normal(0, 8, (rows, cols, 3))
+    return np.clip(np.stack([fil, spots, nuclei], axis=-1) * 180 + noise, 0, 255).astype(np.uint8)
+
+
+def stained_section(rows: int, cols: int) -> np.ndarray:
+    """A crop of the H&E skin slide fixture (aperio_cmu1_he_skin.svs, 600 × 800 px at full
+    resolution: epidermis, dermis and white glass), resized to rows × cols, uint8 RGB."""
+    from tamp_os.vendor_read import read_channels
+
+    planes = read_channels(FIXTURES / "real" / "aperio_cmu1_he_skin.svs")
+    crop = np.stack([p.values[1150:1750, 980:1780] for p in planes[:3]], axis=-1).astype(np.uint8)
+    return np.asarray(Image.fromarray(crop).resize((cols, rows), Image.Resampling.BOX))
+
+
 def _letter_in_box(canvas: Image.Image, x: int, y: int, letter: str, size: int) -> None:
     """A black letter in a white box at the panel's top-left corner."""
     draw = ImageDraw.Draw(canvas)

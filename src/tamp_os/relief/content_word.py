@@ -22,9 +22,16 @@ import numpy as np
 
 WORD_GRID_PX = 128  # points on the panel's longer side: a 0.8 mm pitch on a 100 mm plate, under a fingertip
 WORD_WIDTH_MM = 100.0  # the panel as if printed this wide (a plate's width) for the mm-based thresholds
+WORD_COLOUR_PX = 256  # the colour decision on at most this many pixels a side (the prints': 512; 4× less work)
 RELIEF_MM = 3.0  # the default relief (the content style's thresholds do not depend on it)
 MIN_AREA_MM2 = 6.0  # the styles' smallest region (StyleOptions.min_area_mm2)
 NOZZLE_MM = 0.4
+LABEL_SIDE = 0.3  # a panel letter's label box lies within this share of the shorter side from its corner
+PLAIN = 0.02  # and is plain: within this of pure white or black (0..1 after the stretch)
+PEAK_BINS = 24  # a lattice's spectrum: a few peaks (each a few bins wide under the window) ...
+PEAK_SHARE = 0.5  # ... holding this share of the detail's power
+DRAWING_REGIONS = 6  # lines on empty paper enclosing at most this many regions are a drawing, not a network
+MIN_REPEATS = 12  # and repeating at least this often across the panel (a few blobs of one size are no lattice)
 
 KINDS = ("fluorescence", "stain", "lines", "line art", "grains", "lattice", "members", "picture")
 
@@ -46,7 +53,9 @@ def content_word(values: np.ndarray, colour: np.ndarray | None = None) -> Conten
         from ..read import colour_sample
         from .channel_auto import colour_facts, colour_kind
 
-        facts = colour_facts(colour_sample(np.asarray(colour)))
+        sample = colour_sample(np.asarray(colour))
+        step = -(-max(sample.shape[:2]) // WORD_COLOUR_PX)
+        facts = colour_facts(sample[::step, ::step])
         kind, _ = colour_kind(facts)
         if kind == "fluorescence":
             n = facts.colour_channels
@@ -56,7 +65,7 @@ def content_word(values: np.ndarray, colour: np.ndarray | None = None) -> Conten
     work = _small(values)
     if work is None:
         return ContentWord("picture", "a flat picture")
-    return _grey_word(work)
+    return _grey_word(without_corner_labels(work))
 
 
 def _small(values: np.ndarray) -> np.ndarray | None:
@@ -81,6 +90,36 @@ def _small(values: np.ndarray) -> np.ndarray | None:
     return np.clip((small - lo) / (hi - lo), 0, 1).astype(np.float32)
 
 
+def without_corner_labels(work: np.ndarray) -> np.ndarray:
+    """The picture with a panel letter's label box, if any, filled with its median: a plain patch
+    (within PLAIN of pure white or black) that holds the panel's corner point and stays inside
+    that corner (LABEL_SIDE of the shorter side each way), the glyph inside it included. A letter's
+    box in a particle field would count as one more particle, and on a specimen against a dark
+    mount it hides that the contrast is weak. The prints clean it as an annotation; this is the
+    cheap stand-in, from the pixels alone (a rebuilt overview has no OCR of its letters to go by)."""
+    from scipy import ndimage
+
+    rows, cols = work.shape
+    q = max(2, int(LABEL_SIDE * min(rows, cols)))
+    out = None
+    for r0, c0 in ((0, 0), (0, cols - q), (rows - q, 0), (rows - q, cols - q)):
+        window = work[r0:r0 + q, c0:c0 + q]
+        corner = (0 if r0 == 0 else q - 1, 0 if c0 == 0 else q - 1)
+        for plain in (window >= 1.0 - PLAIN, window <= PLAIN):
+            if not plain[corner]:
+                continue
+            labels, _ = ndimage.label(plain)
+            patch = labels == labels[corner]
+            rr, cc = np.flatnonzero(patch.any(axis=1)), np.flatnonzero(patch.any(axis=0))
+            inner_r = rr[-1] == q - 1 if r0 == 0 else rr[0] == 0
+            inner_c = cc[-1] == q - 1 if c0 == 0 else cc[0] == 0
+            if inner_r or inner_c:  # reaches out of the corner: the picture's own ground, not a label
+                continue
+            out = work.copy() if out is None else out
+            out[r0 + rr[0]:r0 + rr[-1] + 1, c0 + cc[0]:c0 + cc[-1] + 1] = float(np.median(work))
+    return work if out is None else out
+
+
 def _grey_word(work: np.ndarray) -> ContentWord:
     from .content import MIN_PITCH_MM, lattice_period, make_content
     from .objects import find_objects
@@ -94,19 +133,53 @@ def _grey_word(work: np.ndarray) -> ContentWord:
                         min_area_mm2=MIN_AREA_MM2, fallback=False)
     kind = made.kind if made is not None else None
     if kind == "lines":
-        if "line art" in made.reason:  # content.py's reason names strokes on empty paper so
+        if _drawing(made.reason):
             return ContentWord("line art", "line drawing")
         return ContentWord("lines", "a network of lines")
     if kind == "grains":
         return ContentWord("grains", "grains")
     period = lattice_period(work, pitch_mm)
-    if period is not None and period.pitch_mm >= MIN_PITCH_MM:
+    if period is not None and MIN_PITCH_MM <= period.pitch_mm <= WORD_WIDTH_MM / MIN_REPEATS and peaked(work, pitch_mm):
         return ContentWord("lattice", "a lattice")
     if kind == "members" and made.labels is not None:
         n = int(made.labels.max())
         if n > 0:
             return ContentWord("members", count_phrase(n), n)
     return ContentWord("picture", "picture")
+
+
+def _drawing(reason: str) -> bool:
+    """Lines that are a drawing, from what content.py's reason says: line art, or a few regions
+    (at most DRAWING_REGIONS: a box and a circle) outlined on an empty bright ground (paper); a
+    network of grain boundaries on a bright ground encloses dozens."""
+    import re
+
+    if "line art" in reason:
+        return True
+    regions = re.search(r"enclosing (\d+) regions", reason)
+    return bool(regions) and "an empty bright ground" in reason and int(regions.group(1)) <= DRAWING_REGIONS
+
+
+def peaked(work: np.ndarray, pitch_mm: float) -> bool:
+    """The detail's spectrum is a lattice's, a few sharp peaks: its strongest PEAK_BINS frequencies
+    hold at least PEAK_SHARE of the power that content.lattice_period measures. A field of blobs
+    of one size (noise smoothed to a scale) has a ring of power at that scale too, but spread over
+    every direction (measured: particle fields and noisy textures 0.14-0.28; dot lattices and a
+    grating 0.9-1.0)."""
+    import scipy.fft
+    from scipy import ndimage
+
+    rows, cols = work.shape
+    detail = work - ndimage.gaussian_filter(work, 4.0 / pitch_mm, mode="nearest")
+    window = np.outer(np.hanning(rows), np.hanning(cols)).astype(np.float32)
+    spectrum = scipy.fft.rfft2(detail * window)
+    power = spectrum.real**2 + spectrum.imag**2
+    freq = np.hypot(np.fft.fftfreq(rows)[:, None], np.fft.rfftfreq(cols)[None, :]) / pitch_mm
+    band = power[(freq > 1 / 12.0) & (freq < 0.5 / pitch_mm)]
+    if band.size <= PEAK_BINS or float(band.sum()) <= 0:
+        return False
+    top = np.partition(band, band.size - PEAK_BINS)[-PEAK_BINS:]
+    return float(top.sum() / band.sum()) >= PEAK_SHARE
 
 
 def count_phrase(n: int) -> str:

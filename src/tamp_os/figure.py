@@ -125,7 +125,7 @@ def make_figure(source, params: LithoParams | None = None, *, printer_profile: P
     colour = figure_colour(source, picture, params)
     # What each panel shows, for every panel of the layout (not only those printed now), so the
     # overview is the same file whichever panel's recipe rebuilds it.
-    contents = panel_contents(picture, layout, colour)
+    contents = panel_contents(picture.values, layout, colour)
     prints = [(f".panel-{p.label}", _panel_print(picture, p, layout, params, record, printer_profile, colour, contents[p.label]))
               for p in printable]
     # The overview names every panel large enough to print, whichever `panel` chose, so that it is
@@ -212,12 +212,13 @@ def figure_colour(source, picture: Picture, params: LithoParams) -> np.ndarray |
     return rgb.astype(dtype) if dtype.kind in "ui" else rgb  # integer samples come back exactly
 
 
-def panel_contents(picture: Picture, layout: PanelLayout, colour: np.ndarray | None) -> dict[str, ContentWord]:
-    """What each panel of the layout shows (relief/content_word.py), by label, in reading order."""
+def panel_contents(values: np.ndarray, layout: PanelLayout, colour: np.ndarray | None) -> dict[str, ContentWord]:
+    """What each panel of the layout shows (relief/content_word.py), by label, in reading order:
+    `values` the figure's brightness, `colour` its colour pixels (figure_colour) or None."""
     out = {}
     for p in layout.panels:
         own = None if colour is None else colour[p.y:p.y + p.h, p.x:p.x + p.w]
-        out[p.label] = content_word(picture.values[p.y:p.y + p.h, p.x:p.x + p.w], own)
+        out[p.label] = content_word(values[p.y:p.y + p.h, p.x:p.x + p.w], own)
     return out
 
 

@@ -400,6 +400,30 @@ def test_colour_panels_take_the_channel_path_as_on_their_own(tmp_path):
 
 
 @pytest.mark.timeout(600)
+def test_a_single_colour_or_multichannel_picture_keeps_its_channel_path(tmp_path):
+    """Not split, a picture is printed as make_lithograph prints it alone: a fluorescence composite
+    and a two-channel CZI take the channel path with the same key (they printed as one grey
+    relief when the read picture, which keeps only its brightness, was passed on)."""
+    from PIL import Image
+
+    from tamp_os.figure import make_figure
+    from tamp_os.pipeline import make_lithograph
+
+    _need_fixtures("real/zeiss_dapi_gfp_2ch.czi")
+    png = tmp_path / "composite.png"
+    Image.fromarray(fluorescence_composite(300, 400)).save(png)
+    for path in (png, FIXTURES / "real/zeiss_dapi_gfp_2ch.czi"):
+        made = make_figure(path, width_mm=60)
+        assert not made.split and made.prints[0][1].report.relief_style == "channels", path.name
+        alone = make_lithograph(path, width_mm=60)
+        assert _encodings(made.prints[0][1]) == _encodings(alone)
+        assert np.array_equal(made.prints[0][1].heightmap, alone.heightmap)
+    grey = tmp_path / "grey.png"
+    Image.fromarray(np.repeat((sem_spheres(300, 400).image * 255).astype(np.uint8)[..., None], 3, axis=2)).save(grey)
+    assert make_figure(grey, width_mm=60).prints[0][1].report.relief_style != "channels"  # grey stored as RGB
+
+
+@pytest.mark.timeout(600)
 def test_overview_says_what_each_panel_shows_whichever_panels_are_printed(tmp_path):
     """Panels of known kinds (a population of ten beads, a network of grain boundaries, faint grains
     beside a mount, a fluorescence composite): the overview's description names each kind after

@@ -105,7 +105,7 @@ def make_figure(source, params: LithoParams | None = None, *, printer_profile: P
     picture = _read(source, params)
     layout = _layout(picture, params)
     if not layout.split:
-        return _whole(picture, params, printer_profile, layout, [layout.reason] if "bands" in layout.reason else [])
+        return _whole(source, picture, params, printer_profile, layout, [layout.reason] if "bands" in layout.reason else [])
     notes = list(layout.notes)
     chosen = _chosen(layout, params)
     printable = []
@@ -118,7 +118,7 @@ def make_figure(source, params: LithoParams | None = None, *, printer_profile: P
             printable.append(panel)
     if not printable:
         notes.append("no panel of the figure is large enough to print on its own, so the figure is printed whole")
-        return _whole(picture, params, printer_profile, layout, notes)
+        return _whole(source, picture, params, printer_profile, layout, notes)
     record = params.replace(panel_boxes=layout.record())
     # A colour figure's panels carry their own colour pixels, so that each takes the channel path
     # (a fluorescence composite, a stained slide) as it would saved as a file of its own.
@@ -160,14 +160,26 @@ def _chosen(layout: PanelLayout, params: LithoParams) -> list[Panel]:
     return [p for p in layout.panels if p.label in wanted]
 
 
-def _whole(picture, params, printer_profile, layout: PanelLayout, notes: list[str]) -> Figure:
-    litho = make_lithograph(picture, params, printer_profile=printer_profile)
+def _whole(source, picture, params, printer_profile, layout: PanelLayout, notes: list[str]) -> Figure:
+    # A picture of several channels or colours is printed from its source, as make_lithograph is
+    # given it alone: the channel path reads its channels there (a read Picture keeps only its
+    # brightness, so it would print a fluorescence composite or a CZI's channels as one grey).
+    again = _has_channels(picture) and isinstance(source, (str, Path, np.ndarray))
+    litho = make_lithograph(source if again else picture, params, printer_profile=printer_profile)
     new = [note for note in notes if note not in litho.report.warnings]
     for note in new:
         log.warning(note)
     litho.report = dataclasses.replace(litho.report, panels=PanelFacts(split=False, reason=layout.reason),
                                        warnings=litho.report.warnings + tuple(new))
     return Figure(layout, [("", litho)], notes, params)
+
+
+def _has_channels(picture: Picture) -> bool:
+    """Several channels in the file, or colour with some chroma: the channel path may take it."""
+    from .relief.channel_auto import CHROMA
+
+    sample = picture.file.colour_sample
+    return picture.file.channel_count > 1 and (sample is None or bool((np.ptp(sample, axis=2) >= CHROMA).any()))
 
 
 def crop_picture(picture: Picture, box: tuple[int, int, int, int], colour: np.ndarray | None = None) -> Picture:

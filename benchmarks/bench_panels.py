@@ -95,9 +95,10 @@ def words() -> None:
     """What each panel shows (relief/content_word.py), for the overview: every panel of a 4000 ×
     3000 figure, best of 5, wall / CPU ms, with the words found."""
     from PIL import Image
-    from synthetic_content import dark_line_network, dim_and_bright_beads, dot_lattice, faint_grains
 
     from figures import fluorescence_composite, grid_colour
+    from synthetic_content import dark_line_network, dim_and_bright_beads, dot_lattice, faint_grains
+
     from tamp_os.figure import figure_colour, panel_contents
     from tamp_os.params import LithoParams
     from tamp_os.read import read_array

@@ -300,7 +300,8 @@ def _overview(picture, layout: PanelLayout, params: LithoParams, record: LithoPa
 
 
 def overview_description(name: str, layout: PanelLayout, printed: list[str], notes: list[str], contents: dict[str, str] | None = None) -> str:
-    """The overview in words: 'Four panels in two rows: a, top left, 12 raised objects; b, top right, …'."""
+    """The overview in words: 'Four panels in two rows: a, top left, particles (about 12); b, top right, …'
+    (`contents`: each label's words, relief/content_word.py)."""
     where = position_words(layout)
     contents = contents or {}
     n, rows = len(layout.panels), len(layout.rows)

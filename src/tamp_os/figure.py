@@ -105,7 +105,9 @@ def make_figure(source, params: LithoParams | None = None, *, printer_profile: P
     picture = _read(source, params)
     layout = _layout(picture, params)
     if not layout.split:
-        return _whole(source, picture, params, printer_profile, layout, [layout.reason] if "bands" in layout.reason else [])
+        given = _printed_from(source, picture)
+        del picture  # not held while a picture with channels is read again: its memory peak stays as alone
+        return _whole(given, params, printer_profile, layout, [layout.reason] if "bands" in layout.reason else [])
     notes = list(layout.notes)
     chosen = _chosen(layout, params)
     printable = []
@@ -118,7 +120,9 @@ def make_figure(source, params: LithoParams | None = None, *, printer_profile: P
             printable.append(panel)
     if not printable:
         notes.append("no panel of the figure is large enough to print on its own, so the figure is printed whole")
-        return _whole(source, picture, params, printer_profile, layout, notes)
+        given = _printed_from(source, picture)
+        del picture
+        return _whole(given, params, printer_profile, layout, notes)
     record = params.replace(panel_boxes=layout.record())
     # A colour figure's panels carry their own colour pixels, so that each takes the channel path
     # (a fluorescence composite, a stained slide) as it would saved as a file of its own.
@@ -160,12 +164,16 @@ def _chosen(layout: PanelLayout, params: LithoParams) -> list[Panel]:
     return [p for p in layout.panels if p.label in wanted]
 
 
-def _whole(source, picture, params, printer_profile, layout: PanelLayout, notes: list[str]) -> Figure:
-    # A picture of several channels or colours is printed from its source, as make_lithograph is
-    # given it alone: the channel path reads its channels there (a read Picture keeps only its
-    # brightness, so it would print a fluorescence composite or a CZI's channels as one grey).
-    again = _has_channels(picture) and isinstance(source, (str, Path, np.ndarray))
-    litho = make_lithograph(source if again else picture, params, printer_profile=printer_profile)
+def _printed_from(source, picture: Picture):
+    """What a picture printed whole is made from: its source when it has several channels or
+    colours, as make_lithograph is given it alone (the channel path reads its channels there; a
+    read Picture keeps only its brightness, so a fluorescence composite or a CZI's channels would
+    print as one grey), else the picture already read."""
+    return source if _has_channels(picture) and isinstance(source, (str, Path, np.ndarray)) else picture
+
+
+def _whole(given, params, printer_profile, layout: PanelLayout, notes: list[str]) -> Figure:
+    litho = make_lithograph(given, params, printer_profile=printer_profile)
     new = [note for note in notes if note not in litho.report.warnings]
     for note in new:
         log.warning(note)

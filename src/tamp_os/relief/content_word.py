@@ -28,9 +28,9 @@ MIN_AREA_MM2 = 6.0  # the styles' smallest region (StyleOptions.min_area_mm2)
 NOZZLE_MM = 0.4
 LABEL_SIDE = 0.3  # a panel letter's label box lies within this share of the shorter side from its corner
 PLAIN = 0.02  # and is plain: within this of pure white or black (0..1 after the stretch)
+DRAWING_REGIONS = 6  # lines on empty paper enclosing at most this many regions are a drawing, not a network
 PEAK_BINS = 24  # a lattice's spectrum: a few peaks (each a few bins wide under the window) ...
 PEAK_SHARE = 0.5  # ... holding this share of the detail's power
-DRAWING_REGIONS = 6  # lines on empty paper enclosing at most this many regions are a drawing, not a network
 MIN_REPEATS = 12  # and repeating at least this often across the panel (a few blobs of one size are no lattice)
 
 KINDS = ("fluorescence", "stain", "lines", "line art", "grains", "lattice", "members", "picture")
@@ -69,9 +69,9 @@ def content_word(values: np.ndarray, colour: np.ndarray | None = None) -> Conten
 
 
 def _small(values: np.ndarray) -> np.ndarray | None:
-    """The picture at WORD_GRID_PX on its longer side (block means of its pixels), stretched 2nd–98th
-    percentile to 0..1 as the prints are, or None when it is flat. Unknown (NaN) pixels count as
-    the darkest known value."""
+    """The picture at WORD_GRID_PX on its longer side (block means of its pixels; a smaller one as
+    it is), stretched 2nd–98th percentile to 0..1 as the prints are, or None when it is flat.
+    Unknown (NaN) pixels count as the darkest known value."""
     from PIL import Image
 
     v = np.asarray(values, np.float32)
@@ -81,7 +81,7 @@ def _small(values: np.ndarray) -> np.ndarray | None:
         if not finite.any():
             return None
         v = np.where(finite, v, np.float32(v[finite].min()))
-    scale = WORD_GRID_PX / max(h, w)
+    scale = min(1.0, WORD_GRID_PX / max(h, w))  # a small panel is measured on its own pixels, not blown up
     cols, rows = max(8, round(w * scale)), max(8, round(h * scale))
     small = np.asarray(Image.fromarray(np.ascontiguousarray(v)).resize((cols, rows), Image.Resampling.BOX), np.float32)
     lo, hi = np.percentile(small, [2, 98])

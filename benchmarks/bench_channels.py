@@ -42,7 +42,7 @@ def channel_rows(name: str, source, **kw) -> list[tuple]:
     r = litho.report
     grown_rows = round((r.relief_mm[1] - (r.relief_mm[1] - _key_depth(litho))) / r.mm_per_px)
     h = litho.heightmap[: litho.heightmap.shape[0] - grown_rows] - litho.params.base_mm
-    raw = {n: v for n, v, _, _ in channel_stage._raw_channels(source, litho.params)}
+    raw = {n: v for n, v, _, _ in channel_stage.raw_channels(source, litho.params)}
     background = np.median(h[h < RAISED_MM]) if (h < RAISED_MM).any() else 0.0
     rows = []
     for e in r.key:

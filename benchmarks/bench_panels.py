@@ -4,9 +4,11 @@ letters alone (corner search and OCR, on the boxes found), and the whole detecti
 run is the one least disturbed, and the CPU time is what the detection itself costs). Letters are
 read in process by tesserocr; the last column is the whole detection with the `tesseract` command
 instead (the fallback). Also: the model's load (once per process) and the first figure of a
-process, and the time on single micrographs, which are never split.
+process, the time on single micrographs, which are never split, and the time to say what every
+panel of a 4000 × 3000 figure shows (the overview's words).
 
-    PYTHONPATH=src .venv/bin/python benchmarks/bench_panels.py
+    PYTHONPATH=src .venv/bin/python benchmarks/bench_panels.py          (all)
+    PYTHONPATH=src .venv/bin/python benchmarks/bench_panels.py words    (the overview's words only)
 """
 
 from __future__ import annotations
@@ -86,7 +88,46 @@ def main() -> None:
             values = read_image(FIXTURES / name).values
             seconds, _, layout = best_of(lambda: detect_panels(values))
             print(f"| {name} | {values.shape[1]}×{values.shape[0]} | {layout.split} | {seconds:.3f} |")
+    words()
+
+
+def words() -> None:
+    """What each panel shows (relief/content_word.py), for the overview: every panel of a 4000 ×
+    3000 figure, best of 5, wall / CPU ms, with the words found."""
+    from PIL import Image
+
+    from figures import fluorescence_composite, grid_colour
+    from synthetic_content import dark_line_network, dim_and_bright_beads, dot_lattice, faint_grains
+
+    from tamp_os.figure import figure_colour, panel_contents
+    from tamp_os.params import LithoParams
+    from tamp_os.read import read_array
+
+    def big(image):
+        image = image if image.dtype == np.uint8 else (np.clip(image, 0, 1) * 255).astype(np.uint8)
+        return np.asarray(Image.fromarray(image).resize((1960, 1460), Image.Resampling.BILINEAR))
+
+    beads, lines, grains, lattice = (m(300, 400).image for m in (dim_and_bright_beads, dark_line_network, faint_grains, dot_lattice))
+    sets = {"grey: beads, grain boundaries, faint grains, lattice": [beads, lines, grains, lattice],
+            "colour: beads, grain boundaries, faint grains, fluorescence": [beads, lines, grains, fluorescence_composite(300, 400)],
+            "grey: four textures": [synthetic_texture(1460, 1960, s) for s in range(4)]}
+    print("\n| figure (4 panels) | size px | words | words ms wall / CPU |")
+    print("|---|---|---|---|")
+    for name, panels in sets.items():
+        fig = grid_colour([big(p) for p in panels], cols=2, gutter=26, size=120)
+        picture = read_array(fig.image)
+        layout = detect_panels(picture.values, read_letters=False)
+        colour = figure_colour(fig.image, picture, LithoParams())
+        wall, cpu, found = best_of(lambda: panel_contents(picture.values, layout, colour))
+        said = "; ".join(f"{k}: {w.words}" for k, w in found.items())
+        print(f"| {name} | {fig.image.shape[1]}×{fig.image.shape[0]} | {said} | {1e3 * wall:.0f} / {1e3 * cpu:.0f} |")
+    import os
+
+    print(f"\nload average {os.getloadavg()[0]:.1f}")
 
 
 if __name__ == "__main__":
-    main()
+    if sys.argv[1:] == ["words"]:
+        words()
+    else:
+        main()

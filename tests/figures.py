@@ -21,7 +21,7 @@ FIXTURES = Path(__file__).resolve().parents[1].parent / "shared" / "fixtures"
 @dataclass(frozen=True)
 class Figure:
     name: str
-    image: np.ndarray  # (rows, cols) uint8
+    image: np.ndarray  # (rows, cols) uint8, or (rows, cols, 3) for a colour figure
     boxes: list[tuple[int, int, int, int]]  # x, y, w, h of each panel, in reading order
     letters: list[str | None]  # the letter printed on each panel (None: no letter)
 
@@ -67,6 +67,35 @@ def dark_fluorescence(rows: int, cols: int, seed: int) -> np.ndarray:
     return (np.clip(image, 0, 1) * 255).astype(np.uint8)
 
 
+def fluorescence_composite(rows: int, cols: int, seed: int = 0) -> np.ndarray:
+    """An RGB fluorescence composite, uint8 (rows, cols, 3): on a black ground, red filaments (long
+    thin lines), green spots and blue round nuclei, with a little noise (as test_channels makes)."""
+    yy, xx = np.mgrid[0:rows, 0:cols]
+    s = min(rows, cols) / 300
+    nuclei = np.zeros((rows, cols))
+    for cy, cx in [(0.2, 0.2), (0.2, 0.67), (0.67, 0.33), (0.73, 0.8)]:
+        nuclei[(yy - cy * rows) ** 2 + (xx - cx * cols) ** 2 < (25 * s) ** 2] = 1.0
+    fil = np.zeros((rows, cols))
+    for k in range(6):
+        fil[np.abs(yy - (0.4 * xx + (30 + 45 * k) * s)) < 2.0 * s] = 1.0
+    rng = np.random.default_rng(seed + 3)
+    spots = np.zeros((rows, cols))
+    for cy, cx in zip(rng.integers(10, rows - 10, 60), rng.integers(10, cols - 10, 60)):
+        spots[(yy - cy) ** 2 + (xx - cx) ** 2 < (2.5 * s) ** 2] = 1.0
+    noise = np.random.default_rng(seed).normal(0, 8, (rows, cols, 3))
+    return np.clip(np.stack([fil, spots, nuclei], axis=-1) * 180 + noise, 0, 255).astype(np.uint8)
+
+
+def stained_section(rows: int, cols: int) -> np.ndarray:
+    """A crop of the H&E skin slide fixture (aperio_cmu1_he_skin.svs, 600 × 800 px at full
+    resolution: epidermis, dermis and white glass), resized to rows × cols, uint8 RGB."""
+    from tamp_os.vendor_read import read_channels
+
+    planes = read_channels(FIXTURES / "real" / "aperio_cmu1_he_skin.svs")
+    crop = np.stack([p.values[1150:1750, 980:1780] for p in planes[:3]], axis=-1).astype(np.uint8)
+    return np.asarray(Image.fromarray(crop).resize((cols, rows), Image.Resampling.BOX))
+
+
 def _letter_in_box(canvas: Image.Image, x: int, y: int, letter: str, size: int) -> None:
     """A black letter in a white box at the panel's top-left corner."""
     draw = ImageDraw.Draw(canvas)
@@ -90,6 +119,25 @@ def grid_white_boxes(panels: list[np.ndarray], cols: int, gutter: int = 24, lett
             _letter_in_box(canvas, x, y, letters[i], size)
         boxes.append((x, y, pw, ph))
     return Figure("grid_white", np.asarray(canvas), boxes, list(letters) if letters else [None] * len(panels))
+
+
+def grid_colour(panels: list[np.ndarray], cols: int, gutter: int = 24, letters="abcd", size: int = 36) -> Figure:
+    """Equal panels, colour (rows, cols, 3) or grey (rows, cols), uint8, in a grid on white, lower-case
+    letters in white boxes at each top-left; the picture is RGB (rows, cols, 3)."""
+    ph, pw = panels[0].shape[:2]
+    rows = (len(panels) + cols - 1) // cols
+    H, W = rows * ph + (rows + 1) * gutter, cols * pw + (cols + 1) * gutter
+    canvas = Image.new("RGB", (W, H), (255, 255, 255))
+    boxes = []
+    for i, panel in enumerate(panels):
+        r, c = divmod(i, cols)
+        x, y = gutter + c * (pw + gutter), gutter + r * (ph + gutter)
+        canvas.paste(Image.fromarray(panel).convert("RGB"), (x, y))
+        draw, pad = ImageDraw.Draw(canvas), size // 4
+        draw.rectangle([x, y, x + size + pad, y + size + 2 * pad], fill=(255, 255, 255))
+        draw.text((x + pad, y + pad // 2), letters[i], fill=(0, 0, 0), font=font(size))
+        boxes.append((x, y, pw, ph))
+    return Figure("grid_colour", np.asarray(canvas), boxes, list(letters[:len(panels)]))
 
 
 def row_on_black(panels: list[np.ndarray], gutter: int = 20, top: int = 60, letters="ABC", size: int = 40) -> Figure:

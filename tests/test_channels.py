@@ -681,7 +681,7 @@ def test_real_leica_xz_beads_print_as_domes_or_dots_and_the_report_says_xz(fixtu
 
         grew = float(next(str(w) for w in r.warnings if "grew by" in str(w)).split("grew by ")[1].split(" mm")[0])
         pic = h[: h.shape[0] - round(grew / r.mm_per_px)]
-        for _, values, _, _ in channel_stage._raw_channels(path, litho.params):
+        for _, values, _, _ in channel_stage.raw_channels(path, litho.params):
             v = resize(values.astype(np.float64), pic.shape, anti_aliasing=True)
             s = v > filters.threshold_otsu(v)
             assert float((pic[s] >= 0.5).mean()) > 0.8

@@ -136,6 +136,11 @@ def test_the_worker_finds_a_figures_panels_with_a_small_thumbnail_each(tmp_path)
     values = figure.image.astype(np.float32) / 255
     found = find_panels(values, tmp_path, 3)
     assert [(p.label, p.where) for p in found] == [("a", "top left"), ("b", "top right"), ("c", "bottom left"), ("d", "bottom right")]
+    # what each shows, as the overview says it (relief/content_word.py on the same pixels)
+    from tamp_os.relief.content_word import content_word
+
+    assert [p.content for p in found] == [content_word(values[y:y + h, x:x + w]).words for x, y, w, h in (p.box_px for p in found)]
+    assert all(p.content for p in found)
     for p, truth in zip(found, figure.boxes):
         assert max(abs(f - t) for f, t in zip(p.box_px, truth)) <= 0.02 * truth[2]
         with Image.open(tmp_path / p.thumb) as thumb:
@@ -220,6 +225,8 @@ def test_choose_a_figures_panels_by_keyboard_and_get_only_those(server, browser,
     for label, name in zip("abcd", names):
         box = page.get_by_role("checkbox", name=name, exact=True)
         assert box.count() == 1 and box.is_checked() and box.get_attribute("id") == f"panel_0_{label}"
+        shows = page.locator(f"#{box.get_attribute('aria-describedby')}").inner_text()  # what it shows, its description
+        assert shows.startswith("Shows: ") and len(shows) > len("Shows: ")
     thumbs = fieldsets.locator("img")
     assert thumbs.count() == 4
     for k in range(4):  # inside the label, which says it: empty alt, so it is heard once; and it loaded

@@ -11,8 +11,10 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 from conftest import FIXTURES, need, run_cli
-from figures import (box_error, dark_fluorescence, grid_white_boxes, micrograph, row_on_black, save, synthetic_texture,
-                     unequal, with_title)
+from figures import (box_error, dark_fluorescence, fluorescence_composite, grid_colour, grid_white_boxes, micrograph, row_on_black,
+                     save, stained_section, synthetic_texture, unequal, with_title)
+from synthetic import sem_spheres
+from synthetic_content import dark_line_network, dim_and_bright_beads, faint_grains
 
 from tamp_os.clean.panels import detect_panels, parse_letter, reading_order
 from tamp_os.errors import ParameterError
@@ -230,10 +232,12 @@ def test_overview_frames_letters_and_words(printed):
     ok, mesh = _closed(out / "grid_white.overview.stl")
     assert ok
     text = (out / "grid_white.overview.description.txt").read_text()
-    assert "Four panels in two rows: a, top left; b, top right; c, bottom left; d, bottom right." in text
     from tamp_os.figure import make_figure
 
     over = make_figure(path, width_mm=60).prints[-1][1]
+    words = {k: w.words for k, w in over.report.panels.contents.items()}
+    assert (f"Four panels in two rows: a, top left, {words['a']}; b, top right, {words['b']}; c, bottom left, {words['c']}; "
+            f"d, bottom right, {words['d']}.") in text
     heights = over.heightmap
     base = over.params.base_mm
     # Each panel is a raised frame 1 mm high: the frame's rows stand at base + 1 mm along the panel's top edge.
@@ -334,6 +338,128 @@ def test_panel_with_data_band_is_cleaned_and_scaled_on_its_own():
     assert a.report.pixel_size_source == "scale bar label"
     assert a.report.pixel_size_m == pytest.approx(2.614e-6, rel=0.05)
     assert b.report.pixel_size_m and abs(b.report.pixel_size_m / a.report.pixel_size_m - 1) > 0.5  # its own scale
+
+
+# --- colour panels and what each panel shows ------------------------------------------------------
+
+
+def _encodings(litho):
+    return [(e.encoding, e.label) for e in litho.report.key]
+
+
+@pytest.mark.timeout(600)
+def test_colour_panels_take_the_channel_path_as_on_their_own(tmp_path):
+    """A fluorescence composite, a grey SEM panel and an H&E section in one figure: each colour
+    panel takes the channel or stain path with the key it gets printed alone, the grey panel does
+    not, and every panel's heights are those of the panel cut out of the figure, saved as a PNG
+    and printed as its own picture at the same width. Tolerance 1e-6 mm: the pixels are the same
+    and the pipeline is deterministic, so only float rounding of the brightness (computed over
+    arrays of another width) could differ, a millionth of a millimetre against a 0.12 mm layer."""
+    from PIL import Image
+
+    from tamp_os.figure import make_figure
+    from tamp_os.pipeline import make_lithograph
+
+    _need_fixtures("real/aperio_cmu1_he_skin.svs")
+    _need_ocr()
+    composite, stained = fluorescence_composite(300, 400), stained_section(300, 400)
+    sem = (sem_spheres(300, 400).image * 255).astype(np.uint8)
+    figure = grid_colour([composite, sem, stained], cols=3, letters="abc")
+    path = tmp_path / "colour.png"
+    Image.fromarray(figure.image).save(path)
+    made = make_figure(path, width_mm=80)
+    _check(figure, made.layout)
+    prints = dict(made.prints)
+    a, b, c = prints[".panel-a"], prints[".panel-b"], prints[".panel-c"]
+    assert a.report.relief_style == "channels" and "fluorescence composite" in a.report.relief_reason
+    assert _encodings(a) == _encodings(make_lithograph(composite, width_mm=80))
+    assert {e for e, _ in _encodings(a)} == {"domes", "ridges", "dots"}
+    assert c.report.relief_style == "channels" and "stained brightfield slide" in c.report.relief_reason
+    assert _encodings(c) == _encodings(make_lithograph(stained, width_mm=80))
+    assert [e for e, _ in _encodings(c)][:2] == ["domes", "ridges"]  # haematoxylin, eosin
+    assert b.report.relief_style != "channels" and not b.report.key and "key" not in b.report.as_dict()
+    for litho in (a, c):
+        assert "its own texture" in litho.description and "key" in litho.description
+        assert litho.report.as_dict()["key"]  # the key's facts in the report, as for a picture alone
+    for letter, litho in (("a", a), ("b", b), ("c", c)):
+        x, y, w, h = litho.report.panels.box_px
+        cut = tmp_path / f"cut-{letter}.png"
+        Image.fromarray(figure.image[y:y + h, x:x + w]).save(cut)
+        own = make_lithograph(cut, width_mm=80)
+        assert own.report.relief_style == litho.report.relief_style and _encodings(own) == _encodings(litho)
+        assert litho.heightmap.shape == own.heightmap.shape
+        assert float(np.abs(litho.heightmap - own.heightmap).max()) <= 1e-6, letter
+    # the grey figure path is unchanged: a grey figure's panels carry no colour
+    grey = grid_white_boxes([sem, sem], cols=2, letters="ab")
+    from tamp_os.figure import figure_colour
+    from tamp_os.read import read_array
+
+    assert figure_colour(grey.image, read_array(grey.image), LithoParams()) is None
+    rgb_grey = np.repeat(grey.image[..., None], 3, axis=2)  # grey stored as RGB
+    assert figure_colour(rgb_grey, read_array(rgb_grey), LithoParams()) is None
+
+
+@pytest.mark.timeout(600)
+def test_a_single_colour_or_multichannel_picture_keeps_its_channel_path(tmp_path):
+    """Not split, a picture is printed as make_lithograph prints it alone: a fluorescence composite
+    and a two-channel CZI take the channel path with the same key (they printed as one grey
+    relief when the read picture, which keeps only its brightness, was passed on)."""
+    from PIL import Image
+
+    from tamp_os.figure import make_figure
+    from tamp_os.pipeline import make_lithograph
+
+    _need_fixtures("real/zeiss_dapi_gfp_2ch.czi")
+    png = tmp_path / "composite.png"
+    Image.fromarray(fluorescence_composite(300, 400)).save(png)
+    for path in (png, FIXTURES / "real/zeiss_dapi_gfp_2ch.czi"):
+        made = make_figure(path, width_mm=60)
+        assert not made.split and made.prints[0][1].report.relief_style == "channels", path.name
+        alone = make_lithograph(path, width_mm=60)
+        assert _encodings(made.prints[0][1]) == _encodings(alone)
+        assert np.array_equal(made.prints[0][1].heightmap, alone.heightmap)
+    grey = tmp_path / "grey.png"
+    Image.fromarray(np.repeat((sem_spheres(300, 400).image * 255).astype(np.uint8)[..., None], 3, axis=2)).save(grey)
+    assert make_figure(grey, width_mm=60).prints[0][1].report.relief_style != "channels"  # grey stored as RGB
+
+
+@pytest.mark.timeout(600)
+def test_overview_says_what_each_panel_shows_whichever_panels_are_printed(tmp_path):
+    """Panels of known kinds (a population of ten beads, a network of grain boundaries, faint grains
+    beside a mount, a fluorescence composite): the overview's description names each kind after
+    its place, the report holds the words typed, and printing only panel b gives the same
+    overview description (and heights) as printing them all."""
+    from PIL import Image
+
+    from tamp_os.figure import make_figure
+    from tamp_os.relief.content_word import ContentWord
+
+    _need_ocr()
+    truth = [dim_and_bright_beads(300, 400), dark_line_network(300, 400), faint_grains(300, 400)]
+    panels = [(t.image * 255).astype(np.uint8) for t in truth] + [fluorescence_composite(300, 400)]
+    figure = grid_colour(panels, cols=2)
+    path = tmp_path / "kinds.png"
+    Image.fromarray(figure.image).save(path)
+    every = make_figure(path, width_mm=60)
+    _check(figure, every.layout)
+    over = every.prints[-1][1]
+    words = over.report.panels.contents
+    assert list(words) == ["a", "b", "c", "d"] and all(isinstance(w, ContentWord) for w in words.values())
+    assert [w.kind for w in words.values()] == ["members", "lines", "grains", "fluorescence"]
+    beads = int(truth[0].members.max())
+    assert abs(words["a"].count - beads) <= 2, words["a"]  # "about": a coarse grid
+    assert words["d"].count == 3
+    sentence = "; ".join(f"{k}, {where}, {w.words}" for (k, w), where in zip(words.items(), ("top left", "top right", "bottom left", "bottom right")))
+    assert f"Four panels in two rows: {sentence}." in over.description
+    assert "particles (about" in words["a"].words and words["b"].words == "a network of lines" and words["c"].words == "grains"
+    assert words["d"].words == "fluorescence, 3 colours"
+    assert over.report.as_dict()["panels"]["contents"]["c"] == {"kind": "grains", "words": "grains", "count": None}
+    for suffix, litho in every.prints[:-1]:  # each panel's report holds its own word
+        assert litho.report.panels.contents == {suffix[-1]: words[suffix[-1]]}
+    only_b = make_figure(path, width_mm=60, panel="b")
+    assert [s for s, _ in only_b.prints] == [".panel-b", ".overview"]
+    assert only_b.prints[-1][1].description == over.description
+    assert np.array_equal(only_b.prints[-1][1].heightmap, over.heightmap)
 
 
 @pytest.mark.timeout(300)

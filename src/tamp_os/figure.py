@@ -23,6 +23,7 @@ from .params import LithoParams
 from .pipeline import Lithograph, _read, layout_for, make_lithograph, resolve_printer
 from .printers import PrinterProfile, height_levels
 from .read import Picture
+from .relief.content_word import ContentWord, content_word
 from .report import PanelFacts, Report, describe
 
 log = logging.getLogger(__name__)
@@ -104,7 +105,9 @@ def make_figure(source, params: LithoParams | None = None, *, printer_profile: P
     picture = _read(source, params)
     layout = _layout(picture, params)
     if not layout.split:
-        return _whole(picture, params, printer_profile, layout, [layout.reason] if "bands" in layout.reason else [])
+        given = _printed_from(source, picture)
+        del picture  # not held while a picture with channels is read again: its memory peak stays as alone
+        return _whole(given, params, printer_profile, layout, [layout.reason] if "bands" in layout.reason else [])
     notes = list(layout.notes)
     chosen = _chosen(layout, params)
     printable = []
@@ -117,15 +120,22 @@ def make_figure(source, params: LithoParams | None = None, *, printer_profile: P
             printable.append(panel)
     if not printable:
         notes.append("no panel of the figure is large enough to print on its own, so the figure is printed whole")
-        return _whole(picture, params, printer_profile, layout, notes)
+        given = _printed_from(source, picture)
+        del picture
+        return _whole(given, params, printer_profile, layout, notes)
     record = params.replace(panel_boxes=layout.record())
-    prints = [(f".panel-{p.label}", _panel_print(picture, p, layout, params, record, printer_profile)) for p in printable]
+    # A colour figure's panels carry their own colour pixels, so that each takes the channel path
+    # (a fluorescence composite, a stained slide) as it would saved as a file of its own.
+    colour = figure_colour(source, picture, params)
+    # What each panel shows, for every panel of the layout (not only those printed now), so the
+    # overview is the same file whichever panel's recipe rebuilds it.
+    contents = panel_contents(picture.values, layout, colour)
+    prints = [(f".panel-{p.label}", _panel_print(picture, p, layout, params, record, printer_profile, colour, contents[p.label]))
+              for p in printable]
     # The overview names every panel large enough to print, whichever `panel` chose, so that it is
     # the same file whichever panel's recipe rebuilds it.
     big = [p.label for p in layout.panels if min(p.w, p.h) >= MIN_PANEL_PX]
-    # (What each panel shows is in its own description, not here: the overview must not depend on
-    # which panels this run printed.)
-    overview = _overview(picture, layout, params, record.replace(panel=None), printer_profile, notes, big)
+    overview = _overview(picture, layout, params, record.replace(panel=None), printer_profile, notes, big, contents)
     for note in notes:
         log.warning(note)
     return Figure(layout, prints + [(".overview", overview)], notes, params)
@@ -154,8 +164,16 @@ def _chosen(layout: PanelLayout, params: LithoParams) -> list[Panel]:
     return [p for p in layout.panels if p.label in wanted]
 
 
-def _whole(picture, params, printer_profile, layout: PanelLayout, notes: list[str]) -> Figure:
-    litho = make_lithograph(picture, params, printer_profile=printer_profile)
+def _printed_from(source, picture: Picture):
+    """What a picture printed whole is made from: its source when it has several channels or
+    colours, as make_lithograph is given it alone (the channel path reads its channels there; a
+    read Picture keeps only its brightness, so a fluorescence composite or a CZI's channels would
+    print as one grey), else the picture already read."""
+    return source if _has_channels(picture) and isinstance(source, (str, Path, np.ndarray)) else picture
+
+
+def _whole(given, params, printer_profile, layout: PanelLayout, notes: list[str]) -> Figure:
+    litho = make_lithograph(given, params, printer_profile=printer_profile)
     new = [note for note in notes if note not in litho.report.warnings]
     for note in new:
         log.warning(note)
@@ -164,14 +182,64 @@ def _whole(picture, params, printer_profile, layout: PanelLayout, notes: list[st
     return Figure(layout, [("", litho)], notes, params)
 
 
-def crop_picture(picture: Picture, box: tuple[int, int, int, int]) -> Picture:
+def _has_channels(picture: Picture) -> bool:
+    """Several channels in the file, or colour with some chroma: the channel path may take it."""
+    from .relief.channel_auto import CHROMA
+
+    sample = picture.file.colour_sample
+    return picture.file.channel_count > 1 and (sample is None or bool((np.ptp(sample, axis=2) >= CHROMA).any()))
+
+
+def crop_picture(picture: Picture, box: tuple[int, int, int, int], colour: np.ndarray | None = None) -> Picture:
     """One panel of a figure as a Picture of its own. The file's vendor metadata is dropped: it
     describes the figure's file, not the panel (a panel's scale comes from its own scale bar, or
-    pixel_size); the file's name and hash stay, so the recipe names the figure."""
+    pixel_size); the file's name and hash stay, so the recipe names the figure.
+
+    `colour` (the figure's colour pixels, figure_colour) gives the panel its own: its colour
+    sample, which the channel path decides by, and the pixels it splits, as a file of the panel
+    would have them. Without it the panel is grey (its brightness only)."""
+    from .read import colour_sample
+
     x, y, w, h = box
     alpha = None if picture.alpha is None else picture.alpha[y:y + h, x:x + w]
-    file = dataclasses.replace(picture.file, width=w, height=h, metadata={}, tiff_tags={}, notes=list(picture.file.notes))
-    return Picture(np.ascontiguousarray(picture.values[y:y + h, x:x + w]), alpha, file)
+    own = None if colour is None else np.ascontiguousarray(colour[y:y + h, x:x + w])
+    file = dataclasses.replace(picture.file, width=w, height=h, metadata={}, tiff_tags={}, notes=list(picture.file.notes),
+                               colour_sample=None if own is None else colour_sample(own))
+    return Picture(np.ascontiguousarray(picture.values[y:y + h, x:x + w]), alpha, file, own)
+
+
+def figure_colour(source, picture: Picture, params: LithoParams) -> np.ndarray | None:
+    """The figure's colour pixels (H, W, 3) at the file's own precision, for its panels; None for a
+    grey figure (also one stored in colour: no pixel of its colour sample has chroma), for a file of
+    several channels rather than colours, or for a Picture given without them. A file is read again
+    for its colours as the channel path reads one (red, green and blue planes)."""
+    from .relief.channel_auto import CHROMA
+
+    sample = picture.file.colour_sample
+    if isinstance(source, Picture):
+        return source.colour
+    if sample is None or not bool((np.ptp(sample, axis=2) >= CHROMA).any()):
+        return None
+    from .relief.channel_stage import raw_channels
+
+    raw = raw_channels(source, params)
+    if [r[0] for r in raw[:3]] != ["red", "green", "blue"]:
+        return None
+    rgb = np.stack([r[1] for r in raw[:3]], axis=-1)
+    if rgb.shape[:2] != picture.values.shape:
+        return None
+    dtype = np.dtype(picture.file.dtype)
+    return rgb.astype(dtype) if dtype.kind in "ui" else rgb  # integer samples come back exactly
+
+
+def panel_contents(values: np.ndarray, layout: PanelLayout, colour: np.ndarray | None) -> dict[str, ContentWord]:
+    """What each panel of the layout shows (relief/content_word.py), by label, in reading order:
+    `values` the figure's brightness, `colour` its colour pixels (figure_colour) or None."""
+    out = {}
+    for p in layout.panels:
+        own = None if colour is None else colour[p.y:p.y + p.h, p.x:p.x + p.w]
+        out[p.label] = content_word(values[p.y:p.y + p.h, p.x:p.x + p.w], own)
+    return out
 
 
 def position_words(layout: PanelLayout) -> dict[str, str]:
@@ -190,10 +258,11 @@ def _number(n: int) -> str:
     return NUMBER_WORDS[n] if n < len(NUMBER_WORDS) else str(n)
 
 
-def _panel_print(picture, panel: Panel, layout: PanelLayout, params: LithoParams, record: LithoParams, printer_profile) -> Lithograph:
+def _panel_print(picture, panel: Panel, layout: PanelLayout, params: LithoParams, record: LithoParams, printer_profile,
+                 colour: np.ndarray | None = None, content: ContentWord | None = None) -> Lithograph:
     caption = f"{panel.label} {params.caption}" if params.caption else panel.label
     panel_params = params.replace(panels="off", panel=None, panel_boxes=None, caption=caption)
-    litho = make_lithograph(crop_picture(picture, panel.box_px), panel_params, printer_profile=printer_profile)
+    litho = make_lithograph(crop_picture(picture, panel.box_px, colour), panel_params, printer_profile=printer_profile)
     where = position_words(layout)[panel.label]
     letter = "letter" if panel.label.isalpha() else "number"
     said = "" if panel.letter_read or not panel.label.isalpha() else " (inferred from the order of the others)"
@@ -206,12 +275,12 @@ def _panel_print(picture, panel: Panel, layout: PanelLayout, params: LithoParams
     litho.recipe_params = record.replace(panel=panel.label)
     litho.report = dataclasses.replace(litho.report, panels=PanelFacts(
         split=True, panel=panel.label, box_px=tuple(panel.box_px), found_by=panel.found_by, letter_read=panel.letter_read,
-        panels=tuple(layout.labels())))
+        panels=tuple(layout.labels()), contents={panel.label: content} if content else {}))
     return litho
 
 
 def _overview(picture, layout: PanelLayout, params: LithoParams, record: LithoParams, printer_profile, notes: list[str],
-              printed: list[str], contents: dict[str, str] | None = None) -> Lithograph:
+              printed: list[str], contents: dict[str, ContentWord] | None = None) -> Lithograph:
     """The overview lithograph: the layout at plate size (tactile/overview.py)."""
     from .pipeline import _furniture
     from .tactile.overview import OverviewPanel, build_overview
@@ -227,9 +296,11 @@ def _overview(picture, layout: PanelLayout, params: LithoParams, record: LithoPa
     built = build_overview((w, h), panels, plan.cols, plan.rows, plan.width_mm, plan.depth_mm, params.base_mm, furniture,
                            params.mesher, max_error)
     notes += built.notes
-    description = overview_description(picture.file.name, layout, printed, built.notes, contents or {})
+    contents = contents or {}
+    description = overview_description(picture.file.name, layout, printed, built.notes, {k: c.words for k, c in contents.items()})
     facts = PanelFacts(split=True, reason=layout.reason, panels=tuple(layout.labels()), overview=True,
-                       boxes_px=tuple(tuple(b) for b in layout.boxes()), printed=tuple(printed), letters_braille=dict(built.letters_braille))
+                       boxes_px=tuple(tuple(b) for b in layout.boxes()), printed=tuple(printed), letters_braille=dict(built.letters_braille),
+                       contents=dict(contents))
     report = _overview_report(picture, plan, machine, params, built, description, facts)
     litho = Lithograph(mesh=built.mesh, heightmap=built.heights_mm, params=over_params, printer=machine, layout=plan, picture=picture,
                        report=report, furniture=furniture, description=description, recipe_params=record)
@@ -237,7 +308,8 @@ def _overview(picture, layout: PanelLayout, params: LithoParams, record: LithoPa
 
 
 def overview_description(name: str, layout: PanelLayout, printed: list[str], notes: list[str], contents: dict[str, str] | None = None) -> str:
-    """The overview in words: 'Four panels in two rows: a, top left, 12 raised objects; b, top right, …'."""
+    """The overview in words: 'Four panels in two rows: a, top left, particles (about 12); b, top right, …'
+    (`contents`: each label's words, relief/content_word.py)."""
     where = position_words(layout)
     contents = contents or {}
     n, rows = len(layout.panels), len(layout.rows)

@@ -135,7 +135,7 @@ def make_lithograph(source, params: LithoParams | None = None, *, printer_profil
         else:
             from .relief.channel_stage import channel_path, without_channel_note  # only when used: skimage.color and more
 
-            relief, layout, key, channel_extras = channel_path(picture.values if isinstance(source, Picture) else source,
+            relief, layout, key, channel_extras = channel_path(_channel_source(source, picture),
                                                 lambda: _relief(prepared, layout, params, machine, _content_hints(cleaned)),
                                                 layout, params, route, cleaned)
             if key:
@@ -228,6 +228,14 @@ class _Clock:
 
     def __exit__(self, *exc):
         self.timings[self.stage] = time.perf_counter() - self.start
+
+
+def _channel_source(source, picture: Picture):
+    """What the channel path reads the channels from: the file or array given, or a Picture's
+    colour pixels (a panel of a colour figure), else its luminance (one plain channel)."""
+    if not isinstance(source, Picture):
+        return source
+    return picture.colour if picture.colour is not None else picture.values
 
 
 def _read(source, params: LithoParams) -> Picture:

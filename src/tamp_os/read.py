@@ -71,11 +71,15 @@ class Picture:
     values : (H, W) float32, NaN where unknown.
     alpha : (H, W) float32 opacity weights in 0..1, or None when fully opaque.
     file : the facts about the input file.
+    colour : (H, W, 3) colour pixels at the file's own precision, or None. Only a panel cut from a
+        colour figure carries them (figure.crop_picture): it has no file of its own for the
+        channel path (relief/channel_stage.py) to read its colours from again.
     """
 
     values: np.ndarray
     alpha: np.ndarray | None
     file: ImageFile
+    colour: np.ndarray | None = field(default=None, repr=False, compare=False)
 
 
 @dataclass
@@ -661,7 +665,7 @@ def _to_picture(decoded: _Decoded, channel, *, name, sha, path) -> Picture:
     )
     file.channel_count = file.channel_count or file.channels
     if array.ndim == 3 and array.shape[-1] >= 3:
-        file.colour_sample = _colour_sample(array)
+        file.colour_sample = colour_sample(array)
     values, alpha = _grayscale(array, channel, name)
     values, alpha = _weigh_unknown(file, values, alpha)
     if file.nonfinite_pixels == h * w:
@@ -672,7 +676,7 @@ def _to_picture(decoded: _Decoded, channel, *, name, sha, path) -> Picture:
 COLOUR_SAMPLE_PX = 512
 
 
-def _colour_sample(array: np.ndarray) -> np.ndarray:
+def colour_sample(array: np.ndarray) -> np.ndarray:
     """Every k-th pixel of the colour samples (not alpha), at most COLOUR_SAMPLE_PX a side, 0..1."""
     step = max(1, -(-max(array.shape[:2]) // COLOUR_SAMPLE_PX))
     rgb = np.nan_to_num(array[::step, ::step, :3].astype(np.float32), nan=0.0, posinf=0.0, neginf=0.0)

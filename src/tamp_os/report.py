@@ -15,6 +15,7 @@ from .clean.instrument import Instrument
 from .facts import Facts
 from .layout_words import ReliefLayout
 from .params import LithoParams
+from .relief.content_word import ContentWord
 from .relief.legibility import Legibility
 
 if TYPE_CHECKING:
@@ -61,7 +62,8 @@ class PanelFacts(Facts):
     """One print of a picture that may be a multi-panel figure (figure.py): whether the figure was
     split and why; for a panel its label, box (x, y, w, h in the figure's pixels), how it was
     found and whether its letter was read; for the overview every box, the panels printed and
-    the braille written in each frame."""
+    the braille written in each frame. `contents`: what each panel shows (relief/content_word.py),
+    by label: every panel's on the overview, its own on a panel's print."""
 
     split: bool
     reason: str = ""
@@ -74,6 +76,7 @@ class PanelFacts(Facts):
     boxes_px: tuple[tuple[int, int, int, int], ...] = ()
     printed: tuple[str, ...] = ()
     letters_braille: dict[str, str] = dataclasses.field(default_factory=dict)
+    contents: dict[str, ContentWord] = dataclasses.field(default_factory=dict)
 
 
 @dataclass(frozen=True)

@@ -29,6 +29,7 @@ class PanelFound:
     where: str  # "top right", from figure.position_words
     box_px: tuple[int, int, int, int]  # x, y, w, h in the figure's pixels
     thumb: str  # file name in the job's thumbs folder
+    content: str = ""  # what it shows, as the overview says it ("particles (about 40)"); "" when not known
 
     @property
     def title(self) -> str:
@@ -43,12 +44,14 @@ class PanelFound:
         return min(self.box_px[2], self.box_px[3]) >= MIN_PANEL_PX
 
 
-def find_panels(values: np.ndarray, thumbs: Path, index: int) -> tuple[PanelFound, ...]:
+def find_panels(values: np.ndarray, thumbs: Path, index: int, colour=None) -> tuple[PanelFound, ...]:
     """The panels of a figure (none for a single picture), each with its thumbnail written to
-    `thumbs`. The same detection make_figure runs with `panels` auto, so the labels shown are the
-    labels the conversion knows. Runs in the decode worker: OCR of the letters takes a second or two."""
+    `thumbs` and what it shows in words (as the overview says it). The same detection make_figure
+    runs with `panels` auto, so the labels shown are the labels the conversion knows. `colour`: a
+    function giving the figure's colour pixels (figure.figure_colour), asked only for a figure.
+    Runs in the decode worker: OCR of the letters takes a second or two."""
     from ..clean.panels import detect_panels
-    from ..figure import position_words
+    from ..figure import panel_contents, position_words
     from ..files import write_png
     from .uploads import thumbnail
 
@@ -56,12 +59,18 @@ def find_panels(values: np.ndarray, thumbs: Path, index: int) -> tuple[PanelFoun
     if not layout.split:
         return ()
     where = position_words(layout)
+    try:
+        contents = {k: w.words for k, w in panel_contents(values, layout, colour() if colour else None).items()}
+    except Exception:  # the words are a help, not the choice: the panels are offered without them
+        log.warning("the panels' content words failed", exc_info=True)
+        contents = {}
     found = []
     for panel in layout.panels:
         name = f"{index}.panel-{panel.label}.png"
         x, y, w, h = panel.box_px
         write_png(thumbs / name, thumbnail(values[y:y + h, x:x + w], PANEL_THUMB_PX))
-        found.append(PanelFound(panel.label, where[panel.label], tuple(int(v) for v in panel.box_px), name))
+        found.append(PanelFound(panel.label, where[panel.label], tuple(int(v) for v in panel.box_px), name,
+                                contents.get(panel.label, "")))
     return tuple(found)
 
 

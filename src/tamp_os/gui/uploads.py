@@ -171,9 +171,11 @@ def inspect_in_worker(path: Path, thumbs: Path, index: int, max_decoded_mb: floa
     write_png(thumbs / thumb, thumbnail(picture.values))
     axes = picture.file.axes or {}
     try:
+        from ..figure import figure_colour
+        from ..params import LithoParams
         from .panel_choice import find_panels
 
-        panels = find_panels(picture.values, thumbs, index)
+        panels = find_panels(picture.values, thumbs, index, lambda: figure_colour(path, picture, LithoParams()))
     except Exception:  # the panels are a choice offered, not the upload: it stays, printed as auto decides
         log.warning("panel detection failed on %s", path.name, exc_info=True)
         panels = ()

@@ -177,7 +177,7 @@ def route(source, picture, params) -> Route | None:
     section = axial_section(picture)
     if mode == "assigned":
         return Route("assigned", "channels assigned by `channels`", section)
-    if not isinstance(source, (str, Path, np.ndarray)):
+    if not isinstance(source, (str, Path, np.ndarray)) and getattr(picture, "colour", None) is None:
         return None  # a Picture read before: its channels are gone (only its luminance is kept)
     file = picture.file
     if file.channels == 1 and file.channel_count > 1:

@@ -38,7 +38,7 @@ class ChannelStage:
     kind: str  # "fluorescence" or "stain"
 
 
-def _raw_channels(source, params) -> list:
+def raw_channels(source, params) -> list:
     """[(name, values, excitation_nm, emission_nm)] of the source, or an RGB array to deconvolve."""
     if isinstance(source, (str, Path)):
         from ..vendor_read import read_channels
@@ -126,7 +126,7 @@ def _as_cleaned(raw: list, cleaned) -> tuple[list, list]:
 
 def run(source, layout, params, route=None, cleaned=None) -> ChannelStage | None:
     """The channel relief, or None when the picture has a single plain channel (the usual path then)."""
-    raw, cleaning_notes = _as_cleaned(_raw_channels(source, params), cleaned)
+    raw, cleaning_notes = _as_cleaned(raw_channels(source, params), cleaned)
     names = [r[0] for r in raw]
     rgb = names[:3] == ["red", "green", "blue"]
     assigned = parse_assignments(params.channels) if route is None or route.kind == "assigned" else {}

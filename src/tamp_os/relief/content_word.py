@@ -1,0 +1,188 @@
+"""What a picture shows, in a word or a short phrase, cheaply: the overview of a multi-panel
+figure names each panel's content with it ("a, top left, particles (about 40); b, top right, a
+network of lines; …").
+
+It asks the questions the prints answer, with the same measurements, on a small grid:
+- the colour decision of the channel path (channel_auto.py) on the panel's colour sample: a
+  fluorescence composite ("fluorescence, 3 colours") or a stained slide ("stained tissue");
+- else the content style's decision (content.py, without its fallback shape) on the panel shrunk
+  to WORD_GRID_PX points on its longer side, as if printed WORD_WIDTH_MM wide: a line network,
+  line art, a population (counted), grains of weak contrast; and its lattice test;
+- else "picture".
+The grid is fixed and nothing is random, so the words are the same on every run. A panel's own
+print decides on a finer grid and its cleaned picture, so it may count a few members more or less
+("about").
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+WORD_GRID_PX = 128  # points on the panel's longer side: a 0.8 mm pitch on a 100 mm plate, under a fingertip
+WORD_WIDTH_MM = 100.0  # the panel as if printed this wide (a plate's width) for the mm-based thresholds
+WORD_COLOUR_PX = 256  # the colour decision on at most this many pixels a side (the prints': 512; 4× less work)
+RELIEF_MM = 3.0  # the default relief (the content style's thresholds do not depend on it)
+MIN_AREA_MM2 = 6.0  # the styles' smallest region (StyleOptions.min_area_mm2)
+NOZZLE_MM = 0.4
+LABEL_SIDE = 0.3  # a panel letter's label box lies within this share of the shorter side from its corner
+PLAIN = 0.02  # and is plain: within this of pure white or black (0..1 after the stretch)
+DRAWING_REGIONS = 6  # lines on empty paper enclosing at most this many regions are a drawing, not a network
+PEAK_BINS = 24  # a lattice's spectrum: a few peaks (each a few bins wide under the window) ...
+PEAK_SHARE = 0.5  # ... holding this share of the detail's power
+MIN_REPEATS = 12  # and repeating at least this often across the panel (a few blobs of one size are no lattice)
+
+KINDS = ("fluorescence", "stain", "lines", "line art", "grains", "lattice", "members", "picture")
+
+
+@dataclass(frozen=True)
+class ContentWord:
+    """What a panel shows: `kind` (one of KINDS), `words` (the phrase), `count` (members, or the
+    colours of a fluorescence composite; None otherwise)."""
+
+    kind: str
+    words: str
+    count: int | None = None
+
+
+def content_word(values: np.ndarray, colour: np.ndarray | None = None) -> ContentWord:
+    """The content word of a picture: `values` (H, W) its brightness (any range, NaN unknown);
+    `colour` (H, W, 3) its colour pixels at their own precision, or None for a grey picture."""
+    if colour is not None:
+        from ..read import colour_sample
+        from .channel_auto import colour_facts, colour_kind
+
+        sample = colour_sample(np.asarray(colour))
+        step = -(-max(sample.shape[:2]) // WORD_COLOUR_PX)
+        facts = colour_facts(sample[::step, ::step])
+        kind, _ = colour_kind(facts)
+        if kind == "fluorescence":
+            n = facts.colour_channels
+            return ContentWord("fluorescence", f"fluorescence, {n} colours", n)
+        if kind == "stain":
+            return ContentWord("stain", "stained tissue")
+    work = _small(values)
+    if work is None:
+        return ContentWord("picture", "a flat picture")
+    return _grey_word(without_corner_labels(work))
+
+
+def _small(values: np.ndarray) -> np.ndarray | None:
+    """The picture at WORD_GRID_PX on its longer side (block means of its pixels; a smaller one as
+    it is), stretched 2nd–98th percentile to 0..1 as the prints are, or None when it is flat.
+    Unknown (NaN) pixels count as the darkest known value."""
+    from PIL import Image
+
+    v = np.asarray(values, np.float32)
+    h, w = v.shape
+    finite = np.isfinite(v)
+    if not finite.all():
+        if not finite.any():
+            return None
+        v = np.where(finite, v, np.float32(v[finite].min()))
+    scale = min(1.0, WORD_GRID_PX / max(h, w))  # a small panel is measured on its own pixels, not blown up
+    cols, rows = max(8, round(w * scale)), max(8, round(h * scale))
+    small = np.asarray(Image.fromarray(np.ascontiguousarray(v)).resize((cols, rows), Image.Resampling.BOX), np.float32)
+    lo, hi = np.percentile(small, [2, 98])
+    if hi - lo <= 1e-6 * max(abs(float(hi)), 1.0):
+        return None
+    return np.clip((small - lo) / (hi - lo), 0, 1).astype(np.float32)
+
+
+def without_corner_labels(work: np.ndarray) -> np.ndarray:
+    """The picture with a panel letter's label box, if any, filled with its median: a plain patch
+    (within PLAIN of pure white or black) that holds the panel's corner point and stays inside
+    that corner (LABEL_SIDE of the shorter side each way), the glyph inside it included. A letter's
+    box in a particle field would count as one more particle, and on a specimen against a dark
+    mount it hides that the contrast is weak. The prints clean it as an annotation; this is the
+    cheap stand-in, from the pixels alone (a rebuilt overview has no OCR of its letters to go by)."""
+    from scipy import ndimage
+
+    rows, cols = work.shape
+    q = max(2, int(LABEL_SIDE * min(rows, cols)))
+    out = None
+    for r0, c0 in ((0, 0), (0, cols - q), (rows - q, 0), (rows - q, cols - q)):
+        window = work[r0:r0 + q, c0:c0 + q]
+        corner = (0 if r0 == 0 else q - 1, 0 if c0 == 0 else q - 1)
+        for plain in (window >= 1.0 - PLAIN, window <= PLAIN):
+            if not plain[corner]:
+                continue
+            labels, _ = ndimage.label(plain)
+            patch = labels == labels[corner]
+            rr, cc = np.flatnonzero(patch.any(axis=1)), np.flatnonzero(patch.any(axis=0))
+            inner_r = rr[-1] == q - 1 if r0 == 0 else rr[0] == 0
+            inner_c = cc[-1] == q - 1 if c0 == 0 else cc[0] == 0
+            if inner_r or inner_c:  # reaches out of the corner: the picture's own ground, not a label
+                continue
+            out = work.copy() if out is None else out
+            out[r0 + rr[0]:r0 + rr[-1] + 1, c0 + cc[0]:c0 + cc[-1] + 1] = float(np.median(work))
+    return work if out is None else out
+
+
+def _grey_word(work: np.ndarray) -> ContentWord:
+    from .content import MIN_PITCH_MM, lattice_period, make_content
+    from .objects import find_objects
+
+    pitch_mm = WORD_WIDTH_MM / max(work.shape[1] - 1, 1)
+
+    def found():
+        return find_objects(work, pitch_mm=pitch_mm, min_area_mm2=MIN_AREA_MM2, nozzle_mm=NOZZLE_MM)
+
+    made = make_content(work, pitch_mm=pitch_mm, relief_mm=RELIEF_MM, width_mm=WORD_WIDTH_MM, found=found,
+                        min_area_mm2=MIN_AREA_MM2, fallback=False)
+    kind = made.kind if made is not None else None
+    if kind == "lines":
+        if _drawing(made.reason):
+            return ContentWord("line art", "line drawing")
+        return ContentWord("lines", "a network of lines")
+    if kind == "grains":
+        return ContentWord("grains", "grains")
+    period = lattice_period(work, pitch_mm)
+    if period is not None and MIN_PITCH_MM <= period.pitch_mm <= WORD_WIDTH_MM / MIN_REPEATS and peaked(work, pitch_mm):
+        return ContentWord("lattice", "a lattice")
+    if kind == "members" and made.labels is not None:
+        n = int(made.labels.max())
+        if n > 0:
+            return ContentWord("members", count_phrase(n), n)
+    return ContentWord("picture", "picture")
+
+
+def _drawing(reason: str) -> bool:
+    """Lines that are a drawing, from what content.py's reason says: line art, or a few regions
+    (at most DRAWING_REGIONS: a box and a circle) outlined on an empty bright ground (paper); a
+    network of grain boundaries on a bright ground encloses dozens."""
+    import re
+
+    if "line art" in reason:
+        return True
+    regions = re.search(r"enclosing (\d+) regions", reason)
+    return bool(regions) and "an empty bright ground" in reason and int(regions.group(1)) <= DRAWING_REGIONS
+
+
+def peaked(work: np.ndarray, pitch_mm: float) -> bool:
+    """The detail's spectrum is a lattice's, a few sharp peaks: its strongest PEAK_BINS frequencies
+    hold at least PEAK_SHARE of the power that content.lattice_period measures. A field of blobs
+    of one size (noise smoothed to a scale) has a ring of power at that scale too, but spread over
+    every direction (measured: particle fields and noisy textures 0.14-0.28; dot lattices and a
+    grating 0.9-1.0)."""
+    import scipy.fft
+    from scipy import ndimage
+
+    rows, cols = work.shape
+    detail = work - ndimage.gaussian_filter(work, 4.0 / pitch_mm, mode="nearest")
+    window = np.outer(np.hanning(rows), np.hanning(cols)).astype(np.float32)
+    spectrum = scipy.fft.rfft2(detail * window)
+    power = spectrum.real**2 + spectrum.imag**2
+    freq = np.hypot(np.fft.fftfreq(rows)[:, None], np.fft.rfftfreq(cols)[None, :]) / pitch_mm
+    band = power[(freq > 1 / 12.0) & (freq < 0.5 / pitch_mm)]
+    if band.size <= PEAK_BINS or float(band.sum()) <= 0:
+        return False
+    top = np.partition(band, band.size - PEAK_BINS)[-PEAK_BINS:]
+    return float(top.sum() / band.sum()) >= PEAK_SHARE
+
+
+def count_phrase(n: int) -> str:
+    """'particles (about 40)': about, because the small grid and the panel's uncleaned corners
+    (a letter's label box can count as one more) make the count approximate."""
+    return f"particles (about {n})"

@@ -23,7 +23,7 @@ the print with what was found ("found 10 members, all raised at least 1.0 mm").
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.fft
@@ -40,6 +40,7 @@ from .lines import (
     hessian_ridges,
 )
 from .objects import ObjectMap, dome_profile, label_max, label_median
+from .picture_scale import PictureScale
 from .population import (
     BACKGROUND_MM,
     Members,
@@ -273,8 +274,15 @@ class _Finder:
         return self._lines[bright]
 
     def members(self, bright: bool) -> Members:
+        """Members found on the picture grid (picture_scale.py: the same members at any print
+        width), their labels brought back to the working grid."""
         if bright not in self._members:
-            self._members[bright] = find_members(self.picture(bright), pitch_mm=self.pitch_mm, noise=self.noise)
+            scale = PictureScale.plan(self.work.shape, self.pitch_mm)
+            found = find_members(scale.to_picture(self.picture(bright)), pitch_mm=scale.picture_pitch_mm, noise=self.noise)
+            if not scale.identity and found.count:
+                labels = scale.labels_to_work(found.labels)
+                found = replace(found, labels=labels, count=int(labels.max()), contrast=found.contrast[: int(labels.max())])
+            self._members[bright] = found
         return self._members[bright]
 
 
@@ -310,11 +318,12 @@ def _members_explain(members: Members, lines: Lines, pitch_mm: float) -> bool:
 
 
 def _large_edge_objects(found: ObjectMap, pitch_mm: float) -> np.ndarray | None:
-    """Objects the edge finder outlined that are too wide for the local ground (the FePt spheres)."""
+    """Objects the edge finder outlined that are too wide for the local ground (the FePt spheres),
+    which find_members measures on the picture grid: their diameters in reference mm too."""
     if found.method != "edges" or found.count < 2:
         return None
     area = np.bincount(found.labels.ravel())[1:]
-    diameters = 2 * np.sqrt(area / np.pi) * pitch_mm
+    diameters = 2 * np.sqrt(area / np.pi) * pitch_mm / PictureScale.plan(found.labels.shape, pitch_mm).mm_per_reference_mm
     similar = np.percentile(diameters, 90) <= POPULATION_SPREAD * np.percentile(diameters, 10)
     return found.labels if similar and float(np.median(diameters)) > BACKGROUND_MM else None
 

@@ -39,7 +39,7 @@ from .lines import (
     find_lines,
     hessian_ridges,
 )
-from .dense import BlobScale, blob_scale
+from .dense import BlobScale, blob_scale, scale_stack
 from .objects import ObjectMap, dome_profile, label_max, label_median
 from .picture_scale import PictureScale
 from .population import (
@@ -280,6 +280,7 @@ class _Finder:
         self._lines: dict[bool, Lines] = {}
         self._members: dict[bool, Members] = {}
         self._blobs: dict[bool, BlobScale | None] = {}
+        self._stack: np.ndarray | None = None
 
     def picture(self, bright: bool) -> np.ndarray:
         return self.work if bright else 1.0 - self.work
@@ -294,8 +295,12 @@ class _Finder:
         return self._lines[bright]
 
     def blobs(self, bright: bool) -> BlobScale | None:
+        """The blobs of either polarity (dense.py), from one scale stack."""
         if bright not in self._blobs:
-            self._blobs[bright] = blob_scale(self.picture(bright), self.pitch_mm)
+            if self._stack is None:
+                self._stack = scale_stack(self.work, self.pitch_mm)
+            stack = None if self._stack is None else (self._stack if bright else -self._stack)
+            self._blobs[bright] = None if stack is None else blob_scale(self.picture(bright), self.pitch_mm, stack)
         return self._blobs[bright]
 
     def members(self, bright: bool) -> Members:

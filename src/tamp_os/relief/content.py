@@ -23,7 +23,7 @@ the print with what was found ("found 10 members, all raised at least 1.0 mm").
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 import scipy.fft
@@ -262,7 +262,9 @@ def make_content(work: np.ndarray, *, pitch_mm: float, relief_mm: float, width_m
     # particles have and texture has not.
     blobs = finder.blobs(polarity.bright)
     if blobs is not None and blobs.dense:
-        return _as_dense_field(blobs, finder.picture(polarity.bright), pitch_mm, relief_mm, polarity, lattice + meta)
+        made = _as_dense_field(blobs, finder.picture(polarity.bright), pitch_mm, relief_mm, polarity, lattice + meta)
+        if made.labels is not None and made.labels.max():
+            return made
     if not fallback:
         return None
     return _weak_contrast(work, x, pitch_mm, relief_mm, width_mm, min_area_mm2, polarity, lattice + meta,
@@ -304,15 +306,11 @@ class _Finder:
         return self._blobs[bright]
 
     def members(self, bright: bool) -> Members:
-        """Members found on the picture grid (picture_scale.py: the same members at any print
-        width), their labels brought back to the working grid."""
+        """Members found by local contrast on the working grid, in print mm. (On the picture grid,
+        picture_scale.py, a plateau wider than the local ground, blurred by a narrow print's
+        upsampling, left arcs of its rim that passed as members: the 60 and 80 mm test disc.)"""
         if bright not in self._members:
-            scale = PictureScale.plan(self.work.shape, self.pitch_mm)
-            found = find_members(scale.to_picture(self.picture(bright)), pitch_mm=scale.picture_pitch_mm, noise=self.noise)
-            if not scale.identity and found.count:
-                labels = scale.labels_to_work(found.labels)
-                found = replace(found, labels=labels, count=int(labels.max()), contrast=found.contrast[: int(labels.max())])
-            self._members[bright] = found
+            self._members[bright] = find_members(self.picture(bright), pitch_mm=self.pitch_mm, noise=self.noise)
         return self._members[bright]
 
 

@@ -39,6 +39,7 @@ from .picture_scale import PictureScale
 STEP = 2 ** 0.5  # scales half an octave apart (finer steps split one blob's maxima over neighbouring scales)
 SIGMAS_PX = tuple(float(s) for s in STEP ** np.arange(0, 8))  # 1 to 11 px on the picture grid
 NEAR_STEPS = 1  # 'at that size': within one step (a factor sqrt 2) of the most common scale
+MIN_STRENGTH = 0.01  # scale-normalised response, 0..1 picture units (10kx particles: about 0.1)
 STRONG_SHARE = 0.25  # maxima weaker than this share of the 95th percentile are not counted
 MIN_BLOBS = 60  # fewer than this: no field (a few members are found one by one)
 MIN_CONCENTRATION = 0.80
@@ -105,7 +106,8 @@ def blob_scale(bright01: np.ndarray, pitch_mm: float, stack: np.ndarray | None =
     if stack is None:
         return None
     x_size = stack[0].size
-    peaks = (stack == ndimage.maximum_filter(stack, size=3, mode="constant", cval=-np.inf)) & (stack > 0)
+    # Maxima of a flat picture's rounding noise (equal on plateaus) are no blobs: a floor in picture units.
+    peaks = (stack == ndimage.maximum_filter(stack, size=3, mode="constant", cval=-np.inf)) & (stack > MIN_STRENGTH)
     peaks[:, :3] = peaks[:, -3:] = False  # maxima at the border are cut blobs
     peaks[:, :, :3] = peaks[:, :, -3:] = False
     if not peaks.any():

@@ -41,7 +41,6 @@ from .lines import (
 )
 from .dense import BlobScale, blob_scale, scale_stack
 from .objects import ObjectMap, dome_profile, label_max, label_median
-from .picture_scale import PictureScale
 from .population import (
     BACKGROUND_MM,
     Members,
@@ -357,12 +356,11 @@ def _members_explain(members: Members, lines: Lines, pitch_mm: float) -> bool:
 
 
 def _large_edge_objects(found: ObjectMap, pitch_mm: float) -> np.ndarray | None:
-    """Objects the edge finder outlined that are too wide for the local ground (the FePt spheres),
-    which find_members measures on the picture grid: their diameters in reference mm too."""
+    """Objects the edge finder outlined that are too wide for the local ground (the FePt spheres)."""
     if found.method != "edges" or found.count < 2:
         return None
     area = np.bincount(found.labels.ravel())[1:]
-    diameters = 2 * np.sqrt(area / np.pi) * pitch_mm / PictureScale.plan(found.labels.shape, pitch_mm).mm_per_reference_mm
+    diameters = 2 * np.sqrt(area / np.pi) * pitch_mm
     similar = np.percentile(diameters, 90) <= POPULATION_SPREAD * np.percentile(diameters, 10)
     return found.labels if similar and float(np.median(diameters)) > BACKGROUND_MM else None
 

@@ -6,11 +6,14 @@ the print's width: the FePt spheres were 4 objects at 100 mm wide, 2 at 80 and 3
 an object is a fact of the picture, not of the print; only what a finger needs (a feelable
 size, a groove) is a fact of the print.
 
-So the finders run on a *picture grid*: the working grid resampled as if the print were
-REFERENCE_WIDTH_MM wide (the width their constants were set and measured at), where one
-"reference mm" is a fixed share of the picture's width. Their labels come back to the working
-grid, and the styles then shape them in true mm. At REFERENCE_WIDTH_MM the picture grid is the
-working grid itself (nothing is resampled, the objects are exactly those found before).
+So the edge finder (and the dense-field test, dense.py) run on a *picture grid*: the working
+grid resampled as if the print were REFERENCE_WIDTH_MM wide (the width their constants were set
+and measured at), where one "reference mm" is a fixed share of the picture's width. Their labels
+come back to the working grid, and the styles then shape them in true mm. At REFERENCE_WIDTH_MM
+the picture grid is the working grid itself (nothing is resampled, the objects are exactly those
+found before). The members found by local contrast (population.py) stay on the working grid: on
+the picture grid of a narrow print, a blurred plateau wider than their local ground left arcs
+of its rim that passed as members.
 """
 
 from __future__ import annotations

@@ -114,7 +114,10 @@ def test_levels_gives_exact_plateaus_big_enough_to_feel(count, seed, which):
     opts = StyleOptions(level_count=count)
     made = make_relief(prep(syn.image), style="levels", mm_per_px=mm, base_mm=BASE, relief_mm=RELIEF, options=opts)
     heights = np.unique(made.heights_mm)
-    assert len(heights) == count == len(made.levels_mm)
+    assert len(heights) == len(made.levels_mm) >= 2
+    # A level whose regions are all under a fingertip is merged away, and the notes say so (with the
+    # objects found in the picture's own terms, 2 of 51 particle pictures at 60 mm lose one level).
+    assert len(heights) == count or f"only {len(heights)} of {count} levels" in " ".join(made.notes)
     assert np.diff(heights).min() >= 0.5
     regions = _regions(made.heights_mm)
     assert np.bincount(regions.ravel())[1:].min() * mm**2 >= opts.min_area_mm2

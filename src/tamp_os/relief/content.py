@@ -31,7 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.fft
 from scipy import ndimage
-from skimage import exposure, filters, segmentation
+from skimage import exposure, filters, morphology, segmentation
 
 from .lines import (
     FINE_PITCH_MM,
@@ -44,6 +44,7 @@ from .lines import (
     fine_lines,
     hessian_ridges,
 )
+from .dense import BlobScale, blob_scale, scale_stack
 from .objects import ObjectMap, dome_profile, label_max, label_median
 from .population import (
     BACKGROUND_MM,
@@ -67,9 +68,13 @@ MIN_MEMBERS = 2
 POPULATION_ENERGY = 0.6
 POPULATION_ROUNDNESS = 0.7
 POPULATION_SPREAD = 2.5
+FELT_MM = 0.5  # a member stands this far above the ground around it to be felt (the check's measure)
 MIN_FELT_MM = 2.0  # members narrower than this are drawn this wide when few
 FEW_MEMBERS = 60
 DENSE_COVER = 0.4  # more members than FEW_MEMBERS covering this share: a dense field (SEM particle layers), measured 0.48 on SiO2 35kx, 0.33 on the STEM spheres (all found)
+DENSE_OVER_MEMBERS = 1.5  # a dense field with this many times more blobs than members found is raised as a field
+DENSE_TOPHAT_WIDTHS = 2.5  # a dense field's local ground: a square this many members wide (swept 1.5-3: 96-90 % felt on 10kx, 5-0 spurious)
+DENSE_LIFT_PCT = 80.0  # its top-hat's scale: this percentile (swept 60-99, clip or tanh, on the 10kx field: 88-93 % felt)
 MIN_PITCH_MM = 2.5  # a lattice finer than this on the print is felt as roughness
 MEMBER_ROUND_MM = 10.0  # dome shoulders (as the objects style); wider members get rounded plateaus
 EMPTY_GROUND_SHARE = 0.5  # a bright ground this share of the picture lies within 0.06 of is empty (paper, brightfield)
@@ -224,11 +229,18 @@ def make_content(work: np.ndarray, *, pitch_mm: float, relief_mm: float, width_m
     lines = finder.lines(polarity.bright)
     members = finder.members(polarity.bright)
     if polarity.undecided and not _is_population(members, pitch_mm):
-        # A mid-grey ground: the side whose members hold more of the detail is the content.
+        # A mid-grey ground: a dense field of one side's blobs (dense.py; its peaks stand out, the
+        # other side's are the gaps between them) is the content; else the side whose members
+        # hold more of the detail.
+        here = finder.blobs(polarity.bright)
+        there = None if here is not None and here.dense else finder.blobs(not polarity.bright)
         other = finder.members(not polarity.bright)
-        if other.energy > members.energy:
+        if there is not None and there.dense:
+            polarity = polarity.flipped(f"the other side's blobs are a dense field (peaks {there.asymmetry:.2f} × its troughs)")
+        elif (here is None or not here.dense) and other.energy > members.energy:
             polarity = polarity.flipped(f"members of the other side hold more of the detail ({other.energy:.0%} against {members.energy:.0%})")
-            x, members = 1.0 - x, other
+        if polarity.bright != (x is work):
+            x, members = 1.0 - x, finder.members(polarity.bright)
             lines = finder.lines(polarity.bright)
     network = _is_network(lines) and not _members_explain(members, lines, pitch_mm)
     if not network:
@@ -242,8 +254,10 @@ def make_content(work: np.ndarray, *, pitch_mm: float, relief_mm: float, width_m
                                 f"raised and the regions they enclose sit at the base")
     if network:
         return _as_lines(lines, pitch_mm, relief_mm, width_mm, polarity, lattice + meta, "lines")
-    if _is_population(members, pitch_mm):
+    if _is_population(members, pitch_mm) and not _dense_field_beats(finder.blobs(polarity.bright), members, pitch_mm):
+        blobs = finder.blobs(polarity.bright)
         return _as_members(members.labels, pitch_mm, relief_mm, polarity, lattice + meta, picture=finder.picture(polarity.bright),
+                           dense_field=blobs is not None and blobs.dense and period is None,  # a lattice is found whole
                            what=f"{members.count} members found by local contrast (each against the ground around it, cut at half its own peak; "
                            f"dimmest {np.min(members.contrast):.2f}, brightest {np.max(members.contrast):.2f} of the range)")
     if _is_line_art(lines, polarity, specimen):
@@ -267,6 +281,13 @@ def make_content(work: np.ndarray, *, pitch_mm: float, relief_mm: float, width_m
                          what=(f"a network of {side} lines thinner than the print grid, found on a {fine_pitch_mm:.2f} mm grid "
                                f"before the print's blur, enclosing {found_lines.cell_count} regions ({found_lines.length_mm:.0f} mm "
                                f"of line, ridge strength {found_lines.strength:.0f} × noise)"))
+    # A dense field of small members the segmentation could not part (dense.py): one size, as
+    # particles have and texture has not.
+    blobs = finder.blobs(polarity.bright)
+    if blobs is not None and blobs.dense:
+        made = _as_dense_field(blobs, finder.picture(polarity.bright), pitch_mm, relief_mm, polarity, lattice + meta)
+        if made.labels is not None and made.labels.max():
+            return made
     if not fallback:
         return None
     return _weak_contrast(work, x, pitch_mm, relief_mm, width_mm, min_area_mm2, polarity, lattice + meta,
@@ -283,6 +304,8 @@ class _Finder:
         self._ridges: tuple[np.ndarray, np.ndarray] | None = None
         self._lines: dict[bool, Lines] = {}
         self._members: dict[bool, Members] = {}
+        self._blobs: dict[bool, BlobScale | None] = {}
+        self._stack: np.ndarray | None = None
 
     def picture(self, bright: bool) -> np.ndarray:
         return self.work if bright else 1.0 - self.work
@@ -296,7 +319,19 @@ class _Finder:
                                              response=self._ridges[0 if bright else 1], noise=self.noise)
         return self._lines[bright]
 
+    def blobs(self, bright: bool) -> BlobScale | None:
+        """The blobs of either polarity (dense.py), from one scale stack."""
+        if bright not in self._blobs:
+            if self._stack is None:
+                self._stack = scale_stack(self.work, self.pitch_mm)
+            stack = None if self._stack is None else (self._stack if bright else -self._stack)
+            self._blobs[bright] = None if stack is None else blob_scale(self.picture(bright), self.pitch_mm, stack)
+        return self._blobs[bright]
+
     def members(self, bright: bool) -> Members:
+        """Members found by local contrast on the working grid, in print mm. (On the picture grid,
+        picture_scale.py, a plateau wider than the local ground, blurred by a narrow print's
+        upsampling, left arcs of its rim that passed as members: the 60 and 80 mm test disc.)"""
         if bright not in self._members:
             self._members[bright] = find_members(self.picture(bright), pitch_mm=self.pitch_mm, noise=self.noise)
         return self._members[bright]
@@ -363,6 +398,17 @@ def _is_population(members: Members, pitch_mm: float) -> bool:
     return members.spread(pitch_mm) <= POPULATION_SPREAD and members.energy >= 0.15 and round_ >= POPULATION_ROUNDNESS
 
 
+def _dense_field_beats(blobs: BlobScale | None, members: Members, pitch_mm: float) -> bool:
+    """A dense field whose members the segmentation parted only a few of: many more blobs of the
+    members' own size than members (DENSE_OVER_MEMBERS), and the members hold less than
+    POPULATION_ENERGY of the detail. (Four beads on a noisy max projection make a "dense field" of
+    noise blobs a third of their size, and hold most of the detail: they stay a population.)"""
+    if blobs is None or not blobs.dense or members.count == 0:
+        return False
+    same_size = float(np.median(members.diameters_mm(pitch_mm))) <= 2.0 * blobs.diameter_mm
+    return same_size and blobs.count >= DENSE_OVER_MEMBERS * members.count and members.energy < POPULATION_ENERGY
+
+
 def _members_explain(members: Members, lines: Lines, pitch_mm: float) -> bool:
     """A dense population looks like a network of the gaps between members: the members explain
     the picture when they cover more than the lines do and most cells hold one member."""
@@ -388,7 +434,8 @@ def _lattice_words(period: Period | None, width_mm: float) -> str:
             f"at a print width of {width_mm * MIN_PITCH_MM / period.pitch_mm:.0f} mm")
 
 
-def _as_members(labels: np.ndarray, pitch_mm, relief_mm, polarity, extra, what, picture: np.ndarray | None = None) -> ContentMade:
+def _as_members(labels: np.ndarray, pitch_mm, relief_mm, polarity, extra, what, picture: np.ndarray | None = None,
+                dense_field: bool = False) -> ContentMade:
     count = int(labels.max())
     area = np.bincount(labels.ravel(), minlength=count + 1)[1:]
     diam = 2 * np.sqrt(area / np.pi) * pitch_mm
@@ -409,7 +456,7 @@ def _as_members(labels: np.ndarray, pitch_mm, relief_mm, polarity, extra, what, 
     domes = dome_profile(labels, pitch_mm=pitch_mm, round_mm=MEMBER_ROUND_MM)
     count = int(labels.max())
     cover = float((labels > 0).mean())
-    if picture is not None and count > FEW_MEMBERS and cover >= DENSE_COVER:
+    if picture is not None and count > FEW_MEMBERS and (cover >= DENSE_COVER or dense_field):
         # A dense field: the members the segmentation could not part lie in the gaps between the
         # found ones, so each point also rises by its own local contrast (a top-hat three members
         # wide, full lift at its 95th percentile): a texture of small domes under the found ones.
@@ -422,6 +469,29 @@ def _as_members(labels: np.ndarray, pitch_mm, relief_mm, polarity, extra, what, 
                          f"from their neighbours rise by their local contrast, as a texture of small domes.")
     reason = f"content: {what}; each raised as a dome by the same lift, touching ones apart by a groove; {polarity.reason}{extra}"
     return ContentMade(domes, "members", labels, reason, tuple(notes))
+
+
+def _as_dense_field(blobs: BlobScale, picture: np.ndarray, pitch_mm: float, relief_mm: float, polarity: Polarity, extra: str) -> ContentMade:
+    """A dense field of small members (dense.py): each point rises by its own local contrast (a
+    top-hat DENSE_TOPHAT_WIDTHS members wide, its DENSE_LIFT_PCT percentile at tanh(1) of the lift), so
+    every particle is a small dome and the gaps between them stay low; the members the check
+    counts are the domes a finger finds (each FELT_MM over the saddle to a higher one)."""
+    width_mm = max(DENSE_TOPHAT_WIDTHS * blobs.diameter_mm, 2 * MIN_FELT_MM)
+    texture = local_tophat(picture.astype(np.float32), pitch_mm, width_mm)
+    scale = float(np.percentile(texture, DENSE_LIFT_PCT))
+    # tanh, not a clip: the brightest clusters keep their domes instead of flat tops.
+    relief01 = np.tanh(texture / scale).astype(np.float32) if scale > 0 else np.zeros_like(texture)
+    # The members a finger finds: each dome standing FELT_MM over the saddle to a higher one,
+    # down to a quarter of the lift.
+    seeds, _ = ndimage.label(morphology.h_maxima(relief01, min(FELT_MM / relief_mm, 1.0) if relief_mm > 0 else 1.0))
+    labels = segmentation.watershed(-relief01, seeds, mask=relief01 >= 0.25).astype(np.int32)
+    labels = segmentation.relabel_sequential(labels)[0].astype(np.int32)
+    reason = (f"content: a dense field of small members ({blobs.words()}: one size, as particles have and texture has "
+              f"not); each point raised by its local contrast over {width_mm:.1f} mm, so every member is a small dome and "
+              f"the gaps stay low; {polarity.reason}{extra}")
+    note = (f"content: a dense field of {int(labels.max())} domes (members) {blobs.diameter_mm:.1f} mm across, too many and too "
+            f"close to draw one by one: they read as a texture of small domes.")
+    return ContentMade(relief01, "members", labels, reason, (note,))
 
 
 def _with_interior(labels: np.ndarray) -> np.ndarray:

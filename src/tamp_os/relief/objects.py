@@ -49,7 +49,8 @@ class ObjectMap:
         return float(self.mask.mean()) if self.labels.size else 0.0
 
 
-def find_objects(image01: np.ndarray, *, pitch_mm: float, min_area_mm2: float, nozzle_mm: float = 0.4) -> ObjectMap:
+def find_objects(image01: np.ndarray, *, pitch_mm: float, min_area_mm2: float, nozzle_mm: float = 0.4,
+                 blur_ratio: float = 1.0) -> ObjectMap:
     """Label objects in a 0..1 image on a grid of pitch_mm.
 
     Parameters
@@ -58,11 +59,14 @@ def find_objects(image01: np.ndarray, *, pitch_mm: float, min_area_mm2: float, n
     pitch_mm : grid pitch, mm per pixel.
     min_area_mm2 : smallest object kept (a fingertip-sized area).
     nozzle_mm : the printer's nozzle; smoothing and gap closing work at this scale.
+    blur_ratio : how much blurrier the picture is than at the scale the constants were set at
+        (>= 1; picture_scale.py): an edge's gradient falls by about this factor, so weaker edge
+        pixels, down to the threshold over blur_ratio, are kept where they continue a strong edge.
     """
     smooth = gaussian_mm(image01, max(nozzle_mm, 0.75 * pitch_mm), pitch_mm)
     min_px = max(4, int(min_area_mm2 / pitch_mm**2))
     grad = filters.sobel(smooth)
-    labels = _distinct(_enclosed_by_edges(smooth, grad, pitch_mm, nozzle_mm, min_px), smooth, grad, nozzle_mm / pitch_mm)
+    labels = _distinct(_enclosed_by_edges(smooth, grad, pitch_mm, nozzle_mm, min_px, blur_ratio), smooth, grad, nozzle_mm / pitch_mm)
     method = "edges"
     if labels.max() == 0 or (labels > 0).mean() > MAX_COVER:
         # Edge strength first (one vectorised pass) so that hulls are drawn only for the few left.
@@ -74,16 +78,19 @@ def find_objects(image01: np.ndarray, *, pitch_mm: float, min_area_mm2: float, n
     return ObjectMap(labels.astype(np.int32), int(labels.max()), method)
 
 
-def _edges(grad: np.ndarray) -> np.ndarray:
-    """Strong edges: gradient above a robust noise level and above Otsu's split of gradients."""
+def _edges(grad: np.ndarray, blur_ratio: float = 1.0) -> np.ndarray:
+    """Strong edges: gradient above a robust noise level and above Otsu's split of gradients
+    (with a blurrier picture, also the pixels above that over blur_ratio connected to them)."""
     med = float(np.median(grad))
     mad = float(np.median(np.abs(grad - med))) * 1.4826
     thresh = max(med + 4.0 * mad, filters.threshold_otsu(grad) if np.ptp(grad) > 0 else 0.0)
-    return grad > thresh
+    if blur_ratio <= 1.0:
+        return grad > thresh
+    return filters.apply_hysteresis_threshold(grad, thresh / blur_ratio, thresh)
 
 
-def _enclosed_by_edges(smooth, grad, pitch_mm, nozzle_mm, min_px) -> np.ndarray:
-    edges = _edges(grad)
+def _enclosed_by_edges(smooth, grad, pitch_mm, nozzle_mm, min_px, blur_ratio=1.0) -> np.ndarray:
+    edges = _edges(grad, blur_ratio)
     # Close gaps of about a nozzle width along rims, then fill what the rims enclose.
     closed = _erode(_dilate(edges, 1.5 * nozzle_mm / pitch_mm), 1.5 * nozzle_mm / pitch_mm)
     # Enclosed = every region the edges cut off from the ground (the largest open region).
@@ -98,7 +105,7 @@ def _enclosed_by_edges(smooth, grad, pitch_mm, nozzle_mm, min_px) -> np.ndarray:
     filled = _enclosed_parts(regions, ground, closed, pitch_mm)
     # Give back what the opening shaved off the insides (never the ground), then the rim band.
     filled |= _dilate(filled, GAP_MM / pitch_mm) & ~closed & (regions != ground)
-    filled |= closed & _dilate(filled, 4 * nozzle_mm / pitch_mm)
+    filled |= closed & _dilate(filled, 4 * nozzle_mm / pitch_mm * blur_ratio)
     # Interiors without the edge band, opened so thin unclosed rims vanish; touching objects
     # stay apart because the edge between them is removed here.
     interior = _dilate(_erode(filled & ~closed, 2 * nozzle_mm / pitch_mm), 2 * nozzle_mm / pitch_mm)
@@ -107,7 +114,8 @@ def _enclosed_by_edges(smooth, grad, pitch_mm, nozzle_mm, min_px) -> np.ndarray:
         return labels
     labels = _keep(labels, min_px, filled.size)
     # Give each object back its rim: the edge band around it, never another region's inside.
-    grown = segmentation.expand_labels(labels, distance=8 * nozzle_mm / pitch_mm + 1)
+    # (A blurrier picture has edge bands blur_ratio times wider: its rims are given back as wide.)
+    grown = segmentation.expand_labels(labels, distance=8 * nozzle_mm / pitch_mm * blur_ratio + 1)
     return _convex_fill(np.where((labels > 0) | (closed & filled), grown, 0))
 
 

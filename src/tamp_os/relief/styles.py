@@ -29,7 +29,8 @@ from skimage import exposure, filters
 from ..errors import ParameterError, Text
 from .heightmap import heights_mm
 from .levels import plateau_classes
-from .objects import ObjectMap, dome_profile, find_objects
+from .objects import ObjectMap, dome_profile
+from .picture_scale import find_objects_in_picture
 from .scales import WorkGrid, coarse_gaussian_mm, gaussian_mm, guided_smooth, robust_unit
 
 STYLES = ("reference", "structure", "levels", "objects", "content", "auto")
@@ -153,7 +154,7 @@ def make_relief(
 
     def objects_found() -> ObjectMap:
         if not found_once:
-            found_once.append(find_objects(work, pitch_mm=grid.pitch_mm, min_area_mm2=options.min_area_mm2, nozzle_mm=options.nozzle_mm))
+            found_once.append(find_objects_in_picture(work, pitch_mm=grid.pitch_mm, min_area_mm2=options.min_area_mm2, nozzle_mm=options.nozzle_mm))
         return found_once[0]
 
     if style in ("content", "auto"):
@@ -269,7 +270,7 @@ def structure_shape(
     """
     shape = large_shape(work, pitch_mm, options)
     if found is None:
-        found = find_objects(work, pitch_mm=pitch_mm, min_area_mm2=options.min_area_mm2, nozzle_mm=options.nozzle_mm)
+        found = find_objects_in_picture(work, pitch_mm=pitch_mm, min_area_mm2=options.min_area_mm2, nozzle_mm=options.nozzle_mm)
     if found.count:
         domes = dome_profile(found.labels, pitch_mm=pitch_mm, round_mm=DOME_ROUND_DETAILS * options.detail_mm)
         shape = robust_unit(0.5 * shape + 0.5 * domes, 0.5, 99.5)
@@ -329,7 +330,7 @@ def choose_style(
     - structure: anything else (continuous tones).
     """
     if found is None:
-        found = find_objects(work, pitch_mm=pitch_mm, min_area_mm2=options.min_area_mm2, nozzle_mm=options.nozzle_mm)
+        found = find_objects_in_picture(work, pitch_mm=pitch_mm, min_area_mm2=options.min_area_mm2, nozzle_mm=options.nozzle_mm)
     facts = _object_facts(work, found)
     if facts is not None and facts.spread <= MAX_SIZE_SPREAD and 0.03 <= found.cover <= MAX_OBJECT_COVER and facts.lift < 0.15:
         return "objects", (

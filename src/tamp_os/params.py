@@ -140,7 +140,7 @@ class LithoParams:
     @property
     def scale_bar_m(self) -> float | None:
         """The scale bar's length in metres when one is given; None for auto and off."""
-        return None if self.scale_bar in ("auto", "off") else _length_m(self.scale_bar, "scale_bar", None)
+        return None if self.scale_bar in ("auto", "off") else _length_m(self.scale_bar, "scale_bar", None, ("auto", "off"))
 
     @property
     def bed_size_mm(self) -> tuple[float, float] | None:
@@ -178,12 +178,13 @@ class LithoParams:
         return dataclasses.replace(self, **changes)
 
 
-def _length_m(value, name: str, range_m) -> float | None:
-    """A length parameter given as text with a unit ('4.2nm') or as a number of metres (4.2e-9)."""
+def _length_m(value, name: str, range_m, words: tuple[str, ...] = ()) -> float | None:
+    """A length parameter given as text with a unit ('4.2nm') or as a number of metres (4.2e-9);
+    `words` are its other allowed values, named when a text is neither."""
     if value is None:
         return None
     if isinstance(value, str):
-        return parse_length_m(value, name, range_m)
+        return parse_length_m(value, name, range_m, words)
     lo, hi = range_m or (0.0, math.inf)
     allowed = f"a length from {format_length(lo)} to {format_length(hi)}" if range_m else "a length greater than 0"
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or not (lo <= value <= hi) or value <= 0:

@@ -38,10 +38,12 @@ MIN_BED_MM = 60.0  # smaller beds leave no room for the tiles' pegs, sockets and
 MAX_LENGTH_TEXT = 64  # characters of a length such as '4.2 nm'
 
 
-def parse_length_m(text: str, name: str = "pixel_size", range_m: tuple[float, float] | None = None) -> float:
+def parse_length_m(text: str, name: str = "pixel_size", range_m: tuple[float, float] | None = None,
+                   words: tuple[str, ...] = ()) -> float:
     """'4.2nm' -> 4.2e-9. Raises ParameterError naming `name` when it cannot be read.
 
     range_m : the allowed (lowest, highest) value in metres; PIXEL_SIZE_RANGE_M for `pixel_size`.
+    words : the parameter's other allowed values ("auto", "off"), said beside a length when the text is neither.
     """
     if range_m is None and name == "pixel_size":
         range_m = PIXEL_SIZE_RANGE_M
@@ -52,10 +54,11 @@ def parse_length_m(text: str, name: str = "pixel_size", range_m: tuple[float, fl
         r"\s*([-+]?[0-9]*\.?[0-9]+(?:[eE][-+]?[0-9]+)?)\s*([a-zA-Zµμ\u00c5\u212b]+)\s*", text_s)
     factor = unit_factor_m(match.group(2)) if match else None
     if not match or factor is None:
+        choice = f"{', '.join(words)} or " if words else ""
         raise ParameterError(
-            f"`{name}`: cannot read {text_s[:40]!r}{'…' if len(text_s) > 40 else ''} as a length; give a number and a unit, "
-            f"for example 4.2nm, 0.5um, 3 micron, 12Å or 0.01mm (units: pm, Å, nm, µm, um, micron, mm, cm, m).",
-            parameter=name, value=text, allowed="a number and a unit", hint="for example 4.2nm",
+            f"`{name}`: cannot read {text_s[:40]!r}{'…' if len(text_s) > 40 else ''} as a length; give {choice}a number and a unit.",
+            parameter=name, value=text, allowed=f"{choice}a number and a unit",
+            hint="For example 4.2nm, 0.5um, 3 micron, 12Å or 0.01mm (units: pm, Å, nm, µm, um, micron, mm, cm, m).",
         )
     value = float(match.group(1)) * factor
     if value <= 0:

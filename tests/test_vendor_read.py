@@ -169,6 +169,9 @@ def test_phenom_blank_image_converts_to_a_flat_plate_with_a_warning(real, tmp_pa
     code, out, err = run_cli(capsys, "convert", real("phenom_elid2v4.elid", "rsciio"), "-o", tmp_path)
     assert code == 0 and "blank" in (out + err)
     assert "Traceback" not in err
+    # the note names the option a user types (it said "choose another with scene")
+    blank = [line for line in (out + err).splitlines() if "blank" in line]
+    assert blank and all("--scene" in line for line in blank), blank
 
 
 # --- MRC ------------------------------------------------------------------------------------------

@@ -154,8 +154,8 @@ def _blank_notes(stack: Stack, chosen: Chosen) -> list[str]:
         finite = array[np.isfinite(array)] if array.dtype.kind == "f" else array
         if finite.size and finite.min() == finite.max():
             where = f" ({stack.scene_name})" if stack.scene_name else ""
-            others = f"; the file holds {stack.scenes} images: choose another with scene" if stack.scenes > 1 else ""
-            notes.append(f"the image{where} is blank: every pixel is {finite.flat[0]:g}, so there is nothing to feel{others}.")
+            others = f"; the file holds {stack.scenes} images: choose another with `scene`" if stack.scenes > 1 else ""
+            notes.append(Text(f"the image{where} is blank: every pixel is {finite.flat[0]:g}, so there is nothing to feel{others}."))
     return notes
 
 

@@ -177,3 +177,24 @@ def test_multichannel_tiff_channel_by_number_or_name(tmp_path):
     assert read_image(path, channel="2").values.mean() == 300
     with pytest.raises(ParameterError, match="DAPI"):
         read_image(path, channel="Cy5")
+
+
+def test_a_slice_asked_of_a_single_picture_is_refused_naming_it(tmp_path):
+    # a PNG has no z-stack: --slice 3 was ignored silently (the print was the whole picture)
+    path = tmp_path / "flat.png"
+    Image.fromarray(np.arange(64 * 48, dtype=np.uint32).reshape(48, 64).astype(np.uint8)).save(path)
+    with pytest.raises(ParameterError, match="z_slice") as info:
+        read_image(path, z_slice=3)
+    assert "no z-stack" in str(info.value) and info.value.parameter == "z_slice" and info.value.value == 3
+    assert read_image(path, z_slice=0).values.shape == (48, 64)  # the first (only) plane is there
+
+
+def test_the_decoded_size_refused_is_said_with_its_digits(tmp_path):
+    # 40×150×150 bytes is 0.0009 GB: the message said "= 0.0 GB would exceed the limit of 0.0001 GB"
+    path = tmp_path / "stack.tif"
+    tifffile.imwrite(path, np.zeros((40, 150, 150), np.uint8), metadata={"axes": "ZYX"})
+    with pytest.raises(InputError) as info:
+        read_image(path, max_decoded_gb=0.0001)
+    text = str(info.value)
+    assert "= 0.0009 GB" in text and "0.0 GB" not in text, text
+    assert "0.0001 GB" in text

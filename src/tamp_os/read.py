@@ -155,6 +155,9 @@ def read_image(
     elif head[:4] in DM_MAGIC:
         decoded = _read_dm(path, limits, path.stat().st_size)
     else:
+        if z_slice:  # PNG, JPEG, GIF, WebP, BMP hold no z-stack: a slice asked for would be ignored silently
+            raise ParameterError(f"{path}: `z_slice` {z_slice} asked for, but this file has no z-stack (it is a "
+                                 f"single picture); leave `z_slice` out.", parameter="z_slice", value=z_slice)
         decoded = _read_pillow(path, head, page, limits)
     sha = _sha256_of(path)  # after the header checks: a refused file costs no read of its bytes
     if decoded.channel_chosen:
@@ -250,11 +253,17 @@ def _check_bytes(path, shape, dtype, limits: _Limits, what: str = "image", chunk
     if total > limits.max_decoded_gb * 1e9:
         dims = "×".join(str(int(n)) for n in shape)
         raise InputError(
-            f"{path}: decoding this {what} ({dims} values × {itemsize} bytes = {total / 1e9:.1f} GB) would exceed "
+            f"{path}: decoding this {what} ({dims} values × {itemsize} bytes = {_gb_words(total)}) would exceed "
             f"the limit of {limits.max_decoded_gb:g} GB that guards against decompression bombs.",
             hint=f"If you trust the file and the computer has the memory (about 3× that), raise the limit: "
                  f"`max_decoded_gb` = {math.ceil(total / 1e9)}.",
         )
+
+
+def _gb_words(n_bytes: float) -> str:
+    """Bytes in GB with one decimal, or two significant digits below 0.1 GB (never '0.0 GB' for a small file)."""
+    gb = n_bytes / 1e9
+    return f"{gb:.1f} GB" if gb >= 0.1 else f"{gb:.2g} GB"
 
 
 def _check_cost(path, plane_hw, shape, dtype, limits: _Limits, chunk_bytes: float = 0.0, copies_bytes: float = 0.0) -> None:
@@ -450,9 +459,9 @@ def _channel_choice(path, n: int, channel, meta, notes) -> int:
         index = 0
         if n > 1:
             named = f" ({', '.join(names)})" if names else ""
-            notes.append(f"{n} channels{named}; using channel 0. Choose another with the channel parameter (a number or a name).")
+            notes.append(Text(f"{n} channels{named}; using channel 0. Choose another with `channel` (a number or a name)."))
     else:
-        raise ParameterError(f"{path}: channel {channel!r} is not one of 0–{n - 1}{' or ' + ', '.join(names) if names else ''}.")
+        raise ParameterError(f"{path}: `channel` {channel!r} is not one of 0–{n - 1}{' or ' + ', '.join(names) if names else ''}.")
     if not 0 <= index < n:
         raise ParameterError(f"{path}: `channel` must be 0–{n - 1}; got {index}.")
     return index

@@ -198,3 +198,16 @@ def test_the_decoded_size_refused_is_said_with_its_digits(tmp_path):
     text = str(info.value)
     assert "= 0.0009 GB" in text and "0.0 GB" not in text, text
     assert "0.0001 GB" in text
+
+
+def test_a_channel_not_in_the_file_is_refused_naming_the_option(tmp_path):
+    from tamp_os.cli import cli_words
+
+    path = tmp_path / "two.ome.tif"
+    tifffile.imwrite(path, np.zeros((2, 20, 30), np.uint16), ome=True, photometric="minisblack", metadata={"axes": "CYX"})
+    with pytest.raises(ParameterError) as info:
+        read_image(path, channel="nope")
+    assert "'nope'" in str(info.value) and "0–1" in str(info.value)
+    assert "--channel 'nope'" in cli_words(info.value), cli_words(info.value)  # it said "channel 'nope'"
+    note = " ".join(cli_words(n) for n in read_image(path).file.notes)
+    assert "using channel 0" in note and "--channel" in note, note

@@ -152,3 +152,22 @@ def test_every_command_answers_help(capsys):
     for name in [None, *commands]:
         assert main(["--help"] if name is None else [name, "--help"]) == 0, name
         assert "usage: tamp-os" in capsys.readouterr().out, name
+
+
+def test_batch_says_which_inputs_became_a_flat_plate(tmp_path, capsys):
+    # the progress line said only "converted (0.5 s)" for a uniform picture (the FEI Helios fixtures):
+    # that the print is a flat plate was only in the CSV
+    import numpy as np
+
+    src = tmp_path / "in"
+    src.mkdir()
+    Image.fromarray(np.full((40, 50), 128, np.uint8)).save(src / "blank.png")
+    ramp = np.tile(np.linspace(0, 255, 50, dtype=np.uint8), (40, 1))
+    Image.fromarray(ramp).save(src / "ramp.png")
+    code = main(["batch", str(src), "-o", str(tmp_path / "out"), "--preset", "low", "--workers", "1"])
+    out = capsys.readouterr().out.splitlines()
+    assert code == 0
+    blank = [line for line in out if "blank.png" in line]
+    ramp_lines = [line for line in out if "ramp.png" in line]
+    assert blank and "flat plate" in blank[0], out
+    assert ramp_lines and "flat plate" not in ramp_lines[0], out

@@ -147,10 +147,12 @@ def convert_one(source: str, out_dir: str, params_json: str, stem: str) -> dict:
     # A figure's prints: every warning once, then what the layout left out.
     warnings = list(dict.fromkeys([w for each in conversion.prints for w in each.report.warnings] + list(conversion.layout_notes)))
     if conversion.report.uniform:
-        warnings.insert(0, "flat plate: the image is uniform, so nothing is raised")
+        warnings.insert(0, FLAT_PLATE_NOTE)
     return dataclasses.asdict(Outcome(str(src), "converted", [p.name for p in conversion.all_written], time.perf_counter() - start,
                                       warnings=warnings, touch=conversion.touch()))
 
+
+FLAT_PLATE_NOTE = "flat plate: the image is uniform, so nothing is raised"  # first of a uniform input's warnings
 
 LOCK_NAME = ".tamp-batch.lock"
 

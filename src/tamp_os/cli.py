@@ -507,6 +507,10 @@ class _BatchProgress:
                 self.bar.write(f"failed: {cli_words(outcome['error'])}")
         else:
             detail = cli_words(outcome["error"]) if outcome["status"] == "failed" else f"{outcome['seconds']:.1f} s"
+            from .batch import FLAT_PLATE_NOTE  # loaded already: the batch is running
+
+            if FLAT_PLATE_NOTE in (outcome.get("warnings") or ()):
+                detail = f"a flat plate: the image is uniform, nothing is raised; {detail}"  # not heard only in the CSV
             print(f"{count} of {total}: {name} {outcome['status']} ({detail})", flush=True)
 
     def close(self) -> None:

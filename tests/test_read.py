@@ -211,3 +211,19 @@ def test_a_channel_not_in_the_file_is_refused_naming_the_option(tmp_path):
     assert "--channel 'nope'" in cli_words(info.value), cli_words(info.value)  # it said "channel 'nope'"
     note = " ".join(cli_words(n) for n in read_image(path).file.notes)
     assert "using channel 0" in note and "--channel" in note, note
+
+
+def test_the_limits_hints_say_the_option_as_it_is_typed(tmp_path):
+    # the hints read "raise the limit: --max-decoded-gb = 1" (an '=' the option does not take)
+    from tamp_os.cli import cli_words
+
+    path = tmp_path / "stack.tif"
+    tifffile.imwrite(path, np.zeros((40, 150, 150), np.uint8), metadata={"axes": "ZYX"})
+    with pytest.raises(InputError) as info:
+        read_image(path, max_decoded_gb=0.0001)
+    assert "--max-decoded-gb 1." in cli_words(info.value) and "= 1" not in cli_words(info.value), cli_words(info.value)
+    png = tmp_path / "big.png"
+    Image.fromarray(np.zeros((1000, 1200), np.uint8)).save(png)
+    with pytest.raises(InputError) as info:
+        read_image(png, max_megapixels=0.5)
+    assert "--max-megapixels 2." in cli_words(info.value) and "= " not in cli_words(info.value), cli_words(info.value)

@@ -255,8 +255,8 @@ def _check_bytes(path, shape, dtype, limits: _Limits, what: str = "image", chunk
         raise InputError(
             f"{path}: decoding this {what} ({dims} values × {itemsize} bytes = {_gb_words(total)}) would exceed "
             f"the limit of {limits.max_decoded_gb:g} GB that guards against decompression bombs.",
-            hint=f"If you trust the file and the computer has the memory (about 3× that), raise the limit: "
-                 f"`max_decoded_gb` = {math.ceil(total / 1e9)}.",
+            hint=f"If you trust the file and the computer has the memory (about 3× that), raise the limit, "
+                 f"for example `max_decoded_gb` {math.ceil(total / 1e9)}.",
         )
 
 
@@ -283,7 +283,7 @@ def _check_size(path, shape, limits: _Limits) -> None:
         raise InputError(
             f"{path}: the image claims {w}×{h} pixels ({h * w / 1e6:.0f} Mpx), above the limit of "
             f"{max_megapixels:g} Mpx that guards against decompression bombs.",
-            hint=f"If you trust the file, raise the limit: `max_megapixels` = {int(h * w / 1e6) + 1}.",
+            hint=f"If you trust the file, raise the limit, for example `max_megapixels` {int(h * w / 1e6) + 1}.",
         )
 
 

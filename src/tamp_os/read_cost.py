@@ -52,7 +52,7 @@ def check_memory(path, size_words: str, cost: Cost, max_memory_gb: float) -> Non
         raise InputError(
             f"{path}: converting this {size_words} would need about {cost.total / 1e9:.1f} GB of memory "
             f"({cost.words()}), above the limit of {max_memory_gb:g} GB that guards this computer. Make the image smaller.",
-            hint=f"If the computer has the memory, raise the limit: `max_memory_gb` = {math.ceil(cost.total / 1e9)}."
+            hint=f"If the computer has the memory, raise the limit, for example `max_memory_gb` {math.ceil(cost.total / 1e9)}."
         )
 
 

@@ -27,6 +27,7 @@ from .relief.layout import Layout, plan_layout
 from .relief.preprocess import Prepared, prepare
 from .relief.channel_auto import route as channel_route
 from .relief.styles import ReliefResult, StyleOptions, make_relief
+from .relief.touch import MOSTLY_NOISE, noise_share
 from .report import Plate, Report
 from .tactile.furniture import Furniture, Placed, add_furniture
 from .tactile.parts import two_colour_parts
@@ -342,6 +343,12 @@ def _warnings(picture: Picture, cleaned: Cleaned, prepared: Prepared, layout: La
     warnings = list(layout.warnings) + list(picture.file.notes) + list(cleaned.pixel_size.warnings)
     if prepared.uniform:
         warnings.append(f"{picture.file.name}: the image is uniform (every usable pixel has the same value); the print is a flat plate.")
+    elif cleaned.values.ndim == 2:
+        noise = noise_share(cleaned.values, prepared.stretch_source_range)
+        if noise > MOSTLY_NOISE:  # the shapes said and printed would be the noise's grain (the DM3 fixture: 91 %)
+            warnings.append(f"{picture.file.name}: the picture is mostly noise (noise is {noise:.0%} of its contrast): the "
+                            f"shapes on the print are its grain, not structure in the sample; check that this is the image "
+                            f"meant, or average or denoise it first.")
     if params.base_mm < 0.8:
         warnings.append(Text(f"`base_mm` {params.base_mm} is below 0.8 mm; thin bases warp and break. 1.0–1.5 mm is typical."))
     warnings += later

@@ -16,6 +16,8 @@ from .preprocess import resample, stretch
 from .scales import gaussian_mm
 
 NOISY = 0.35  # noise standard deviation ÷ the picture's, above which the picture is noise-led
+MOSTLY_NOISE = 0.85  # above this the picture is almost all noise (white noise gives 1.0; the real fixtures 0.0-0.73)
+NOISE_SAMPLE_PX = 512  # the noise share is measured on a centre crop at most this wide and high
 FINE_FEELABLE = 0.15  # share of variance between 2 nozzle widths and 1 mm that justifies High
 
 
@@ -89,3 +91,18 @@ def noise_sigma(image: np.ndarray) -> float:
     kernel = np.array([[1, -2, 1], [-2, 4, -2], [1, -2, 1]], np.float64)
     response = ndimage.convolve(image.astype(np.float64), kernel)[1:-1, 1:-1]
     return float(np.sqrt(np.pi / 2) * np.abs(response).mean() / 6)
+
+
+def noise_share(values: np.ndarray, source_range: tuple[float, float]) -> float:
+    """Noise standard deviation ÷ the picture's, on a centre crop of at most NOISE_SAMPLE_PX a side
+    of the source pixels mapped by `source_range` (the contrast stretch's low and high values) to 0..1.
+    About 1.0 for white noise, under 0.2 for most micrographs; 0.0 for a flat or unknown picture."""
+    lo, hi = source_range
+    if not hi > lo:
+        return 0.0
+    rows, cols = values.shape[:2]
+    top, left = max(0, (rows - NOISE_SAMPLE_PX) // 2), max(0, (cols - NOISE_SAMPLE_PX) // 2)
+    crop = values[top : top + NOISE_SAMPLE_PX, left : left + NOISE_SAMPLE_PX]
+    crop = np.clip((np.nan_to_num(crop.astype(np.float64), nan=lo) - lo) / (hi - lo), 0.0, 1.0)
+    spread = float(crop.std())
+    return noise_sigma(crop) / spread if spread > 1e-6 else 0.0

@@ -34,7 +34,7 @@ def test_convert_prints_one_plain_line_per_file(tmp_path, image, capsys):
     out = capsys.readouterr().out.strip().splitlines()
     assert code == 0 and len(out) == 1
     assert out[0].startswith("ramp.png: 100 × 75 × 4 mm, grid 125 × 94,")
-    assert "up to 25 height levels" in out[0] and "wrote ramp.{stl,3mf,glb,obj,ply}, its description and recipe" in out[0]
+    assert "up to 25 levels" in out[0] and "wrote ramp.{stl,3mf,glb,obj,ply}, its description and recipe" in out[0]
     assert len(out[0]) <= 160  # a result line a screen reader reads at once (issue 24.5); details with --verbose
     names = sorted(p.name for p in (tmp_path / "out").iterdir())
     assert names == ["ramp.3mf", "ramp.description.txt", "ramp.glb", "ramp.obj", "ramp.ply", "ramp.stl", "ramp.tamp.json"]

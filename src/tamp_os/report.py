@@ -172,7 +172,7 @@ def summary_line(report: Report, written_names: list[str], shown: str | None = N
     if shown:
         report = dataclasses.replace(report, input=shown)
     w, d, h = report.print_mm
-    levels = "a flat plate" if report.uniform else f"up to {report.height_levels} height levels"
+    levels = "a flat plate" if report.uniform else f"up to {report.height_levels} levels"
     size = f"{_mm(w)} × {_mm(d)} × {_mm(h)} mm"  # to 0.1 mm, as the description says it
     full = f"{size}, grid {report.grid[0]} × {report.grid[1]}, {report.triangles:,} triangles, {levels}, relief style {report.relief_style}"
     line = f"{report.input}: {full}; wrote {files_phrase(written_names)}"

@@ -403,3 +403,48 @@ def test_the_print_width_at_which_merged_lines_separate_opens_their_gap_to_a_fin
     else:
         assert lines.merged.any()
         assert abs(lines.separate_at * centre_mm - LINE_WIDTH_MM - MIN_GAP_MM) <= 2 * mm
+
+
+@pytest.mark.timeout(180)
+@pytest.mark.parametrize("width_mm", [60, 100, 150])
+def test_needle_on_a_noisy_ground_is_one_plateau_not_grains(fixture, width_mm):
+    """The TIA needle (fixtures README: one object, a single raised or sunk region): the shot noise
+    of its empty ground is no grain structure, so the ground stays flat and the needle is one
+    plateau (it was three plateaus of equalised noise, with the needle at the base)."""
+    need_module("rsciio")
+    from tamp_os.pipeline import make_lithograph
+
+    litho = make_lithograph(fixture("real/tia_talos_tem_search.emi"), width_mm=width_mm)
+    assert litho.report.content_kind == "plateau"
+    h = litho.heightmap
+    raised = h > h.min() + 1.0
+    labels, n = ndimage.label(raised)
+    assert n == 1
+    pitch = litho.report.mm_per_px
+    far = ~ndimage.binary_dilation(raised, iterations=int(np.ceil(2.0 / pitch)))
+    assert np.ptp(h[far]) <= 0.3  # the ground 2 mm away from the needle is one height
+    assert raised[:, 0].any() and not raised[:, -1].any()  # it enters from the left, its tip short of the right edge
+
+
+@pytest.mark.timeout(120)
+def test_one_grey_step_is_one_plateau_and_one_flat_band(fixture):
+    """The JEOL dummy (fixtures README): rows 0-190 one grey, rows 191-255 black: one plateau and
+    one flat band, not 'grains in 3 levels'."""
+    need_module("rsciio")
+    from tamp_os.pipeline import make_lithograph
+
+    litho = make_lithograph(fixture("real/jeol_dummy_bf.img"), width_mm=100)
+    h = litho.heightmap
+    assert litho.report.content_kind == "plateau"
+    rows = h.shape[0]
+    top, bottom = h[: int(0.70 * rows)], h[int(0.78 * rows):]  # away from the step at row 191 of 256
+    assert np.ptp(top) <= 0.05 and np.ptp(bottom) <= 0.05 and abs(float(top.mean() - bottom.mean())) >= 2.0
+
+
+@pytest.mark.timeout(120)
+def test_faint_grains_are_still_grains_at_several_widths():
+    from tamp_os.pipeline import make_lithograph
+
+    for width_mm in (60, 150):
+        litho = make_lithograph(faint_grains().image, width_mm=width_mm)
+        assert litho.report.content_kind == "grains", width_mm

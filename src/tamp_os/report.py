@@ -112,7 +112,7 @@ class Report:
     print: Printing | None = None  # slicing results; `with_printing` makes the report of a sliced print
     relief_style: str = "reference"  # the style that made the heights (auto resolved)
     relief_reason: str = ""  # why that style, or what it did, in one sentence
-    content_kind: str = ""  # the content style: "members", "lines", "grains" or "shape" (what it raised)
+    content_kind: str = ""  # the content style: "members", "lines", "grains", "plateau" or "shape" (what it raised)
     legibility: Legibility | None = None  # figures and verdicts
     instrument: Instrument | None = None  # magnification, kv, detector, signal, source when the file records them
     source_px: tuple[int, int] = (0, 0)  # the source image's width and height (where annotations were)
@@ -408,7 +408,7 @@ def _layout_sentence(report: Report) -> str | None:
         return None
     from .layout_words import layout_sentence
 
-    if report.content_kind in ("lines", "grains"):
+    if report.content_kind in ("lines", "grains", "plateau"):
         return None  # a network or plateaus tiling the picture: the sentence before says what to find
     layout = report.layout
     noun = {"objects": "dome", "levels": "raised area"}.get(report.relief_style, "raised shape")
@@ -429,6 +429,8 @@ _CONTENT_RAISED = {
               "stand up as raised lines about {line_mm} mm high over a flat ground; the areas they enclose stay low."),
     "grains": ("The grains, told apart by their weak contrast, stand up as a few flat plateaus above the mount, "
                "up to {up} above the base; the empty mount stays at the base."),
+    "plateau": ("The region that stands out from the empty ground (one object, or the specimen) is raised as one "
+                "flat plateau, {up} above the base; the ground stays at the base."),
     "shape": ("The picture's shape at fingertip scale is raised, its contrast evened out locally, up to {up} above "
               "the base; the empty background stays at the base."),
 }

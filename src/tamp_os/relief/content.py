@@ -82,6 +82,11 @@ ELECTRON_EMPTY_SHARE = 0.8  # with an electron signal, only a bright ground this
 WEAK_SPREAD = 0.3  # a specimen whose 1st-99th percentiles span less than this (beside a mount) has weak contrast
 GRAIN_LEVELS = 3  # weak-contrast grains become at most this many plateaus
 GRAIN_STEP_MM = 0.5  # and the plateaus stand at least this far apart (a step fingers tell apart)
+# Grains are structure above the noise: inside the specimen (1.5 mm in from its edge, so its own
+# step is not counted), the fingertip-scale variation (a 1 mm blur) must stand this many times over
+# the pixel noise (faint grains 3 % apart: 11-30x; a TEM ground of shot noise beside a needle:
+# 1.7-1.9x; a flat plateau: no variation at all).
+GRAIN_OVER_NOISE = 4.0
 EMPTY_MOUNT_SHARE = 0.05  # a dark, featureless area covering at least this share is the mount
 
 
@@ -128,7 +133,7 @@ class Period:
 @dataclass(frozen=True)
 class ContentMade:
     """What the content style made: relief01 on the working grid (0..1 of the relief; lines stop
-    at LINE_HEIGHT_MM / relief), the kind ('lines', 'members', 'grains', 'shape'), labels of the
+    at LINE_HEIGHT_MM / relief), the kind ('lines', 'members', 'grains', 'plateau', 'shape'), labels of the
     members (or None), the reason (facts), and check sentences."""
 
     relief01: np.ndarray
@@ -537,6 +542,39 @@ def find_specimen(work: np.ndarray, pitch_mm: float) -> np.ndarray:
     return ndimage.binary_opening(~dark, iterations=2)
 
 
+def has_grain_structure(work: np.ndarray, specimen: np.ndarray, pitch_mm: float) -> bool:
+    """Whether the specimen holds grey-level structure a finger could be given (GRAIN_OVER_NOISE)."""
+    inner = ndimage.binary_erosion(specimen, iterations=max(1, round(1.5 / pitch_mm)))
+    pairs = inner[:, 2:] & inner[:, :-2]
+    if inner.sum() < 16 or not pairs.any():
+        return False
+    blurred = ndimage.gaussian_filter(work, 1.0 / pitch_mm, mode="nearest")[inner]
+    if float(work[inner].std()) < 1e-3:  # flat: one grey level (a step, not grains)
+        return False
+    diff = (work[:, 2:] - work[:, :-2])[pairs]  # neighbours two points apart: the resampling blur leaves their noise apart
+    noise = 1.4826 * float(np.median(np.abs(diff - np.median(diff)))) / np.sqrt(2)
+    return float(blurred.std()) >= GRAIN_OVER_NOISE * noise
+
+
+def _one_plateau(work, specimen, pitch_mm, min_area_mm2, polarity, extra) -> ContentMade:
+    """Two regions and no structure inside either (a needle on an empty ground, one grey step):
+    the side the polarity raises becomes one flat plateau, the other stays at the base."""
+    raised = specimen if polarity.bright == bool(np.median(work[specimen]) >= np.median(work[~specimen])) else ~specimen
+    # Opened to drop specks, with the picture's edge not taken as ground (a region running off the
+    # picture keeps its corners).
+    raised = ndimage.binary_dilation(ndimage.binary_erosion(raised, iterations=2, border_value=1), iterations=2) & raised
+    labels, n = ndimage.label(raised)
+    if n:
+        area = np.bincount(labels.ravel())[1:] * pitch_mm**2
+        keep = np.concatenate([[0], np.cumsum(area >= min_area_mm2) * (area >= min_area_mm2)])
+        labels = keep[labels].astype(np.int32)
+    count = int(labels.max())
+    reason = (f"content: two regions with no structure beyond the noise inside either, so the "
+              f"{'bright' if polarity.bright else 'dark'} side is raised as {count} flat plateau{'s' * (count != 1)} "
+              f"and the other stays at the base; {polarity.reason}{extra}")
+    return ContentMade((labels > 0).astype(np.float32), "plateau", labels, reason, ())
+
+
 def _weak_contrast(work, x, pitch_mm, relief_mm, width_mm, min_area_mm2, polarity, extra, specimen=None, grains=True) -> ContentMade:
     """Weak contrast: local equalisation inside the specimen, then its grains outlined as raised
     lines (when `grains` and their boundaries form a network), else the fingertip-scale shape."""
@@ -544,6 +582,8 @@ def _weak_contrast(work, x, pitch_mm, relief_mm, width_mm, min_area_mm2, polarit
     from .styles import StyleOptions, large_shape
 
     specimen = find_specimen(work, pitch_mm) if specimen is None else specimen
+    if grains and specimen.any() and not specimen.all() and not has_grain_structure(work, specimen, pitch_mm):
+        return _one_plateau(work, specimen, pitch_mm, min_area_mm2, polarity, extra)
     inside = work[specimen]
     lo, hi = (np.percentile(inside, [1, 99]) if inside.size else (0.0, 1.0))
     spread = max(float(hi - lo), 1e-6)
@@ -598,6 +638,10 @@ def check_sentences(heights_mm: np.ndarray, made: ContentMade, mm_per_px: float,
             return (f"Found {n} member{'s' * (n != 1)}, all raised at least {lifts.min():.1f} mm above the ground around them.",)
         return (f"Found {n} members; {felt} stand at least 0.5 mm above the ground around them, {n - felt} do not "
                 f"(lowest {lifts.min():.1f} mm).",)
+    if made.kind == "plateau" and made.labels is not None and made.labels.max():
+        n = int(made.labels.max())
+        lift = float(np.median(member_tops(heights_mm, made.labels, mm_per_px)))
+        return (f"{'One' if n == 1 else n} flat region{'s' * (n != 1)} raised {lift:.1f} mm above the ground around {'it' if n == 1 else 'them'}.",)
     if made.kind == "grains" and made.levels:
         return (f"Grains: {made.levels} levels, raised as plateaus above the mount.",)
     if made.line_mask is not None and made.line_mask.any():

@@ -69,7 +69,7 @@ class ReliefResult:
     notes : further sentences for the report (adjustments made, nothing found...).
     checks : sentences comparing the print with what was found in the picture ("Found 10 members,
         all raised at least 1.0 mm..."), for the legibility check (content style).
-    content_kind : what the content style raised: "members", "lines", "grains" or "shape" ("" for
+    content_kind : what the content style raised: "members", "lines", "grains", "plateau" or "shape" ("" for
         the other styles), so the description can say it in words.
     """
 
@@ -185,7 +185,7 @@ def make_relief(
     return ReliefResult(heights, style, reason or made.summary, labels, levels, made.notes)
 
 
-_KIND_WORDS = {"members": "a population of members found", "lines": "a line network found", "grains": "grains found by their weak contrast"}
+_KIND_WORDS = {"plateau": "one region against an empty ground", "members": "a population of members found", "lines": "a line network found", "grains": "grains found by their weak contrast"}
 
 
 def _content(image01, grid, work, found, *, mm_per_px, base_mm, relief_mm, layer_mm, options, hints,

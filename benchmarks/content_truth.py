@@ -148,6 +148,14 @@ def real_cases() -> list[Case]:
         edge[:60, 420:] = True  # the grid bar, top right corner, is not a particle
         out.append(_case("velox_talos_haadf_particles.emd", emd, members=_members_by_threshold(emd, 2.0, 10, 40, exclude=edge, noise_sigmas=8),
                          how="median + 8 robust deviations after a 2 px Gaussian, distance watershed (min distance 10 px), grid-bar corner excluded"))
+        from rsciio.tia import file_reader as tia_reader
+
+        tia = np.asarray(tia_reader(str(FIXTURES / "real" / "tia_talos_tem_search.emi"))[0]["data"], np.float32)
+        dark = filters.gaussian(tia, 1.0, preserve_range=True) < filters.threshold_otsu(tia)
+        needle, _ = ndimage.label(dark)
+        needle = (needle == np.argmax(np.bincount(needle.ravel())[1:]) + 1).astype(np.int32)  # the one object (README: 19 %)
+        out.append(_case("tia_talos_tem_search.emi (TEM needle)", tia, members=needle,
+                         how="below Otsu after a 1 px Gaussian, the largest region: the needle, one member"))
     try:
         import czifile
     except ImportError:

@@ -14,13 +14,68 @@ import numpy as np
 from scipy import ndimage
 
 
+# A tail of the picture is a distinct population (sparse content: ink strokes on paper, a few
+# beads on an empty ground) when its pixels lie over DISTINCT_SIGMAS noise deviations from the
+# ground's median, and half of them over DISTINCT_MEDIAN_SIGMAS (a long tail of an ordinary
+# picture, as the moon's, hugs the threshold: its median lies just beyond it)...
+DISTINCT_SIGMAS = 8.0
+DISTINCT_MEDIAN_SIGMAS = 16.0
+# ...holds at least this share of the usable pixels (fewer are specks, hot pixels or dust)...
+DISTINCT_MIN_SHARE = 2e-4
+# ...and at least this share of it touches another of its pixels (shapes, not scattered noise).
+DISTINCT_MIN_CLUSTERED = 0.5
+
+
+def _noise_sd(quartiles: np.ndarray, low: float, high: float) -> float:
+    """The ground's own spread: the interquartile range as a normal deviation, or a quarter of
+    the span between the stretch's percentiles when that is wider (a ground quantised to one or
+    two grey levels has no interquartile range but still a noise band)."""
+    return max(float(quartiles[1] - quartiles[0]) / 1.349, float(high - low) / 4.0)
+
+
+def _clustered_share(tail: np.ndarray) -> float:
+    """Share of the True pixels of a 2-D mask that have a True 4-neighbour."""
+    near = np.zeros_like(tail)
+    near[1:] |= tail[:-1]
+    near[:-1] |= tail[1:]
+    near[:, 1:] |= tail[:, :-1]
+    near[:, :-1] |= tail[:, 1:]
+    count = int(np.count_nonzero(tail))
+    return int(np.count_nonzero(tail & near)) / count if count else 0.0
+
+
+def _content_extreme(values, usable, sample_size, beyond, pct, ground, noise_sd):
+    """The `pct` percentile of a distinct tail (`beyond`: a function of the values giving the
+    tail's mask; `ground` the median, `noise_sd` the noise's deviation), or None when the tail is
+    no distinct population (see DISTINCT_*)."""
+    with np.errstate(invalid="ignore"):
+        tail = beyond(values)
+    if usable is not None:
+        tail &= usable
+    count = int(np.count_nonzero(tail))
+    if count < DISTINCT_MIN_SHARE * sample_size or tail.ndim != 2 or _clustered_share(tail) < DISTINCT_MIN_CLUSTERED:
+        return None
+    content = values[tail]
+    if abs(float(np.median(content)) - ground) < DISTINCT_MEDIAN_SIGMAS * noise_sd:
+        return None
+    return float(np.percentile(content, pct))
+
+
 def stretch(values: np.ndarray, alpha: np.ndarray | None, low_pct: float, high_pct: float):
     """Map the low..high percentiles of the opaque, finite source pixels to 0..1 (clipped).
+
+    Sparse content keeps its contrast: when fewer pixels than a percentile's share lie beyond it
+    and they form a distinct population (over DISTINCT_SIGMAS of the ground's noise from its
+    median, half of them over DISTINCT_MEDIAN_SIGMAS, at least DISTINCT_MIN_SHARE of the picture,
+    mostly in touching pixels), the percentile fell
+    in the ground's noise and clipping there would make the content as dark (or bright) as the
+    noise's extremes; that end is taken at the same percentile of the content itself.
 
     Returns (normalized float32 image with unknown pixels at 0, (low, high) source values,
     uniform flag). A uniform image (low == high) is all zeros: a flat plate.
     """
     clean = alpha is None and np.isfinite(values.sum(dtype=np.float64))
+    usable = None
     if clean:
         sample = values.ravel()  # all finite and opaque: no masked copy needed
     else:
@@ -30,9 +85,21 @@ def stretch(values: np.ndarray, alpha: np.ndarray | None, low_pct: float, high_p
         sample = values[usable]
     if sample.size == 0:
         return np.zeros(values.shape, np.float32), (0.0, 0.0), True
-    low, high = np.percentile(sample, [low_pct, high_pct])
+    low, q1, median, q3, high = np.percentile(sample, [low_pct, 25.0, 50.0, 75.0, high_pct])
     if not high > low:  # percentiles can coincide in mostly flat images: fall back to the full range
         low, high = float(sample.min()), float(sample.max())
+    else:
+        noise_sd = _noise_sd(np.array([q1, q3]), low, high)
+        far = DISTINCT_SIGMAS * noise_sd
+        lowest, highest = float(sample.min()), float(sample.max())
+        if low_pct > 0 and lowest < median - far <= low:
+            level = _content_extreme(values, usable, sample.size, lambda v: v < median - far, low_pct,
+                                      float(median), noise_sd)
+            low = low if level is None else level
+        if high_pct < 100 and high <= median + far < highest:
+            level = _content_extreme(values, usable, sample.size, lambda v: v > median + far, high_pct,
+                                      float(median), noise_sd)
+            high = high if level is None else level
     if not high > low:
         return np.zeros(values.shape, np.float32), (float(low), float(high)), True
     out = (values - np.float32(low)) / np.float32(high - low)

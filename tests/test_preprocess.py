@@ -144,3 +144,18 @@ def test_pictures_without_a_distinct_tail_keep_the_percentile_stretch(seed, sigm
     values = (offset + scale * field).astype(np.float32)
     _, (low, high), _ = stretch(values, None, 2.0, 98.0)
     assert (low, high) == pytest.approx(_plain_stretch(values)[1])
+
+
+@pytest.mark.timeout(60)
+def test_one_pixel_strokes_in_a_large_picture_are_found_though_the_noise_is_measured_on_a_subsample():
+    """Over a million pixels the ground is measured on evenly spaced pixels; strokes one pixel
+    wide on odd columns of an even-width picture (a step of 2 from the first pixel would miss
+    every one) still keep their contrast."""
+    rng = np.random.default_rng(2)
+    values = (0.9 + 0.008 * rng.standard_normal((1024, 2048))).astype(np.float32)
+    columns = np.arange(101, 2000, 200)  # ten strokes, all on odd columns: 0.4 % of the picture
+    values[100:-100, columns] = 0.1
+    image, (low, _), _ = stretch(values, None, 2.0, 98.0)
+    assert low < 0.2
+    assert image[100:-100, columns].max() <= 0.05
+    assert np.percentile(np.delete(image, columns, axis=1), 0.1) >= 0.8

@@ -162,12 +162,12 @@ def content_table(png_dir: Path | None):
     """Per picture and style: members felt, lines − enclosed (mm), lattice modulation (mm), grain
     relief (mm), fine share, spurious raised regions; then the content style's extra CPU time."""
     from content_metrics import grain_relief, lattice_modulation, lines_over_enclosed, members_felt, spurious
-    from content_truth import real_cases, synthetic_cases
+    from content_truth import real_cases, sparse_cases, synthetic_cases
 
     print("| picture | style | members felt | lines − enclosed mm | lattice modulation mm | grain relief mm | fine share | spurious raised regions |")
     print("|---|---|---|---|---|---|---|---|")
     extra = []
-    for case in synthetic_cases() + real_cases():
+    for case in synthetic_cases() + sparse_cases() + real_cases():
         if case.truth is None:
             print(f"| {case.name} | skipped: {case.skipped} | | | | | | |")
             continue

@@ -14,7 +14,7 @@ import numpy as np
 from scipy import ndimage
 from skimage import feature, filters, morphology, segmentation
 
-from synthetic_content import Truth, all_content
+from synthetic_content import Truth, all_content, sparse_beads, sparse_strokes
 from tamp_os.relief.preprocess import prepare
 
 FIXTURES = Path(__file__).resolve().parents[2] / "shared" / "fixtures"
@@ -176,4 +176,13 @@ def synthetic_cases() -> list[Case]:
         image = prepare(t.image, None, rows=rows, cols=cols, target_aspect=(rows - 1) / (cols - 1), fit="stretch",
                         low_pct=2, high_pct=98, sigma_px=1.2, invert=False, flip_x=False).image
         out.append(Case(f"synthetic {t.name}", image, WIDTH_MM / (cols - 1), t, how="exact"))
+    return out
+
+
+def sparse_cases() -> list[Case]:
+    """Sparse content under the stretch's percentiles (exact truth, 800 px across): ink strokes
+    covering 0.5 and 1 % of a drawing, three beads covering 0.3 % of a dark field."""
+    out = []
+    for t in (sparse_strokes(ink_pct=0.5), sparse_strokes(ink_pct=1.0), sparse_beads(count=3, cover_pct=0.3)):
+        out.append(_case(f"synthetic {t.name}", t.image, members=t.members, lines=t.lines, how="exact"))
     return out

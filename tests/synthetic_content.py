@@ -159,6 +159,65 @@ def thin_boundary_grains(rows: int = 600, cols: int = 800, seed: int = 8) -> Tru
                  grains=twice(np.where(core | rims, 0, cells + 1).astype(np.int32)))
 
 
+def _grey_levels(image: np.ndarray) -> np.ndarray:
+    """An 8-bit picture's values (0..1 in steps of 1/255), as a scanner or camera writes them."""
+    return (np.round(np.clip(image, 0, 1) * 255) / 255).astype(np.float32)
+
+
+def sparse_strokes(rows: int = 600, cols: int = 800, ink_pct: float = 1.0, seed: int = 9) -> Truth:
+    """A sparse line drawing scanned from paper: a few dark strokes (open curves and straight
+    lines, 2 px wide at 800 px across, 0.1 grey) on paper at 0.9 with noise of 2 grey levels
+    (0.008), 8-bit. Strokes are added until they cover `ink_pct` % of the picture (0.5 to 2 %):
+    under the 2nd percentile, where the stretch used to clip the paper's darkest noise to the
+    same black as the ink."""
+    from PIL import Image, ImageDraw
+
+    rng = np.random.default_rng(seed)
+    s = cols / 800
+    w = max(2, round(2 * s))
+    picture = Image.new("L", (cols, rows), 0)
+    draw = ImageDraw.Draw(picture)
+    target = ink_pct / 100 * rows * cols
+    margin = 0.08
+    while np.count_nonzero(np.asarray(picture)) < target:
+        x0, y0 = rng.uniform(margin, 1 - margin) * cols, rng.uniform(margin, 1 - margin) * rows
+        if rng.random() < 0.5:  # a straight stroke 15-35 % of the width long
+            length, angle = rng.uniform(0.15, 0.35) * cols, rng.uniform(0, np.pi)
+            x1 = float(np.clip(x0 + length * np.cos(angle), margin * cols, (1 - margin) * cols))
+            y1 = float(np.clip(y0 + length * np.sin(angle), margin * rows, (1 - margin) * rows))
+            draw.line([x0, y0, x1, y1], fill=255, width=w)
+        else:  # an open arc of a circle 8-20 % of the width across
+            r = rng.uniform(0.04, 0.10) * cols
+            start = rng.uniform(0, 360)
+            draw.arc([x0 - r, y0 - r, x0 + r, y0 + r], start, start + rng.uniform(120, 270), fill=255, width=w)
+    strokes = np.asarray(picture) > 0
+    image = np.where(strokes, 0.1, 0.9) + 0.008 * rng.standard_normal((rows, cols))
+    return Truth(f"sparse_strokes_{ink_pct:g}pct", _grey_levels(image), lines=strokes)
+
+
+def sparse_beads(rows: int = 600, cols: int = 800, count: int = 5, cover_pct: float = 0.6, seed: int = 10) -> Truth:
+    """A sparse fluorescence field: `count` (3 to 6) beads, equal discs together covering
+    `cover_pct` % of the picture (0.3 to 1 %), peaks 0.5 to 0.9 on a dark ground at 0.06 with
+    noise of 2 grey levels (0.008), blurred by the optics (1 px at 800 px across), 8-bit. Beads
+    lie at least four radii apart and away from the border."""
+    rng = np.random.default_rng(seed)
+    yy, xx = _grid(rows, cols)
+    r = float(np.sqrt(cover_pct / 100 * rows * cols / (count * np.pi)))
+    centres: list[tuple[float, float]] = []
+    while len(centres) < count:
+        c = (rng.uniform(3 * r, rows - 3 * r), rng.uniform(3 * r, cols - 3 * r))
+        if all((c[0] - a) ** 2 + (c[1] - b) ** 2 >= (4 * r) ** 2 for a, b in centres):
+            centres.append(c)
+    image = np.zeros((rows, cols), np.float32)
+    labels = np.zeros((rows, cols), np.int32)
+    for k, ((cy, cx), peak) in enumerate(zip(centres, rng.uniform(0.5, 0.9, count)), start=1):
+        disk = (yy - cy) ** 2 + (xx - cx) ** 2 <= r * r
+        image[disk] = peak
+        labels[disk] = k
+    image = ndimage.gaussian_filter(image, cols / 800) + 0.06 + 0.008 * rng.standard_normal((rows, cols))
+    return Truth(f"sparse_beads_{count}_{cover_pct:g}pct", _grey_levels(image), members=labels)
+
+
 def all_content(rows: int = 192, cols: int = 256) -> list[Truth]:
     return [dim_and_bright_beads(rows, cols), dark_line_network(rows, cols), dot_lattice(rows, cols),
             faint_grains(rows, cols), line_diagram(rows, cols)]

@@ -5,7 +5,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from tamp_os.relief.preprocess import prepare
+from scipy import ndimage
+from synthetic_content import sparse_beads, sparse_strokes
+
+from tamp_os.relief.preprocess import prepare, stretch
 
 
 def _prepared(values, cols=50, invert=False, flip_x=False, alpha=None):
@@ -60,3 +63,99 @@ def test_the_finer_picture_follows_the_prints_orientation_and_never_exceeds_the_
 @pytest.mark.timeout(60)
 def test_a_uniform_picture_has_no_finer_picture():
     assert _prepared(np.full((40, 60), 3.0, np.float32)).finer(200) is None
+
+
+def _plain_stretch(values, low_pct=2.0, high_pct=98.0):
+    """The stretch between the picture's own percentiles, computed here independently."""
+    low, high = np.percentile(values[np.isfinite(values)], [low_pct, high_pct])
+    return np.clip((values - low) / (high - low), 0, 1), (float(low), float(high))
+
+
+@pytest.mark.timeout(60)
+@pytest.mark.parametrize("ink_pct", [0.5, 1.0, 1.5])
+@pytest.mark.parametrize("with_unknown", [False, True])
+def test_sparse_strokes_keep_their_contrast_and_the_papers_noise_stays_light(ink_pct, with_unknown):
+    """Ink under 2 % of a drawing: the 2nd percentile lies in the paper's noise. The strokes must
+    stay the darkest thing and the paper, noise and all, must stay near white (before, the
+    noise was spread over 0..1 and its darkest pixels were as black as the ink)."""
+    truth = sparse_strokes(ink_pct=ink_pct)
+    values = truth.image.copy()
+    if with_unknown:  # unknown pixels take the masked path of the stretch
+        values[:20, :30] = np.nan
+    assert np.percentile(truth.image, 2) > 0.8  # the case is the one described: the percentile is paper
+    image, (low, high), uniform = stretch(values, None, 2.0, 98.0)
+    paper = ~ndimage.binary_dilation(truth.lines, iterations=2) & np.isfinite(values)
+    assert not uniform
+    assert np.median(image[truth.lines]) <= 0.05
+    assert np.percentile(image[paper], 0.1) >= 0.8  # the paper's darkest noise is far above the ink
+    assert low <= np.median(truth.image[truth.lines]) + 0.02 and high == pytest.approx(np.percentile(truth.image, 98))
+
+
+@pytest.mark.timeout(60)
+@pytest.mark.parametrize(("count", "cover_pct"), [(3, 0.3), (5, 0.6), (6, 1.0)])
+def test_sparse_beads_keep_their_contrast_and_the_ground_stays_dark(count, cover_pct):
+    truth = sparse_beads(count=count, cover_pct=cover_pct)
+    image, _, _ = stretch(truth.image, None, 2.0, 98.0)
+    ground = ndimage.distance_transform_edt(truth.members == 0) > 3
+    assert np.percentile(image[ground], 99.9) <= 0.2
+    peaks = ndimage.maximum(image, truth.members, np.arange(1, count + 1))
+    assert np.min(peaks) >= 0.5  # every bead, the dimmest too, well above the ground
+
+
+@pytest.mark.timeout(60)
+def test_a_few_specks_or_scattered_hot_pixels_do_not_set_the_stretch():
+    """Too few far pixels (dust), or far pixels that touch none of their own kind (hot pixels,
+    salt noise), are no content: the stretch stays between the percentiles and clips them."""
+    rng = np.random.default_rng(1)
+    ground = (0.5 + 0.01 * rng.standard_normal((300, 400))).astype(np.float32)
+    specks = ground.copy()
+    specks[100:104, 200:205] = 0.0  # 20 px: under 0.02 % of the picture
+    salt = ground.copy()
+    salt[::10, ::10] = 1.0  # 1 % of the pixels, none touching another
+    for values in (specks, salt):
+        image, (low, high), _ = stretch(values, None, 2.0, 98.0)
+        expected, expected_range = _plain_stretch(values)
+        assert (low, high) == pytest.approx(expected_range)
+        np.testing.assert_allclose(image, expected, atol=1e-5)
+
+
+@pytest.mark.timeout(60)
+def test_a_long_tail_of_an_ordinary_picture_and_dense_content_keep_the_percentile_stretch():
+    """The moon's tails run on from its ground (no distinct population), and strokes over
+    2 % of a drawing already hold the percentile: both keep the plain 2-98 % stretch."""
+    import skimage.data
+
+    moon = skimage.data.moon().astype(np.float32)
+    dense = sparse_strokes(ink_pct=4.0).image
+    for values in (moon, dense):
+        image, (low, high), _ = stretch(values, None, 2.0, 98.0)
+        expected, expected_range = _plain_stretch(values)
+        assert (low, high) == pytest.approx(expected_range)
+        np.testing.assert_allclose(image, expected, atol=1e-5)
+
+
+@pytest.mark.timeout(120)
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), sigma=st.floats(0.0, 6.0), offset=st.floats(-100, 100), scale=st.floats(0.01, 1000))
+def test_pictures_without_a_distinct_tail_keep_the_percentile_stretch(seed, sigma, offset, scale):
+    """Noise, smooth or not, at any level and scale: no tail is a population apart from the rest."""
+    rng = np.random.default_rng(seed)
+    field = ndimage.gaussian_filter(rng.standard_normal((120, 160)), sigma) if sigma > 0 else rng.standard_normal((120, 160))
+    values = (offset + scale * field).astype(np.float32)
+    _, (low, high), _ = stretch(values, None, 2.0, 98.0)
+    assert (low, high) == pytest.approx(_plain_stretch(values)[1])
+
+
+@pytest.mark.timeout(60)
+def test_one_pixel_strokes_in_a_large_picture_are_found_though_the_noise_is_measured_on_a_subsample():
+    """Over a million pixels the ground is measured on evenly spaced pixels; strokes one pixel
+    wide on odd columns of an even-width picture (a step of 2 from the first pixel would miss
+    every one) still keep their contrast."""
+    rng = np.random.default_rng(2)
+    values = (0.9 + 0.008 * rng.standard_normal((1024, 2048))).astype(np.float32)
+    columns = np.arange(101, 2000, 200)  # ten strokes, all on odd columns: 0.4 % of the picture
+    values[100:-100, columns] = 0.1
+    image, (low, _), _ = stretch(values, None, 2.0, 98.0)
+    assert low < 0.2
+    assert image[100:-100, columns].max() <= 0.05
+    assert np.percentile(np.delete(image, columns, axis=1), 0.1) >= 0.8

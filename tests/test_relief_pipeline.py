@@ -154,3 +154,49 @@ def test_pdf_and_svg_graphics_at_true_size(tmp_path, capsys):
                        "--width-mm", "400", "--page-size", "a4")
     assert code == 1 and "--page-size" in err
     assert not (tmp_path / "big").exists() or not list((tmp_path / "big").glob("*.stl"))
+
+
+def _on_grid(a: np.ndarray, shape) -> np.ndarray:
+    from scipy import ndimage
+
+    zoom = (shape[0] / a.shape[0], shape[1] / a.shape[1])
+    return ndimage.zoom(a, zoom, order=0, grid_mode=True, mode="grid-constant")[: shape[0], : shape[1]]
+
+
+@pytest.mark.parametrize("width_mm", [60, 100, 150])
+def test_sparse_strokes_are_raised_as_lines_at_every_width(width_mm):
+    """A line drawing whose ink covers 1 % of the paper (under the stretch's 2nd percentile),
+    through make_lithograph with its defaults: the strokes stand at least 0.5 mm over what they
+    enclose (benchmarks/content_metrics.py), whatever the print width (before, the paper's
+    stretched noise was raised and the strokes lay 1-2 mm below it)."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    from content_metrics import lines_over_enclosed
+    from synthetic_content import sparse_strokes
+
+    truth = sparse_strokes(ink_pct=1.0)
+    litho = make_lithograph(truth.image, width_mm=width_mm, scale_bar="off")
+    h, mm = litho.heightmap, litho.layout.mm_per_px
+    lines = _on_grid(truth.lines.astype(np.uint8), h.shape) > 0
+    assert lines_over_enclosed(h, lines, mm) >= 0.5, litho.report.relief_reason
+
+
+@pytest.mark.parametrize("width_mm", [60, 100, 150])
+def test_every_bead_of_a_sparse_field_is_felt_at_every_width(width_mm):
+    """Three beads covering 0.3 % of a dark field, through make_lithograph with its defaults:
+    every one stands 0.5 mm over a 1.5 mm ring around it, and nothing else is raised."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    from content_metrics import members_felt, spurious
+    from synthetic_content import sparse_beads
+
+    truth = sparse_beads(count=3, cover_pct=0.3)
+    litho = make_lithograph(truth.image, width_mm=width_mm, scale_bar="off")
+    h, mm = litho.heightmap, litho.layout.mm_per_px
+    members = _on_grid(truth.members, h.shape)
+    assert members_felt(h, members, mm) == 1.0, litho.report.relief_reason
+    assert spurious(h, members > 0, mm, litho.params.base_mm) == 0

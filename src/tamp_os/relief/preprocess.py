@@ -8,19 +8,99 @@ Row 0 stays the top of the image here; mesh.py places it at the far edge of the 
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
 from scipy import ndimage
 
 
+# A tail of the picture is a distinct population (sparse content: ink strokes on paper, a few
+# beads on an empty ground) when its pixels lie over DISTINCT_SIGMAS noise deviations from the
+# ground's median, and half of them over DISTINCT_MEDIAN_SIGMAS (a long tail of an ordinary
+# picture, as the moon's, hugs the threshold: its median lies just beyond it)...
+DISTINCT_SIGMAS = 8.0
+DISTINCT_MEDIAN_SIGMAS = 16.0
+# ...holds at least this share of the usable pixels (fewer are specks, hot pixels or dust)...
+DISTINCT_MIN_SHARE = 2e-4
+# ...and at least this share of it touches another of its pixels (shapes, not scattered noise).
+DISTINCT_MIN_CLUSTERED = 0.5
+SUBSAMPLE_PX = 1 << 20  # pixels enough to measure the ground's median and noise
+
+
+def _noise_sd(quartiles: np.ndarray, low: float, high: float) -> float:
+    """The ground's own spread: the interquartile range as a normal deviation, or a quarter of
+    the span between the stretch's percentiles when that is wider (a ground quantised to one or
+    two grey levels has no interquartile range but still a noise band)."""
+    return max(float(quartiles[1] - quartiles[0]) / 1.349, float(high - low) / 4.0)
+
+
+def _clustered_share(tail: np.ndarray) -> float:
+    """Share of the True pixels of a 2-D mask that have a True 4-neighbour."""
+    near = np.zeros_like(tail)
+    near[1:] |= tail[:-1]
+    near[:-1] |= tail[1:]
+    near[:, 1:] |= tail[:, :-1]
+    near[:, :-1] |= tail[:, 1:]
+    count = int(np.count_nonzero(tail))
+    return int(np.count_nonzero(tail & near)) / count if count else 0.0
+
+
+def _content_extreme(values, usable, sample_size, tail_of, pct):
+    """The `pct` percentile of the pixels `tail_of(values)` selects, or None when they are fewer
+    than DISTINCT_MIN_SHARE of `sample_size` or mostly touch none of their own kind."""
+    with np.errstate(invalid="ignore"):
+        tail = tail_of(values)
+    if usable is not None:
+        tail &= usable
+    if np.count_nonzero(tail) < DISTINCT_MIN_SHARE * sample_size or tail.ndim != 2 or _clustered_share(tail) < DISTINCT_MIN_CLUSTERED:
+        return None
+    return float(np.percentile(values[tail], pct))
+
+
+def _distinct_tails(values, usable, sample, low_pct, high_pct, low, high):
+    """(low, high) with each end that fell in the ground's noise while a distinct population lies
+    beyond it moved to that population's own percentile (see stretch). The ground's median and
+    spread, and a first look at each tail, come from at most SUBSAMPLE_PX evenly spaced pixels
+    (a statistic of the noise needs no more); a tail that passes is measured on every pixel.
+    The step between them shares no factor with the row length, so every column is visited
+    (a one-pixel vertical stroke is not stepped over)."""
+    step = max(1, sample.size // SUBSAMPLE_PX)
+    while step > 1 and math.gcd(step, values.shape[-1]) != 1:
+        step += 1
+    sub = sample[::step]
+    q1, median, q3 = np.percentile(sub, [25.0, 50.0, 75.0])
+    noise_sd = _noise_sd(np.array([q1, q3]), low, high)
+    far, very_far = DISTINCT_SIGMAS * noise_sd, DISTINCT_MEDIAN_SIGMAS * noise_sd
+
+    def distinct(tail: np.ndarray) -> bool:  # a population apart, not a long tail hugging the threshold
+        return tail.size > 0 and abs(float(np.median(tail)) - median) >= very_far
+
+    if low_pct > 0 and median - far <= low and distinct(sub[sub < median - far]):
+        level = _content_extreme(values, usable, sample.size, lambda v: v < median - far, low_pct)
+        low = low if level is None else level
+    if high_pct < 100 and high <= median + far and distinct(sub[sub > median + far]):
+        level = _content_extreme(values, usable, sample.size, lambda v: v > median + far, high_pct)
+        high = high if level is None else level
+    return low, high
+
+
 def stretch(values: np.ndarray, alpha: np.ndarray | None, low_pct: float, high_pct: float):
     """Map the low..high percentiles of the opaque, finite source pixels to 0..1 (clipped).
+
+    Sparse content keeps its contrast. When a percentile lies in the ground's noise (within
+    DISTINCT_SIGMAS noise deviations of the median) and beyond that distance lies a distinct
+    population (half of it over DISTINCT_MEDIAN_SIGMAS away, at least DISTINCT_MIN_SHARE of the
+    picture, mostly in touching pixels: ink strokes on paper, a few beads on an empty ground),
+    clipping at the percentile would make the content as dark (or bright) as the noise's
+    extremes and spread the noise over the whole range; that end is taken instead at the same
+    percentile of the content itself. Other pictures keep the plain percentile stretch.
 
     Returns (normalized float32 image with unknown pixels at 0, (low, high) source values,
     uniform flag). A uniform image (low == high) is all zeros: a flat plate.
     """
     clean = alpha is None and np.isfinite(values.sum(dtype=np.float64))
+    usable = None
     if clean:
         sample = values.ravel()  # all finite and opaque: no masked copy needed
     else:
@@ -33,6 +113,8 @@ def stretch(values: np.ndarray, alpha: np.ndarray | None, low_pct: float, high_p
     low, high = np.percentile(sample, [low_pct, high_pct])
     if not high > low:  # percentiles can coincide in mostly flat images: fall back to the full range
         low, high = float(sample.min()), float(sample.max())
+    else:
+        low, high = _distinct_tails(values, usable, sample, low_pct, high_pct, float(low), float(high))
     if not high > low:
         return np.zeros(values.shape, np.float32), (float(low), float(high)), True
     out = (values - np.float32(low)) / np.float32(high - low)

@@ -111,6 +111,55 @@ def test_single_micrographs_are_never_split(name):
     assert layout.reason  # says why it is whole
 
 
+ALL_FIXTURES = sorted(p.relative_to(FIXTURES).as_posix() for p in [*FIXTURES.glob("*.*"), *FIXTURES.glob("real/*")]
+                      if p.suffix not in (".md", ".ser"))
+
+
+@pytest.mark.timeout(300)
+@pytest.mark.parametrize("name", ALL_FIXTURES or ["fept_spheres_sem.png"])
+def test_no_fixture_is_a_figure_or_an_ambiguous_one(name):
+    """Every fixture is a single picture, read as convert reads it: not split, and nothing in it
+    suggests a figure (so no figure talk is worth a warning)."""
+    from tamp_os.pipeline import _read
+
+    _need_fixtures(name)
+    layout = detect_panels(_read(FIXTURES / name, LithoParams()).values, read_letters=False)
+    assert not layout.split and not layout.ambiguous, layout.reason
+    assert layout.reason
+
+
+@pytest.mark.timeout(300)
+@pytest.mark.parametrize("name", ["real/velox_talos_haadf_particles.emd", "test_tiff_Zeiss_SEM_1k.tif", "real/confocal_beads_zstack_41z.tif"])
+def test_a_single_micrograph_through_convert_says_nothing_about_figures(name, tmp_path, capsys, caplog):
+    """These three have straight bands of one colour (a dark support between particles, a data
+    zone, beads on black), which once made convert warn that 'the figure is printed whole'."""
+    from tamp_os.figure import make_figure
+
+    _need_fixtures(name)
+    code, out, err = run_cli(capsys, "convert", FIXTURES / name, "-o", tmp_path, "--formats", "stl")
+    assert code == 0, err
+    said = (out + err + caplog.text).lower()
+    assert "figure" not in said and "panel" not in said and "single picture" not in said, said
+    made = make_figure(FIXTURES / name, width_mm=60)
+    report = made.prints[0][1].report
+    assert not made.split and report.panels.reason  # the reason stays in the report
+    assert not any("figure" in w or "single picture" in w for w in report.warnings)
+
+
+@pytest.mark.timeout(300)
+def test_an_ambiguous_layout_is_still_warned_about(caplog):
+    """A picture and a dark fluorescence panel on black: the dark one is cut into its spots and only
+    one rectangular picture is left, so the layout cannot be split; that is worth saying."""
+    from tamp_os.figure import make_figure
+
+    figure = row_on_black([synthetic_texture(300, 300, 3), dark_fluorescence(300, 300, 7)], letters="AB")
+    layout = detect_panels(figure.image.astype(np.float32), read_letters=False)
+    assert not layout.split and layout.ambiguous and "ambiguous" in layout.reason
+    made = make_figure(figure.image, width_mm=60)
+    assert any("printed whole" in w and "ambiguous" in w for w in made.prints[0][1].report.warnings)
+    assert "ambiguous" in caplog.text
+
+
 @pytest.mark.timeout(120)
 @pytest.mark.parametrize("name", ["cell", "immunohistochemistry", "retina", "moon", "coins", "hubble_deep_field", "brick", "checkerboard", "binary_blobs"])
 def test_bundled_sample_images_are_not_split(name):

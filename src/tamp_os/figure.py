@@ -107,7 +107,9 @@ def make_figure(source, params: LithoParams | None = None, *, printer_profile: P
     if not layout.split:
         given = _printed_from(source, picture)
         del picture  # not held while a picture with channels is read again: its memory peak stays as alone
-        return _whole(given, params, printer_profile, layout, [layout.reason] if "bands" in layout.reason else [])
+        # A single picture (nothing suggests a figure) gets no figure talk on the terminal: its report
+        # keeps the reason (report.panels.reason); only an ambiguous layout is warned about.
+        return _whole(given, params, printer_profile, layout, [layout.reason] if layout.ambiguous else [])
     notes = list(layout.notes)
     chosen = _chosen(layout, params)
     printable = []

@@ -169,22 +169,29 @@ def without_corner_labels(work: np.ndarray) -> np.ndarray:
 
 def _without_boxes(v: np.ndarray, cols: int) -> np.ndarray:
     """The picture with its burned-in boxes (a scale bar's, a label's: annotations.detect_annotations,
-    no arrows) inpainted as the print removes them. They are looked for on every k-th pixel (at
-    least twice the print grid's columns: the values stay exact, so a saturated box stays
-    saturated; 3-4 times less work on a 1000-px panel), the mask grown back to the full grid."""
+    no arrows) inpainted as the print removes them. Both on every k-th pixel, k keeping at least
+    twice the print grid's columns (the values stay exact, so a saturated box stays saturated), the
+    filled patches then laid back on the full grid: 3-4 times less work on a 1000-px panel, and a
+    sparse solve on a quarter of the pixels."""
     from scipy import ndimage
 
     from ..clean import annotations as marks
 
     k = max(1, v.shape[1] // (2 * cols))
-    mask, _ = marks.detect_annotations(v[::k, ::k] if k > 1 else v, arrows=False)
+    small = v[::k, ::k] if k > 1 else v
+    mask, _ = marks.detect_annotations(small, arrows=False)
     if not mask.any():
         return v
-    if k > 1:
-        mask = np.repeat(np.repeat(mask, k, axis=0), k, axis=1)
-        mask = np.pad(mask, ((0, max(0, v.shape[0] - mask.shape[0])), (0, max(0, v.shape[1] - mask.shape[1]))), mode="edge")
-        mask = ndimage.binary_dilation(mask[:v.shape[0], :v.shape[1]], iterations=k)
-    return marks.inpaint(v, mask)
+    if k == 1:
+        return marks.inpaint(v, mask)
+    mask = ndimage.binary_dilation(mask, iterations=1)  # the pixels between the samples at its edge
+    filled = marks.inpaint(small, mask)
+
+    def full(a: np.ndarray) -> np.ndarray:
+        a = np.repeat(np.repeat(a, k, axis=0), k, axis=1)[:v.shape[0], :v.shape[1]]
+        return np.pad(a, ((0, v.shape[0] - a.shape[0]), (0, v.shape[1] - a.shape[1])), mode="edge")
+
+    return np.where(full(mask), full(filled), v).astype(np.float32)
 
 
 def _grey_word(grid: PrintGrid) -> ContentWord:

@@ -111,6 +111,55 @@ def test_single_micrographs_are_never_split(name):
     assert layout.reason  # says why it is whole
 
 
+ALL_FIXTURES = sorted(p.relative_to(FIXTURES).as_posix() for p in [*FIXTURES.glob("*.*"), *FIXTURES.glob("real/*")]
+                      if p.suffix not in (".md", ".ser"))
+
+
+@pytest.mark.timeout(300)
+@pytest.mark.parametrize("name", ALL_FIXTURES or ["fept_spheres_sem.png"])
+def test_no_fixture_is_a_figure_or_an_ambiguous_one(name):
+    """Every fixture is a single picture, read as convert reads it: not split, and nothing in it
+    suggests a figure (so no figure talk is worth a warning)."""
+    from tamp_os.pipeline import _read
+
+    _need_fixtures(name)
+    layout = detect_panels(_read(FIXTURES / name, LithoParams()).values, read_letters=False)
+    assert not layout.split and not layout.ambiguous, layout.reason
+    assert layout.reason
+
+
+@pytest.mark.timeout(300)
+@pytest.mark.parametrize("name", ["real/velox_talos_haadf_particles.emd", "test_tiff_Zeiss_SEM_1k.tif", "real/confocal_beads_zstack_41z.tif"])
+def test_a_single_micrograph_through_convert_says_nothing_about_figures(name, tmp_path, capsys, caplog):
+    """These three have straight bands of one colour (a dark support between particles, a data
+    zone, beads on black), which once made convert warn that 'the figure is printed whole'."""
+    from tamp_os.figure import make_figure
+
+    _need_fixtures(name)
+    code, out, err = run_cli(capsys, "convert", FIXTURES / name, "-o", tmp_path, "--formats", "stl")
+    assert code == 0, err
+    said = (out + err + caplog.text).lower()
+    assert "figure" not in said and "panel" not in said and "single picture" not in said, said
+    made = make_figure(FIXTURES / name, width_mm=60)
+    report = made.prints[0][1].report
+    assert not made.split and report.panels.reason  # the reason stays in the report
+    assert not any("figure" in w or "single picture" in w for w in report.warnings)
+
+
+@pytest.mark.timeout(300)
+def test_an_ambiguous_layout_is_still_warned_about(caplog):
+    """A picture and a dark fluorescence panel on black: the dark one is cut into its spots and only
+    one rectangular picture is left, so the layout cannot be split; that is worth saying."""
+    from tamp_os.figure import make_figure
+
+    figure = row_on_black([synthetic_texture(300, 300, 3), dark_fluorescence(300, 300, 7)], letters="AB")
+    layout = detect_panels(figure.image.astype(np.float32), read_letters=False)
+    assert not layout.split and layout.ambiguous and "ambiguous" in layout.reason
+    made = make_figure(figure.image, width_mm=60)
+    assert any("printed whole" in w and "ambiguous" in w for w in made.prints[0][1].report.warnings)
+    assert "ambiguous" in caplog.text
+
+
 @pytest.mark.timeout(120)
 @pytest.mark.parametrize("name", ["cell", "immunohistochemistry", "retina", "moon", "coins", "hubble_deep_field", "brick", "checkerboard", "binary_blobs"])
 def test_bundled_sample_images_are_not_split(name):
@@ -269,6 +318,31 @@ def test_recipe_rebuild_is_byte_identical(printed, capsys):
     assert not (again / "grid_white.panel-a.stl").exists()  # only the panel of that recipe, and the overview
 
 
+@pytest.mark.timeout(600)
+def test_overview_words_agree_with_each_panels_print_and_not_with_the_choice():
+    """Each panel's word in the overview names what that panel's own print raised (its content
+    kind; members counted within a tenth), and the overview is the same whichever panels a run
+    prints (its words come from the pixels and the parameters, never from the prints made)."""
+    from test_content_word import _agrees
+
+    from tamp_os.figure import make_figure
+
+    names = ["fept_spheres_sem.png", "real/sem_fei_sio2_particles_35kx.tif", "real/zeiss_sem_al2o3_grains.czi", "real/confocal_membranes_cells3d.tif"]
+    _need_fixtures(*names)
+    figure = grid_white_boxes([micrograph(name, 360, 480) for name in names], cols=2, letters="")
+    made = make_figure(figure.image, width_mm=80)
+    assert [s for s, _ in made.prints] == [".panel-1", ".panel-2", ".panel-3", ".panel-4", ".overview"]
+    over = made.prints[-1][1]
+    contents = over.report.panels.contents
+    for suffix, litho in made.prints[:-1]:
+        label = suffix[len(".panel-"):]
+        assert _agrees(contents[label], litho.report), (label, contents[label], litho.report.content_kind, litho.report.legibility)
+    assert over.description.count("particles") >= 1 and "network of lines" in over.description
+    alone = make_figure(figure.image, width_mm=80, panel="3").prints[-1][1]
+    assert alone.description == over.description
+    assert np.array_equal(alone.heightmap, over.heightmap)
+
+
 @pytest.mark.timeout(300)
 def test_panel_choice_off_and_forced_grid(printed):
     from tamp_os.figure import make_figure
@@ -397,6 +471,51 @@ def test_colour_panels_take_the_channel_path_as_on_their_own(tmp_path):
     assert figure_colour(grey.image, read_array(grey.image), LithoParams()) is None
     rgb_grey = np.repeat(grey.image[..., None], 3, axis=2)  # grey stored as RGB
     assert figure_colour(rgb_grey, read_array(rgb_grey), LithoParams()) is None
+
+
+@pytest.mark.timeout(600)
+def test_a_colour_figure_is_read_once_and_prints_as_when_read_again(tmp_path, monkeypatch):
+    """The colour pixels of an RGB figure come from its one read (read_image's keep_colour), not
+    from reading the file again per colour plane; they are the pixels the channel path's read
+    gives (8-bit PNG and 16-bit TIFF, same values and precision), so every print's heights are
+    those made when the file is read again."""
+    import tifffile
+    from PIL import Image
+
+    import tamp_os.figure as figure_module
+    import tamp_os.pipeline as pipeline_module
+    import tamp_os.read as read_module
+    from tamp_os.figure import figure_colour, make_figure
+
+    sem = (sem_spheres(300, 400).image * 255).astype(np.uint8)
+    figure = grid_colour([fluorescence_composite(300, 400), sem], cols=2, letters="ab")
+    png, tif = tmp_path / "colour.png", tmp_path / "colour16.tif"
+    Image.fromarray(figure.image).save(png)
+    tifffile.imwrite(tif, figure.image.astype(np.uint16) * 257, photometric="rgb")
+    for path in (png, tif):
+        picture = read_module.read_image(path, keep_colour=True)
+        kept = figure_colour(path, picture, LithoParams(), picture.colour)
+        again = figure_colour(path, picture, LithoParams())
+        assert kept is not None and again is not None
+        assert kept.dtype == again.dtype and np.array_equal(kept, again), path.name
+    reads = []
+    original = read_module.read_image
+
+    def counted(*args, **kwargs):
+        reads.append(args[0])
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(read_module, "read_image", counted)
+    monkeypatch.setattr(pipeline_module, "read_image", counted)
+    made = make_figure(png, width_mm=60)
+    assert made.split and len(reads) == 1, reads
+    monkeypatch.setattr(figure_module, "_read", lambda source, params, keep_colour=False: pipeline_module._read(source, params))
+    reads.clear()
+    reread = make_figure(png, width_mm=60)
+    assert len(reads) == 5  # the figure, then its red, green and blue planes after a first read of the file
+    assert [s for s, _ in made.prints] == [s for s, _ in reread.prints]
+    for (suffix, litho), (_, other) in zip(made.prints, reread.prints):
+        assert np.array_equal(litho.heightmap, other.heightmap), suffix
 
 
 @pytest.mark.timeout(600)

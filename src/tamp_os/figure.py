@@ -102,12 +102,17 @@ def make_figure(source, params: LithoParams | None = None, *, printer_profile: P
         params = params.replace(**changes)
     if params.panels == "off" and not params.panel_boxes:
         return Figure(PanelLayout(False, reason="panels is off"), [("", make_lithograph(source, params, printer_profile=printer_profile))], [], params)
-    picture = _read(source, params)
+    picture = _read(source, params, keep_colour=True)
+    pixels = None  # an RGB file's colour pixels from this one read, for its panels (figure_colour)
+    if isinstance(source, (str, Path)) and picture.colour is not None:
+        pixels, picture = picture.colour, dataclasses.replace(picture, colour=None)
     layout = _layout(picture, params)
     if not layout.split:
         given = _printed_from(source, picture)
-        del picture  # not held while a picture with channels is read again: its memory peak stays as alone
-        return _whole(given, params, printer_profile, layout, [layout.reason] if "bands" in layout.reason else [])
+        del picture, pixels  # not held while a picture with channels is read again: its memory peak stays as alone
+        # A single picture (nothing suggests a figure) gets no figure talk on the terminal: its report
+        # keeps the reason (report.panels.reason); only an ambiguous layout is warned about.
+        return _whole(given, params, printer_profile, layout, [layout.reason] if layout.ambiguous else [])
     notes = list(layout.notes)
     chosen = _chosen(layout, params)
     printable = []
@@ -121,15 +126,16 @@ def make_figure(source, params: LithoParams | None = None, *, printer_profile: P
     if not printable:
         notes.append("no panel of the figure is large enough to print on its own, so the figure is printed whole")
         given = _printed_from(source, picture)
-        del picture
+        del picture, pixels
         return _whole(given, params, printer_profile, layout, notes)
     record = params.replace(panel_boxes=layout.record())
     # A colour figure's panels carry their own colour pixels, so that each takes the channel path
     # (a fluorescence composite, a stained slide) as it would saved as a file of its own.
-    colour = figure_colour(source, picture, params)
+    colour = figure_colour(source, picture, params, pixels)
+    del pixels
     # What each panel shows, for every panel of the layout (not only those printed now), so the
     # overview is the same file whichever panel's recipe rebuilds it.
-    contents = panel_contents(picture.values, layout, colour)
+    contents = panel_contents(picture.values, layout, colour, params, printer_profile)
     prints = [(f".panel-{p.label}", _panel_print(picture, p, layout, params, record, printer_profile, colour, contents[p.label]))
               for p in printable]
     # The overview names every panel large enough to print, whichever `panel` chose, so that it is
@@ -208,11 +214,13 @@ def crop_picture(picture: Picture, box: tuple[int, int, int, int], colour: np.nd
     return Picture(np.ascontiguousarray(picture.values[y:y + h, x:x + w]), alpha, file, own)
 
 
-def figure_colour(source, picture: Picture, params: LithoParams) -> np.ndarray | None:
+def figure_colour(source, picture: Picture, params: LithoParams, pixels: np.ndarray | None = None) -> np.ndarray | None:
     """The figure's colour pixels (H, W, 3) at the file's own precision, for its panels; None for a
     grey figure (also one stored in colour: no pixel of its colour sample has chroma), for a file of
-    several channels rather than colours, or for a Picture given without them. A file is read again
-    for its colours as the channel path reads one (red, green and blue planes)."""
+    several channels rather than colours, or for a Picture given without them. `pixels`: the colour
+    pixels kept from the figure's own read (read_image's keep_colour), the same the channel path
+    would read; without them (a vendor file) the file is read again as the channel path reads one
+    (red, green and blue planes: four reads of the file)."""
     from .relief.channel_auto import CHROMA
 
     sample = picture.file.colour_sample
@@ -220,6 +228,11 @@ def figure_colour(source, picture: Picture, params: LithoParams) -> np.ndarray |
         return source.colour
     if sample is None or not bool((np.ptp(sample, axis=2) >= CHROMA).any()):
         return None
+    if pixels is not None and pixels.shape[:2] == picture.values.shape:
+        if picture.file.channel_count > 1 and "C" in picture.file.axes:
+            return None  # channels, not colours: the channel path names them, not red, green and blue
+        dtype = np.dtype(picture.file.dtype)
+        return pixels if dtype.kind in "ui" else pixels.astype(np.float32)  # as read_channels gives float planes
     from .relief.channel_stage import raw_channels
 
     raw = raw_channels(source, params)
@@ -232,13 +245,17 @@ def figure_colour(source, picture: Picture, params: LithoParams) -> np.ndarray |
     return rgb.astype(dtype) if dtype.kind in "ui" else rgb  # integer samples come back exactly
 
 
-def panel_contents(values: np.ndarray, layout: PanelLayout, colour: np.ndarray | None) -> dict[str, ContentWord]:
+def panel_contents(values: np.ndarray, layout: PanelLayout, colour: np.ndarray | None, params: LithoParams | None = None,
+                   printer_profile: PrinterProfile | None = None) -> dict[str, ContentWord]:
     """What each panel of the layout shows (relief/content_word.py), by label, in reading order:
-    `values` the figure's brightness, `colour` its colour pixels (figure_colour) or None."""
+    `values` the figure's brightness, `colour` its colour pixels (figure_colour) or None; `params`
+    and `printer_profile` the figure's (each panel's word is decided on the grid its print uses).
+    Only the pixels and the parameters decide, never which panels a run prints."""
     out = {}
+    params = params or LithoParams()
     for p in layout.panels:
         own = None if colour is None else colour[p.y:p.y + p.h, p.x:p.x + p.w]
-        out[p.label] = content_word(values[p.y:p.y + p.h, p.x:p.x + p.w], own)
+        out[p.label] = content_word(values[p.y:p.y + p.h, p.x:p.x + p.w], own, params=params, printer=printer_profile)
     return out
 
 

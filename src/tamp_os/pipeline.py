@@ -239,13 +239,14 @@ def _channel_source(source, picture: Picture):
     return picture.colour if picture.colour is not None else picture.values
 
 
-def _read(source, params: LithoParams) -> Picture:
+def _read(source, params: LithoParams, keep_colour: bool = False) -> Picture:
+    """`keep_colour`: keep an RGB file's colour pixels in Picture.colour (read.read_image)."""
     if isinstance(source, Picture):
         return source
     if isinstance(source, (str, Path)):
         return read_image(source, page=params.page, channel=params.channel, max_megapixels=params.max_megapixels,
                           z_slice=params.z_slice, max_decoded_gb=params.max_decoded_gb, max_memory_gb=params.max_memory_gb,
-                          time=params.time, scene=params.scene, target_px=_pyramid_target_px(params))
+                          time=params.time, scene=params.scene, target_px=_pyramid_target_px(params), keep_colour=keep_colour)
     return read_array(source, channel=params.channel)
 
 

@@ -102,7 +102,7 @@ MAX_DECODED_GB = 2.0  # default decoded-bytes guard: pixels × samples × bytes 
 def read_image(
     path, *, page: int | None = None, channel: str = "luminance", max_megapixels: float = 100.0, z_slice: int | None = None,
     max_decoded_gb: float = MAX_DECODED_GB, max_memory_gb: float = MAX_MEMORY_GB, time: int | None = None,
-    scene: int | None = None, target_px: int | None = None,
+    scene: int | None = None, target_px: int | None = None, keep_colour: bool = False,
 ) -> Picture:
     """Read an image file by its content into a Picture.
 
@@ -124,6 +124,9 @@ def read_image(
         None: the first, with a note. TIFF files choose their series with `page`.
     target_px : of a pyramid (SVS, pyramidal TIFF, OME-Zarr), read the smallest level at least this
         wide (default 2048), never the full-resolution slide when a smaller level fits the print.
+    keep_colour : keep an RGB(A) file's colour pixels (H, W, 3, the array decoded, no copy) in
+        `Picture.colour`, so that a figure's panels need not read the file again for them
+        (figure.figure_colour); files read by the vendor readers never keep them.
     """
     limits = _Limits(max_megapixels, max_decoded_gb, max_memory_gb)
     path = Path(path)
@@ -162,7 +165,8 @@ def read_image(
     sha = _sha256_of(path)  # after the header checks: a refused file costs no read of its bytes
     if decoded.channel_chosen:
         channel = "luminance"  # the channel was chosen among the TIFF's planes
-    return _to_picture(decoded, channel, name=path.name, sha=sha, path=str(path))
+    return _to_picture(decoded, channel, name=path.name, sha=sha, path=str(path),
+                       keep_colour=keep_colour and channel == "luminance" and not decoded.channel_chosen)
 
 
 DEFAULT_TARGET_PX = 2048  # pyramid level: the smallest at least this wide (prints use at most ~1000 grid points)
@@ -645,7 +649,7 @@ def _pillow_array(im) -> np.ndarray:
     return np.asarray(im)
 
 
-def _to_picture(decoded: _Decoded, channel, *, name, sha, path) -> Picture:
+def _to_picture(decoded: _Decoded, channel, *, name, sha, path, keep_colour: bool = False) -> Picture:
     array = np.asarray(decoded.array)
     if array.ndim == 3 and array.shape[-1] == 1:
         array = array[..., 0]
@@ -679,7 +683,8 @@ def _to_picture(decoded: _Decoded, channel, *, name, sha, path) -> Picture:
     values, alpha = _weigh_unknown(file, values, alpha)
     if file.nonfinite_pixels == h * w:
         raise InputError(f"{name}: every pixel is NaN or infinite; there is no image to print.")
-    return Picture(values=values, alpha=alpha, file=file)
+    colour = array[..., :3] if keep_colour and array.ndim == 3 and array.shape[-1] >= 3 else None
+    return Picture(values=values, alpha=alpha, file=file, colour=colour)
 
 
 COLOUR_SAMPLE_PX = 512

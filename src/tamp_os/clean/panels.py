@@ -91,6 +91,10 @@ class PanelLayout:
     rows : panels grouped by rows of the layout (indices into `panels`).
     gutter : "white" or "black" (None when not split).
     reason : when not split, why, in one sentence; when split, how the layout was found.
+    ambiguous : not split although something suggests a figure (gutters cut it into a rectangular
+        picture and another piece of picture size, or into overlapping pieces): worth a warning.
+        A single picture (no such piece: its only rectangular piece, if any, with text strips such
+        as its own data band) is not, and the front ends say nothing about figures for it.
     notes : what a reader should know (left-out strips, letters that did not read).
     figure_px : (width, height) of the figure.
     seconds : time taken.
@@ -104,6 +108,7 @@ class PanelLayout:
     notes: tuple[str, ...] = ()
     figure_px: tuple[int, int] = (0, 0)
     seconds: float = 0.0
+    ambiguous: bool = False
 
     def boxes(self) -> list[Box]:
         return [p.box_px for p in self.panels]
@@ -155,8 +160,8 @@ def detect_panels(values: np.ndarray, rgb: np.ndarray | None = None, *, read_let
         if best is None or len(boxes) > len(best[0]):
             best = (boxes, how, colour, notes)
     if best is None:
-        reason = _why_whole(reasons)
-        return PanelLayout(False, reason=reason, figure_px=(w, h), seconds=time.perf_counter() - start)
+        reason, ambiguous = _why_whole(reasons)
+        return PanelLayout(False, reason=reason, figure_px=(w, h), seconds=time.perf_counter() - start, ambiguous=ambiguous)
     boxes, how, colour, notes = best
     if step > 1:
         boxes = _refined(values, rgb, limits, colour, boxes, how, step)
@@ -483,6 +488,8 @@ def _layout_in(mask: np.ndarray, values: np.ndarray, step: int = 1):
     if len(panels) < 2:
         if len(leaves) <= 1:
             return None, None, None, "no straight gutter of one colour crosses it"
+        if panels and _content_beside(panels[0], [lf for lf in leaves if lf.kind == "other"]):
+            return None, None, None, AMBIGUOUS
         return None, None, None, "the pieces between its straight bands are not rectangular pictures"
     notes: list[str] = []
     texts = [lf for lf in leaves if lf.kind == "text"]
@@ -509,6 +516,17 @@ def _layout_in(mask: np.ndarray, values: np.ndarray, step: int = 1):
         return None, None, None, "the pieces found overlap, so the layout is not a clean grid"
     boxes = [(p.box[0], p.box[1], p.box[2] - p.box[0], p.box[3] - p.box[1]) for p in panels]
     return boxes, [how[id(p)] for p in panels], notes, None
+
+
+def _content_beside(panel: _Leaf, others: list[_Leaf]) -> bool:
+    """Pieces of picture that are not rectangular pictures (a dark panel on a black gutter cut into
+    its spots) spanning, together, a box at least a quarter of the rectangular picture's area:
+    perhaps a second panel, so the layout is ambiguous rather than a single picture."""
+    if not others:
+        return False
+    x0, y0 = min(o.box[0] for o in others), min(o.box[1] for o in others)
+    x1, y1 = max(o.box[2] for o in others), max(o.box[3] for o in others)
+    return (x1 - x0) * (y1 - y0) >= 0.25 * panel.area
 
 
 def _where(box, step: int = 1) -> str:
@@ -626,13 +644,21 @@ def _gutters_around(mask, box, w: int, h: int, min_gap: int) -> bool:
     return all(b.size == 0 or b.mean() >= 0.95 for b in bands)
 
 
-def _why_whole(reasons: list[str]) -> str:
+AMBIGUOUS = "one piece between its straight bands is a rectangular picture, another as large is not"
+
+
+def _why_whole(reasons: list[str]) -> tuple[str, bool]:
+    """Why a picture is printed whole, and whether that is worth a warning (something suggests a
+    figure: a layout too ambiguous to split), or not (a single picture)."""
     if any("overlap" in r for r in reasons):
-        return "the figure is printed whole: " + next(r for r in reasons if "overlap" in r) + "."
+        return "the figure is printed whole: " + next(r for r in reasons if "overlap" in r) + ".", True
+    if AMBIGUOUS in reasons:
+        return ("the figure is printed whole: straight bands of one colour cut it into pieces, and one is a rectangular picture "
+                "but another as large is not (a layout too ambiguous to split; `panels` RxC cuts it into a grid)."), True
     if any("rectangular" in r for r in reasons):
-        return ("the figure is printed whole: it has straight bands of one colour, but the pieces between them are "
-                "not rectangular pictures (a single picture, or a layout too ambiguous to split).")
-    return "the figure is printed whole: it is a single picture (no straight gutter of one colour crosses it)."
+        return ("it is a single picture: it has straight bands of one colour, but they do not cut it into rectangular "
+                "pictures (at most one, with strips of text such as its data band)."), False
+    return "it is a single picture: no straight gutter of one colour crosses it.", False
 
 
 # ---------------------------------------------------------------------------------------------

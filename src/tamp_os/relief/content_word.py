@@ -35,7 +35,7 @@ PEAK_BINS = 24  # a lattice's spectrum: a few peaks (each a few bins wide under 
 PEAK_SHARE = 0.5  # ... holding this share of the detail's power
 MIN_REPEATS = 12  # and repeating at least this often across the panel (a few blobs of one size are no lattice)
 
-KINDS = ("fluorescence", "stain", "lines", "line art", "grains", "lattice", "members", "picture")
+KINDS = ("fluorescence", "stain", "lines", "line art", "grains", "region", "lattice", "members", "picture")
 
 
 @dataclass(frozen=True)
@@ -212,6 +212,9 @@ def _grey_word(grid: PrintGrid) -> ContentWord:
         return ContentWord("lines", "a network of lines")
     if kind == "grains":
         return ContentWord("grains", "grains")
+    if kind == "plateau" and made.labels is not None and made.labels.max():
+        n = int(made.labels.max())
+        return ContentWord("region", "one region on an empty ground" if n == 1 else f"{n} regions on an empty ground", n)
     period = lattice_period(work, pitch_mm)
     if period is not None and MIN_PITCH_MM <= period.pitch_mm <= grid.width_mm / MIN_REPEATS and peaked(work, pitch_mm):
         return ContentWord("lattice", "a lattice")

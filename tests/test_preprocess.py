@@ -71,6 +71,14 @@ def _plain_stretch(values, low_pct=2.0, high_pct=98.0):
     return np.clip((values - low) / (high - low), 0, 1), (float(low), float(high))
 
 
+def _assert_plain_stretch(values):
+    """`stretch` gives exactly the plain 2-98 % stretch of `values` (range and image)."""
+    image, (low, high), _ = stretch(values, None, 2.0, 98.0)
+    expected, expected_range = _plain_stretch(values)
+    assert (low, high) == pytest.approx(expected_range)
+    np.testing.assert_allclose(image, expected, atol=1e-5)
+
+
 @pytest.mark.timeout(60)
 @pytest.mark.parametrize("ink_pct", [0.5, 1.0, 1.5])
 @pytest.mark.parametrize("with_unknown", [False, True])
@@ -113,10 +121,7 @@ def test_a_few_specks_or_scattered_hot_pixels_do_not_set_the_stretch():
     salt = ground.copy()
     salt[::10, ::10] = 1.0  # 1 % of the pixels, none touching another
     for values in (specks, salt):
-        image, (low, high), _ = stretch(values, None, 2.0, 98.0)
-        expected, expected_range = _plain_stretch(values)
-        assert (low, high) == pytest.approx(expected_range)
-        np.testing.assert_allclose(image, expected, atol=1e-5)
+        _assert_plain_stretch(values)
 
 
 @pytest.mark.timeout(60)
@@ -128,10 +133,7 @@ def test_a_long_tail_of_an_ordinary_picture_and_dense_content_keep_the_percentil
     moon = skimage.data.moon().astype(np.float32)
     dense = sparse_strokes(ink_pct=4.0).image
     for values in (moon, dense):
-        image, (low, high), _ = stretch(values, None, 2.0, 98.0)
-        expected, expected_range = _plain_stretch(values)
-        assert (low, high) == pytest.approx(expected_range)
-        np.testing.assert_allclose(image, expected, atol=1e-5)
+        _assert_plain_stretch(values)
 
 
 @pytest.mark.timeout(120)

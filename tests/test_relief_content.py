@@ -454,7 +454,7 @@ def test_members_are_domes_not_pins():
     """A member a grid point or two wide is not raised the full relief (a 0.4 mm wide, 3 mm tall
     pin prints badly and pricks): its dome stands at most twice its inscribed radius; a wide
     member keeps the full lift."""
-    from tamp_os.relief.content import PIN_ASPECT, _no_pins
+    from tamp_os.relief.content import PIN_ASPECT
     from tamp_os.relief.objects import dome_profile
 
     pitch, relief = 0.4, 3.0
@@ -462,7 +462,7 @@ def test_members_are_domes_not_pins():
     labels[10:13, 10:14] = 1  # 3 x 4 points (1.2 x 1.6 mm): a sliver with one interior row
     yy, xx = np.mgrid[:60, :60]
     labels[(yy - 35) ** 2 + (xx - 35) ** 2 <= 12 ** 2] = 2  # 9.6 mm across
-    domes = _no_pins(labels, dome_profile(labels, pitch_mm=pitch, round_mm=10.0), pitch, relief)
+    domes = dome_profile(labels, pitch_mm=pitch, round_mm=10.0, pin_aspect=PIN_ASPECT, relief_mm=relief)  # as the content style asks
     sliver_mm = float(domes[labels == 1].max()) * relief
     # its half-width, 1.5 points, and half a point for the outline the distance counts: 0.8 mm
     assert 0 < sliver_mm <= PIN_ASPECT * (1.5 + 0.5) * pitch + 1e-6 and sliver_mm < relief / 1.5

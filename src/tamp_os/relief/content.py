@@ -459,7 +459,10 @@ def _as_members(labels: np.ndarray, pitch_mm, relief_mm, polarity, extra, what, 
     labels = _with_interior(labels)
     if int(labels.max()) < before:
         notes.append(f"content: {before - int(labels.max())} members too thin to carry a dome were left flat.")
-    domes = _no_pins(labels, dome_profile(labels, pitch_mm=pitch_mm, round_mm=MEMBER_ROUND_MM), pitch_mm, relief_mm)
+    # No pins: a member's dome stands at most PIN_ASPECT times its inscribed radius (a member a grid
+    # point or two wide, raised the full relief, is 0.4-0.8 mm wide and 3 mm tall: it prints badly
+    # and a finger finds a prick, not a dome).
+    domes = dome_profile(labels, pitch_mm=pitch_mm, round_mm=MEMBER_ROUND_MM, pin_aspect=PIN_ASPECT, relief_mm=relief_mm)
     count = int(labels.max())
     cover = float((labels > 0).mean())
     if picture is not None and count > FEW_MEMBERS and (cover >= DENSE_COVER or dense_field):
@@ -498,21 +501,6 @@ def _as_dense_field(blobs: BlobScale, picture: np.ndarray, pitch_mm: float, reli
     note = (f"content: a dense field of {int(labels.max())} domes (members) {blobs.diameter_mm:.1f} mm across, too many and too "
             f"close to draw one by one: they read as a texture of small domes.")
     return ContentMade(relief01, "members", labels, reason, (note,))
-
-
-def _no_pins(labels: np.ndarray, domes: np.ndarray, pitch_mm: float, relief_mm: float) -> np.ndarray:
-    """Each member's dome no taller than PIN_ASPECT times its inscribed radius: a member a grid
-    point or two wide, raised the full relief, is a pin 0.4-0.8 mm wide and 3 mm tall, which a
-    nozzle draws badly and a finger finds as a prick, not a dome."""
-    n = int(labels.max())
-    if n == 0 or relief_mm <= 0:
-        return domes
-    from .objects import inner_outline
-
-    inside = (labels > 0) & ~inner_outline(labels)
-    radius_mm = (label_max(ndimage.distance_transform_edt(inside) + inside, labels, n) * pitch_mm)[1:]
-    cap = np.concatenate([[1.0], np.clip(PIN_ASPECT * radius_mm / relief_mm, 0.0, 1.0)]).astype(np.float32)
-    return (domes * cap[labels]).astype(np.float32)
 
 
 def _with_interior(labels: np.ndarray) -> np.ndarray:

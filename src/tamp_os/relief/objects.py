@@ -377,7 +377,8 @@ def sorted_by_label(values: np.ndarray, labels: np.ndarray, n: int) -> tuple[np.
     return val, starts, counts
 
 
-def dome_profile(labels: np.ndarray, *, pitch_mm: float, round_mm: float) -> np.ndarray:
+def dome_profile(labels: np.ndarray, *, pitch_mm: float, round_mm: float, pin_aspect: float | None = None,
+                 relief_mm: float | None = None) -> np.ndarray:
     """Height profile 0..1 of each object: a circular-arc dome, flattened into a plateau
     with rounded shoulders when the object is wider than 2 × round_mm.
 
@@ -386,6 +387,9 @@ def dome_profile(labels: np.ndarray, *, pitch_mm: float, round_mm: float) -> np.
     labels : (rows, cols) int, 0 = background.
     pitch_mm : grid pitch in mm per pixel.
     round_mm : largest shoulder radius in mm.
+    pin_aspect, relief_mm : when given, each object's top stands at most pin_aspect times its
+        inscribed radius (of relief_mm, the full height), so an object a point or two wide is a
+        low dome, not a pin.
 
     Returns
     -------
@@ -402,4 +406,8 @@ def dome_profile(labels: np.ndarray, *, pitch_mm: float, round_mm: float) -> np.
     radius = np.minimum(reach[1:], round_mm / pitch_mm)
     r = np.concatenate([[1.0], np.maximum(radius, 1.0)])[labels]
     t = np.clip(dist / r, 0.0, 1.0)
-    return np.where(labels > 0, np.sqrt(1.0 - (1.0 - t) ** 2), 0.0).astype(np.float32)
+    profile = np.where(labels > 0, np.sqrt(1.0 - (1.0 - t) ** 2), 0.0).astype(np.float32)
+    if pin_aspect is None or not relief_mm or relief_mm <= 0:
+        return profile
+    cap = np.concatenate([[1.0], np.clip(pin_aspect * (reach[1:] * pitch_mm) / relief_mm, 0.0, 1.0)]).astype(np.float32)
+    return (profile * cap[labels]).astype(np.float32)

@@ -190,10 +190,15 @@ def _whole(given, params, printer_profile, layout: PanelLayout, notes: list[str]
 
 def _has_channels(picture: Picture) -> bool:
     """Several channels in the file, or colour with some chroma: the channel path may take it."""
+    sample = picture.file.colour_sample
+    return picture.file.channel_count > 1 and (sample is None or _has_chroma(sample))
+
+
+def _has_chroma(sample: np.ndarray) -> bool:
+    """Whether any pixel of a colour sample is coloured (not grey stored as RGB)."""
     from .relief.channel_auto import CHROMA
 
-    sample = picture.file.colour_sample
-    return picture.file.channel_count > 1 and (sample is None or bool((np.ptp(sample, axis=2) >= CHROMA).any()))
+    return bool((np.ptp(sample, axis=2) >= CHROMA).any())
 
 
 def crop_picture(picture: Picture, box: tuple[int, int, int, int], colour: np.ndarray | None = None) -> Picture:
@@ -221,12 +226,10 @@ def figure_colour(source, picture: Picture, params: LithoParams, pixels: np.ndar
     pixels kept from the figure's own read (read_image's keep_colour), the same the channel path
     would read; without them (a vendor file) the file is read again as the channel path reads one
     (red, green and blue planes: four reads of the file)."""
-    from .relief.channel_auto import CHROMA
-
     sample = picture.file.colour_sample
     if isinstance(source, Picture):
         return source.colour
-    if sample is None or not bool((np.ptp(sample, axis=2) >= CHROMA).any()):
+    if sample is None or not _has_chroma(sample):
         return None
     if pixels is not None and pixels.shape[:2] == picture.values.shape:
         if picture.file.channel_count > 1 and "C" in picture.file.axes:

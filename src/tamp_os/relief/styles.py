@@ -160,12 +160,12 @@ def make_relief(
     if style in ("content", "auto"):
         # auto tries the content translation first: the benchmark (README, relief styles) shows
         # it ahead wherever it finds members, a line network or grains; elsewhere auto picks as before.
-        content, kind = _content(image01, grid, work, objects_found, mm_per_px=mm_per_px, base_mm=base_mm, relief_mm=relief_mm,
-                                 layer_mm=layer_mm, options=options, hints=hints, fallback=style == "content", fine=fine)
+        content = _content(image01, grid, work, objects_found, mm_per_px=mm_per_px, base_mm=base_mm, relief_mm=relief_mm,
+                           layer_mm=layer_mm, options=options, hints=hints, fallback=style == "content", fine=fine)
         if style == "content":
             return content
-        if content is not None and kind != "shape":
-            return ReliefResult(content.heights_mm, "content", f"auto chose content ({_KIND_WORDS[kind]}): {content.reason}",
+        if content is not None and content.content_kind != "shape":
+            return ReliefResult(content.heights_mm, "content", f"auto chose content ({_KIND_WORDS[content.content_kind]}): {content.reason}",
                                 content.objects, (), content.notes, content.checks, content.content_kind)
     found = objects_found()
     if style == "auto":
@@ -189,17 +189,17 @@ _KIND_WORDS = {"plateau": "one region against an empty ground", "members": "a po
 
 
 def _content(image01, grid, work, found, *, mm_per_px, base_mm, relief_mm, layer_mm, options, hints,
-             fallback=True, fine=None) -> tuple[ReliefResult | None, str]:
-    """The content style (content.py) brought back to the output grid, and the kind of content it
-    found. Members reach the full relief; lines stop at LINE_HEIGHT_MM (a tactile line's height),
-    so they are not stretched."""
+             fallback=True, fine=None) -> ReliefResult | None:
+    """The content style (content.py) brought back to the output grid (its `content_kind` says what
+    it found), or None when it found nothing and has no fallback. Members reach the full relief;
+    lines stop at LINE_HEIGHT_MM (a tactile line's height), so they are not stretched."""
     from .content import check_sentences, make_content
 
     width_mm = (image01.shape[1] - 1) * mm_per_px
     made = make_content(work, pitch_mm=grid.pitch_mm, relief_mm=relief_mm, width_mm=width_mm, found=found,
                         min_area_mm2=options.min_area_mm2, hints=hints, fallback=fallback, fine=fine)
     if made is None:
-        return None, "shape"
+        return None
     relief01 = np.clip(grid.up(made.relief01), 0.0, 1.0)
     relief01 = relief01 - float(relief01.min())
     if made.kind in ("members", "shape"):
@@ -211,7 +211,7 @@ def _content(image01, grid, work, found, *, mm_per_px, base_mm, relief_mm, layer
     # The check reads the heights on the working grid, where the members and lines were found
     # (at 4096² a distance transform of the full grid alone would cost a second).
     checks = check_sentences(grid.down(heights).astype(np.float64), made, grid.pitch_mm, base_mm)
-    return ReliefResult(heights, "content", made.reason, labels, (), made.notes, checks, made.kind), made.kind
+    return ReliefResult(heights, "content", made.reason, labels, (), made.notes, checks, made.kind)
 
 
 def _full_span(relief01: np.ndarray) -> np.ndarray:

@@ -1,18 +1,18 @@
 """Converting one image, the one way every front end does it: make the lithograph, save its files,
 slice it when `gcode` asks, and say what happened. The CLI, batch, sweep, the web app and the demo
-all call `convert` (or `save_outputs` for a lithograph already made); slicing is called only here.
+all call `convert` (or `outputs.save_outputs` for a lithograph already made).
 """
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 
+from .outputs import save_outputs
 from .params import LithoParams
 from .pipeline import Lithograph
 from .printers import PrinterProfile
-from .report import Printing, Report, removed_notes, summary_line, touch_notes
+from .report import Report, removed_notes, summary_line, touch_notes
 
 
 @dataclass(frozen=True)
@@ -76,25 +76,6 @@ class Conversion(Print):
     def all_written(self) -> tuple[Path, ...]:
         """Every file written for this image, the figure's own last."""
         return tuple(p for each in self.prints for p in each.written) + self.figure_files
-
-
-def save_outputs(litho: Lithograph, target, formats=None, stem: str | None = None) -> tuple[list[Path], Lithograph]:
-    """Save a lithograph's files and, when its parameters ask for G-code, slice it and rewrite the
-    recipe with the result. Returns the paths written (recipe last) and the lithograph whose report
-    says so (a new report: the old one is not changed)."""
-    from .outputs import RECIPE_SUFFIX, save, write_recipe
-
-    written = save(litho, target, formats, stem)
-    if not litho.params.gcode:
-        return written, litho
-    from .slicer import slice_outputs
-
-    written, result = slice_outputs(litho, written)
-    sliced = dataclasses.replace(litho, report=litho.report.with_printing(Printing(result, Path(result.gcode).name)))
-    recipe = written[-1]
-    assert recipe.name.endswith(RECIPE_SUFFIX)
-    write_recipe(sliced, recipe, [p.name for p in written[:-1]])
-    return written, sliced
 
 
 def convert(source, params: LithoParams | None, out_dir, *, stem: str | None = None,

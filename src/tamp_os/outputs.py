@@ -23,11 +23,12 @@ from .files import to_uint8, write_png, write_text
 from .formats import GRAPHIC_FORMATS
 from .params import LithoParams
 from .printers import PrinterProfile
-from .report import describe
+from .report import Printing, describe
 from .version import __version__
 
 if TYPE_CHECKING:  # the 2-D graphics code is imported only when a PDF or SVG is written
     from .export.graphic2d import Graphic2D
+    from .slicer import SliceResult
 
 RECIPE_SUFFIX = ".tamp.json"
 PARALLEL_WRITE_TRIANGLES = 100_000
@@ -343,3 +344,36 @@ def recipe_outputs_if_current(recipe_path: Path, source: Path, params: LithoPara
         except OSError:
             return None
     return outputs + [recipe_path.name]
+
+
+def save_outputs(litho, target, formats=None, stem: str | None = None) -> tuple[list[Path], object]:
+    """Save a lithograph's files and, when its parameters ask for G-code, slice it and rewrite the
+    recipe with the result. Returns the paths written (recipe last) and the lithograph whose report
+    says so (a new report: the old one is not changed)."""
+    written = save(litho, target, formats, stem)
+    if not litho.params.gcode:
+        return written, litho
+    written, result = slice_outputs(litho, written)
+    sliced = dataclasses.replace(litho, report=litho.report.with_printing(Printing(result, Path(result.gcode).name)))
+    recipe = written[-1]
+    assert recipe.name.endswith(RECIPE_SUFFIX)
+    write_recipe(sliced, recipe, [p.name for p in written[:-1]])
+    return written, sliced
+
+
+def slice_outputs(litho, written: list[Path]) -> tuple[list[Path], SliceResult]:
+    """Slice a saved lithograph with PrusaSlicer: its STL (written first when `written` has none)
+    becomes NAME.gcode beside it. Returns the paths now written (recipe last, not yet rewritten)
+    and what slicing found; save_outputs makes the new report and recipe from them."""
+    from .slicer import material, slice_mesh
+
+    recipe = next(p for p in written if p.name.endswith(RECIPE_SUFFIX))
+    others = [p for p in written if p != recipe]
+    stl = next((p for p in others if p.suffix == ".stl"), None)
+    if stl is None:
+        stl = save_mesh(litho.mesh, recipe.parent / (recipe.name[: -len(RECIPE_SUFFIX)] + ".stl"), metadata(litho))
+        others.append(stl)
+    params = litho.params
+    result = slice_mesh(stl, litho.printer, material(params.material, params.filament_price_per_kg), timeout_s=params.slice_timeout_s)
+    others.append(Path(result.gcode))
+    return others + [recipe], result

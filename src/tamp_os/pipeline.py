@@ -79,7 +79,7 @@ class Lithograph:
     def save(self, target, formats=None, stem: str | None = None) -> list[Path]:
         """Write the mesh in each format, a description and a recipe (see `outputs.save`), and
         slice it when `gcode` is set; then `report.print` holds what slicing found."""
-        from .convert import save_outputs
+        from .outputs import save_outputs
 
         written, done = save_outputs(self, target, formats, stem)
         self.report = done.report  # a new report (with the slicing result) replaces the old one

@@ -268,23 +268,3 @@ def estimate(volume_mm3: float, vertices: np.ndarray, faces: np.ndarray, printer
             f"of {layer:g} mm, {INFILL:.0%} gyroid infill, {mat.name} at {mat.density_g_cm3:g} g/cm³ and {mat.price_per_kg:g} per kg"
         ),
     }
-
-
-def slice_outputs(litho, written: list[Path]) -> tuple[list[Path], SliceResult]:
-    """Slice a saved lithograph with PrusaSlicer: its STL (written first when `written` has none)
-    becomes NAME.gcode beside it. Returns the paths now written (recipe last, not yet rewritten)
-    and what slicing found; convert.save_outputs makes the new report and recipe from them."""
-    from .export import save_mesh
-    from .outputs import RECIPE_SUFFIX, metadata
-
-    recipe = next(p for p in written if p.name.endswith(RECIPE_SUFFIX))
-    others = [p for p in written if p != recipe]
-    stl = next((p for p in others if p.suffix == ".stl"), None)
-    if stl is None:
-        stl = save_mesh(litho.mesh, recipe.parent / (recipe.name[: -len(RECIPE_SUFFIX)] + ".stl"), metadata(litho))
-        others.append(stl)
-    params = litho.params
-    result = slice_mesh(stl, litho.printer, material(params.material, params.filament_price_per_kg), timeout_s=params.slice_timeout_s)
-    others.append(Path(result.gcode))
-    return others + [recipe], result
-

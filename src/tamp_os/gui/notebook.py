@@ -72,7 +72,7 @@ def launch(port: int | None = None, height: int = 900, proxy: bool | str | None 
 
     Returns a `Launched`: displayed as a titled frame in a notebook; `.url`, `.stop()`.
     """
-    from . import free_port
+    from .server import free_port
 
     base_path = _proxy_prefix(proxy)
     with _LOCK:
@@ -98,7 +98,7 @@ def _proxy_prefix(proxy: bool | str | None) -> str:
 
 
 def _start(port: int, height: int, base_path: str, timeout_s: float) -> Launched:
-    from . import make_server
+    from .server import make_server
 
     try:
         server = make_server("127.0.0.1", port, frame_ancestors=NOTEBOOK_ORIGINS, base_path=base_path)

@@ -53,7 +53,7 @@ def find_panels(values: np.ndarray, thumbs: Path, index: int, colour=None) -> tu
     from ..clean.panels import detect_panels
     from ..figure import panel_contents, position_words
     from ..files import write_png
-    from .uploads import thumbnail
+    from .thumbnail import thumbnail
 
     layout = detect_panels(values)
     if not layout.split:

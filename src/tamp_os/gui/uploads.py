@@ -16,10 +16,10 @@ import numpy as np
 
 from ..errors import InputError, TampError
 from ..files import write_png
+from .thumbnail import thumbnail
 
 log = logging.getLogger(__name__)
 
-THUMB_PX = 160
 TIFF_MAGIC = (b"II*\x00", b"MM\x00*", b"II+\x00", b"MM\x00+")
 
 
@@ -194,13 +194,3 @@ def contents_words(file) -> str:
         named = ", ".join(f"{n} ({w:.0f} nm)" if w else n for n, w in zip(names, waves))
         parts.append(f"{file.channel_count} channel{'s' if file.channel_count != 1 else ''}" + (f": {named}" if named else ""))
     return ", ".join(parts)
-
-
-def thumbnail(values: np.ndarray, size_px: int = THUMB_PX) -> np.ndarray:
-    """An 8-bit grey thumbnail, at most `size_px` on its longer side, from an H×W float image."""
-    step = max(1, int(np.ceil(max(values.shape) / size_px)))
-    small = values[::step, ::step]
-    finite = small[np.isfinite(small)]
-    lo, hi = (np.percentile(finite, [1, 99]) if finite.size else (0.0, 1.0))
-    scaled = np.nan_to_num((small - lo) / ((hi - lo) or 1.0), nan=0.0)
-    return (np.clip(scaled, 0, 1) * 255).astype(np.uint8)

@@ -583,7 +583,7 @@ def _weak_contrast(work, x, pitch_mm, relief_mm, width_mm, min_area_mm2, polarit
     """Weak contrast: local equalisation inside the specimen, then its grains outlined as raised
     lines (when `grains` and their boundaries form a network), else the fingertip-scale shape."""
     from .levels import plateau_classes
-    from .styles import StyleOptions, large_shape
+    from .scales import StyleOptions, large_shape
 
     specimen = find_specimen(work, pitch_mm) if specimen is None else specimen
     if grains and specimen.any() and not specimen.all() and not has_grain_structure(work, specimen, pitch_mm):

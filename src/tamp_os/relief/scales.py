@@ -139,3 +139,35 @@ def _resize(image: np.ndarray, shape: tuple[int, int], nearest: bool) -> np.ndar
     picture = Image.fromarray(np.ascontiguousarray(image, dtype=np.float32))
     method = Image.Resampling.NEAREST if nearest else Image.Resampling.BILINEAR
     return np.asarray(picture.resize((shape[1], shape[0]), method), dtype=np.float32)
+
+
+@dataclass(frozen=True)
+class StyleOptions:
+    """Settings of the relief styles (all lengths on the print, in mm).
+
+    detail_mm : finest shape a finger should read as shape; finer detail becomes texture.
+    texture_mm : peak-to-peak height of that fine texture (0 = none).
+    level_count : plateaus of the `levels` style, 2–5.
+    min_area_mm2 : smallest region (`levels`) or object (`objects`) kept: about a fingertip.
+    nozzle_mm : nozzle diameter; outlines are smoothed at this scale.
+    """
+
+    detail_mm: float = 2.0
+    texture_mm: float = 0.3
+    level_count: int = 3
+    min_area_mm2: float = 6.0
+    nozzle_mm: float = 0.4
+
+
+def large_shape(work: np.ndarray, pitch_mm: float, options: StyleOptions) -> np.ndarray:
+    """Fingertip-scale shape of the picture, 0..1 (working grid).
+
+    Noise is first damped by a Gaussian of detail/4; the self-guided filter then flattens
+    what varies less than about 0.1 of the range within `detail_mm` and keeps larger steps as
+    steps; half of the very-large-scale trend (8 × detail) is removed so that dim objects on
+    a dark side still rise; the 1st–99th percentiles are spread over the relief.
+    """
+    damped = gaussian_mm(work, options.detail_mm / 4, pitch_mm)
+    shape = guided_smooth(damped, options.detail_mm / pitch_mm, eps=0.01)
+    trend = coarse_gaussian_mm(shape, 8 * options.detail_mm, pitch_mm)
+    return robust_unit(shape - 0.5 * trend)

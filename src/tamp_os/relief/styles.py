@@ -31,30 +31,12 @@ from .heightmap import heights_mm
 from .levels import plateau_classes
 from .objects import ObjectMap, dome_profile
 from .picture_scale import find_objects_in_picture
-from .scales import WorkGrid, coarse_gaussian_mm, gaussian_mm, guided_smooth, robust_unit
+from .scales import StyleOptions, WorkGrid, gaussian_mm, large_shape, robust_unit
 
 STYLES = ("reference", "structure", "levels", "objects", "content", "auto")
 LEVEL_RANGE = (2, 5)
 MIN_STEP_MM = 0.5  # height step fingers tell apart reliably
 DOME_ROUND_DETAILS = 5  # domes up to 2 × 5 × detail_mm across; wider objects get rounded plateaus
-
-
-@dataclass(frozen=True)
-class StyleOptions:
-    """Settings of the relief styles (all lengths on the print, in mm).
-
-    detail_mm : finest shape a finger should read as shape; finer detail becomes texture.
-    texture_mm : peak-to-peak height of that fine texture (0 = none).
-    level_count : plateaus of the `levels` style, 2–5.
-    min_area_mm2 : smallest region (`levels`) or object (`objects`) kept: about a fingertip.
-    nozzle_mm : nozzle diameter; outlines are smoothed at this scale.
-    """
-
-    detail_mm: float = 2.0
-    texture_mm: float = 0.3
-    level_count: int = 3
-    min_area_mm2: float = 6.0
-    nozzle_mm: float = 0.4
 
 
 @dataclass(frozen=True)
@@ -227,20 +209,6 @@ class _Made:
     summary: str
     objects: ObjectMap | None = None
     notes: tuple[str, ...] = ()
-
-
-def large_shape(work: np.ndarray, pitch_mm: float, options: StyleOptions) -> np.ndarray:
-    """Fingertip-scale shape of the picture, 0..1 (working grid).
-
-    Noise is first damped by a Gaussian of detail/4; the self-guided filter then flattens
-    what varies less than about 0.1 of the range within `detail_mm` and keeps larger steps as
-    steps; half of the very-large-scale trend (8 × detail) is removed so that dim objects on
-    a dark side still rise; the 1st–99th percentiles are spread over the relief.
-    """
-    damped = gaussian_mm(work, options.detail_mm / 4, pitch_mm)
-    shape = guided_smooth(damped, options.detail_mm / pitch_mm, eps=0.01)
-    trend = coarse_gaussian_mm(shape, 8 * options.detail_mm, pitch_mm)
-    return robust_unit(shape - 0.5 * trend)
 
 
 def fine_texture(work: np.ndarray, pitch_mm: float, options: StyleOptions) -> np.ndarray:

@@ -18,7 +18,7 @@ sys.path.insert(0, str(Path(__file__).parent))
 from bench_core import FEPT, baseline, ours  # noqa: E402
 
 from tamp_os.export import save_mesh  # noqa: E402
-from tamp_os.pipeline import make_lithograph  # noqa: E402
+from tamp_os.lithograph.pipeline import make_lithograph  # noqa: E402
 
 ZEISS = FEPT.parent / "test_tiff_Zeiss_SEM_1k.tif"
 

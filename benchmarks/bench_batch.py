@@ -13,7 +13,7 @@ import time
 from pathlib import Path
 
 from tamp_os import LithoParams
-from tamp_os.batch import Job, collect_inputs, run_batch
+from tamp_os.lithograph.batch import Job, collect_inputs, run_batch
 
 FIXTURES = Path(__file__).resolve().parents[1] / ".." / "shared" / "fixtures"
 

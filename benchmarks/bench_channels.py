@@ -23,7 +23,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
 REAL = ROOT.parent / "shared" / "fixtures" / "real"
 
-from tamp_os.pipeline import make_lithograph
+from tamp_os.lithograph.pipeline import make_lithograph
 from tamp_os.relief import channel_stage
 from tamp_os.relief.channels import stain_channels
 

@@ -49,8 +49,8 @@ verts, faces = r.mesh(h)
 STAGED = """
 import json, sys, time
 start_wall, start_cpu = time.perf_counter(), time.thread_time()
-import tamp_os.cli as cli
-import tamp_os.pipeline as pipeline, tamp_os.convert, tamp_os.outputs
+import tamp_os.cli.commands as cli
+import tamp_os.lithograph.pipeline as pipeline, tamp_os.lithograph.convert, tamp_os.lithograph.outputs
 imported_wall, imported_cpu = time.perf_counter(), time.thread_time()
 stages = {}
 
@@ -110,10 +110,10 @@ def main() -> None:
     py = sys.executable
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp)
-        timed([py, "-m", "tamp_os.cli", "convert", str(FEPT), "-o", str(out / "warmup"), "--formats", FORMATS])  # bytecode, disk cache
+        timed([py, "-m", "tamp_os.cli.commands", "convert", str(FEPT), "-o", str(out / "warmup"), "--formats", FORMATS])  # bytecode, disk cache
         ours, loop, bare, staged = [], [], [], []
         for _ in range(args.runs):  # alternate, so every measurement sees the same load
-            ours.append(timed([py, "-m", "tamp_os.cli", "convert", str(FEPT), "-o", str(out / "ours"), "--formats", FORMATS])[:2])
+            ours.append(timed([py, "-m", "tamp_os.cli.commands", "convert", str(FEPT), "-o", str(out / "ours"), "--formats", FORMATS])[:2])
             loop.append(timed([py, "-c", LOOP, str(out)])[:2])
             bare.append(timed([py, "-c", "pass"])[:2])
             staged.append(json.loads(timed([py, "-c", STAGED, str(FEPT), str(out / "staged"), FORMATS])[2].splitlines()[-1]))

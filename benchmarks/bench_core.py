@@ -19,8 +19,8 @@ sys.path.insert(0, str(Path(__file__).parent))
 import reference_loop  # noqa: E402
 
 from tamp_os.export import save_mesh  # noqa: E402
-from tamp_os.outputs import metadata, write_meshes  # noqa: E402
-from tamp_os.pipeline import make_lithograph  # noqa: E402
+from tamp_os.lithograph.outputs import metadata, write_meshes  # noqa: E402
+from tamp_os.lithograph.pipeline import make_lithograph  # noqa: E402
 
 FEPT = Path(__file__).resolve().parents[1] / ".." / "shared" / "fixtures" / "fept_spheres_sem.png"
 

@@ -39,7 +39,7 @@ BASE, RELIEF, LAYER, NOZZLE = 1.0, 3.0, 0.12, 0.4
 
 def pictures():
     """(name, image01 on the Medium grid, mm per px, known object mask or None)."""
-    from tamp_os.pipeline import make_lithograph
+    from tamp_os.lithograph.pipeline import make_lithograph
 
     for path in sorted(FIXTURES.glob("*")):
         if path.suffix.lower() in (".md",):

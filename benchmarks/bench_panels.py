@@ -99,7 +99,7 @@ def words() -> None:
     from figures import fluorescence_composite, grid_colour
     from synthetic_content import dark_line_network, dim_and_bright_beads, dot_lattice, faint_grains
 
-    from tamp_os.figure import figure_colour, panel_contents
+    from tamp_os.lithograph.figure import figure_colour, panel_contents
     from tamp_os.params import LithoParams
     from tamp_os.read import read_array
 

@@ -60,7 +60,7 @@ def write_ome_tiff(path: Path, slices: int) -> None:
 def convert(path: Path, out: Path) -> tuple[float, float, str]:
     """(wall s, this child's peak RSS in MB, last line of its output)."""
     start = time.perf_counter()
-    code = ("import sys; from tamp_os.cli import main; rc = main(sys.argv[1:]); "
+    code = ("import sys; from tamp_os.cli.commands import main; rc = main(sys.argv[1:]); "
             "print('peak_kb', next(int(l.split()[1]) for l in open('/proc/self/status') if l.startswith('VmHWM:'))); "
             "sys.exit(rc)")
     done = subprocess.run([sys.executable, "-c", code, "convert", str(path), "-o", str(out)], capture_output=True, text=True,

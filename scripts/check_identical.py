@@ -59,7 +59,7 @@ def convert_all(src: Path, images: list[Path], out: Path) -> None:
     for variant, options in VARIANTS.items():
         for image in images:
             # one call per image: a refused input must not stop the others
-            cmd = [sys.executable, "-m", "tamp_os.cli", "convert", str(image), "-o", str(out / variant), *options]
+            cmd = [sys.executable, "-m", "tamp_os.cli.commands", "convert", str(image), "-o", str(out / variant), *options]
             result = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=600)
             (out / variant / f"{image.name}.log").write_text(result.stdout + result.stderr + f"exit {result.returncode}\n")
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from tamp_os.convert import convert as convert_image
+from tamp_os.lithograph.convert import convert as convert_image
 from tamp_os.errors import TampError
 from tamp_os.params import LithoParams
 from tamp_os.read import read_array

@@ -15,7 +15,7 @@ os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 
 def run_cli(capsys, *argv) -> tuple[int, str, str]:
     """Run the tamp-os command line in this process: (exit code, stdout, stderr)."""
-    from tamp_os.cli import main
+    from tamp_os.cli.commands import main
 
     code = main([str(a) for a in argv])
     out = capsys.readouterr()

@@ -33,7 +33,7 @@ def start_server(root: Path, *extra: str, slow_s: float = 0.8, grace_s: float = 
 
     port = free_port()
     env = dict(os.environ, TAMP_GUI_ROOT=str(root), TAMP_GUI_SLOW_S=str(slow_s), TAMP_GUI_GRACE_S=str(grace_s))
-    proc = subprocess.Popen([sys.executable, "-m", "tamp_os.cli", "gui", "--no-browser", "--port", str(port), *extra],
+    proc = subprocess.Popen([sys.executable, "-m", "tamp_os.cli.commands", "gui", "--no-browser", "--port", str(port), *extra],
                             env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     url = f"http://127.0.0.1:{port}"
     deadline = time.monotonic() + 20

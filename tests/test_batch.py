@@ -48,7 +48,7 @@ def test_hostile_inputs_never_stop_the_batch(tmp_path, capsys):
 def test_killed_batch_resumes_without_rewriting_finished_work(tmp_path):
     src = make_inputs(tmp_path / "in", good=30, hostile=0, size=(300, 400))
     out = tmp_path / "out"
-    cmd = [sys.executable, "-m", "tamp_os.cli", "batch", str(src), "-o", str(out), "--workers", "1",
+    cmd = [sys.executable, "-m", "tamp_os.cli.commands", "batch", str(src), "-o", str(out), "--workers", "1",
            "--mesher", "grid", "--resolution-px", "400", "--formats", "stl,3mf,glb"]
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
     deadline = time.time() + 120

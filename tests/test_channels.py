@@ -10,7 +10,7 @@ from conftest import need
 
 from tamp_os.errors import ParameterError
 from tamp_os.mesh.validate import check_solid
-from tamp_os.pipeline import make_lithograph
+from tamp_os.lithograph.pipeline import make_lithograph
 from tamp_os.relief.channels import (
     ChannelImage,
     channel_relief,
@@ -484,7 +484,7 @@ def test_paper_graphic_of_a_channel_print_has_textures_and_a_braille_key(fixture
     import itertools
 
     from tamp_os.export.tactile2d import save_graphic
-    from tamp_os.outputs import tactile_graphic
+    from tamp_os.lithograph.outputs import tactile_graphic
     from tamp_os.tactile.furniture import CLEARANCE_MM
 
     litho = make_lithograph(fixture("real/nikon_pbmc_4ch.nd2"), width_mm=80)

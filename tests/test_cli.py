@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 from PIL import Image
 
 from tamp_os import LithoParams
-from tamp_os.cli import main
+from tamp_os.cli.commands import main
 from tamp_os.errors import ParameterError
 
 
@@ -24,7 +24,7 @@ def image(tmp_path, gradient_image):
 
 
 def test_help_imports_no_heavy_libraries():
-    code = "import sys; from tamp_os.cli import build_parser; build_parser().format_help(); print(sorted(m for m in ('numpy','scipy','skimage','trimesh','PIL') if m in sys.modules))"
+    code = "import sys; from tamp_os.cli.commands import build_parser; build_parser().format_help(); print(sorted(m for m in ('numpy','scipy','skimage','trimesh','PIL') if m in sys.modules))"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"
 
@@ -97,7 +97,7 @@ def test_debug_shows_traceback(tmp_path):
     bad = tmp_path / "bad.png"
     bad.write_text("nope")
     env = dict(os.environ)
-    out = subprocess.run([sys.executable, "-m", "tamp_os.cli", "--debug", "convert", str(bad), "-o", str(tmp_path)], capture_output=True, text=True, env=env)
+    out = subprocess.run([sys.executable, "-m", "tamp_os.cli.commands", "--debug", "convert", str(bad), "-o", str(tmp_path)], capture_output=True, text=True, env=env)
     assert out.returncode != 0 and "Traceback" in out.stderr
 
 
@@ -145,7 +145,7 @@ def test_parse_field_types_text_for_every_kind_of_field():
 
 
 def test_every_command_answers_help(capsys):
-    from tamp_os.cli import build_parser
+    from tamp_os.cli.commands import build_parser
 
     parser = build_parser()
     commands = next(a for a in parser._actions if a.dest == "command").choices

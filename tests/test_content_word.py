@@ -16,7 +16,7 @@ from figures import FONT, fluorescence_composite, grid_colour
 from synthetic import tem_texture
 from synthetic_content import dark_line_network, dim_and_bright_beads, dot_lattice, faint_grains, line_diagram
 
-from tamp_os.relief.content_word import content_word, without_corner_labels
+from tamp_os.lithograph.content_word import content_word, without_corner_labels
 
 
 def _u8(image: np.ndarray) -> np.ndarray:
@@ -104,7 +104,7 @@ def test_words_for_a_four_panel_4000_by_3000_figure_are_cheap():
     (best of 3; one of them colour): each grey panel is decided on its print's own grid (250 points
     across at 100 mm, and the 0.1 mm fine grid when asked), not a coarse one of its own."""
     from tamp_os.clean.panels import detect_panels
-    from tamp_os.figure import figure_colour, panel_contents
+    from tamp_os.lithograph.figure import figure_colour, panel_contents
     from tamp_os.params import LithoParams
     from tamp_os.read import read_array
 
@@ -161,7 +161,7 @@ def test_the_word_agrees_with_the_print_of_the_same_pixels(name, width_mm):
     width it is printed (once, on a 128-point grid of its own, FePt's 4 spheres read as a network
     of lines and the Al2O3 grain boundaries and SiO2 particles as 'picture')."""
     from tamp_os.params import LithoParams
-    from tamp_os.pipeline import make_lithograph
+    from tamp_os.lithograph.pipeline import make_lithograph
     from tamp_os.read import read_image
 
     need((FIXTURES / name).is_file(), f"fixture {name}")

@@ -13,7 +13,7 @@ from PIL import Image
 
 from conftest import need, run_cli
 from tamp_os import make_lithograph
-from tamp_os.convert import convert
+from tamp_os.lithograph.convert import convert
 
 pytestmark = pytest.mark.timeout(600)
 
@@ -80,7 +80,7 @@ def test_sweep_with_gcode_slices_every_variant(tmp_path, capsys):
 
 def test_sweep_takes_an_array(tmp_path):
     from tamp_os.params import LithoParams
-    from tamp_os.sweep import run_sweep
+    from tamp_os.lithograph.sweep import run_sweep
 
     yy, xx = np.mgrid[0:48, 0:64]
     result = run_sweep(np.hypot(xx - 20, yy - 30), LithoParams(preset="low"), {"relief_mm": [1.5, 2.5]}, tmp_path,
@@ -95,7 +95,7 @@ def test_every_front_end_converts_through_convert():
     """One conversion path: no front end makes, saves or slices a lithograph itself."""
     from conftest import ROOT
 
-    for rel in ("cli.py", "batch.py", "sweep.py", "gui/jobs.py", "gui/routes.py"):
+    for rel in ("cli/commands.py", "lithograph/batch.py", "lithograph/sweep.py", "gui/jobs.py", "gui/routes.py"):
         text = (ROOT / "src" / "tamp_os" / rel).read_text(encoding="utf-8")
         assert "slice_outputs" not in text and ".save(" not in text, rel
     demo = (ROOT / "scripts" / "demo.py").read_text(encoding="utf-8")

@@ -15,7 +15,7 @@ pytestmark = pytest.mark.timeout(300)
 CHILD = """
 import json, sys
 from pathlib import Path
-from tamp_os.convert import convert
+from tamp_os.lithograph.convert import convert
 from tamp_os.params import LithoParams
 done = convert(Path(sys.argv[1]), LithoParams(formats=tuple(sys.argv[3].split(","))), Path(sys.argv[2]))
 print(json.dumps({"written": [p.name for p in done.written], "modules": sorted(sys.modules)}))

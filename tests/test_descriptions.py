@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from tamp_os.layout_words import count_words, find_layout, layout_sentence, place_word
-from tamp_os.outputs import metadata
-from tamp_os.pipeline import make_lithograph
+from tamp_os.lithograph.layout_words import count_words, find_layout, layout_sentence, place_word
+from tamp_os.lithograph.outputs import metadata
+from tamp_os.lithograph.pipeline import make_lithograph
 
 
 def _discs(centres_px, radii_px, shape=(100, 200)):
@@ -108,7 +108,7 @@ def test_content_prints_say_what_they_raise_not_brightness():
     count is said once (the content check), not again by a second, different measure."""
     from synthetic_content import dark_line_network, dim_and_bright_beads
 
-    from tamp_os.report import describe
+    from tamp_os.lithograph.report import describe
 
     lines = make_lithograph(dark_line_network().image, width_mm=100, relief_style="content")
     assert lines.report.content_kind == "lines" and lines.report.as_dict()["content_kind"] == "lines"

@@ -76,7 +76,7 @@ def test_reprs_are_one_short_line():
 def test_help_shows_each_fields_unit_range_and_meaning():
     import pydoc
 
-    from tamp_os.pipeline import make_lithograph as make
+    from tamp_os.lithograph.pipeline import make_lithograph as make
 
     text = pydoc.render_doc(LithoParams, renderer=pydoc.plaintext)
     for needle in ("relief_mm", "height of the relief above the base", "mm", "> 0.0 and ≤ 50.0", "pixel_size"):
@@ -88,7 +88,7 @@ def test_the_report_is_typed_frozen_and_keeps_its_json_keys():
     import dataclasses
     import json
 
-    from tamp_os.report import Plate
+    from tamp_os.lithograph.report import Plate
 
     litho = make_lithograph(np.pad(np.ones((30, 40)), 8), preset="low", pixel_size="1um", caption="A")
     r = litho.report

@@ -22,8 +22,8 @@ def test_every_list_of_formats_is_the_table():
     field = next(f for f in dataclasses.fields(LithoParams) if f.name == "formats")
     assert field.metadata["choices"] == formats.NAMES
     from tamp_os.gui.routes import FORMATS as web_formats
-    from tamp_os.meshfile import MESH_SUFFIXES
-    from tamp_os.render import MESH_SUFFIXES as render_suffixes
+    from tamp_os.export.meshfile import MESH_SUFFIXES
+    from tamp_os.lithograph.render import MESH_SUFFIXES as render_suffixes
 
     assert web_formats == formats.NAMES
     assert MESH_SUFFIXES == render_suffixes == formats.READABLE_MESH_SUFFIXES

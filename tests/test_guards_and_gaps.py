@@ -106,7 +106,7 @@ def test_invert_of_a_uniform_image_is_still_a_flat_plate_at_base():
 
 
 def test_the_batch_report_is_rewritten_after_each_input_and_stale_parts_go(tmp_path, capsys):
-    from tamp_os.batch import Job, run_batch
+    from tamp_os.lithograph.batch import Job, run_batch
     from tamp_os.params import LithoParams
 
     src = tmp_path / "in"

@@ -394,7 +394,7 @@ def test_slicing_from_the_web_app(server):
 def test_port_in_use_is_a_clear_message(capsys):
     import socket
 
-    from tamp_os.cli import main
+    from tamp_os.cli.commands import main
 
     with socket.socket() as taken:
         taken.bind(("127.0.0.1", 0))

@@ -71,7 +71,7 @@ def test_panel_parameter_is_none_for_every_panel_and_the_labels_otherwise():
 
 @pytest.mark.timeout(10)
 def test_a_panel_too_small_to_print_on_its_own_is_said_so():
-    from tamp_os.figure import MIN_PANEL_PX
+    from tamp_os.lithograph.figure import MIN_PANEL_PX
 
     assert PanelFound("a", "left", (0, 0, MIN_PANEL_PX, 300), "t.png").printable
     assert not PanelFound("b", "right", (0, 0, 300, MIN_PANEL_PX - 1), "t.png").printable
@@ -82,7 +82,7 @@ def test_a_panel_too_small_to_print_on_its_own_is_said_so():
 def test_what_is_ticked_is_what_make_figure_prints(ticks):
     """The checkboxes' parameter, given to the figure's own panel choice (figure._chosen), picks
     exactly the ticked panels, or every panel when all are ticked."""
-    from tamp_os.figure import _chosen
+    from tamp_os.lithograph.figure import _chosen
     from tamp_os.params import LithoParams
 
     layout = PanelLayout(True, tuple(Panel(p.box_px, p.label, True) for p in FOUND), ((0, 1), (2, 3)))
@@ -137,7 +137,7 @@ def test_the_worker_finds_a_figures_panels_with_a_small_thumbnail_each(tmp_path)
     found = find_panels(values, tmp_path, 3)
     assert [(p.label, p.where) for p in found] == [("a", "top left"), ("b", "top right"), ("c", "bottom left"), ("d", "bottom right")]
     # what each shows, as the overview says it (relief/content_word.py on the same pixels)
-    from tamp_os.relief.content_word import content_word
+    from tamp_os.lithograph.content_word import content_word
 
     assert [p.content for p in found] == [content_word(values[y:y + h, x:x + w]).words for x, y, w, h in (p.box_px for p in found)]
     assert all(p.content for p in found)

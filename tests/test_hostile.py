@@ -10,7 +10,7 @@ from PIL import Image
 
 from conftest import run_cli as run
 from tamp_os.errors import ExportError
-from tamp_os.files import write_atomic
+from tamp_os.export.files import write_atomic
 
 
 def png_claiming(width, height) -> bytes:

@@ -112,7 +112,7 @@ def test_letter_like_marks_inside_a_textured_stain_are_not_labels():
 def test_through_the_pipeline_the_words_leave_the_relief_and_the_description_names_them(monkeypatch):
     _need_ocr()
     from tamp_os import make_lithograph
-    from tamp_os.report import describe
+    from tamp_os.lithograph.report import describe
 
     image, text = diagram_with_words()
     litho = make_lithograph(image, scale_bar="off")

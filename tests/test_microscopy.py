@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 from PIL import Image
 
 from tamp_os import make_lithograph
-from tamp_os.cli import main
+from tamp_os.cli.commands import main
 from tamp_os.errors import ParameterError
 from tamp_os.clean.band import band_from_metadata
 from tamp_os.clean.scale import USER_GIVEN, read_pixel_size, scale_sentence

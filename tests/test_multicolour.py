@@ -13,7 +13,7 @@ import pytest
 import trimesh
 from hypothesis import given, settings, strategies as st
 
-from tamp_os.pipeline import make_lithograph
+from tamp_os.lithograph.pipeline import make_lithograph
 from tamp_os.params import LithoParams
 from tamp_os.errors import ParameterError
 from conftest import need

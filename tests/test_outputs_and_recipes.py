@@ -16,7 +16,7 @@ from PIL import Image
 
 from conftest import ROOT, run_cli as run
 from tamp_os import make_lithograph
-from tamp_os.cli import cli_words, main
+from tamp_os.cli.commands import cli_words, main
 from tamp_os.errors import ParameterError, Text
 from tamp_os.params import LithoParams
 
@@ -51,7 +51,7 @@ def test_saving_without_gcode_never_slices(tmp_path):
 
 
 def test_the_pipeline_never_imports_the_slicer():
-    code = "import sys, tamp_os.pipeline, tamp_os.outputs; print('tamp_os.slicer' in sys.modules)"
+    code = "import sys, tamp_os.lithograph.pipeline, tamp_os.lithograph.outputs; print('tamp_os.printing.slicer' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "False"
 
@@ -143,7 +143,7 @@ def test_a_second_batch_into_the_same_folder_is_refused_while_the_first_runs(tmp
     for i in range(6):
         picture(src / f"p{i}.png", i)
     out = tmp_path / "out"
-    cmd = [sys.executable, "-m", "tamp_os.cli", "batch", str(src), "-o", str(out), "--workers", "1", "--resolution-px", "300"]
+    cmd = [sys.executable, "-m", "tamp_os.cli.commands", "batch", str(src), "-o", str(out), "--workers", "1", "--resolution-px", "300"]
     first = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.time() + 60
     while time.time() < deadline and not (out / ".tamp-batch.lock").exists():
@@ -164,7 +164,7 @@ def test_workers_end_when_the_batch_is_killed(tmp_path):
     src.mkdir()
     for i in range(8):
         picture(src / f"p{i}.png", i)
-    cmd = [sys.executable, "-m", "tamp_os.cli", "batch", str(src), "-o", str(tmp_path / "out"), "--workers", "2",
+    cmd = [sys.executable, "-m", "tamp_os.cli.commands", "batch", str(src), "-o", str(tmp_path / "out"), "--workers", "2",
            "--resolution-px", "600", "--mesher", "grid"]
     parent = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     children: list[int] = []
@@ -205,7 +205,7 @@ def test_no_command_line_flag_outside_the_cli_and_the_web_app():
     found = []
     for path in (ROOT / "src" / "tamp_os").rglob("*.py"):
         rel = path.relative_to(ROOT / "src" / "tamp_os").as_posix()
-        if rel in ("cli.py", "slicer.py", "prusa_presets.py") or rel.startswith("gui/"):
+        if rel in ("printing/slicer.py", "printing/prusa_presets.py") or rel.startswith(("cli/", "gui/")):
             continue
         for flag in re.findall(r"(?<![\w-])--[a-z][a-z-]+", path.read_text(encoding="utf-8")):
             if flag not in EXTERNAL_TOOL_FLAGS:

@@ -7,7 +7,7 @@ from importlib.metadata import distributions, version
 
 import pytest
 
-from tamp_os.outputs import _version_of, dependency_versions
+from tamp_os.lithograph.outputs import _version_of, dependency_versions
 
 pytestmark = pytest.mark.timeout(120)
 

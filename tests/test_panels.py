@@ -120,7 +120,7 @@ ALL_FIXTURES = sorted(p.relative_to(FIXTURES).as_posix() for p in [*FIXTURES.glo
 def test_no_fixture_is_a_figure_or_an_ambiguous_one(name):
     """Every fixture is a single picture, read as convert reads it: not split, and nothing in it
     suggests a figure (so no figure talk is worth a warning)."""
-    from tamp_os.pipeline import _read
+    from tamp_os.lithograph.pipeline import _read
 
     _need_fixtures(name)
     layout = detect_panels(_read(FIXTURES / name, LithoParams()).values, read_letters=False)
@@ -133,7 +133,7 @@ def test_no_fixture_is_a_figure_or_an_ambiguous_one(name):
 def test_a_single_micrograph_through_convert_says_nothing_about_figures(name, tmp_path, capsys, caplog):
     """These three have straight bands of one colour (a dark support between particles, a data
     zone, beads on black), which once made convert warn that 'the figure is printed whole'."""
-    from tamp_os.figure import make_figure
+    from tamp_os.lithograph.figure import make_figure
 
     _need_fixtures(name)
     code, out, err = run_cli(capsys, "convert", FIXTURES / name, "-o", tmp_path, "--formats", "stl")
@@ -150,7 +150,7 @@ def test_a_single_micrograph_through_convert_says_nothing_about_figures(name, tm
 def test_an_ambiguous_layout_is_still_warned_about(caplog):
     """A picture and a dark fluorescence panel on black: the dark one is cut into its spots and only
     one rectangular picture is left, so the layout cannot be split; that is worth saying."""
-    from tamp_os.figure import make_figure
+    from tamp_os.lithograph.figure import make_figure
 
     figure = row_on_black([synthetic_texture(300, 300, 3), dark_fluorescence(300, 300, 7)], letters="AB")
     layout = detect_panels(figure.image.astype(np.float32), read_letters=False)
@@ -240,7 +240,7 @@ def printed(tmp_path_factory):
     folder = tmp_path_factory.mktemp("figure")
     figure = grid_white_boxes([synthetic_texture(150, 200, s) for s in range(4)], cols=2, gutter=14, size=22)
     path = save(figure, folder)
-    from tamp_os.cli import main
+    from tamp_os.cli.commands import main
 
     assert main(["convert", str(path), "-o", str(folder / "out"), "--width-mm", "60", "--formats", "stl,svg"]) == 0
     return folder, path, figure
@@ -263,7 +263,7 @@ def test_each_panel_printed_closed_sized_and_lettered_in_braille(printed):
         assert f"braille caption reads: {letter}." in description
         assert (out / f"grid_white.panel-{letter}.svg").is_file()
     # Sized as asked: the relief (the picture) is 60 mm wide; the plate adds its borders and caption.
-    from tamp_os.figure import make_figure
+    from tamp_os.lithograph.figure import make_figure
 
     made = make_figure(path, width_mm=60, formats=("stl",))
     for suffix, litho in made.prints[:-1]:
@@ -281,7 +281,7 @@ def test_overview_frames_letters_and_words(printed):
     ok, mesh = _closed(out / "grid_white.overview.stl")
     assert ok
     text = (out / "grid_white.overview.description.txt").read_text()
-    from tamp_os.figure import make_figure
+    from tamp_os.lithograph.figure import make_figure
 
     over = make_figure(path, width_mm=60).prints[-1][1]
     words = {k: w.words for k, w in over.report.panels.contents.items()}
@@ -325,7 +325,7 @@ def test_overview_words_agree_with_each_panels_print_and_not_with_the_choice():
     prints (its words come from the pixels and the parameters, never from the prints made)."""
     from test_content_word import _agrees
 
-    from tamp_os.figure import make_figure
+    from tamp_os.lithograph.figure import make_figure
 
     names = ["fept_spheres_sem.png", "real/sem_fei_sio2_particles_35kx.tif", "real/zeiss_sem_al2o3_grains.czi", "real/confocal_membranes_cells3d.tif"]
     _need_fixtures(*names)
@@ -345,7 +345,7 @@ def test_overview_words_agree_with_each_panels_print_and_not_with_the_choice():
 
 @pytest.mark.timeout(300)
 def test_panel_choice_off_and_forced_grid(printed):
-    from tamp_os.figure import make_figure
+    from tamp_os.lithograph.figure import make_figure
 
     folder, path, figure = printed
     made = make_figure(path, panel="b,c")
@@ -372,7 +372,7 @@ def test_panels_parameter_is_checked():
 
 @pytest.mark.timeout(300)
 def test_dozens_of_tiny_panels_are_refused_each_with_a_note(tmp_path):
-    from tamp_os.figure import make_figure
+    from tamp_os.lithograph.figure import make_figure
 
     figure = grid_white_boxes([synthetic_texture(36, 40, s) for s in range(48)], cols=8, gutter=6, letters="")
     made = make_figure(figure.image, width_mm=50)
@@ -385,7 +385,7 @@ def test_dozens_of_tiny_panels_are_refused_each_with_a_note(tmp_path):
 
 @pytest.mark.timeout(300)
 def test_unread_letters_fall_back_to_numbers_and_say_so():
-    from tamp_os.figure import make_figure
+    from tamp_os.lithograph.figure import make_figure
 
     figure = grid_white_boxes([synthetic_texture(150, 200, s) for s in range(2)], cols=2, gutter=14, letters="")
     made = make_figure(figure.image, width_mm=50)
@@ -399,7 +399,7 @@ def test_unread_letters_fall_back_to_numbers_and_say_so():
 def test_panel_with_data_band_is_cleaned_and_scaled_on_its_own():
     """Printed, the Zeiss panel's data zone is cropped by its own pipeline and its own "200 µm"
     bar gives its scale (the fixture's pixel is 2.614 µm); the other panel reads its own bar."""
-    from tamp_os.figure import make_figure
+    from tamp_os.lithograph.figure import make_figure
 
     _need_fixtures("test_tiff_Zeiss_SEM_1k.tif", "fept_spheres_sem.png")
     _need_ocr()
@@ -431,8 +431,8 @@ def test_colour_panels_take_the_channel_path_as_on_their_own(tmp_path):
     arrays of another width) could differ, a millionth of a millimetre against a 0.12 mm layer."""
     from PIL import Image
 
-    from tamp_os.figure import make_figure
-    from tamp_os.pipeline import make_lithograph
+    from tamp_os.lithograph.figure import make_figure
+    from tamp_os.lithograph.pipeline import make_lithograph
 
     _need_fixtures("real/aperio_cmu1_he_skin.svs")
     _need_ocr()
@@ -465,7 +465,7 @@ def test_colour_panels_take_the_channel_path_as_on_their_own(tmp_path):
         assert float(np.abs(litho.heightmap - own.heightmap).max()) <= 1e-6, letter
     # the grey figure path is unchanged: a grey figure's panels carry no colour
     grey = grid_white_boxes([sem, sem], cols=2, letters="ab")
-    from tamp_os.figure import figure_colour
+    from tamp_os.lithograph.figure import figure_colour
     from tamp_os.read import read_array
 
     assert figure_colour(grey.image, read_array(grey.image), LithoParams()) is None
@@ -482,10 +482,10 @@ def test_a_colour_figure_is_read_once_and_prints_as_when_read_again(tmp_path, mo
     import tifffile
     from PIL import Image
 
-    import tamp_os.figure as figure_module
-    import tamp_os.pipeline as pipeline_module
+    import tamp_os.lithograph.figure as figure_module
+    import tamp_os.lithograph.pipeline as pipeline_module
     import tamp_os.read as read_module
-    from tamp_os.figure import figure_colour, make_figure
+    from tamp_os.lithograph.figure import figure_colour, make_figure
 
     sem = (sem_spheres(300, 400).image * 255).astype(np.uint8)
     figure = grid_colour([fluorescence_composite(300, 400), sem], cols=2, letters="ab")
@@ -525,8 +525,8 @@ def test_a_single_colour_or_multichannel_picture_keeps_its_channel_path(tmp_path
     relief when the read picture, which keeps only its brightness, was passed on)."""
     from PIL import Image
 
-    from tamp_os.figure import make_figure
-    from tamp_os.pipeline import make_lithograph
+    from tamp_os.lithograph.figure import make_figure
+    from tamp_os.lithograph.pipeline import make_lithograph
 
     _need_fixtures("real/zeiss_dapi_gfp_2ch.czi")
     png = tmp_path / "composite.png"
@@ -550,8 +550,8 @@ def test_overview_says_what_each_panel_shows_whichever_panels_are_printed(tmp_pa
     overview description (and heights) as printing them all."""
     from PIL import Image
 
-    from tamp_os.figure import make_figure
-    from tamp_os.relief.content_word import ContentWord
+    from tamp_os.lithograph.figure import make_figure
+    from tamp_os.lithograph.content_word import ContentWord
 
     _need_ocr()
     truth = [dim_and_bright_beads(300, 400), dark_line_network(300, 400), faint_grains(300, 400)]
@@ -626,7 +626,7 @@ def test_web_app_prints_a_figures_panels_and_shows_the_overview(tmp_path):
 def test_batch_converts_a_figure_and_a_rerun_skips_it(tmp_path):
     import json
 
-    from tamp_os.batch import convert_one
+    from tamp_os.lithograph.batch import convert_one
 
     figure = grid_white_boxes([synthetic_texture(150, 200, s) for s in range(2)], cols=2, gutter=14, letters="")
     path = save(figure, tmp_path)

@@ -7,7 +7,7 @@ from PIL import Image
 
 from tamp_os import LithoParams, make_lithograph
 from tamp_os.errors import ParameterError
-from tamp_os.printers import grid_triangles, height_levels, preset_resolution_px
+from tamp_os.printing.printers import grid_triangles, height_levels, preset_resolution_px
 from tamp_os.mesh.validate import check_solid
 
 

@@ -21,9 +21,9 @@ from hypothesis import given, settings, strategies as st
 
 from conftest import need, run_cli
 from tamp_os.errors import ParameterError
-from tamp_os.pipeline import make_lithograph
-from tamp_os.printer_table import NOT_CHECKED, PRINTERS, find_printer, printers_of
-from tamp_os.printers import get_printer
+from tamp_os.lithograph.pipeline import make_lithograph
+from tamp_os.printing.printer_table import NOT_CHECKED, PRINTERS, find_printer, printers_of
+from tamp_os.printing.printers import get_printer
 
 
 def _image():
@@ -156,7 +156,7 @@ def test_every_row_names_where_its_facts_were_checked():
 
 
 def test_every_bed_is_one_the_sizing_and_tiling_code_accepts():
-    from tamp_os.printers import _bed
+    from tamp_os.printing.printers import _bed
     from tamp_os.tactile.tiles import plan_grid
     from tamp_os.units import parse_bed_mm
 
@@ -172,8 +172,8 @@ def test_every_bed_is_one_the_sizing_and_tiling_code_accepts():
 
 def test_rows_agree_with_the_installed_prusaslicer_bundles():
     """Where Debian's PrusaSlicer bundle has the printer, its own preset says the same bed, height and layers."""
-    from tamp_os.printer_table import installed_preset
-    from tamp_os.prusa_presets import find_system_printer, read_bundle, resolve
+    from tamp_os.printing.printer_table import installed_preset
+    from tamp_os.printing.prusa_presets import find_system_printer, read_bundle, resolve
 
     checked = 0
     for p in PRINTERS:
@@ -228,7 +228,7 @@ def test_printers_vendor_prusa_lists_todays_prusa_printers(capsys):
 @pytest.mark.timeout(300)
 def test_slicing_for_a_printer_without_an_installed_preset_says_so_in_one_sentence(tmp_path):
     need(shutil.which("prusa-slicer") is not None, "PrusaSlicer (apt-get install prusa-slicer)")
-    from tamp_os.slicer import material, slice_mesh
+    from tamp_os.printing.slicer import material, slice_mesh
 
     litho = make_lithograph(_image(), width_mm=30, formats=("stl",))
     stl = next(p for p in litho.save(tmp_path, stem="s") if p.suffix == ".stl")

@@ -10,7 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from conftest import need
-from tamp_os import prusa_presets as pp
+from tamp_os.printing import prusa_presets as pp
 from tamp_os.errors import ParameterError
 
 MINI = "Original Prusa MINI & MINI+"
@@ -94,7 +94,7 @@ def _debian_bundles():
 @pytest.mark.timeout(60)
 def test_system_printer_becomes_a_printer_profile():
     _debian_bundles()
-    from tamp_os.printers import get_printer
+    from tamp_os.printing.printers import get_printer
 
     mini = get_printer(MINI)
     assert mini.prusa_preset == MINI and mini.nozzle_mm == 0.4 and 0 < mini.layer_mm <= 0.3
@@ -122,8 +122,8 @@ def _header(text: str, key: str) -> str:
 def test_gcode_from_a_system_preset_has_its_bed_firmware_and_temperatures(small_mesh):
     _debian_bundles()
     need(shutil.which("prusa-slicer") is not None, "PrusaSlicer (apt-get install prusa-slicer)")
-    from tamp_os.printers import get_printer
-    from tamp_os.slicer import material, slice_mesh
+    from tamp_os.printing.printers import get_printer
+    from tamp_os.printing.slicer import material, slice_mesh
 
     result = slice_mesh(small_mesh, get_printer(MINI), material("PLA"), timeout_s=150)
     text = Path(result.gcode).read_text(encoding="utf-8")
@@ -142,8 +142,8 @@ def test_gcode_from_a_system_preset_has_its_bed_firmware_and_temperatures(small_
 @pytest.mark.timeout(180)
 def test_generic_gcode_says_it_is_for_estimates_only(small_mesh):
     need(shutil.which("prusa-slicer") is not None, "PrusaSlicer (apt-get install prusa-slicer)")
-    from tamp_os.printers import get_printer
-    from tamp_os.slicer import material, slice_mesh
+    from tamp_os.printing.printers import get_printer
+    from tamp_os.printing.slicer import material, slice_mesh
 
     result = slice_mesh(small_mesh, get_printer("standard"), material("PLA"), timeout_s=150)
     first = Path(result.gcode).read_text(encoding="utf-8").splitlines()[0]
@@ -155,8 +155,8 @@ def test_generic_gcode_says_it_is_for_estimates_only(small_mesh):
 def test_nozzle_that_contradicts_the_preset_is_refused(small_mesh):
     _debian_bundles()
     need(shutil.which("prusa-slicer") is not None, "PrusaSlicer (apt-get install prusa-slicer)")
-    from tamp_os.printers import get_printer
-    from tamp_os.slicer import material, slice_mesh
+    from tamp_os.printing.printers import get_printer
+    from tamp_os.printing.slicer import material, slice_mesh
 
     with pytest.raises(ParameterError, match=r"nozzle_mm.*0\.4 mm nozzle; got 0\.6"):
         slice_mesh(small_mesh, get_printer(MK3S), material("PLA"), nozzle_mm=0.6)
@@ -165,7 +165,7 @@ def test_nozzle_that_contradicts_the_preset_is_refused(small_mesh):
 @pytest.mark.timeout(60)
 def test_printers_command_lists_profiles_and_system_printers(capsys):
     _debian_bundles()
-    from tamp_os.cli import main
+    from tamp_os.cli.commands import main
 
     assert main(["printers", "--vendor", "PrusaResearch"]) == 0
     out = capsys.readouterr().out

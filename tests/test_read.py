@@ -201,7 +201,7 @@ def test_the_decoded_size_refused_is_said_with_its_digits(tmp_path):
 
 
 def test_a_channel_not_in_the_file_is_refused_naming_the_option(tmp_path):
-    from tamp_os.cli import cli_words
+    from tamp_os.cli.commands import cli_words
 
     path = tmp_path / "two.ome.tif"
     tifffile.imwrite(path, np.zeros((2, 20, 30), np.uint16), ome=True, photometric="minisblack", metadata={"axes": "CYX"})
@@ -215,7 +215,7 @@ def test_a_channel_not_in_the_file_is_refused_naming_the_option(tmp_path):
 
 def test_the_limits_hints_say_the_option_as_it_is_typed(tmp_path):
     # the hints read "raise the limit: --max-decoded-gb = 1" (an '=' the option does not take)
-    from tamp_os.cli import cli_words
+    from tamp_os.cli.commands import cli_words
 
     path = tmp_path / "stack.tif"
     tifffile.imwrite(path, np.zeros((40, 150, 150), np.uint8), metadata={"axes": "ZYX"})

@@ -7,7 +7,7 @@ from tamp_os.read_cost import Cost, check_memory
 
 
 def test_the_memory_limit_hint_says_the_option_as_it_is_typed():
-    from tamp_os.cli import cli_words
+    from tamp_os.cli.commands import cli_words
 
     cost = Cost()
     cost.add("decoded pixels", 2.5e9)

@@ -263,9 +263,9 @@ def test_signal_from_detector_names(name, signal):
 def test_description_and_info_mention_the_detector(fixture, tmp_path, capsys):
     import json
 
-    from tamp_os.cli import main
-    from tamp_os.pipeline import make_lithograph
-    from tamp_os.report import describe
+    from tamp_os.cli.commands import main
+    from tamp_os.lithograph.pipeline import make_lithograph
+    from tamp_os.lithograph.report import describe
 
     path = fixture("test_tiff_Zeiss_SEM_1k.tif")
     litho = make_lithograph(path, preset="low", width_mm=40, scale_bar="off")
@@ -287,7 +287,7 @@ def test_description_and_info_mention_the_detector(fixture, tmp_path, capsys):
 def _saved_mask(tmp_path, source) -> np.ndarray:
     from PIL import Image
 
-    from tamp_os.pipeline import make_lithograph
+    from tamp_os.lithograph.pipeline import make_lithograph
 
     litho = make_lithograph(source, preset="low", width_mm=60, scale_bar="off", save_masks=True)
     written = litho.save(tmp_path, ["stl"])

@@ -4,7 +4,7 @@ import re
 
 from conftest import ROOT
 
-from tamp_os.cli import build_parser
+from tamp_os.cli.commands import build_parser
 
 
 def test_python_example_runs(tmp_path, monkeypatch):

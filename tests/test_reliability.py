@@ -97,7 +97,7 @@ def cli_code(*argv) -> str:
     """Child code: run the CLI with argv (and sys.argv[1:]), print its peak, exit with its code."""
     return textwrap.dedent(f"""
         import sys
-        from tamp_os.cli import main
+        from tamp_os.cli.commands import main
         code = main({list(map(str, argv))!r} + sys.argv[1:])
         """) + PEAK + "sys.exit(code)\n"
 
@@ -225,7 +225,7 @@ def test_the_working_estimate_bounds_the_measured_peak_of_a_conversion(tmp_path)
     grey = (rng.random((side, side)) * 255).astype(np.uint8)
     path = tmp_path / "rgb.png"
     Image.fromarray(np.stack([grey, grey[::-1], grey[:, ::-1]], -1)).save(path, compress_level=1)
-    baseline_code = "import tamp_os.pipeline, tamp_os.outputs, tamp_os.export" + PEAK
+    baseline_code = "import tamp_os.lithograph.pipeline, tamp_os.lithograph.outputs, tamp_os.export" + PEAK
     _, _, _, baseline = run_limited(baseline_code, limit_gb=2.0)
     code, _, err, peak = run_limited(cli_code("convert", path, "-o", tmp_path / "out", "--formats", "stl"), limit_gb=3.0,
                                      timeout_s=280)
@@ -504,7 +504,7 @@ def test_recipe_whose_input_cannot_be_read_is_one_line(tmp_path, capsys, monkeyp
     img = small_png(tmp_path / "in.png")
     code, _, err = run(capsys, "convert", img, "-o", tmp_path / "out")
     assert code == 0, err
-    from tamp_os import outputs
+    from tamp_os.lithograph import outputs
 
     def refuse(path):
         raise PermissionError(13, "Permission denied", str(path))
@@ -517,35 +517,35 @@ def test_recipe_whose_input_cannot_be_read_is_one_line(tmp_path, capsys, monkeyp
 
 @pytest.mark.timeout(120)
 def test_last_resort_handler_prints_one_line_and_the_traceback_with_debug(tmp_path, capsys, monkeypatch):
-    import tamp_os.cli
+    import tamp_os.cli.commands
 
     img = small_png(tmp_path / "in.png")
 
     def broken(*args, **kwargs):
         raise RuntimeError("something nobody foresaw\nsecond line")
 
-    monkeypatch.setattr(tamp_os.cli, "cmd_info", broken)
+    monkeypatch.setattr(tamp_os.cli.commands, "cmd_info", broken)
     code, out, err = run(capsys, "info", img)
     line = one_error_line(err)
     assert code == 1 and "unexpected RuntimeError: something nobody foresaw" in line and "--debug" in line
     assert "second line" not in err
     with pytest.raises(RuntimeError):
-        tamp_os.cli.main(["--debug", "info", str(img)])
+        tamp_os.cli.commands.main(["--debug", "info", str(img)])
 
 
 @pytest.mark.timeout(120)
 def test_one_inputs_os_error_does_not_stop_the_others(tmp_path, capsys, monkeypatch):
-    import tamp_os.figure
+    import tamp_os.lithograph.figure
 
     good, bad = small_png(tmp_path / "good.png"), small_png(tmp_path / "bad.png", seed=2)
-    real = tamp_os.figure.make_figure  # what convert() calls for each input
+    real = tamp_os.lithograph.figure.make_figure  # what convert() calls for each input
 
     def sometimes(source, *args, **kwargs):
         if Path(str(source)).name == "bad.png":
             raise OSError(5, "Input/output error", str(source))
         return real(source, *args, **kwargs)
 
-    monkeypatch.setattr(tamp_os.figure, "make_figure", sometimes)
+    monkeypatch.setattr(tamp_os.lithograph.figure, "make_figure", sometimes)
     code, out, err = run(capsys, "convert", bad, good, "-o", tmp_path / "out")
     assert code == 1 and "Traceback" not in err
     assert "bad.png: Input/output error" in err and (tmp_path / "out" / "good.stl").is_file()
@@ -555,7 +555,7 @@ def test_one_inputs_os_error_does_not_stop_the_others(tmp_path, capsys, monkeypa
 
 def test_the_lock_is_removed_at_the_end_and_refuses_a_second_holder(tmp_path):
     from tamp_os.errors import InputError
-    from tamp_os.locks import LOCK_NAME, folder_lock
+    from tamp_os.lithograph.locks import LOCK_NAME, folder_lock
 
     with folder_lock(tmp_path / "out") as lock:
         assert lock.is_file()
@@ -568,7 +568,7 @@ def test_the_lock_is_removed_at_the_end_and_refuses_a_second_holder(tmp_path):
 
 
 def test_a_planted_lock_link_is_never_followed(tmp_path, capsys):
-    from tamp_os.locks import LOCK_NAME
+    from tamp_os.lithograph.locks import LOCK_NAME
 
     out = tmp_path / "out"
     out.mkdir()
@@ -606,7 +606,7 @@ def test_a_signal_during_convert_leaves_no_temporary_file(tmp_path, signame):
     Image.fromarray((rng.random((side, side)) * 255).astype(np.uint8)).save(img, compress_level=1)
     out = tmp_path / "out"
     env = {**os.environ, "PYTHONPATH": SRC}
-    cmd = [PYTHON, "-m", "tamp_os.cli", "convert", str(img), "-o", str(out), "--formats", "stl,3mf,glb,obj,ply",
+    cmd = [PYTHON, "-m", "tamp_os.cli.commands", "convert", str(img), "-o", str(out), "--formats", "stl,3mf,glb,obj,ply",
            "--resolution-px", "1400", "--mesher", "grid"]
     proc = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 240
@@ -630,13 +630,13 @@ def test_two_converts_into_one_folder_never_mix_their_sets(tmp_path):
     b = small_png(tmp_path / "b" / "same.png", (300, 400), 2)
     out = tmp_path / "out"
     env = {**os.environ, "PYTHONPATH": SRC}
-    procs = [subprocess.Popen([PYTHON, "-m", "tamp_os.cli", "convert", str(p), "-o", str(out), "--formats", "stl,3mf"],
+    procs = [subprocess.Popen([PYTHON, "-m", "tamp_os.cli.commands", "convert", str(p), "-o", str(out), "--formats", "stl,3mf"],
                               env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) for p in (a, b)]
     results = [(p.wait(timeout=240), p.stderr.read()) for p in procs]
     assert any(code == 0 for code, _ in results), results
     for code, err in results:
         assert code == 0 or "is writing into this folder now" in err, err
-    from tamp_os.outputs import file_sha256
+    from tamp_os.lithograph.outputs import file_sha256
 
     recipe = json.loads((out / "same.tamp.json").read_text())
     for name, digest in recipe["output_sha256"].items():
@@ -658,7 +658,7 @@ def test_batch_resume_checks_each_outputs_hash(tmp_path, capsys):
     (out / "one.stl").write_bytes((out / "two.stl").read_bytes())  # present, but not this input's print
     code, out_text, err = run(capsys, "batch", src, "-o", out, "--workers", "1")
     assert code == 0 and "1 converted, 1 already up to date" in out_text, out_text
-    from tamp_os.outputs import file_sha256
+    from tamp_os.lithograph.outputs import file_sha256
 
     assert file_sha256(out / "one.stl") == recipe["output_sha256"]["one.stl"]
     assert not (out / ".tamp-batch.lock").exists()

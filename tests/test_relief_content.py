@@ -166,7 +166,7 @@ def test_the_reason_names_the_files_detector_and_the_electron_signal_sets_the_gr
 def test_content_through_the_pipeline_is_a_closed_print_of_the_requested_size(tmp_path):
     import trimesh
 
-    from tamp_os.pipeline import make_lithograph
+    from tamp_os.lithograph.pipeline import make_lithograph
 
     image = (dark_line_network().image * 255).astype(np.uint8)
     litho = make_lithograph(image, relief_style="content", width_mm=80, scale_bar="off")
@@ -412,7 +412,7 @@ def test_needle_on_a_noisy_ground_is_one_plateau_not_grains(fixture, width_mm):
     of its empty ground is no grain structure, so the ground stays flat and the needle is one
     plateau (it was three plateaus of equalised noise, with the needle at the base)."""
     need_module("rsciio")
-    from tamp_os.pipeline import make_lithograph
+    from tamp_os.lithograph.pipeline import make_lithograph
 
     litho = make_lithograph(fixture("real/tia_talos_tem_search.emi"), width_mm=width_mm)
     assert litho.report.content_kind == "plateau"
@@ -431,7 +431,7 @@ def test_one_grey_step_is_one_plateau_and_one_flat_band(fixture):
     """The JEOL dummy (fixtures README): rows 0-190 one grey, rows 191-255 black: one plateau and
     one flat band, not 'grains in 3 levels'."""
     need_module("rsciio")
-    from tamp_os.pipeline import make_lithograph
+    from tamp_os.lithograph.pipeline import make_lithograph
 
     litho = make_lithograph(fixture("real/jeol_dummy_bf.img"), width_mm=100)
     h = litho.heightmap
@@ -443,7 +443,7 @@ def test_one_grey_step_is_one_plateau_and_one_flat_band(fixture):
 
 @pytest.mark.timeout(120)
 def test_faint_grains_are_still_grains_at_several_widths():
-    from tamp_os.pipeline import make_lithograph
+    from tamp_os.lithograph.pipeline import make_lithograph
 
     for width_mm in (60, 150):
         litho = make_lithograph(faint_grains().image, width_mm=width_mm)

@@ -117,7 +117,7 @@ def test_a_gaussian_texture_of_one_speckle_size_is_not_a_dense_field(seed, speck
 @pytest.mark.parametrize("name", ["test_STEM_image.dm3", "test_loading_image_saved_with_imageJ.tif"])
 def test_texture_fixtures_are_no_dense_field_at_any_width(fixture, name):
     """The noisy STEM texture and the ImageJ picture, printed 60-150 mm wide."""
-    from tamp_os.pipeline import make_lithograph
+    from tamp_os.lithograph.pipeline import make_lithograph
 
     for width_mm in (60, 80, 100, 120, 150):
         litho = make_lithograph(fixture(name), width_mm=width_mm, mesher="grid", scale_bar="off", channels="off", relief_style="reference")

@@ -23,7 +23,7 @@ FEPT_SPHERES = [(0.20, 0.38, 0.187), (0.567, 0.24, 0.173), (0.46, 0.63, 0.171), 
 
 def at_width(path, width_mm):
     """The brightness picture the pipeline prepares for a print `width_mm` wide (Medium)."""
-    from tamp_os.pipeline import make_lithograph
+    from tamp_os.lithograph.pipeline import make_lithograph
 
     litho = make_lithograph(path, width_mm=width_mm, mesher="grid", scale_bar="off", channels="off", relief_style="reference")
     image01 = (litho.heightmap - litho.params.base_mm) / litho.params.relief_mm

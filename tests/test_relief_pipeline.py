@@ -12,7 +12,7 @@ from PIL import Image
 
 from conftest import need
 from tamp_os import make_lithograph
-from tamp_os.cli import main
+from tamp_os.cli.commands import main
 from tamp_os.params import RELIEF_STYLES
 from tamp_os.relief.styles import STYLES
 
@@ -108,7 +108,7 @@ def test_check_measures_an_image_and_a_mesh(tmp_path, capsys):
 
 
 def test_check_reads_the_heights_of_a_mesh_back():
-    from tamp_os.touchcheck import heights_from_mesh
+    from tamp_os.lithograph.check import heights_from_mesh
 
     litho = make_lithograph(asymmetric(), relief_style="levels", orientation_corner="none", scale_bar="off", width_mm=80)
     z = heights_from_mesh(litho.mesh.vertices, litho.mesh.faces, pitch_mm=0.5)

@@ -39,7 +39,7 @@ def lift(heights, mask, mm_per_px):
 
 @pytest.mark.timeout(60)
 def test_reference_reproduces_the_pipeline_bit_for_bit(gradient_image):
-    from tamp_os.pipeline import make_lithograph
+    from tamp_os.lithograph.pipeline import make_lithograph
 
     for quantize in (False, True):
         litho = make_lithograph(gradient_image, width_mm=60, quantize=quantize, mesher="grid", relief_style="reference")
@@ -224,7 +224,7 @@ def prepared(path):
     import dataclasses
 
     from tamp_os.params import LithoParams
-    from tamp_os.pipeline import make_lithograph
+    from tamp_os.lithograph.pipeline import make_lithograph
 
     fields = {f.name for f in dataclasses.fields(LithoParams)}
     style = {"relief_style": "reference"} if "relief_style" in fields else {}

@@ -5,9 +5,9 @@ import pytest
 from PIL import Image
 
 from tamp_os import make_lithograph
-from tamp_os.cli import main
+from tamp_os.cli.commands import main
 from tamp_os.errors import ParameterError
-from tamp_os.sweep import parse_vary
+from tamp_os.lithograph.sweep import parse_vary
 
 
 @pytest.fixture(scope="module")
@@ -61,7 +61,7 @@ def test_vary_grid_and_errors():
         "resolution_px": [64, 128], "relief_mm": [2.0, 3.5], "invert": [False, True],
     }
     from tamp_os import LithoParams
-    from tamp_os.sweep import variants
+    from tamp_os.lithograph.sweep import variants
 
     names = [suffix for suffix, _ in variants(LithoParams(), parse_vary(["resolution=64,128", "invert=false,true"]))]
     assert names == ["resolution_64_invert_False", "resolution_64_invert_True", "resolution_128_invert_False", "resolution_128_invert_True"]
@@ -72,7 +72,7 @@ def test_vary_grid_and_errors():
 
 
 def test_a_folder_renders_each_print_once(tmp_path):
-    from tamp_os.render import find_meshes
+    from tamp_os.lithograph.render import find_meshes
 
     for name in ("a.stl", "a.3mf", "a.glb", "b.obj", "b.ply", "c.txt"):
         (tmp_path / name).write_bytes(b"")

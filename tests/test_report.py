@@ -6,8 +6,8 @@ import dataclasses
 
 import numpy as np
 
-from tamp_os.pipeline import make_lithograph
-from tamp_os.report import summary_line, web_summary_lines
+from tamp_os.lithograph.pipeline import make_lithograph
+from tamp_os.lithograph.report import summary_line, web_summary_lines
 
 
 def test_the_summary_line_says_the_print_size_to_a_tenth_of_a_millimetre():

@@ -9,10 +9,10 @@ import pytest
 from conftest import need
 
 from tamp_os import make_lithograph
-from tamp_os.cli import main
+from tamp_os.cli.commands import main
 from tamp_os.errors import MissingDependencyError
-from tamp_os.printers import get_printer
-from tamp_os.slicer import SlicerError, estimate, material, mesh_info, slice_mesh
+from tamp_os.printing.printers import get_printer
+from tamp_os.printing.slicer import SlicerError, estimate, material, mesh_info, slice_mesh
 
 
 @pytest.fixture(autouse=True)

@@ -10,7 +10,7 @@ from conftest import need
 
 from tamp_os import make_lithograph
 from tamp_os.tactile.braille import BrailleSpec, cell_dots, liblouis_available, to_braille
-from tamp_os.cli import main
+from tamp_os.cli.commands import main
 from tamp_os.errors import ParameterError
 from tamp_os.units import parse_length_m
 from tamp_os.mesh.validate import check_solid

@@ -10,7 +10,7 @@ import trimesh
 from hypothesis import given, settings, strategies as st
 
 from tamp_os.errors import ParameterError
-from tamp_os.pipeline import make_lithograph
+from tamp_os.lithograph.pipeline import make_lithograph
 from tamp_os.tactile.tiles import (CLEARANCE_MM, HEAD_DIAMETER_MM, REACH_MM, cell_edges, parse_bed_mm, plan_grid, tile_label,
                            tiles_along)
 

@@ -364,7 +364,7 @@ def test_read_channels_of_a_czi_time_point_and_guard(real):
 
 @pytest.mark.timeout(60)
 def test_read_channels_of_ordinary_images(tmp_path):
-    from tamp_os.files import write_png
+    from tamp_os.export.files import write_png
     from tamp_os.vendor_read import read_channels
 
     rgb = np.zeros((8, 10, 3), np.uint8)
@@ -469,7 +469,7 @@ def test_damaged_olympus_oib_is_named(tmp_path):
 
 @pytest.mark.timeout(60)
 def test_batch_scan_finds_vendor_files_once(real, tmp_path):
-    from tamp_os.batch import collect_inputs
+    from tamp_os.lithograph.batch import collect_inputs
 
     for name in ("zeiss_dapi_gfp_2ch.czi", "tia_talos_tem_search.emi", "tia_talos_tem_search_1.ser", "mrc_emdb3197_subtomo.map"):
         shutil.copy(real(name), tmp_path / name)
@@ -505,7 +505,7 @@ def test_time_and_scene_are_parameters_with_ranges(real, tmp_path, capsys):
 
 @pytest.mark.timeout(60)
 def test_help_imports_no_vendor_reader():
-    code = ("import sys, tamp_os.cli; tamp_os.cli.build_parser().format_help(); "
+    code = ("import sys, tamp_os.cli.commands; tamp_os.cli.commands.build_parser().format_help(); "
             "print(sorted(m for m in ('czifile', 'liffile', 'nd2', 'mrcfile', 'zarr', 'rsciio', 'h5py', 'oiffile') if m in sys.modules))")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT,
                           env={"PYTHONPATH": str(ROOT / "src"), "PATH": "/usr/bin:/bin"}, timeout=60)

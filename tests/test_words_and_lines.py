@@ -26,8 +26,8 @@ def small_png(tmp_path):
 
 
 def test_vary_takes_the_command_lines_spellings():
-    from tamp_os.cli import _vary_in_field_names
-    from tamp_os.sweep import parse_vary
+    from tamp_os.cli.commands import _vary_in_field_names
+    from tamp_os.lithograph.sweep import parse_vary
 
     specs = _vary_in_field_names(["relief-style=structure,levels", "--slice=0,1", "height-mm=20,30", "resolution=8,16"])
     vary = parse_vary(specs)
@@ -110,7 +110,7 @@ class _Terminal(io.StringIO):
 
 @pytest.mark.timeout(30)
 def test_working_line_only_on_a_terminal_and_only_after_a_while(monkeypatch):
-    from tamp_os.cli import _WorkingLine
+    from tamp_os.cli.commands import _WorkingLine
 
     monkeypatch.setattr(_WorkingLine, "PROGRESS_AFTER_S", 0.2)
     tty, pipe = _Terminal(), io.StringIO()

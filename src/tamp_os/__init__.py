@@ -3,12 +3,12 @@
 from .version import __version__  # noqa: E402
 from .errors import ExportError, InputError, MissingDependencyError, ParameterError, TampError  # noqa: E402
 from .params import LithoParams  # noqa: E402
-from .printers import BUILTIN_PRINTERS, PrinterProfile, get_printer  # noqa: E402
+from .printing.printers import BUILTIN_PRINTERS, PrinterProfile, get_printer  # noqa: E402
 
 
 def make_lithograph(source, params=None, **changes):
-    """Make a lithograph from an image path or array; see tamp_os.pipeline.make_lithograph."""
-    from .pipeline import make_lithograph as _make
+    """Make a lithograph from an image path or array; see tamp_os.lithograph.pipeline.make_lithograph."""
+    from .lithograph.pipeline import make_lithograph as _make
 
     return _make(source, params, **changes)
 

@@ -16,7 +16,7 @@ from typing import Any
 
 from .errors import ParameterError, register_parameter_names, render
 from .formats import GRAPHIC_FORMATS, NAMES as FORMATS  # noqa: F401  (GRAPHIC_FORMATS: re-exported)
-from .printers import PRESETS
+from .printing.printers import PRESETS
 from .standards import DEFAULT_TABLE, BrailleSpec
 from .units import PIXEL_SIZE_RANGE_M, format_length, parse_bed_mm, parse_length_m
 FITS = ("pad", "crop", "stretch")

@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import BinaryIO, Callable, Iterable
 
 from ..errors import ExportError, ParameterError
-from ..files import write_atomic
+from .files import write_atomic
 from ..mesh.solid import Mesh
 
 Writer = Callable[[Mesh, BinaryIO, dict], None]

@@ -14,7 +14,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from . import check_export, save_mesh
-from ..files import write_atomic
+from .files import write_atomic
 
 
 def split_formats(formats: list[str]) -> tuple[list[str], list[str]]:

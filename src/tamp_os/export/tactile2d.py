@@ -18,7 +18,7 @@ from xml.sax.saxutils import escape
 import numpy as np
 
 from ..errors import MissingDependencyError, ParameterError
-from ..files import write_atomic
+from .files import write_atomic
 from ..tactile.braille import dot_centres
 from ..tactile.furniture import TICK_LENGTH_MM
 from . import textures as tx

@@ -188,7 +188,7 @@ def _add_print_settings(model, metadata: dict, content_type_added: bool = False)
     Both slicers find them by name, so like the model config they go in without a relationship: a
     relationship from the model would make Bambu Studio and OrcaSlicer look for model parts in them.
     Returns whether anything was attached."""
-    from .print_settings import BAMBU_PROJECT_SETTINGS, PRUSA_CONFIG
+    from ..printing.print_settings import BAMBU_PROJECT_SETTINGS, PRUSA_CONFIG
 
     settings = metadata.get("print_settings")
     if settings is None:

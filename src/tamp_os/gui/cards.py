@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 from ..errors import TampError
 from ..params import LithoParams
-from ..preset_table import preset_rows, size_words
+from ..lithograph.presets import preset_rows, size_words
 
 
 @dataclass

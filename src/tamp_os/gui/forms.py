@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 from ..errors import ParameterError
 from ..params import LithoParams, parse_field
-from ..printers import PRESETS, get_printer
+from ..printing.printers import PRESETS, get_printer
 
 
 @dataclass(frozen=True)
@@ -68,8 +68,8 @@ PAGE_SIZE_CHOICES = ("plate", "a4", "letter")
 def printer_choices() -> dict:
     """The printers the form offers: the profiles (built-in and the user's), then today's printers of
     the printer table, each as a PrinterProfile (name -> profile)."""
-    from ..printer_table import PRINTERS
-    from ..printers import all_printers, table_profile
+    from ..printing.printer_table import PRINTERS
+    from ..printing.printers import all_printers, table_profile
 
     return {**all_printers(), **{p.model: table_profile(p.model) for p in PRINTERS}}
 

@@ -22,7 +22,7 @@ from pathlib import Path
 
 
 from ..errors import TampError
-from ..files import to_uint8, write_png
+from ..export.files import to_uint8, write_png
 from ..params import LithoParams
 from .uploads import Upload
 
@@ -196,7 +196,7 @@ class JobStore:
 
 def run_library(path: Path, params: LithoParams, out: Path, stem: str):
     """The one place the web app calls the library: convert (make, save, slice) and a preview model."""
-    from ..convert import convert as convert_image
+    from ..lithograph.convert import convert as convert_image
     from ..export import save_mesh
 
     conversion = convert_image(path, params, out, stem=stem)
@@ -242,7 +242,7 @@ def readme_text(names: list[str], where: dict[str, str] | None = None) -> str:
 
 
 def convert(job: WebJob, upload: Upload) -> Result:
-    from ..report import web_summary_lines
+    from ..lithograph.report import web_summary_lines
     from .forms import label_of, web_words
     from .panel_choice import figure_prints, panel_parameter
 
@@ -275,7 +275,7 @@ def convert(job: WebJob, upload: Upload) -> Result:
     result.left_out = [p.label for p in upload.panels if made.panels and p.label not in printed]
     write_png(job.out / result.heightmap_png, to_uint8(made.litho.heightmap))
     try:
-        from ..render import View, render_views
+        from ..lithograph.render import View, render_views
 
         with RENDER_LOCK:
             full, _ = render_views(mesh.vertices, mesh.faces, View(width_px=640, height_px=480))

@@ -39,7 +39,7 @@ class PanelFound:
     @property
     def printable(self) -> bool:
         """Large enough to print on its own plate (figure.MIN_PANEL_PX); a smaller one shows only on the overview."""
-        from ..figure import MIN_PANEL_PX
+        from ..lithograph.figure import MIN_PANEL_PX
 
         return min(self.box_px[2], self.box_px[3]) >= MIN_PANEL_PX
 
@@ -51,8 +51,8 @@ def find_panels(values: np.ndarray, thumbs: Path, index: int, colour=None) -> tu
     function giving the figure's colour pixels (figure.figure_colour), asked only for a figure.
     Runs in the decode worker: OCR of the letters takes a second or two."""
     from ..clean.panels import detect_panels
-    from ..figure import panel_contents, position_words
-    from ..files import write_png
+    from ..lithograph.figure import panel_contents, position_words
+    from ..export.files import write_png
     from .thumbnail import thumbnail
 
     layout = detect_panels(values)

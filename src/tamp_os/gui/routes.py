@@ -12,7 +12,7 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 from ..errors import TampError
 from ..formats import GRAPHIC_FORMATS
 from ..params import FORMATS, LithoParams
-from ..printers import PRESETS
+from ..printing.printers import PRESETS
 from .forms import FIELDS, FLAGS, NUMBER_FIELDS, STYLE_CHOICES, TEXT_FIELDS, params_from_form
 from .jobs import WebJob, safe_name
 from .panel_choice import choice_errors, chosen_panels, global_panel_error

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError, TampError
-from ..files import write_png
+from ..export.files import write_png
 from .thumbnail import thumbnail
 
 log = logging.getLogger(__name__)
@@ -159,7 +159,7 @@ class Inspected:
 def inspect_in_worker(path: Path, thumbs: Path, index: int, max_decoded_mb: float, max_memory_gb: float) -> Inspected:
     """What an upload holds (size, suggested preset, thumbnail, channels and axes), read with the web app's own caps:
     the page read_image will read is priced by read_image itself (tiles, copies, working arrays)."""
-    from ..printers import BUILTIN_PRINTERS
+    from ..printing.printers import BUILTIN_PRINTERS
     from ..read import read_image
     from ..relief.touch import suggest_by_touch
 
@@ -171,7 +171,7 @@ def inspect_in_worker(path: Path, thumbs: Path, index: int, max_decoded_mb: floa
     write_png(thumbs / thumb, thumbnail(picture.values))
     axes = picture.file.axes or {}
     try:
-        from ..figure import figure_colour
+        from ..lithograph.figure import figure_colour
         from ..params import LithoParams
         from .panel_choice import find_panels
 

@@ -38,7 +38,7 @@ def _limit_worker(memory_bytes: int) -> None:
     """Worker initializer: cap the address space, and end with the server (batch.exit_with_parent)."""
     import resource
 
-    from ..batch import exit_with_parent
+    from ..lithograph.batch import exit_with_parent
 
     soft, hard = resource.getrlimit(resource.RLIMIT_AS)
     cap = memory_bytes if hard == resource.RLIM_INFINITY else min(memory_bytes, hard)
@@ -46,7 +46,7 @@ def _limit_worker(memory_bytes: int) -> None:
     exit_with_parent()
 
 
-PRELOAD = ["tamp_os.pipeline", "tamp_os.outputs", "tamp_os.export", "tamp_os.gui.jobs", "tamp_os.gui.uploads",
+PRELOAD = ["tamp_os.lithograph.pipeline", "tamp_os.lithograph.outputs", "tamp_os.export", "tamp_os.gui.jobs", "tamp_os.gui.uploads",
            "tamp_os.relief.touch"]
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ..errors import Text
-from ..printers import preset_blur_px, preset_resolution_px
+from ..printing.printers import preset_blur_px, preset_resolution_px
 
 
 @dataclass(frozen=True)

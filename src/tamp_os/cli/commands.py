@@ -22,7 +22,7 @@ OLD_OPTION_NAMES = {"depth_mm": "--height-mm"}
 
 def _param_options(parser: argparse.ArgumentParser) -> None:
     """One option per LithoParams field, named after it (width_mm -> --width-mm)."""
-    from .params import LithoParams, describe_range
+    from ..params import LithoParams, describe_range
 
     group = parser.add_argument_group("lithograph parameters")
     flags_by_name = _flags()
@@ -42,7 +42,7 @@ def _param_options(parser: argparse.ArgumentParser) -> None:
 
 def _flags() -> dict[str, str]:
     """Each LithoParams field and its option here (width_mm -> --width-mm, z_slice -> --slice)."""
-    from .params import LithoParams
+    from ..params import LithoParams
 
     return {f.name: OPTION_NAMES.get(f.name, "--" + f.name.replace("_", "-")) for f in dataclasses.fields(LithoParams)}
 
@@ -50,20 +50,20 @@ def _flags() -> dict[str, str]:
 def cli_words(message) -> str:
     """A library message (an error, a warning, a help text) with each parameter it names said as
     this command's option (pixel_size -> --pixel-size); see errors.Text."""
-    from .errors import words
+    from ..errors import words
 
     return words(message, _flags().get)
 
 
 def _format_help() -> str:
     """'stl (any slicer), 3mf (...), ...' from the format table."""
-    from .formats import TABLE
+    from ..formats import TABLE
 
     return "; ".join(f"{f.name} ({f.what})" for f in TABLE).replace("%", "%%")
 
 
 def _params_from_args(args, base=None):
-    from .params import LithoParams, parse_field
+    from ..params import LithoParams, parse_field
 
     changes = {}
     for f in dataclasses.fields(LithoParams):
@@ -149,7 +149,7 @@ def _add_gui(sub) -> None:
 
 
 def _add_presets_and_plate(sub) -> None:
-    from .tactile.braille import DEFAULT_TABLE
+    from ..tactile.braille import DEFAULT_TABLE
 
     presets = sub.add_parser("presets", help="show Low/Medium/High for a printer (and suggest one for an image)")
     presets.add_argument("image", nargs="?", metavar="IMAGE")
@@ -171,7 +171,7 @@ def _add_presets_and_plate(sub) -> None:
 
 
 def _add_check(sub) -> None:
-    from .formats import READABLE_MESH_SUFFIXES
+    from ..formats import READABLE_MESH_SUFFIXES
 
     check = sub.add_parser("check", help="what a finger will find: the legibility report of an image or a mesh",
                            description="Measure a relief by touch: fine texture, height levels and steps, narrow "
@@ -221,14 +221,14 @@ def main(argv=None) -> int:
     logging.basicConfig(level=logging.DEBUG if args.debug else logging.ERROR, format="%(levelname)s: %(message)s")
     os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")  # offscreen rendering with no display
     if args.version:
-        from . import __version__
+        from .. import __version__
 
         print(f"tamp-os {__version__}")
         return EXIT_OK
     if not args.command:
         parser.print_help()
         return EXIT_USAGE
-    from .errors import ParameterError, TampError
+    from ..errors import ParameterError, TampError
 
     previous = _stop_on_signals()
     _never_fail_on_encoding()
@@ -311,7 +311,7 @@ def _run_each(items, action, debug: bool = False) -> int:
 
     Returns EXIT_FAILED when any item failed (each was named), else EXIT_OK.
     """
-    from .errors import TampError
+    from ..errors import TampError
 
     failed = 0
     for item in items:
@@ -337,9 +337,9 @@ def _run_each(items, action, debug: bool = False) -> int:
 
 
 def cmd_convert(args) -> int:
-    from .convert import convert
-    from .outputs import distinct_stems, load_recipe
-    from .pipeline import resolve_printer
+    from ..lithograph.convert import convert
+    from ..lithograph.outputs import distinct_stems, load_recipe
+    from ..lithograph.pipeline import resolve_printer
 
     jobs = []
     if args.recipe:
@@ -365,8 +365,8 @@ def cmd_convert(args) -> int:
             lines.append(f"  note: named {stem} because another input of this run has the same name")
         return lines
 
-    from .errors import TampError
-    from .locks import output_lock
+    from ..errors import TampError
+    from ..lithograph.locks import output_lock
 
     try:
         with output_lock(Path(args.output)):  # one writer per folder: never a set mixed from two runs
@@ -381,7 +381,7 @@ def cmd_convert(args) -> int:
 def _say(conversion, verbose: bool = False) -> list[str]:
     """One conversion's warnings to stderr; its lines (summary, notes, printing, and with `verbose`
     the details) returned."""
-    from .report import detail_lines
+    from ..lithograph.report import detail_lines
 
     which = f"{conversion.label}: " if conversion.label else ""  # a figure's print: which panel warns
     for warning in conversion.report.warnings:
@@ -397,8 +397,8 @@ def _say(conversion, verbose: bool = False) -> list[str]:
 
 
 def cmd_batch(args) -> int:
-    from .batch import Job, collect_inputs, read_overrides, run_batch
-    from .pipeline import resolve_printer
+    from ..lithograph.batch import Job, collect_inputs, read_overrides, run_batch
+    from ..lithograph.pipeline import resolve_printer
 
     params = _params_from_args(args)
     resolve_printer(params)
@@ -429,7 +429,7 @@ def cmd_batch(args) -> int:
 
 
 def _dask_client(address: str):
-    from .errors import InputError, MissingDependencyError
+    from ..errors import InputError, MissingDependencyError
 
     try:
         from distributed import Client
@@ -507,7 +507,7 @@ class _BatchProgress:
                 self.bar.write(f"failed: {cli_words(outcome['error'])}")
         else:
             detail = cli_words(outcome["error"]) if outcome["status"] == "failed" else f"{outcome['seconds']:.1f} s"
-            from .batch import FLAT_PLATE_NOTE  # loaded already: the batch is running
+            from ..lithograph.batch import FLAT_PLATE_NOTE  # loaded already: the batch is running
 
             if FLAT_PLATE_NOTE in (outcome.get("warnings") or ()):
                 detail = f"a flat plate: the image is uniform, nothing is raised; {detail}"  # not heard only in the CSV
@@ -531,7 +531,7 @@ def _vary_in_field_names(specs: list[str]) -> list[str]:
 
 
 def cmd_sweep(args) -> int:
-    from .sweep import parse_vary, run_sweep
+    from ..lithograph.sweep import parse_vary, run_sweep
 
     params = _params_from_args(args)
     vary = parse_vary(_vary_in_field_names(args.vary))
@@ -544,9 +544,9 @@ def cmd_sweep(args) -> int:
 
 
 def cmd_render(args) -> int:
-    from .errors import InputError, ParameterError
-    from .meshfile import read_mesh_file
-    from .render import View, find_meshes, render_file
+    from ..errors import InputError, ParameterError
+    from ..export.meshfile import read_mesh_file
+    from ..lithograph.render import View, find_meshes, render_file
 
     try:
         width, height = (int(v) for v in args.size.lower().split("x"))
@@ -555,7 +555,7 @@ def cmd_render(args) -> int:
     view = View(width, height, args.azimuth, args.elevation, args.zoom, args.closeup_zoom, args.theme)
     meshes = find_meshes(args.inputs)
     if not meshes:
-        from .formats import READABLE_MESH_SUFFIXES
+        from ..formats import READABLE_MESH_SUFFIXES
 
         print(f"error: no meshes found ({', '.join(READABLE_MESH_SUFFIXES)}).", file=sys.stderr)
         return EXIT_USAGE
@@ -572,18 +572,18 @@ def cmd_render(args) -> int:
 
 
 def cmd_gui(args) -> int:
-    from .gui import serve
+    from ..gui import serve
 
     import socket
 
-    from .errors import ParameterError
+    from ..errors import ParameterError
 
     with socket.socket() as probe:
         try:
             probe.bind((args.host, args.port))
         except OSError as exc:
             raise ParameterError(f"--port: cannot listen on {args.host}:{args.port} ({exc.strerror}); choose another port with --port.") from None
-    from .gui.security import is_loopback
+    from ..gui.security import is_loopback
 
     url, token = f"http://{args.host}:{args.port}/", None
     if not is_loopback(args.host):
@@ -604,9 +604,9 @@ def cmd_gui(args) -> int:
 
 
 def cmd_slice(args) -> int:
-    from .meshfile import read_mesh_file
-    from .printers import get_printer
-    from .slicer import material, slice_mesh
+    from ..export.meshfile import read_mesh_file
+    from ..printing.printers import get_printer
+    from ..printing.slicer import material, slice_mesh
 
     printer, mat = get_printer(args.printer), material(args.material, args.filament_price)
 
@@ -619,9 +619,9 @@ def cmd_slice(args) -> int:
 
 
 def cmd_estimate(args) -> int:
-    from .meshfile import read_mesh_file
-    from .printers import get_printer
-    from .slicer import estimate, material
+    from ..export.meshfile import read_mesh_file
+    from ..printing.printers import get_printer
+    from ..printing.slicer import estimate, material
 
     printer, mat = get_printer(args.printer), material(args.material, args.filament_price)
 
@@ -637,17 +637,17 @@ def cmd_estimate(args) -> int:
 
 
 def cmd_presets(args) -> int:
-    from .preset_table import preset_rows, size_words
-    from .relief.touch import suggest_by_touch
-    from .pipeline import layout_for, resolve_printer
-    from .printers import height_levels
+    from ..lithograph.presets import preset_rows, size_words
+    from ..relief.touch import suggest_by_touch
+    from ..lithograph.pipeline import layout_for, resolve_printer
+    from ..printing.printers import height_levels
 
     params = _params_from_args(args)
     printer = resolve_printer(params)
     layer = printer.layer_mm
     picture, suggestion = None, None
     if args.image:
-        from .read import read_image
+        from ..read import read_image
 
         picture = read_image(args.image, page=params.page, channel=params.channel, max_megapixels=params.max_megapixels,
                              max_decoded_gb=params.max_decoded_gb, max_memory_gb=params.max_memory_gb)
@@ -669,9 +669,9 @@ def cmd_presets(args) -> int:
 
 
 def cmd_printers(args) -> int:
-    from .printer_table import installed_preset, printers_of, vendor_name
-    from .printers import all_printers
-    from .prusa_presets import system_printers
+    from ..printing.printer_table import installed_preset, printers_of, vendor_name
+    from ..printing.printers import all_printers
+    from ..printing.prusa_presets import system_printers
 
     print("Profiles (G-code from these is for estimates only, not for a real printer):")
     for p in all_printers().values():
@@ -694,8 +694,8 @@ def cmd_printers(args) -> int:
 
 
 def cmd_check(args) -> int:
-    from .pipeline import make_lithograph, resolve_printer
-    from .touchcheck import MESH_SUFFIXES, check_mesh
+    from ..lithograph.pipeline import make_lithograph, resolve_printer
+    from ..lithograph.check import MESH_SUFFIXES, check_mesh
 
     params = _params_from_args(args)
     printer = resolve_printer(params)
@@ -715,7 +715,7 @@ def cmd_check(args) -> int:
 
 
 def _numbers(text: str, name: str) -> list[float]:
-    from .errors import ParameterError
+    from ..errors import ParameterError
 
     try:
         values = [float(v) for v in text.split(",") if v.strip()]
@@ -727,9 +727,9 @@ def _numbers(text: str, name: str) -> list[float]:
 
 
 def cmd_braille_plate(args) -> int:
-    from .export import save_mesh
-    from .files import write_text
-    from .tactile.furniture import braille_test_plate
+    from ..export import save_mesh
+    from ..export.files import write_text
+    from ..tactile.furniture import braille_test_plate
 
     heights = _numbers(args.heights, "--heights")
     diameters = _numbers(args.diameters, "--diameters")
@@ -761,7 +761,7 @@ def _pixel_xy(s, scale) -> list[float] | None:
 
 def _file_axes_lines(s) -> list[str]:
     """'axes: 3 scenes, T 20, C 2, Z 128', 'channel names: DAPI (450 nm), GFP', 'z step: 6 µm', 'read by: nd2 0.12.0'."""
-    from .units import format_length
+    from ..units import format_length
 
     lines = []
     if s.axes:
@@ -779,10 +779,10 @@ def _file_axes_lines(s) -> list[str]:
 
 
 def cmd_info(args) -> int:
-    from .clean.stage import clean_picture
-    from .read import read_image
-    from .report import instrument_words
-    from .units import format_length, parse_length_m
+    from ..clean.stage import clean_picture
+    from ..read import read_image
+    from ..lithograph.report import instrument_words
+    from ..units import format_length, parse_length_m
 
     pixel_size_m = parse_length_m(args.pixel_size, "pixel_size") if args.pixel_size else None
     picture = read_image(args.image, page=args.page, z_slice=args.slice, channel=args.channel, time=args.time,

@@ -9,9 +9,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from .outputs import save_outputs
-from .params import LithoParams
+from ..params import LithoParams
 from .pipeline import Lithograph
-from .printers import PrinterProfile
+from ..printing.printers import PrinterProfile
 from .report import Report, removed_notes, summary_line, touch_notes
 
 

@@ -10,9 +10,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import ParameterError
-from .files import to_uint8, write_png, write_text
-from .params import LithoParams, parse_field
+from ..errors import ParameterError
+from ..export.files import to_uint8, write_png, write_text
+from ..params import LithoParams, parse_field
 
 FIELD_NAMES = {f.name for f in dataclasses.fields(LithoParams)}
 ALIASES = {"resolution": "resolution_px", "relief": "relief_mm", "base": "base_mm", "blur": "blur_px", "width": "width_mm", "error": "max_error_mm"}
@@ -101,7 +101,7 @@ def run_sweep(source, params: LithoParams, vary: dict[str, list], out_dir: Path,
     """Make every variant of an image file, an array or a read Picture, convert each (named
     NAME_VARIANT.ext, sliced when `gcode` is set) and write the contact sheet(s)."""
     from .convert import convert
-    from .read import Picture
+    from ..read import Picture
 
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)

@@ -17,18 +17,18 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 
-from .errors import ExportError, InputError, ParameterError
-from .export import check_export, save_mesh
-from .files import to_uint8, write_png, write_text
-from .formats import GRAPHIC_FORMATS
-from .params import LithoParams
-from .printers import PrinterProfile
+from ..errors import ExportError, InputError, ParameterError
+from ..export import check_export, save_mesh
+from ..export.files import to_uint8, write_png, write_text
+from ..formats import GRAPHIC_FORMATS
+from ..params import LithoParams
+from ..printing.printers import PrinterProfile
 from .report import Printing, describe
-from .version import __version__
+from ..version import __version__
 
 if TYPE_CHECKING:  # the 2-D graphics code is imported only when a PDF or SVG is written
-    from .export.graphic2d import Graphic2D
-    from .slicer import SliceResult
+    from ..export.graphic2d import Graphic2D
+    from ..printing.slicer import SliceResult
 
 RECIPE_SUFFIX = ".tamp.json"
 PARALLEL_WRITE_TRIANGLES = 100_000
@@ -37,7 +37,7 @@ PARALLEL_WRITE_TRIANGLES = 100_000
 def metadata(litho) -> dict:
     """Title, description, designer and application, for formats that carry them (3MF, GLB), and the
     print settings the 3MF carries for the slicer (export/print_settings.py)."""
-    from .export.print_settings import settings_for
+    from ..printing.print_settings import settings_for
 
     settings = settings_for(litho.printer, litho.params.material)
     return {
@@ -52,8 +52,8 @@ def metadata(litho) -> dict:
 
 def multipart_sentences(litho) -> list[str]:
     """How the parts or tiles go together, for the description (tactile/parts.py, tiles.py)."""
-    from .tactile.parts import describe_parts
-    from .tactile.tiles import describe_tiles
+    from ..tactile.parts import describe_parts
+    from ..tactile.tiles import describe_tiles
 
     out = [describe_parts(litho.parts)] if getattr(litho, "parts", None) else []
     return out + ([describe_tiles(litho.tiles)] if getattr(litho, "tiles", None) else [])
@@ -72,7 +72,7 @@ def save(litho, target, formats=None, stem: str | None = None) -> list[Path]:
     # The mesh as written, every format's own limits and the graphics' page are checked before any file is written.
     graphic = tactile_graphic(litho) if graphics else None
     if graphic is not None:
-        from .export.graphic2d import page_placement
+        from ..export.graphic2d import page_placement
 
         page_placement(graphic.plate_mm, litho.params.page_size)
     if litho.tiles or litho.parts:  # several solids (export/multipart.py)
@@ -81,7 +81,7 @@ def save(litho, target, formats=None, stem: str | None = None) -> list[Path]:
         check_export(litho.mesh, [folder / f"{stem}.{fmt}" for fmt in meshes])
         written = [path for path, _ in write_meshes(litho.mesh, folder, stem, meshes, meta).values()]
     if graphics:
-        from .export.tactile2d import save_graphic  # cairo's writer, imported only for PDF/SVG
+        from ..export.tactile2d import save_graphic  # cairo's writer, imported only for PDF/SVG
 
         written += [save_graphic(graphic, folder / f"{stem}.{fmt}", litho.params.page_size, meta) for fmt in graphics]
     if litho.params.save_masks and litho.mask is not None:
@@ -92,7 +92,7 @@ def save(litho, target, formats=None, stem: str | None = None) -> list[Path]:
 
 
 def _write_multipart(litho, folder: Path, stem: str, formats: list[str], meta: dict) -> list[Path]:
-    from .export.multipart import write_parts, write_tiles
+    from ..export.multipart import write_parts, write_tiles
 
     if litho.tiles:
         return write_tiles(litho.tiles, folder, stem, formats, meta)
@@ -103,7 +103,7 @@ LONGEST_SUFFIX_BYTES = 48  # '.description.txt', '.annotations.png', part and ti
 
 
 def _target(litho, target: Path, formats, stem) -> tuple[Path, str, list[str]]:
-    from .files import check_path_length
+    from ..export.files import check_path_length
 
     check_path_length(target)  # before any look at the file system: a too-long name fails there
     if target.suffix and not target.is_dir():
@@ -138,7 +138,7 @@ def tactile_graphic(litho) -> Graphic2D:
     """The lithograph as a 2-D tactile graphic: its relief as at most three regions that differ by
     touch (the levels style's plateaus, the objects found, or thresholds of the heights), with the
     same caption, scale bar and cut corner as the 3-D plate."""
-    from .export.graphic2d import layout_graphic, regions_from_image  # only for PDF/SVG
+    from ..export.graphic2d import layout_graphic, regions_from_image  # only for PDF/SVG
 
     relief = (litho.heightmap - litho.params.base_mm) / litho.params.relief_mm
     legibility = litho.report.legibility
@@ -156,7 +156,7 @@ def tactile_graphic(litho) -> Graphic2D:
         furniture = dataclasses.replace(furniture, scale_bar_m=(bar[2] - bar[0]) * furniture.sample_m_per_print_mm)
     channel = getattr(litho, "channel_regions", None)
     if channel is not None and litho.report.key:  # issue 22: each channel its own paper texture, and the key
-        from .relief.channel_stage import paper_textures
+        from ..relief.channel_stage import paper_textures
 
         textures = paper_textures(litho.report.key)
         key = [(textures[i + 1], e.braille) for i, e in enumerate(litho.report.key)]
@@ -208,7 +208,7 @@ def _version_of(dist) -> str:
 def file_sha256(path: Path) -> str:
     """SHA-256 of a file, read in blocks (of an OME-Zarr folder: its files, as read.py hashes it)."""
     if Path(path).is_dir():
-        from .read import _sha256_of
+        from ..read import _sha256_of
 
         return _sha256_of(Path(path))
     digest = hashlib.sha256()
@@ -365,7 +365,7 @@ def slice_outputs(litho, written: list[Path]) -> tuple[list[Path], SliceResult]:
     """Slice a saved lithograph with PrusaSlicer: its STL (written first when `written` has none)
     becomes NAME.gcode beside it. Returns the paths now written (recipe last, not yet rewritten)
     and what slicing found; save_outputs makes the new report and recipe from them."""
-    from .slicer import material, slice_mesh
+    from ..printing.slicer import material, slice_mesh
 
     recipe = next(p for p in written if p.name.endswith(RECIPE_SUFFIX))
     others = [p for p in written if p != recipe]

@@ -17,7 +17,7 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
-from .errors import ParameterError
+from ..errors import ParameterError
 
 PROFILE_DIRS = ("/usr/share/PrusaSlicer/profiles", "/usr/local/share/PrusaSlicer/profiles")
 # Preset bookkeeping that is not a slicing option; PrusaSlicer's --load would reject or misuse it.

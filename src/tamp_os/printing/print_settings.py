@@ -127,7 +127,7 @@ def settings_for(profile, material: str = "PLA") -> PrintSettings:
     options: dict[str, str] = {}
     bed = getattr(profile, "bed_mm", None)
     if profile.prusa_preset:
-        from ..prusa_presets import preset_config
+        from .prusa_presets import preset_config
 
         try:
             resolved = preset_config(profile.prusa_preset, material)

@@ -10,7 +10,7 @@ from typing import BinaryIO, Callable
 
 import numpy as np
 
-from .errors import ExportError
+from ..errors import ExportError
 
 
 NAME_MAX_BYTES = 255  # one file or folder name (Linux, macOS, Windows NTFS)

@@ -18,7 +18,7 @@ import os
 import stat
 from pathlib import Path
 
-from .errors import ExportError, InputError
+from ..errors import ExportError, InputError
 
 log = logging.getLogger(__name__)
 
@@ -111,7 +111,7 @@ def sweep_parts(folder: Path) -> list[str]:
 def output_lock(target: Path, who: str = "another convert or batch"):
     """The lock of the folder that `target` (a folder, or a file name such as print.stl) writes
     into, with the stale temporary files of killed runs swept once it is held."""
-    from .files import check_path_length
+    from ..export.files import check_path_length
 
     target = Path(target)
     check_path_length(target)  # a name the file system cannot hold fails in plain words, before any look at it

@@ -56,7 +56,7 @@ def content_word(values: np.ndarray, colour: np.ndarray | None = None, *, params
     print's grid (default: LithoParams(), on its printer 100 mm wide)."""
     if colour is not None:
         from ..read import colour_sample
-        from .channel_auto import colour_facts, colour_kind
+        from ..relief.channel_auto import colour_facts, colour_kind
 
         sample = colour_sample(np.asarray(colour))
         step = -(-max(sample.shape[:2]) // WORD_COLOUR_PX)
@@ -99,10 +99,10 @@ def print_grid(values: np.ndarray, params=None, printer=None) -> PrintGrid | Non
 
     from ..clean.band import detect_info_band
     from ..params import LithoParams
-    from ..pipeline import layout_for, resolve_printer
-    from .lines import FINE_PITCH_MM
-    from .preprocess import prepare
-    from .scales import WorkGrid
+    from .pipeline import layout_for, resolve_printer
+    from ..relief.lines import FINE_PITCH_MM
+    from ..relief.preprocess import prepare
+    from ..relief.scales import WorkGrid
 
     params = params or LithoParams()
     machine = resolve_printer(params, printer)
@@ -195,8 +195,8 @@ def _without_boxes(v: np.ndarray, cols: int) -> np.ndarray:
 
 
 def _grey_word(grid: PrintGrid) -> ContentWord:
-    from .content import MIN_PITCH_MM, lattice_period, make_content
-    from .picture_scale import find_objects_in_picture
+    from ..relief.content import MIN_PITCH_MM, lattice_period, make_content
+    from ..relief.picture_scale import find_objects_in_picture
 
     work, pitch_mm = grid.work, grid.pitch_mm
 

@@ -25,9 +25,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import MissingDependencyError, ParameterError, TampError
+from ..errors import MissingDependencyError, ParameterError, TampError
 # The print settings the reliefs are designed for, the same as in the 3MF's settings.
-from .export.print_settings import BOTTOM_LAYERS, FIRST_LAYER_MM, INFILL, PERIMETERS, TOP_LAYERS, first_layer_mm
+from .print_settings import BOTTOM_LAYERS, FIRST_LAYER_MM, INFILL, PERIMETERS, TOP_LAYERS, first_layer_mm
 
 from .printers import PrinterProfile
 

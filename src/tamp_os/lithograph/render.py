@@ -14,9 +14,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import MissingDependencyError, ParameterError
-from .files import write_png, write_text
-from .formats import READABLE_MESH_SUFFIXES as MESH_SUFFIXES
+from ..errors import MissingDependencyError, ParameterError
+from ..export.files import write_png, write_text
+from ..formats import READABLE_MESH_SUFFIXES as MESH_SUFFIXES
 THEMES = {"light": ("white", "#b9b4ab"), "dark": ("#1e1e1e", "#c8c2b8")}
 
 
@@ -51,7 +51,7 @@ def _pyvista():
         raise MissingDependencyError(
             "rendering without a display needs the environment variable VTK_DEFAULT_OPENGL_WINDOW=vtkEGLRenderWindow "
             "set before PyVista is imported (the tamp-os command and the web app set it; in a notebook run "
-            "os.environ.update(tamp_os.render.OFFSCREEN_ENV) first)."
+            "os.environ.update(tamp_os.lithograph.render.OFFSCREEN_ENV) first)."
         )
     try:
         import pyvista

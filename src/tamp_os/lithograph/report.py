@@ -9,17 +9,17 @@ import os
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
-from .clean.annotations import Annotation
-from .clean.band import Band
-from .clean.instrument import Instrument
-from .facts import Facts
+from ..clean.annotations import Annotation
+from ..clean.band import Band
+from ..clean.instrument import Instrument
+from ..facts import Facts
 from .layout_words import ReliefLayout
-from .params import LithoParams
-from .relief.content_word import ContentWord
-from .relief.legibility import Legibility
+from ..params import LithoParams
+from .content_word import ContentWord
+from ..relief.legibility import Legibility
 
 if TYPE_CHECKING:
-    from .slicer import SliceResult
+    from ..printing.slicer import SliceResult
 
 
 @dataclass(frozen=True)
@@ -275,7 +275,7 @@ def labels_sentence(annotations, width_px: int, height_px: int) -> str | None:
 
 def web_summary_lines(report: Report, namer=None) -> list[str]:
     """The web app's result lines: size, grid, scale, notes (in its words), what was removed, printing."""
-    from .errors import words
+    from ..errors import words
 
     w, d, top = report.print_mm
     levels = "a flat plate." if report.uniform else f"up to {report.height_levels} height levels (relief ÷ layer)."
@@ -458,7 +458,7 @@ def _what_is_raised(report: Report, params: LithoParams) -> str:
         return (f"Each channel or stain of the picture is its own texture ({entries}), up to {up} above the base. "
                 f"Below the picture, along the near margin, a key shows a swatch of each texture with its label in braille.")
     if report.relief_style == "content" and report.content_kind in _CONTENT_RAISED:
-        from .relief.lines import LINE_HEIGHT_MM
+        from ..relief.lines import LINE_HEIGHT_MM
 
         return _CONTENT_RAISED[report.content_kind].format(up=up, line_mm=f"{LINE_HEIGHT_MM:g}", raised=raised)
     if report.relief_style == "structure":

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import InputError
-from .formats import READABLE_MESH_SUFFIXES as MESH_SUFFIXES
+from ..errors import InputError
+from ..formats import READABLE_MESH_SUFFIXES as MESH_SUFFIXES
 
 
 def read_mesh_file(path):

@@ -7,9 +7,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import InputError
-from .meshfile import MESH_SUFFIXES, read_mesh_file  # noqa: F401  (MESH_SUFFIXES: the check command's test)
-from .relief.legibility import Legibility, assess
+from ..errors import InputError
+from ..export.meshfile import MESH_SUFFIXES, read_mesh_file  # noqa: F401  (MESH_SUFFIXES: the check command's test)
+from ..relief.legibility import Legibility, assess
 
 
 

@@ -25,8 +25,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
-from .errors import InputError, ParameterError, TampError
-from .params import LithoParams, parse_field
+from ..errors import InputError, ParameterError, TampError
+from ..params import LithoParams, parse_field
 
 log = logging.getLogger(__name__)
 
@@ -193,7 +193,7 @@ def exit_with_parent() -> None:
 
 
 def write_report(out_dir: Path, outcomes: list[dict]) -> None:
-    from .files import write_text
+    from ..export.files import write_text
 
     buf = io.StringIO()
     writer = csv.writer(buf)

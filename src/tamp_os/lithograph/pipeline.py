@@ -14,24 +14,24 @@ from pathlib import Path
 
 import numpy as np
 
-from .clean.scale import scale_sentence
-from .clean.stage import Cleaned, clean_picture
-from .errors import ParameterError, Text
-from .mesh.adaptive import adaptive_solid
-from .mesh.solid import Mesh, grid_solid
-from .params import LithoParams, field_table
-from .printers import PrinterProfile, get_printer, height_levels
-from .read import Picture, read_array, read_image
-from .relief.legibility import Legibility, assess
-from .relief.layout import Layout, plan_layout
-from .relief.preprocess import Prepared, prepare
-from .relief.channel_auto import route as channel_route
-from .relief.styles import ReliefResult, StyleOptions, make_relief
-from .relief.touch import MOSTLY_NOISE, noise_share
+from ..clean.scale import scale_sentence
+from ..clean.stage import Cleaned, clean_picture
+from ..errors import ParameterError, Text
+from ..mesh.adaptive import adaptive_solid
+from ..mesh.solid import Mesh, grid_solid
+from ..params import LithoParams, field_table
+from ..printing.printers import PrinterProfile, get_printer, height_levels
+from ..read import Picture, read_array, read_image
+from ..relief.legibility import Legibility, assess
+from ..relief.layout import Layout, plan_layout
+from ..relief.preprocess import Prepared, prepare
+from ..relief.channel_auto import route as channel_route
+from ..relief.styles import ReliefResult, StyleOptions, make_relief
+from ..relief.touch import MOSTLY_NOISE, noise_share
 from .report import Plate, Report
-from .tactile.furniture import Furniture, Placed, add_furniture
-from .tactile.parts import two_colour_parts
-from .tactile.tiles import Tiling, tiles_for
+from ..tactile.furniture import Furniture, Placed, add_furniture
+from ..tactile.parts import two_colour_parts
+from ..tactile.tiles import Tiling, tiles_for
 from .layout_words import ReliefLayout, find_layout
 
 log = logging.getLogger(__name__)
@@ -134,7 +134,7 @@ def make_lithograph(source, params: LithoParams | None = None, *, printer_profil
         if route is None and not params.channels:
             relief, key, channel_extras = _relief(prepared, layout, params, machine, _content_hints(cleaned)), (), None
         else:
-            from .relief.channel_stage import channel_path, without_channel_note  # only when used: skimage.color and more
+            from ..relief.channel_stage import channel_path, without_channel_note  # only when used: skimage.color and more
 
             relief, layout, key, channel_extras = channel_path(_channel_source(source, picture),
                                                 lambda: _relief(prepared, layout, params, machine, _content_hints(cleaned)),
@@ -186,7 +186,7 @@ def _key_in_colour(heights, key_overlay, layout: Layout, params: LithoParams, ma
     channel key (issue 22), or None: the second colour carries them, as it carries the caption's braille."""
     if not params.multicolour or key_overlay is None:
         return None
-    from .tactile.parts import key_overlay_meshes
+    from ..tactile.parts import key_overlay_meshes
 
     def mesh_of(h):
         if params.mesher == "adaptive":
@@ -295,7 +295,7 @@ def _prepare(cleaned: Cleaned, layout: Layout, params: LithoParams) -> Prepared:
 
 def _content_hints(cleaned: Cleaned):
     """The file's detector and signal, for the content relief style's choice (issue 26)."""
-    from .relief.content import ContentHints
+    from ..relief.content import ContentHints
 
     instrument = cleaned.instrument
     return ContentHints(instrument.detector, instrument.signal) if instrument else None

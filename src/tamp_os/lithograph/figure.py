@@ -17,13 +17,13 @@ from pathlib import Path
 
 import numpy as np
 
-from .clean.panels import Panel, PanelLayout, detect_panels, forced_grid, given_layout
-from .errors import ParameterError, Text
-from .params import LithoParams
+from ..clean.panels import Panel, PanelLayout, detect_panels, forced_grid, given_layout
+from ..errors import ParameterError, Text
+from ..params import LithoParams
 from .pipeline import Lithograph, _read, layout_for, make_lithograph, resolve_printer
-from .printers import PrinterProfile, height_levels
-from .read import Picture
-from .relief.content_word import ContentWord, content_word
+from ..printing.printers import PrinterProfile, height_levels
+from ..read import Picture
+from .content_word import ContentWord, content_word
 from .report import PanelFacts, Report, describe
 
 log = logging.getLogger(__name__)
@@ -79,8 +79,8 @@ class Figure:
 
     def save_pages_pdf(self, folder: Path, stem: str) -> Path:
         """NAME.pages.pdf: the overview's page first, then each panel's, for swell paper or an embosser."""
-        from .export.tactile2d import write_pdf_pages
-        from .files import write_atomic
+        from ..export.tactile2d import write_pdf_pages
+        from ..export.files import write_atomic
         from .outputs import tactile_graphic
 
         order = [litho for suffix, litho in self.prints if suffix == ".overview"] + [litho for suffix, litho in self.prints if suffix != ".overview"]
@@ -196,7 +196,7 @@ def _has_channels(picture: Picture) -> bool:
 
 def _has_chroma(sample: np.ndarray) -> bool:
     """Whether any pixel of a colour sample is coloured (not grey stored as RGB)."""
-    from .relief.channel_auto import CHROMA
+    from ..relief.channel_auto import CHROMA
 
     return bool((np.ptp(sample, axis=2) >= CHROMA).any())
 
@@ -209,7 +209,7 @@ def crop_picture(picture: Picture, box: tuple[int, int, int, int], colour: np.nd
     `colour` (the figure's colour pixels, figure_colour) gives the panel its own: its colour
     sample, which the channel path decides by, and the pixels it splits, as a file of the panel
     would have them. Without it the panel is grey (its brightness only)."""
-    from .read import colour_sample
+    from ..read import colour_sample
 
     x, y, w, h = box
     alpha = None if picture.alpha is None else picture.alpha[y:y + h, x:x + w]
@@ -236,7 +236,7 @@ def figure_colour(source, picture: Picture, params: LithoParams, pixels: np.ndar
             return None  # channels, not colours: the channel path names them, not red, green and blue
         dtype = np.dtype(picture.file.dtype)
         return pixels if dtype.kind in "ui" else pixels.astype(np.float32)  # as read_channels gives float planes
-    from .relief.channel_stage import raw_channels
+    from ..relief.channel_stage import raw_channels
 
     raw = raw_channels(source, params)
     if [r[0] for r in raw[:3]] != ["red", "green", "blue"]:
@@ -303,7 +303,7 @@ def _overview(picture, layout: PanelLayout, params: LithoParams, record: LithoPa
               printed: list[str], contents: dict[str, ContentWord] | None = None) -> Lithograph:
     """The overview lithograph: the layout at plate size (tactile/overview.py)."""
     from .pipeline import _furniture
-    from .tactile.overview import OverviewPanel, build_overview
+    from ..tactile.overview import OverviewPanel, build_overview
 
     machine = resolve_printer(params, printer_profile)
     h, w = picture.values.shape
@@ -352,7 +352,7 @@ def overview_description(name: str, layout: PanelLayout, printed: list[str], not
 
 
 def _overview_report(picture, plan, machine, params, built, description, facts: PanelFacts) -> Report:
-    from .clean.band import Band
+    from ..clean.band import Band
     from .pipeline import _tactile_report
 
     mesh = built.mesh

@@ -3,9 +3,9 @@ pixel, blur, height levels, triangles and estimated file sizes. Shared by `tamp-
 
 from __future__ import annotations
 
-from .params import LithoParams
+from ..params import LithoParams
 from .pipeline import layout_for, make_lithograph, resolve_printer
-from .printers import ADAPTIVE_RATIO, PRESETS, estimate_file_bytes, grid_triangles, height_levels
+from ..printing.printers import ADAPTIVE_RATIO, PRESETS, estimate_file_bytes, grid_triangles, height_levels
 
 
 def preset_rows(params: LithoParams, width_px: int = 4, height_px: int = 3, picture=None) -> list[dict]:

@@ -14,7 +14,7 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
-from .errors import ParameterError
+from ..errors import ParameterError
 
 
 @dataclass(frozen=True)
@@ -206,6 +206,6 @@ ADAPTIVE_RATIO = 1 / 15
 
 def estimate_file_bytes(fmt: str, triangles: int, vertices: int) -> int | None:
     """Rough output size of a format (formats.py's table); None for 2-D graphics (not estimated)."""
-    from .formats import estimate_bytes
+    from ..formats import estimate_bytes
 
     return estimate_bytes(fmt, triangles, vertices)

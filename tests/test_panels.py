@@ -120,10 +120,10 @@ ALL_FIXTURES = sorted(p.relative_to(FIXTURES).as_posix() for p in [*FIXTURES.glo
 def test_no_fixture_is_a_figure_or_an_ambiguous_one(name):
     """Every fixture is a single picture, read as convert reads it: not split, and nothing in it
     suggests a figure (so no figure talk is worth a warning)."""
-    from tamp_os.lithograph.pipeline import _read
+    from tamp_os.lithograph.pipeline import read_source
 
     _need_fixtures(name)
-    layout = detect_panels(_read(FIXTURES / name, LithoParams()).values, read_letters=False)
+    layout = detect_panels(read_source(FIXTURES / name, LithoParams()).values, read_letters=False)
     assert not layout.split and not layout.ambiguous, layout.reason
     assert layout.reason
 
@@ -509,7 +509,7 @@ def test_a_colour_figure_is_read_once_and_prints_as_when_read_again(tmp_path, mo
     monkeypatch.setattr(pipeline_module, "read_image", counted)
     made = make_figure(png, width_mm=60)
     assert made.split and len(reads) == 1, reads
-    monkeypatch.setattr(figure_module, "_read", lambda source, params, keep_colour=False: pipeline_module._read(source, params))
+    monkeypatch.setattr(figure_module, "read_source", lambda source, params, keep_colour=False: pipeline_module.read_source(source, params))
     reads.clear()
     reread = make_figure(png, width_mm=60)
     assert len(reads) == 5  # the figure, then its red, green and blue planes after a first read of the file

@@ -339,7 +339,7 @@ def _run_each(items, action, debug: bool = False) -> int:
 def cmd_convert(args) -> int:
     from ..lithograph.convert import convert
     from ..lithograph.outputs import distinct_stems, load_recipe
-    from ..lithograph.pipeline import resolve_printer
+    from ..lithograph.sizing import resolve_printer
 
     jobs = []
     if args.recipe:
@@ -398,7 +398,7 @@ def _say(conversion, verbose: bool = False) -> list[str]:
 
 def cmd_batch(args) -> int:
     from ..lithograph.batch import Job, collect_inputs, read_overrides, run_batch
-    from ..lithograph.pipeline import resolve_printer
+    from ..lithograph.sizing import resolve_printer
 
     params = _params_from_args(args)
     resolve_printer(params)
@@ -639,7 +639,7 @@ def cmd_estimate(args) -> int:
 def cmd_presets(args) -> int:
     from ..lithograph.presets import preset_rows, size_words
     from ..relief.touch import suggest_by_touch
-    from ..lithograph.pipeline import layout_for, resolve_printer
+    from ..lithograph.sizing import layout_for, resolve_printer
     from ..printing.printers import height_levels
 
     params = _params_from_args(args)
@@ -694,7 +694,8 @@ def cmd_printers(args) -> int:
 
 
 def cmd_check(args) -> int:
-    from ..lithograph.pipeline import make_lithograph, resolve_printer
+    from ..lithograph.pipeline import make_lithograph
+    from ..lithograph.sizing import resolve_printer
     from ..lithograph.check import MESH_SUFFIXES, check_mesh
 
     params = _params_from_args(args)

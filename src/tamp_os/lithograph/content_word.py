@@ -99,7 +99,7 @@ def print_grid(values: np.ndarray, params=None, printer=None) -> PrintGrid | Non
 
     from ..clean.band import detect_info_band
     from ..params import LithoParams
-    from .pipeline import layout_for, resolve_printer
+    from .sizing import layout_for, resolve_printer
     from ..relief.lines import FINE_PITCH_MM
     from ..relief.preprocess import prepare
     from ..relief.scales import WorkGrid

@@ -20,7 +20,8 @@ import numpy as np
 from ..clean.panels import Panel, PanelLayout, detect_panels, forced_grid, given_layout
 from ..errors import ParameterError, Text
 from ..params import LithoParams
-from .pipeline import Lithograph, _read, layout_for, make_lithograph, resolve_printer
+from .pipeline import Lithograph, make_lithograph, read_source
+from .sizing import layout_for, resolve_printer
 from ..printing.printers import PrinterProfile, height_levels
 from ..read import Picture
 from .content_word import ContentWord, content_word
@@ -102,7 +103,7 @@ def make_figure(source, params: LithoParams | None = None, *, printer_profile: P
         params = params.replace(**changes)
     if params.panels == "off" and not params.panel_boxes:
         return Figure(PanelLayout(False, reason="panels is off"), [("", make_lithograph(source, params, printer_profile=printer_profile))], [], params)
-    picture = _read(source, params, keep_colour=True)
+    picture = read_source(source, params, keep_colour=True)
     pixels = None  # an RGB file's colour pixels from this one read, for its panels (figure_colour)
     if isinstance(source, (str, Path)) and picture.colour is not None:
         pixels, picture = picture.colour, dataclasses.replace(picture, colour=None)
@@ -302,7 +303,7 @@ def _panel_print(picture, panel: Panel, layout: PanelLayout, params: LithoParams
 def _overview(picture, layout: PanelLayout, params: LithoParams, record: LithoParams, printer_profile, notes: list[str],
               printed: list[str], contents: dict[str, ContentWord] | None = None) -> Lithograph:
     """The overview lithograph: the layout at plate size (tactile/overview.py)."""
-    from .pipeline import _furniture
+    from .pipeline import furniture_for
     from ..tactile.overview import OverviewPanel, build_overview
 
     machine = resolve_printer(params, printer_profile)
@@ -310,7 +311,7 @@ def _overview(picture, layout: PanelLayout, params: LithoParams, record: LithoPa
     plan = layout_for(params, machine, w, h)
     caption = f"overview {params.caption}" if params.caption else "overview"
     over_params = params.replace(caption=caption, panels="off", panel=None, panel_boxes=None)
-    furniture = dataclasses.replace(_furniture(over_params.replace(scale_bar="off"), None))
+    furniture = dataclasses.replace(furniture_for(over_params.replace(scale_bar="off"), None))
     panels = [OverviewPanel(p.box_px, p.label, picture.values[p.y:p.y + p.h, p.x:p.x + p.w]) for p in layout.panels]
     max_error = params.max_error_mm if params.max_error_mm is not None else machine.layer_mm / 2
     built = build_overview((w, h), panels, plan.cols, plan.rows, plan.width_mm, plan.depth_mm, params.base_mm, furniture,
@@ -353,7 +354,7 @@ def overview_description(name: str, layout: PanelLayout, printed: list[str], not
 
 def _overview_report(picture, plan, machine, params, built, description, facts: PanelFacts) -> Report:
     from ..clean.band import Band
-    from .pipeline import _tactile_report
+    from .pipeline import tactile_report
 
     mesh = built.mesh
     return Report(
@@ -375,7 +376,7 @@ def _overview_report(picture, plan, machine, params, built, description, facts: 
         pixel_size_m=None,
         pixel_size_source=None,
         scale="no physical scale: the overview shows the layout, not the sample",
-        tactile=_tactile_report(built.placed),
+        tactile=tactile_report(built.placed),
         crop=Band(),
         annotations=(),
         warnings=tuple(built.notes),

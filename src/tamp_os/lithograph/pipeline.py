@@ -20,15 +20,16 @@ from ..errors import ParameterError, Text
 from ..mesh.adaptive import adaptive_solid
 from ..mesh.solid import Mesh, grid_solid
 from ..params import LithoParams, field_table
-from ..printing.printers import PrinterProfile, get_printer, height_levels
+from ..printing.printers import PrinterProfile, height_levels
 from ..read import Picture, read_array, read_image
 from ..relief.legibility import Legibility, assess
-from ..relief.layout import Layout, plan_layout
+from ..relief.layout import Layout
 from ..relief.preprocess import Prepared, prepare
 from ..relief.channel_auto import route as channel_route
 from ..relief.styles import ReliefResult, StyleOptions, make_relief
 from ..relief.touch import MOSTLY_NOISE, noise_share
 from .report import Plate, Report
+from .sizing import layout_for, resolve_printer
 from ..tactile.furniture import Furniture, Placed, add_furniture
 from ..tactile.parts import two_colour_parts
 from ..tactile.tiles import Tiling, tiles_for
@@ -92,20 +93,6 @@ class Lithograph:
                 f"{r.triangles:,} triangles, relief style {r.relief_style}>")
 
 
-def resolve_printer(params: LithoParams, printer: PrinterProfile | None = None) -> PrinterProfile:
-    """The printer numbers a print uses: the named (or given) profile with the user's nozzle and layer."""
-    return (printer or get_printer(params.printer)).with_overrides(params.nozzle_mm, params.layer_mm)
-
-
-def layout_for(params: LithoParams, printer: PrinterProfile, image_w_px: int, image_h_px: int, preset: str | None = None) -> Layout:
-    """Print size and grid for an image of this size under these parameters (and preset)."""
-    return plan_layout(
-        image_w_px, image_h_px, width_mm=params.width_mm, depth_mm=params.depth_mm, default_width_mm=printer.width_mm,
-        fit=params.fit, preset=preset or params.preset, nozzle_mm=printer.nozzle_mm, resolution_px=params.resolution_px,
-        blur_px=params.blur_px, blur_mm=params.blur_mm,
-    )
-
-
 def make_lithograph(source, params: LithoParams | None = None, *, printer_profile: PrinterProfile | None = None, **changes) -> Lithograph:
     """Make a lithograph from an image file, an array or a read Picture.
 
@@ -120,7 +107,7 @@ def make_lithograph(source, params: LithoParams | None = None, *, printer_profil
     timings: dict[str, float] = {}
     clock = _Clock(timings)
     with clock("read"):
-        picture = _read(source, params)
+        picture = read_source(source, params)
     machine = resolve_printer(params, printer_profile)
     with clock("annotations"):
         cleaned = clean_picture(picture, pixel_size_m=params.pixel_size_m, remove_annotations=not params.keep_annotations)
@@ -156,7 +143,7 @@ def make_lithograph(source, params: LithoParams | None = None, *, printer_profil
     with clock("scale bar wait"):  # a scale bar's label is read beside the relief and mesh work (clean/stage.py)
         metres = cleaned.pixel_size.metres
     sample_per_mm = metres * prepared.fitted_width_px / layout.width_mm if metres else None
-    furniture = _furniture(params, sample_per_mm)
+    furniture = furniture_for(params, sample_per_mm)
     with clock("tactile"):
         tactile = _tactile(mesh, layout, params, furniture, machine.bed_mm,
                            _key_in_colour(heights, channel_extras.overlay_mm if channel_extras else None, layout, params, max_error))
@@ -239,7 +226,7 @@ def _channel_source(source, picture: Picture):
     return picture.colour if picture.colour is not None else picture.values
 
 
-def _read(source, params: LithoParams, keep_colour: bool = False) -> Picture:
+def read_source(source, params: LithoParams, keep_colour: bool = False) -> Picture:
     """`keep_colour`: keep an RGB file's colour pixels in Picture.colour (read.read_image)."""
     if isinstance(source, Picture):
         return source
@@ -312,7 +299,7 @@ def _relief(prepared: Prepared, layout: Layout, params: LithoParams, machine: Pr
                        options=options, uniform=prepared.uniform, hints=hints, fine=prepared.finer)
 
 
-def _furniture(params: LithoParams, sample_per_mm: float | None) -> Furniture:
+def furniture_for(params: LithoParams, sample_per_mm: float | None) -> Furniture:
     return Furniture(
         caption=params.caption,
         braille_table=params.braille_table,
@@ -381,7 +368,7 @@ def _report(picture, cleaned, prepared, layout, params, machine, mesh, placed, m
         pixel_size_m=scale.metres,
         pixel_size_source=scale.provenance,
         scale=scale_sentence(scale.metres, source_px_per_print_mm) if scale.metres else "no physical scale is known",
-        tactile=_tactile_report(placed),
+        tactile=tactile_report(placed),
         crop=cleaned.band,
         annotations=tuple(cleaned.annotations_with_text),
         warnings=tuple(_warnings(picture, cleaned, prepared, layout, params, later)),
@@ -396,7 +383,7 @@ def _report(picture, cleaned, prepared, layout, params, machine, mesh, placed, m
     )
 
 
-def _tactile_report(placed: Placed | None) -> Plate | None:
+def tactile_report(placed: Placed | None) -> Plate | None:
     if placed is None:
         return None
     return Plate(

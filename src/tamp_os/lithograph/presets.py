@@ -4,7 +4,8 @@ pixel, blur, height levels, triangles and estimated file sizes. Shared by `tamp-
 from __future__ import annotations
 
 from ..params import LithoParams
-from .pipeline import layout_for, make_lithograph, resolve_printer
+from .pipeline import make_lithograph
+from .sizing import layout_for, resolve_printer
 from ..printing.printers import ADAPTIVE_RATIO, PRESETS, estimate_file_bytes, grid_triangles, height_levels
 
 

@@ -49,7 +49,7 @@ from .objects import ObjectMap, dome_profile, label_max, label_median
 from .population import (
     BACKGROUND_MM,
     Members,
-    _roundness,
+    roundness,
     find_members,
     local_tophat,
     noise_level,
@@ -400,7 +400,7 @@ def _is_population(members: Members, pitch_mm: float) -> bool:
         return False
     if members.energy >= POPULATION_ENERGY:
         return True
-    round_ = float(np.median(_roundness(members.labels, members.count)[1:]))
+    round_ = float(np.median(roundness(members.labels, members.count)[1:]))
     return members.spread(pitch_mm) <= POPULATION_SPREAD and members.energy >= 0.15 and round_ >= POPULATION_ROUNDNESS
 
 

@@ -37,7 +37,7 @@ from scipy import ndimage
 from skimage import filters, morphology
 
 from .objects import label_max, label_median
-from .population import _label_percentile, noise_level
+from .population import label_percentile, noise_level
 from .scales import disk
 
 LINE_WIDTH_MM = 1.2  # raised line width on the print (1.0–1.5 mm is the tactile standard)
@@ -217,7 +217,7 @@ def _brighter_than_both_sides(skeleton: np.ndarray, image: np.ndarray, pitch_mm:
     band = (dist * pitch_mm >= 0.8) & (dist * pitch_mm <= 1.6)
     owner = np.where(band, parts[iy, ix], 0)
     on = label_median(image, parts, n)
-    side = _label_percentile(image, owner, n, 80)
+    side = label_percentile(image, owner, n, 80)
     keep = np.concatenate([[False], ~(side >= on - STEP_MARGIN)])  # NaN side (no band): keep
     return keep[parts]
 

@@ -161,14 +161,14 @@ def split_at_necks(
     """
     if dist is None:
         dist = ndimage.distance_transform_edt(np.pad(mask, 1, constant_values=True))[1:-1, 1:-1]
-    peaks, count = ndimage.label(_h_maxima(dist, depth_px) & mask)
+    peaks, count = ndimage.label(sparse_h_maxima(dist, depth_px) & mask)
     if count == 0:
         return np.zeros(mask.shape, np.int32)
     basins = mask if within is None else mask & within
     return segmentation.watershed(-dist, np.where(basins, peaks, 0), mask=basins).astype(np.int32)
 
 
-def _h_maxima(dist: np.ndarray, depth_px: float) -> np.ndarray:
+def sparse_h_maxima(dist: np.ndarray, depth_px: float) -> np.ndarray:
     """Maxima of `dist` (rows, cols) standing `depth_px` above their necks: bool markers.
 
     Searched on every second pixel of every second row (h_maxima's reconstruction is the

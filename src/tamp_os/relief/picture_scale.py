@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 from skimage import segmentation
 
-from .scales import _resize
+from .scales import resize_to
 
 REFERENCE_WIDTH_MM = 100.0  # the finders' mm constants were set on prints this wide
 
@@ -73,14 +73,14 @@ class PictureScale:
         """Working grid -> picture grid (bilinear)."""
         if self.identity:
             return work
-        return _resize(work, self.picture_shape, nearest=False)
+        return resize_to(work, self.picture_shape, nearest=False)
 
     def labels_to_work(self, labels: np.ndarray) -> np.ndarray:
         """Labels on the picture grid -> the working grid (nearest), numbered 1..n again
         (a member smaller than a working pixel may vanish on a coarser grid)."""
         if self.identity:
             return labels
-        back = _resize(labels.astype(np.float32), self.work_shape, nearest=True).astype(np.int32)
+        back = resize_to(labels.astype(np.float32), self.work_shape, nearest=True).astype(np.int32)
         return segmentation.relabel_sequential(back)[0].astype(np.int32)
 
 

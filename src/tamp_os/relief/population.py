@@ -19,7 +19,7 @@ from scipy import ndimage
 from skimage import morphology, segmentation
 
 from .hull import solid_enough
-from .objects import _h_maxima, inner_outline, label_max, label_median, sorted_by_label
+from .objects import sparse_h_maxima, inner_outline, label_max, label_median, sorted_by_label
 
 BACKGROUND_MM = 12.0  # members up to about this wide are measured against the ground around them
 NOISE_SIGMAS = 3.0  # a member's peak stands this many noise deviations above its neck (swept on the benchmark: 3 or 5)
@@ -172,7 +172,7 @@ def _with_evidence(labels: np.ndarray, top: np.ndarray, pitch_mm: float, h: floa
     area = np.bincount(labels.ravel(), minlength=n + 1).astype(np.float64)
     keep = (area * pitch_mm**2 >= MIN_MEMBER_MM2) & (area <= MAX_MEMBER_SHARE * labels.size)
     keep[0] = False
-    keep &= _roundness(labels, n) >= MIN_ROUNDNESS
+    keep &= roundness(labels, n) >= MIN_ROUNDNESS
     # Contrast all round: the ring just outside (1 mm, or half the member's radius if wider)
     # stays low. Ring pixels belong to their nearest member.
     inside = label_median(top, labels, n)
@@ -258,8 +258,8 @@ def _split_touching(labels: np.ndarray, depth_px: float) -> np.ndarray:
         return labels
     inside = (labels > 0) & ~inner_outline(labels)
     dist = ndimage.distance_transform_edt(inside)
-    # _h_maxima marks every second pixel of a plateau: a 3x3 dilation joins those marks again.
-    marks = ndimage.binary_dilation(_h_maxima(dist, max(depth_px, 0.5)), structure=np.ones((3, 3)))
+    # sparse_h_maxima marks every second pixel of a plateau: a 3x3 dilation joins those marks again.
+    marks = ndimage.binary_dilation(sparse_h_maxima(dist, max(depth_px, 0.5)), structure=np.ones((3, 3)))
     markers, n = ndimage.label(marks & inside)
     if n == 0:
         return labels
@@ -280,7 +280,7 @@ def _split_touching(labels: np.ndarray, depth_px: float) -> np.ndarray:
     return np.where(labels > 0, out, 0)
 
 
-def _label_percentile(values: np.ndarray, labels: np.ndarray, n: int, pct: float) -> np.ndarray:
+def label_percentile(values: np.ndarray, labels: np.ndarray, n: int, pct: float) -> np.ndarray:
     val, starts, counts = sorted_by_label(values, labels, n)
     out = np.full(n, np.nan)
     has = counts > 0
@@ -288,7 +288,7 @@ def _label_percentile(values: np.ndarray, labels: np.ndarray, n: int, pct: float
     return out
 
 
-def _roundness(labels: np.ndarray, n: int) -> np.ndarray:
+def roundness(labels: np.ndarray, n: int) -> np.ndarray:
     """Minor over major axis of each label's second moments (index 0 = ground), in one pass."""
     rows, cols = np.nonzero(labels)
     lab = labels[rows, cols]

@@ -38,10 +38,10 @@ def coarse_gaussian_mm(image: np.ndarray, sigma_mm: float, pitch_mm: float) -> n
     rows, cols = image.shape
     if factor < 2 or min(rows, cols) // factor < 4:
         return gaussian_mm(image, sigma_mm, pitch_mm)
-    small = _resize(image, (-(-rows // factor), -(-cols // factor)), nearest=False)
+    small = resize_to(image, (-(-rows // factor), -(-cols // factor)), nearest=False)
     sigma_small_px = sigma_mm / pitch_mm * small.shape[1] / cols
     blurred = ndimage.gaussian_filter(small, sigma=sigma_small_px, mode="nearest")
-    return _resize(blurred, (rows, cols), nearest=False)
+    return resize_to(blurred, (rows, cols), nearest=False)
 
 
 def disk(radius_px: float) -> np.ndarray:
@@ -123,16 +123,16 @@ class WorkGrid:
         """Output grid -> working grid (antialiased)."""
         if not self.resized:
             return image.astype(np.float32, copy=False)
-        return _resize(image, self.work_shape, nearest=False)
+        return resize_to(image, self.work_shape, nearest=False)
 
     def up(self, image: np.ndarray, nearest: bool = False) -> np.ndarray:
         """Working grid -> output grid (bilinear; nearest keeps plateaus as exact steps)."""
         if not self.resized:
             return image
-        return _resize(image, self.shape, nearest=nearest)
+        return resize_to(image, self.shape, nearest=nearest)
 
 
-def _resize(image: np.ndarray, shape: tuple[int, int], nearest: bool) -> np.ndarray:
+def resize_to(image: np.ndarray, shape: tuple[int, int], nearest: bool) -> np.ndarray:
     # Pillow's float resize: 10-15x faster than skimage.transform.resize with antialiasing.
     from PIL import Image
 

@@ -229,7 +229,7 @@ def _plan_scale_bar(plan: Plan, bar: ScaleBar, top_mm: float) -> float:
     return top_mm - row_h
 
 
-def _relief_part(relief: Mesh, origin_mm: tuple[float, float], bottom_mm: float):
+def relief_part(relief: Mesh, origin_mm: tuple[float, float], bottom_mm: float):
     """The relief as a manifold3d solid at its origin, its bottom raised to `bottom_mm` (inside the plate)."""
     import manifold3d as m3
 
@@ -264,7 +264,7 @@ def build_base(relief: Mesh, plan: Plan, base_mm: float) -> list:
     plate_w, plate_d = plan.placed.plate_mm
     plate_top = base_mm - min(SEAM_MM, base_mm / 10)
     return [_extrude([_rect((0, 0, plate_w, plate_d))], 0.0, plate_top),
-            _relief_part(relief, plan.placed.relief_origin_mm, plate_top / 2)]
+            relief_part(relief, plan.placed.relief_origin_mm, plate_top / 2)]
 
 
 def build_raised(plan: Plan, base_mm: float, spec: BrailleSpec) -> list:
@@ -277,7 +277,7 @@ def build_raised(plan: Plan, base_mm: float, spec: BrailleSpec) -> list:
         parts.append(_extrude([_rect(outer), _rect(inner)[::-1]], base_mm - sink, base_mm + FRAME_HEIGHT_MM))
     if plan.bar_outline:
         parts.append(_extrude([plan.bar_outline], base_mm - sink, base_mm + BAR_HEIGHT_MM))
-    dome = _dome(spec, sink)
+    dome = braille_dome(spec, sink)
     parts += [dome.translate((x, y, base_mm)) for x, y in plan.dot_centres]
     return parts
 
@@ -293,7 +293,7 @@ def add_furniture(relief: Mesh, width_mm: float, depth_mm: float, base_mm: float
         if not furniture.corner_cut:
             return relief, placed
         placed.corner_cut_mm = corner_legs_mm(width_mm, depth_mm)
-        solid = _relief_part(relief, (0.0, 0.0), 0.0)
+        solid = relief_part(relief, (0.0, 0.0), 0.0)
         top = float(relief.vertices[:, 2].max())
         return _fuse([solid], placed, top), placed
     plan = plan_furniture(width_mm, depth_mm, furniture)
@@ -302,7 +302,7 @@ def add_furniture(relief: Mesh, width_mm: float, depth_mm: float, base_mm: float
     return _fuse(parts, plan.placed, top), plan.placed
 
 
-def _dome(spec: BrailleSpec, sink_mm: float):
+def braille_dome(spec: BrailleSpec, sink_mm: float):
     """A spherical cap of the spec's base diameter and height, on a short cylinder sunk into the plate."""
     import manifold3d as m3
 
@@ -362,7 +362,7 @@ def braille_test_plate(text: str, table: str, heights_mm, diameters_mm, base_mm:
     depth = len(rows) * specs[0].line_spacing_mm + 2 * BOTTOM_BORDER_MM
     parts = [_extrude([_rect((0, 0, width, depth))], 0.0, base_mm - min(SEAM_MM, base_mm / 10))]
     for i, (line, spec) in enumerate(zip(lines, specs)):
-        dome = _dome(spec, min(0.4, base_mm / 2))
+        dome = braille_dome(spec, min(0.4, base_mm / 2))
         top_y = depth - BOTTOM_BORDER_MM - i * spec.line_spacing_mm
         parts += [dome.translate((x, y, base_mm)) for x, y in dot_centres([line], spec, BORDER_MM, top_y)]
     placed = Placed(plate_mm=(width, depth), relief_origin_mm=(0.0, 0.0), corner_cut_mm=corner_legs_mm(width, depth))

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from .furniture import (BAR_HEIGHT_MM, FRAME_HEIGHT_MM, Furniture, Placed, _relief_part, build_base, build_raised,
+from .furniture import (BAR_HEIGHT_MM, FRAME_HEIGHT_MM, Furniture, Placed, relief_part, build_base, build_raised,
                         fuse_solid, plan_furniture, to_mesh)
 from ..mesh.solid import Mesh
 
@@ -80,8 +80,8 @@ def two_colour_parts(relief: Mesh, width_mm: float, depth_mm: float, base_mm: fl
         if overlay is None:
             return [Part("base", "plate and relief", mesh, BASE_COLOUR_RGB)], placed
         top = max(float(relief.vertices[:, 2].max()), float(overlay.vertices[:, 2].max()))
-        base = fuse_solid([_relief_part(relief, (0.0, 0.0), 0.0)], placed, top)
-        raised = fuse_solid([_relief_part(overlay, (0.0, 0.0), 0.0)], placed, top) - base
+        base = fuse_solid([relief_part(relief, (0.0, 0.0), 0.0)], placed, top)
+        raised = fuse_solid([relief_part(overlay, (0.0, 0.0), 0.0)], placed, top) - base
         return [Part("base", "plate and relief", to_mesh(base), BASE_COLOUR_RGB),
                 Part("raised", "the key's braille and outlines", to_mesh(raised), RAISED_COLOUR_RGB)], placed
     placed = plan.placed
@@ -90,7 +90,7 @@ def two_colour_parts(relief: Mesh, width_mm: float, depth_mm: float, base_mm: fl
     base_parts = build_base(relief, plan, base_mm)
     if overlay is not None:
         top = max(top, float(overlay.vertices[:, 2].max()))
-        raised_parts.append(_relief_part(overlay, placed.relief_origin_mm, base_mm / 4))
+        raised_parts.append(relief_part(overlay, placed.relief_origin_mm, base_mm / 4))
     base = fuse_solid(base_parts, placed, top)
     raised = fuse_solid(raised_parts, placed, top) - base
     return [

@@ -202,7 +202,7 @@ def _label_solid(mesh: Mesh, box: Box, on_margin: bool, label: str, base_mm: flo
     """The label's domes (and, off the margin, the flat pad they stand on) as one manifold3d solid."""
     import manifold3d as m3
 
-    from .furniture import _dome  # the caption's dome, so labels feel like the caption
+    from .furniture import braille_dome  # the caption's dome, so labels feel like the caption
 
     x0, y0, x1, y1 = box
     stand = base_mm if on_margin else _top_within(mesh, box)
@@ -210,7 +210,7 @@ def _label_solid(mesh: Mesh, box: Box, on_margin: bool, label: str, base_mm: flo
     if not on_margin:  # the pad reaches down into the base, so it overlaps instead of touching
         parts.append(m3.Manifold.extrude(m3.CrossSection([[(x0, y0), (x1, y0), (x1, y1), (x0, y1)]]), stand - base_mm / 2)
                      .translate((0, 0, base_mm / 2)))
-    dome = _dome(spec, min(0.4, base_mm / 2))
+    dome = braille_dome(spec, min(0.4, base_mm / 2))
     parts += [dome.translate((x, y, stand)) for x, y in dot_centres([label], spec, x0, y1)]
     return m3.Manifold.batch_boolean(parts, m3.OpType.Add)
 

@@ -1,5 +1,5 @@
 # Two commands do everything on a fresh Debian machine: `make demo` and `make test`.
-.PHONY: demo test setup bench clean
+.PHONY: demo test test-fast setup bench clean
 
 setup:
 	@bash scripts/setup.sh
@@ -15,3 +15,8 @@ bench: setup
 
 clean:
 	rm -rf demo-output .pytest_cache .hypothesis
+
+# The developer's loop: everything but the slow tiers (browser, slicer, real microscope files,
+# slow), with few hypothesis examples (docs/testing.md).
+test-fast: setup
+	TAMP_HYPOTHESIS=dev .venv/bin/python -m pytest -m "not slow and not browser and not slicer and not real" $(PYTEST_ARGS)

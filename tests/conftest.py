@@ -4,6 +4,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import settings
 
 ROOT = Path(__file__).resolve().parents[1]
 # TAMP_FIXTURES: for runs from a copy of the tree (mutation testing runs the tests from mutants/).
@@ -11,6 +12,42 @@ FIXTURES = Path(os.environ.get("TAMP_FIXTURES") or ROOT.parent / "shared" / "fix
 STRICT = os.environ.get("TAMP_STRICT") == "1"
 # Offscreen rendering for tests that render in this process (the CLI and web app set it themselves).
 os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+
+# Hypothesis profiles: `ci` keeps each test's own example count (`make test`, CI), `dev` runs a
+# tenth of them (`make test-fast`). Tests write `max_examples=examples(N)`.
+HYPOTHESIS_PROFILE = os.environ.get("TAMP_HYPOTHESIS", "ci")
+settings.register_profile("ci", deadline=None)
+settings.register_profile("dev", deadline=None, max_examples=10)
+settings.load_profile(HYPOTHESIS_PROFILE if HYPOTHESIS_PROFILE in ("ci", "dev") else "ci")
+
+
+def examples(n: int) -> int:
+    """A test's hypothesis example count under the current profile."""
+    return n if HYPOTHESIS_PROFILE != "dev" else max(2, n // 10)
+
+
+# Test tiers, applied from what a test uses, so that no one has to remember to mark it:
+# `browser` (headless Chromium), `slicer` (PrusaSlicer), `real` (the real microscope files in
+# ../shared/fixtures). `slow` is marked by hand on the few synthetic tests that take long.
+# `make test-fast` leaves all four out; `make test` and CI run everything.
+TIER_BY_FIXTURE = {"browser": "browser", "slicer_present": "slicer", "fixture": "real", "fixtures_dir": "real"}
+
+
+def pytest_collection_modifyitems(config, items):
+    for item in items:
+        tiers = {TIER_BY_FIXTURE[name] for name in getattr(item, "fixturenames", ()) if name in TIER_BY_FIXTURE}
+        params = getattr(getattr(item, "callspec", None), "params", {})
+        if any(isinstance(v, str) and v and (FIXTURES / v).is_file() for v in params.values()):
+            tiers.add("real")  # parametrized by a fixture file's name
+        for tier in sorted(tiers):
+            item.add_marker(getattr(pytest.mark, tier))
+
+
+def pytest_terminal_summary(terminalreporter):
+    """Say how many tests skipped because the shared fixtures are missing (a clone without ../shared)."""
+    missing = [r for r in terminalreporter.stats.get("skipped", []) if "fixture" in str(r.longrepr)]
+    if missing and not FIXTURES.is_dir():
+        terminalreporter.write_line(f"{len(missing)} tests skipped: the fixtures folder {FIXTURES} is missing")
 
 
 def run_cli(capsys, *argv) -> tuple[int, str, str]:

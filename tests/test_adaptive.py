@@ -11,6 +11,7 @@ from tamp_os import make_lithograph
 from tamp_os.mesh.adaptive import adaptive_solid, insert_point
 from tamp_os.mesh.solid import grid_volume_mm3
 from tamp_os.mesh.validate import check_solid
+from conftest import examples
 
 
 def surface_at_grid_nodes(mesh, rows, cols, width, depth):
@@ -41,7 +42,7 @@ heightmaps = st.tuples(st.integers(2, 40), st.integers(2, 40)).flatmap(
 )
 
 
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=examples(60), deadline=None)
 @given(heightmaps, st.floats(5.0, 200.0), st.floats(5.0, 200.0), st.floats(0.01, 1.0))
 def test_adaptive_solid_properties_and_error_bound(heights, width, depth, max_error):
     mesh = adaptive_solid(heights, width, depth, max_error)
@@ -62,7 +63,7 @@ def test_adaptive_solid_properties_and_error_bound(heights, width, depth, max_er
 smooth_heightmaps = st.tuples(st.integers(8, 60), st.integers(8, 60), st.integers(0, 2**32 - 1), st.floats(1.0, 3.0))
 
 
-@settings(max_examples=40, deadline=None)
+@settings(max_examples=examples(40), deadline=None)
 @given(smooth_heightmaps, st.floats(5.0, 200.0), st.floats(5.0, 200.0), st.floats(0.01, 0.3))
 def test_adaptive_volume_within_error_times_area_on_blurred_reliefs(spec, width, depth, max_error):
     # Heightmaps as the pipeline makes them: blurred by at least one pixel (every preset does).

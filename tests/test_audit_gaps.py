@@ -9,6 +9,7 @@ from hypothesis import strategies as st
 
 from tamp_os.mesh.solid import Mesh
 from tamp_os.mesh.validate import check_as_written, check_solid, merge_float32
+from conftest import examples
 
 CUBE_VERTICES = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]], float)
 CUBE_FACES = np.array([
@@ -105,7 +106,7 @@ def _dots_box(lines, spec, left, top):
     return centres[:, 0].min() - r, centres[:, 1].min() - r, centres[:, 0].max() + r, centres[:, 1].max() + r
 
 
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=examples(60), deadline=None)
 @given(
     diameter=st.floats(1.2, 1.8), spacing=st.floats(2.2, 2.8), cell=st.floats(5.5, 7.6), line=st.floats(8.0, 15.0),
     cells=st.integers(1, 12), rows=st.integers(1, 4), eight_dot=st.booleans(),
@@ -300,7 +301,7 @@ def test_merge_of_distinct_positions_keeps_every_vertex_and_face():
 words_of_cells = st.lists(st.text(alphabet="⠁⠃⠉⠙⠑⠋", min_size=1, max_size=14), min_size=1, max_size=12)
 
 
-@settings(max_examples=120, deadline=None)
+@settings(max_examples=examples(120), deadline=None)
 @given(words=words_of_cells, max_cells=st.integers(1, 10))
 def test_wrapped_braille_lines_are_greedy_and_lose_nothing(words, max_cells):
     from tamp_os.tactile.braille import BLANK, wrap_cells

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from conftest import need
+from conftest import need, examples
 
 from tamp_os.errors import ParameterError
 from tamp_os.mesh.validate import check_solid
@@ -254,7 +254,7 @@ def test_real_svs_he_epidermis_raised_white_at_base(fixture):
 
 
 @pytest.mark.timeout(60)
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=examples(60), deadline=None)
 @given(st.dictionaries(st.text(alphabet="ABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789 -", min_size=1, max_size=12).map(str.strip)
                        .filter(bool), st.sampled_from(("domes", "ridges", "dots", "plateau")), min_size=1, max_size=4))
 def test_assignments_round_trip(assign):

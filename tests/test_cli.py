@@ -13,6 +13,7 @@ from PIL import Image
 from tamp_os import LithoParams
 from tamp_os.cli.commands import main
 from tamp_os.errors import ParameterError
+from conftest import examples
 
 
 @pytest.fixture
@@ -101,7 +102,7 @@ def test_debug_shows_traceback(tmp_path):
     assert out.returncode != 0 and "Traceback" in out.stderr
 
 
-@settings(max_examples=50, deadline=None)
+@settings(max_examples=examples(50), deadline=None)
 @given(
     relief=st.floats(0.01, 50), base=st.floats(0.01, 50), invert=st.booleans(),
     formats=st.lists(st.sampled_from(["stl", "3mf", "glb", "obj", "ply"]), min_size=1, unique=True),

@@ -12,6 +12,7 @@ from hypothesis import given, settings, strategies as st
 from tamp_os.lithograph.layout_words import count_words, find_layout, layout_sentence, place_word
 from tamp_os.lithograph.outputs import metadata
 from tamp_os.lithograph.pipeline import make_lithograph
+from conftest import examples
 
 
 def _discs(centres_px, radii_px, shape=(100, 200)):
@@ -49,7 +50,7 @@ def test_place_words(x, y, word):
     assert place_word(x, y) == word
 
 
-@settings(max_examples=80, deadline=None)
+@settings(max_examples=examples(80), deadline=None)
 @given(n=st.integers(0, 30))
 def test_counts_agree(n):
     text = count_words(n, "object")
@@ -57,7 +58,7 @@ def test_counts_agree(n):
     assert text.split()[0] == ("one" if n == 1 else text.split()[0])
 
 
-@settings(max_examples=25, deadline=None)
+@settings(max_examples=examples(25), deadline=None)
 @given(count=st.integers(1, 7), seed=st.integers(0, 10_000))
 def test_layout_sentence_grammar_for_any_count(count, seed):
     rng = np.random.default_rng(seed)

@@ -12,6 +12,7 @@ from hypothesis import given, settings, strategies as st
 from tamp_os import make_lithograph
 from tamp_os.errors import InputError, ParameterError, Text, render
 from tamp_os.params import LithoParams
+from conftest import examples
 
 pytestmark = pytest.mark.timeout(120)
 
@@ -45,7 +46,7 @@ PIECE = st.one_of(  # (template, said by a front end, said by the library)
 )
 
 
-@settings(max_examples=300, deadline=None)
+@settings(max_examples=examples(300), deadline=None)
 @given(st.lists(PIECE, max_size=8))
 def test_render_replaces_only_backticked_parameter_names(pieces):
     template = "".join(t for t, _, _ in pieces)

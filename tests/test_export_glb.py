@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from conftest import need_module
+from conftest import need_module, examples
 from tamp_os import make_lithograph
 from tamp_os.export.glb import glb_bytes, unit_normals
 
@@ -43,7 +43,7 @@ def meshes(draw):
     return vertices, faces, normals
 
 
-@settings(max_examples=150, deadline=None)
+@settings(max_examples=examples(150), deadline=None)
 @given(meshes())
 def test_same_bytes_as_trimesh_on_any_mesh(mesh):
     assert glb_bytes(*mesh) == _trimesh_glb(*mesh)

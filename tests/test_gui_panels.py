@@ -17,7 +17,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from PIL import Image
 
-from conftest import need
+from conftest import need, examples
 from figures import grid_white_boxes, save, synthetic_texture
 from gui_support import audit, browser, form_token, png_bytes, screenshot, start_server, stop_server, tab_to  # noqa: F401 (fixture)
 from tamp_os.clean.panels import Panel, PanelLayout
@@ -77,7 +77,7 @@ def test_a_panel_too_small_to_print_on_its_own_is_said_so():
     assert not PanelFound("b", "right", (0, 0, 300, MIN_PANEL_PX - 1), "t.png").printable
 
 
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=examples(60), deadline=None)
 @given(st.lists(st.booleans(), min_size=4, max_size=4))
 def test_what_is_ticked_is_what_make_figure_prints(ticks):
     """The checkboxes' parameter, given to the figure's own panel choice (figure._chosen), picks

@@ -12,10 +12,11 @@ from scipy import ndimage
 from skimage.morphology import convex_hull_image
 
 from tamp_os.relief.hull import convex_hull_mask, labelled_hulls, solid_enough
+from conftest import examples
 
 
 @pytest.mark.timeout(120)
-@settings(max_examples=400, deadline=None)
+@settings(max_examples=examples(400), deadline=None)
 @given(mask=arrays(bool, st.tuples(st.integers(1, 40), st.integers(1, 40))), opened=st.booleans())
 def test_same_pixels_as_scikit_image(mask, opened):
     if opened:

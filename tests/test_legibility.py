@@ -8,6 +8,7 @@ from hypothesis import strategies as st
 from synthetic import tem_texture
 from tamp_os.relief.legibility import assess
 from tamp_os.relief.touch import suggest_by_touch
+from conftest import examples
 
 MM = 0.4  # grid pitch in mm
 
@@ -30,7 +31,7 @@ def test_fine_share_tells_noise_from_shape():
 
 
 @pytest.mark.timeout(60)
-@settings(max_examples=15, deadline=None)
+@settings(max_examples=examples(15), deadline=None)
 @given(step=st.sampled_from([0.24, 0.48, 0.6, 1.2]), count=st.integers(2, 4))
 def test_levels_and_smallest_step_of_a_terrace(step, count):
     cols = np.repeat(np.arange(count), 30)
@@ -55,7 +56,7 @@ def test_narrow_features_are_found_and_wide_ones_are_not():
 
 @pytest.mark.timeout(30)
 @given(angle=st.floats(5, 60))
-@settings(max_examples=10, deadline=None)
+@settings(max_examples=examples(10), deadline=None)
 def test_steepest_slope_of_a_ramp(angle):
     x = np.arange(100) * MM
     heights = np.tile(1.0 + np.tan(np.radians(angle)) * x, (50, 1))
@@ -77,7 +78,7 @@ def test_object_lift_above_the_ground_around_it():
 
 
 @pytest.mark.timeout(60)
-@settings(max_examples=6, deadline=None)
+@settings(max_examples=examples(6), deadline=None)
 @given(seed=st.integers(0, 1000), size=st.sampled_from([68, 128]))
 def test_noise_never_gets_high(seed, size):
     noisy = np.random.default_rng(seed).normal(0.5, 0.2, (size, size)).astype(np.float32)

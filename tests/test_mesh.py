@@ -10,6 +10,7 @@ from hypothesis.extra.numpy import arrays
 
 from tamp_os.mesh.solid import boundary_edges, grid_solid, grid_top, grid_volume_mm3
 from tamp_os.mesh.validate import check_solid
+from conftest import examples
 
 heightmaps = st.tuples(st.integers(2, 24), st.integers(2, 24)).flatmap(
     lambda shape: arrays(np.float64, shape, elements=st.floats(0.2, 10.0, allow_nan=False))
@@ -27,7 +28,7 @@ def independent_checks(mesh):
     return tm, m
 
 
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=examples(60), deadline=None)
 @given(heightmaps, sizes, sizes)
 def test_grid_solid_is_closed_manifold_outward_with_exact_volume_and_bounds(heights, width, depth):
     mesh = grid_solid(heights, width, depth)

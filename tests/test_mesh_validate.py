@@ -10,7 +10,7 @@ import trimesh
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from conftest import need
+from conftest import need, examples
 
 from tamp_os import make_lithograph
 from tamp_os.errors import ExportError, ParameterError
@@ -170,7 +170,7 @@ def test_step_refusal_comes_before_any_file(tmp_path, monkeypatch):
 
 
 @pytest.mark.timeout(120)
-@settings(max_examples=150, deadline=None)
+@settings(max_examples=examples(150), deadline=None)
 @given(
     width=st.floats(20.0, 300.0),
     depth=st.floats(5.0, 300.0),

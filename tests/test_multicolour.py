@@ -16,7 +16,7 @@ from hypothesis import given, settings, strategies as st
 from tamp_os.lithograph.pipeline import make_lithograph
 from tamp_os.params import LithoParams
 from tamp_os.errors import ParameterError
-from conftest import need
+from conftest import need, examples
 
 
 @pytest.fixture(scope="module")
@@ -255,7 +255,7 @@ def test_prusaslicer_prints_each_part_with_its_own_extruder(tmp_path):
 
 
 @pytest.mark.timeout(60)
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=examples(60), deadline=None)
 @given(
     counts=st.lists(st.integers(1, 10**7), min_size=1, max_size=6),
     names=st.lists(st.text(max_size=20), min_size=6, max_size=6),

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from conftest import FIXTURES, need, run_cli
+from conftest import FIXTURES, need, run_cli, examples
 from figures import (box_error, dark_fluorescence, fluorescence_composite, grid_colour, grid_white_boxes, micrograph, row_on_black,
                      save, stained_section, synthetic_texture, unequal, with_title)
 from synthetic import sem_spheres
@@ -172,7 +172,7 @@ def test_bundled_sample_images_are_not_split(name):
 
 
 @pytest.mark.timeout(300)
-@settings(max_examples=25, deadline=None)
+@settings(max_examples=examples(25), deadline=None)
 def _regular_grid(rows, cols, gutter, ph, pw, black, seed):
     """An equal grid of textured panels on a white or black gutter, and the true boxes (x, y, w, h)."""
     H, W = rows * ph + (rows + 1) * gutter, cols * pw + (cols + 1) * gutter
@@ -726,7 +726,7 @@ def test_speed_of_the_whole_detection_with_letters_on_a_4000_by_3000_figure():
 
 
 @pytest.mark.timeout(300)
-@settings(max_examples=20, deadline=None)
+@settings(max_examples=examples(20), deadline=None)
 @given(rows=st.integers(1, 3), cols=st.integers(1, 3), gutter=st.integers(6, 30), ph=st.integers(90, 200), pw=st.integers(90, 200),
        black=st.booleans(), seed=st.integers(0, 1000), step=st.integers(2, 3))
 def test_a_grid_cut_on_every_few_pixels_is_refined_exactly(rows, cols, gutter, ph, pw, black, seed, step):

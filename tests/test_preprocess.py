@@ -9,6 +9,7 @@ from scipy import ndimage
 from synthetic_content import sparse_beads, sparse_strokes
 
 from tamp_os.relief.preprocess import prepare, stretch
+from conftest import examples
 
 
 def _prepared(values, cols=50, invert=False, flip_x=False, alpha=None):
@@ -34,7 +35,7 @@ def test_the_finer_picture_keeps_a_one_pixel_line_the_print_grid_blurs_away():
 
 
 @pytest.mark.timeout(60)
-@settings(max_examples=25, deadline=None)
+@settings(max_examples=examples(25), deadline=None)
 @given(seed=st.integers(0, 2**31 - 1), invert=st.booleans(), flip_x=st.booleans(), want=st.integers(60, 500))
 def test_the_finer_picture_follows_the_prints_orientation_and_never_exceeds_the_source(seed, invert, flip_x, want):
     rng = np.random.default_rng(seed)
@@ -137,7 +138,7 @@ def test_a_long_tail_of_an_ordinary_picture_and_dense_content_keep_the_percentil
 
 
 @pytest.mark.timeout(120)
-@settings(max_examples=30, deadline=None)
+@settings(max_examples=examples(30), deadline=None)
 @given(seed=st.integers(0, 2**31 - 1), sigma=st.floats(0.0, 6.0), offset=st.floats(-100, 100), scale=st.floats(0.01, 1000))
 def test_pictures_without_a_distinct_tail_keep_the_percentile_stretch(seed, sigma, offset, scale):
     """Noise, smooth or not, at any level and scale: no tail is a population apart from the rest."""

@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from conftest import need, run_cli
+from conftest import need, run_cli, examples
 from tamp_os.errors import ParameterError
 from tamp_os.lithograph.pipeline import make_lithograph
 from tamp_os.printing.printer_table import NOT_CHECKED, PRINTERS, find_printer, printers_of
@@ -189,7 +189,7 @@ def test_rows_agree_with_the_installed_prusaslicer_bundles():
     need(checked > 0, "PrusaSlicer's vendor bundles (apt-get install prusa-slicer)")
 
 
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=examples(60), deadline=None)
 @given(name=st.sampled_from(["mk4", "a1 mini", "Bambu Lab A1", "Original Prusa MK4S", "core one", "x1c"]),
        flips=st.lists(st.booleans(), min_size=20, max_size=20), dash=st.booleans())
 def test_names_match_in_any_case_and_spacing(name, flips, dash):

@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from conftest import need
+from conftest import need, examples
 from tamp_os.printing import prusa_presets as pp
 from tamp_os.errors import ParameterError
 
@@ -80,7 +80,7 @@ def test_inheritance_later_parents_and_own_values_win(test_bundle):
 
 
 @pytest.mark.timeout(30)
-@settings(max_examples=50, deadline=None)
+@settings(max_examples=examples(50), deadline=None)
 @given(x0=st.integers(-50, 50), y0=st.integers(-50, 50), w=st.integers(1, 1000), d=st.integers(1, 1000))
 def test_bed_size_from_bed_shape(x0, y0, w, d):
     shape = f"{x0}x{y0},{x0 + w}x{y0},{x0 + w}x{y0 + d},{x0}x{y0 + d}"

@@ -14,6 +14,7 @@ from scipy import ndimage
 from tamp_os.relief.dense import blob_scale
 from tamp_os.relief.preprocess import prepare
 from tamp_os.relief.styles import make_relief
+from conftest import examples
 
 BASE, RELIEF = 1.0, 3.0
 SRC = (600, 1000)
@@ -79,7 +80,7 @@ def felt_share(heights, labels, mm_per_px, ring_mm=1.5):
 
 
 @pytest.mark.timeout(300)
-@settings(max_examples=4, deadline=None)
+@settings(max_examples=examples(4), deadline=None)
 @given(seed=st.integers(0, 2**16), radius_px=st.floats(10.5, 13.0))
 def test_a_dense_particle_field_is_found_and_nine_in_ten_members_are_felt(seed, radius_px):
     """Particles 2.1-2.6 mm across on the print, hundreds of them touching: the blobs are a dense
@@ -99,7 +100,7 @@ def test_a_dense_particle_field_is_found_and_nine_in_ten_members_are_felt(seed, 
 
 
 @pytest.mark.timeout(300)
-@settings(max_examples=6, deadline=None)
+@settings(max_examples=examples(6), deadline=None)
 @given(seed=st.integers(0, 2**16), speckle_px=st.floats(4.0, 9.0))
 def test_a_gaussian_texture_of_one_speckle_size_is_not_a_dense_field(seed, speckle_px):
     """A random texture whose speckle has one size (as noisy TEM) gathers its blobs at one scale

@@ -13,6 +13,7 @@ from hypothesis import strategies as st
 from tamp_os.relief.picture_scale import REFERENCE_WIDTH_MM, PictureScale
 from tamp_os.relief.preprocess import prepare
 from tamp_os.relief.styles import make_relief
+from conftest import examples
 
 BASE, RELIEF = 1.0, 3.0
 WIDTHS_MM = (60, 80, 100, 120, 150)
@@ -95,7 +96,7 @@ def disc_layouts(draw):
 
 
 @pytest.mark.timeout(300)
-@settings(max_examples=6, deadline=None)
+@settings(max_examples=examples(6), deadline=None)
 @given(disc_layouts())
 def test_the_same_discs_are_found_at_every_width(layout):
     """N known discs printed 60, 100 and 150 mm wide: the content style finds N members at each

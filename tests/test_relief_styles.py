@@ -12,6 +12,7 @@ from tamp_os.errors import ParameterError
 from tamp_os.relief.legibility import assess
 from tamp_os.relief.preprocess import prepare
 from tamp_os.relief.styles import STYLES, StyleOptions, make_relief
+from conftest import examples
 
 RELIEF, BASE = 3.0, 1.0
 
@@ -105,7 +106,7 @@ def _regions(heights):
 
 
 @pytest.mark.timeout(120)
-@settings(max_examples=8, deadline=None)
+@settings(max_examples=examples(8), deadline=None)
 @given(count=st.integers(2, 5), seed=st.integers(0, 50), which=st.sampled_from(["tem", "particles"]))
 def test_levels_gives_exact_plateaus_big_enough_to_feel(count, seed, which):
     maker = tem_texture if which == "tem" else particles_on_texture

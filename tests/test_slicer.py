@@ -24,6 +24,7 @@ def slicer_present():
 def fept_low(tmp_path_factory, request):
     from conftest import FIXTURES
 
+    need((FIXTURES / "fept_spheres_sem.png").is_file(), "fixture fept_spheres_sem.png")
     folder = tmp_path_factory.mktemp("slice")
     litho = make_lithograph(FIXTURES / "fept_spheres_sem.png", preset="low", gcode=True)
     litho.save(folder)  # gcode=True: saving slices too, and the report then holds the result

@@ -12,7 +12,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from scipy import ndimage
 
-from conftest import need
+from conftest import need, examples
 from tamp_os.errors import ParameterError
 from tamp_os.export import textures as tx
 from tamp_os.export.graphic2d import layout_graphic, regions_from_image
@@ -127,7 +127,7 @@ def _braille_dot_circles(svg_bytes, diameter_mm):
 
 
 @pytest.mark.timeout(120)
-@settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=examples(8), deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(caption=st.text(alphabet=[chr(c) for c in range(0x2801, 0x2840)] + ["\u2800"], min_size=1, max_size=40))
 def test_svg_size_in_mm_and_one_circle_per_braille_dot(tmp_path, caption):
     _cairo_ok()
@@ -194,7 +194,7 @@ def _box_gap(a, b):
 
 
 @pytest.mark.timeout(30)
-@settings(max_examples=25, deadline=None)
+@settings(max_examples=examples(25), deadline=None)
 @given(rows=st.integers(10, 120), cols=st.integers(30, 160), mm_per_px=st.floats(0.3, 1.5),
        caption=st.text(alphabet=["⠁", "⠃", "⠉", "⠿", "\u2800"], min_size=0, max_size=60))
 def test_layout_keeps_elements_apart_and_on_the_plate(rows, cols, mm_per_px, caption):
@@ -216,7 +216,7 @@ def test_layout_keeps_elements_apart_and_on_the_plate(rows, cols, mm_per_px, cap
 
 
 @pytest.mark.timeout(30)
-@settings(max_examples=30, deadline=None)
+@settings(max_examples=examples(30), deadline=None)
 @given(r0=st.integers(0, 30), c0=st.integers(0, 30), h=st.integers(1, 40), w=st.integers(1, 40), p=st.floats(0.2, 1.0))
 def test_textures_stay_inside_their_region(r0, c0, h, w, p):
     mask = np.zeros((80, 80), bool)

@@ -13,6 +13,7 @@ from tamp_os.errors import ParameterError
 from tamp_os.lithograph.pipeline import make_lithograph
 from tamp_os.tactile.tiles import (CLEARANCE_MM, HEAD_DIAMETER_MM, REACH_MM, cell_edges, parse_bed_mm, plan_grid, tile_label,
                            tiles_along)
+from conftest import examples
 
 BED = (120.0, 120.0)
 
@@ -39,7 +40,7 @@ def test_parse_bed_mm():
 
 
 @pytest.mark.timeout(60)
-@settings(max_examples=200, deadline=None)
+@settings(max_examples=examples(200), deadline=None)
 @given(st.floats(10, 1500), st.floats(60, 400))
 def test_fewest_tiles_that_fit(length_mm, bed_mm):
     count = tiles_along(length_mm, bed_mm)

@@ -11,7 +11,7 @@ import sys
 import numpy as np
 import pytest
 
-from conftest import ROOT, need_module, run_cli
+from conftest import ROOT, need_module, run_cli, examples
 from tamp_os.errors import InputError, ParameterError
 from tamp_os.read import read_image
 
@@ -555,7 +555,7 @@ def test_random_bytes_behind_a_signature_give_one_clear_error(tmp_path, name):
 
     need_module("rsciio")
 
-    @settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+    @settings(max_examples=examples(15), deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
     @given(tail=st.binary(min_size=0, max_size=3000))
     def check(tail):
         head = SIGNATURES[name]

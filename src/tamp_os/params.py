@@ -116,7 +116,7 @@ class LithoParams:
             raise ParameterError(
                 f"`stretch_low_pct` must be below `stretch_high_pct`; got {self.stretch_low_pct} and {self.stretch_high_pct}."
             )
-        self.pixel_size_m, self.scale_bar_m, self.bed_size_mm  # each parsed (and so checked) here, once
+        self.pixel_size_m, self.scale_bar_m, self.bed_size_mm  # noqa: B018  each parsed (and so checked) here, once
         self.braille_spec()  # checks the dot sizes against each other
         if self.bed_mm is not None:
             if self.multicolour:

@@ -97,7 +97,7 @@ def make_relief(
     base_mm: float,
     relief_mm: float,
     layer_mm: float | None = None,
-    options: StyleOptions = StyleOptions(),
+    options: StyleOptions = StyleOptions(),  # noqa: B008  (frozen: one shared default is safe)
     uniform: bool = False,
     hints=None,
     fine=None,

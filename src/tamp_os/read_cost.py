@@ -95,10 +95,19 @@ MAX_STREAMS_LOOKED_AT = 4096
 def jpeg_frame_bytes(head: bytes) -> float:
     """Decoded bytes (height × width × components, at least one byte each) that a JPEG stream's
     frame header declares, or 0 when `head` holds none. Walks the marker segments; never decodes."""
+    frame = jpeg_frame(head)
+    if frame is None:
+        return 0.0
+    height, width, components, precision = frame
+    return float(height) * width * max(1, components) * (2 if precision > 8 else 1)
+
+
+def jpeg_frame(head: bytes) -> tuple[int, int, int, int] | None:
+    """(height, width, components, precision) from a JPEG stream's frame header (SOF), or None."""
     at = 2 if head[:2] == b"\xff\xd8" else 0
     while at + 4 <= len(head):
         if head[at] != 0xFF:
-            return 0.0
+            return None
         marker = head[at + 1]
         if marker == 0xFF:  # fill byte
             at += 1
@@ -108,15 +117,13 @@ def jpeg_frame_bytes(head: bytes) -> float:
             continue
         length = int.from_bytes(head[at + 2:at + 4], "big")
         if marker in SOF_MARKERS and at + 10 <= len(head):
-            precision = head[at + 4]
             height = int.from_bytes(head[at + 5:at + 7], "big")
             width = int.from_bytes(head[at + 7:at + 9], "big")
-            components = head[at + 9]
-            return float(height) * width * max(1, components) * (2 if precision > 8 else 1)
+            return height, width, head[at + 9], head[at + 4]
         if length < 2:
-            return 0.0
+            return None
         at += 2 + length
-    return 0.0
+    return None
 
 
 def tiff_jpeg_bytes(path, page) -> float:

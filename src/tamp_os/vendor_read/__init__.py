@@ -47,7 +47,7 @@ def open_stack(path: Path, kind: str, scene: int | None, limits, target_px: int 
     if kind == "czi":
         from .czi import open_czi
 
-        return open_czi(path, scene)
+        return open_czi(path, scene, limits)
     if kind == "lif":
         from .lif import open_lif
 

@@ -1,0 +1,210 @@
+"""Issue 40, vendor readers safe as a server: CZI subblocks priced before decoding, every CZI
+compression Zeiss writes read (LZW, zstd, JPEG), and the Leica λ axis.
+
+Each hostile or special file is built here, in a temporary folder; hostile ones run through the
+command line in a child process whose own peak memory (VmHWM) and time are measured.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import struct
+import subprocess
+import sys
+import textwrap
+import time
+
+import numpy as np
+import pytest
+
+from conftest import ROOT, need_module, run_cli
+from czi_builder import write_czi
+
+PEAK = textwrap.dedent("""
+    import sys as _s
+    with open('/proc/self/status') as _f:
+        _kb = next(int(_l.split()[1]) for _l in _f if _l.startswith('VmHWM:'))
+    print('PEAK_MB', _kb / 1024, file=_s.stderr)
+    """)
+REFUSAL_PEAK_MB = 300  # the interpreter and the imports; decoding any bomb below would take gigabytes
+REFUSAL_S = 2.0  # the refusal itself, measured inside the child (the child's start-up is not the product's)
+
+
+def run_cli_child(*argv) -> tuple[int, str, float, float]:
+    """The CLI in a child Python: (exit code, stderr, peak MB, seconds spent in main())."""
+    code = textwrap.dedent(f"""
+        import sys, time
+        from tamp_os.cli import main
+        t0 = time.perf_counter()
+        code = main({list(map(str, argv))!r})
+        print('SECONDS', time.perf_counter() - t0, file=sys.stderr)
+        """) + PEAK + "sys.exit(code)\n"
+    keep = ("PATH", "HOME", "LANG", "LC_ALL", "TMPDIR")
+    env = {**{k: os.environ[k] for k in keep if k in os.environ}, "PYTHONPATH": str(ROOT / "src"),
+           "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
+    proc = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=50)
+    found = {line.split()[0]: float(line.split()[1]) for line in proc.stderr.splitlines() if line.startswith(("PEAK_MB ", "SECONDS "))}
+    return proc.returncode, proc.stderr, found.get("PEAK_MB", 0.0), found.get("SECONDS", 0.0)
+
+
+def one_error_line(err: str) -> str:
+    lines = [line for line in err.splitlines() if line.startswith("error:")]
+    assert len(lines) == 1, err
+    assert "Traceback" not in err, err
+    return lines[0]
+
+
+def planes(seed=1, shape=(2, 60, 80)) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    a = rng.integers(0, 4000, shape).astype("<u2")
+    a[:, 10:30, 20:60] += 20000  # an asymmetric bright block: orientation shows
+    return a
+
+
+# --- every CZI compression Zeiss writes opens ------------------------------------------------------
+
+def _hilo_zstd1(a: np.ndarray) -> list[bytes]:
+    """zstd1 with the hi-lo byte packing ZEN uses for 16-bit data: all low bytes, then all high bytes."""
+    import imagecodecs
+
+    out = []
+    for p in a:
+        b = p.astype("<u2").view(np.uint8).reshape(-1, 2)
+        out.append(b"\x03\x01\x01" + imagecodecs.zstd_encode(np.concatenate([b[:, 0], b[:, 1]]).tobytes()))
+    return out
+
+
+@pytest.mark.timeout(60)
+@pytest.mark.parametrize("compression", ["lzw", "zstd0", "zstd1", "zstd1-hilo", "none"])
+def test_czi_of_each_compression_reads_pixel_for_pixel(tmp_path, capsys, compression):
+    need_module("czifile")
+    from tamp_os.vendor_read import read_channels
+
+    a = planes()
+    kind = compression.split("-")[0]
+    path = write_czi(tmp_path / f"{compression}.czi", a, kind, data=_hilo_zstd1(a) if compression == "zstd1-hilo" else None)
+    channels = read_channels(path)
+    assert [c.name for c in channels] == ["DAPI", "GFP"]
+    assert np.array_equal(np.stack([c.values for c in channels]), a.astype(np.float32))
+    code, out, err = run_cli(capsys, "info", path, "--json", "--channel", "GFP")
+    assert code == 0, err
+    facts = json.loads(out)
+    assert facts["format"] == "Zeiss CZI" and facts["channel_names"] == ["DAPI", "GFP"]
+    assert facts["pixel_size_m"] == pytest.approx(2e-7) and facts["chosen"]["channels_used"] == [1]
+
+
+@pytest.mark.timeout(120)
+def test_lzw_czi_converts_from_the_command_line(tmp_path, capsys):
+    need_module("czifile")
+    path = write_czi(tmp_path / "lzw.czi", planes(), "lzw")
+    code, out, err = run_cli(capsys, "convert", path, "-o", tmp_path / "out", "--channel", "DAPI", "--resolution-px", "40")
+    assert code == 0, err
+    assert (tmp_path / "out" / "lzw.stl").stat().st_size > 1000
+
+
+@pytest.mark.timeout(60)
+@pytest.mark.parametrize("compression", ["none", "lzw"])
+def test_czi_colour_subblocks_come_out_rgb(tmp_path, compression):
+    """CZI stores BGR; the plane is RGB (czifile flipped it and the reader flipped it back, and
+    czifile's dtype '<3u1' made each pixel three values of three samples)."""
+    need_module("czifile")
+    from tamp_os.vendor_read.czi import open_czi
+
+    rgb = np.random.default_rng(3).integers(0, 255, (1, 20, 30, 3)).astype(np.uint8)
+    stack = open_czi(write_czi(tmp_path / "rgb.czi", rgb, compression, names=("RGB",)), None)
+    try:
+        assert stack.samples == 3 and stack.dtype == np.uint8
+        assert np.array_equal(stack.plane(0, 0, 0), rgb[0])
+    finally:
+        stack.close()
+
+
+# The real CZI fixtures, every plane, as the reader gave them before it decoded subblocks itself
+# (SHA-256 of the plane's bytes, first 16 hex digits; recorded with czifile's own decoding).
+BEFORE = {
+    "zeiss_dapi_gfp_2ch.czi": {(0, 0, 0): "d498ff570f685959", (0, 1, 0): "8518dd5601d5a67c"},
+    "zeiss_airyscan_2ch_t3.czi": {(0, 0, 0): "bec0516de1dc4d09", (0, 1, 0): "7ec2078f83160636", (1, 0, 0): "2df4086883b366d4",
+                                  (1, 1, 0): "0aff118c990a8865", (2, 0, 0): "d575d1416bb6ae89", (2, 1, 0): "60b6724f21bb0ec1"},
+    "zeiss_sem_al2o3_grains.czi": {(0, 0, 0): "7af2c41360182156"},
+}
+
+
+@pytest.mark.timeout(60)
+@pytest.mark.parametrize("name", sorted(BEFORE))
+def test_real_czi_planes_are_byte_identical_to_before(fixture, name):
+    need_module("czifile")
+    from tamp_os.read import _Limits
+    from tamp_os.vendor_read.czi import open_czi
+
+    stack = open_czi(fixture(f"real/{name}"), None, _Limits(100.0, 2.0))
+    try:
+        found = {(t, c, z): hashlib.sha256(stack.plane(t, c, z).tobytes()).hexdigest()[:16]
+                 for t in range(stack.size("T")) for c in range(stack.size("C")) for z in range(stack.size("Z"))}
+    finally:
+        stack.close()
+    assert found == BEFORE[name]
+
+
+# --- CZI subblocks priced before decoding -------------------------------------------------------------
+
+def _jpeg_bomb(path):
+    """A 16×16 colour subblock holding a JPEG whose frame header (SOF0) says 30000×30000 (2.7 GB decoded)."""
+    import imagecodecs
+
+    rgb = np.zeros((1, 16, 16, 3), np.uint8)
+    stream = bytearray(imagecodecs.jpeg8_encode(rgb[0]))
+    at = stream.index(b"\xff\xc0")
+    stream[at + 5:at + 9] = struct.pack(">HH", 30000, 30000)
+    return write_czi(path, rgb, "jpeg", names=("RGB",), data=[bytes(stream)])
+
+
+HOSTILE = {
+    # name: (builder, words the one error line must hold)
+    "jpeg_sof_30000": (_jpeg_bomb, ["frame header says 30000×30000", "2.7 GB", "limit of 2 GB (--max-decoded-gb)"]),
+    "lzw_declared_40000": (lambda p: write_czi(p, np.zeros((1, 16, 16), "<u2"), "lzw", names=("A",), stored=(40000, 40000)),
+                           ["40000×40000 LZW stream", "3.2 GB", "limit of 2 GB (--max-decoded-gb)"]),
+    "zstd_declared_40000": (lambda p: write_czi(p, np.zeros((1, 16, 16), "<u2"), "zstd1", names=("A",), stored=(40000, 40000)),
+                            ["40000×40000 zstd stream", "3.2 GB", "limit of 2 GB (--max-decoded-gb)"]),
+    "data_size_2_to_40": (lambda p: write_czi(p, np.zeros((1, 16, 16), "<u2"), "lzw", names=("A",), data_sizes=[2**40]),
+                          ["damaged or truncated", "declares 1,099,511,627,776 bytes", "the file ends at byte", "export it again"]),
+}
+
+
+@pytest.mark.timeout(60)
+@pytest.mark.parametrize("command", ["convert", "info"])
+@pytest.mark.parametrize("name", sorted(HOSTILE))
+def test_hostile_czi_is_refused_from_its_headers(tmp_path, name, command):
+    need_module("czifile")
+    build, words = HOSTILE[name]
+    path = build(tmp_path / f"{name}.czi")
+    assert path.stat().st_size < 4096
+    out = tmp_path / "out"
+    argv = ["convert", path, "-o", out] if command == "convert" else ["info", path]
+    started = time.perf_counter()
+    code, err, peak, seconds = run_cli_child(*argv)
+    line = one_error_line(err)
+    assert code == 1, err
+    assert f"{name}.czi" in line and "Zeiss CZI" in line, line
+    for word in words:
+        assert word in line, line
+    assert "not enough memory" not in line and "MemoryError" not in err
+    assert 0 < peak < REFUSAL_PEAK_MB, f"peak {peak:.0f} MB while refusing"
+    assert seconds < REFUSAL_S and time.perf_counter() - started < 30, f"{seconds:.2f} s in the CLI"
+    assert not out.exists() or not any(out.iterdir())
+
+
+@pytest.mark.timeout(60)
+def test_the_jpeg_frame_is_priced_by_both_caps(tmp_path):
+    """Raising `max_decoded_gb` past the forged frame does not let it through: the same stream is
+    priced in the conversion's memory (`max_memory_gb`) too."""
+    need_module("czifile")
+    from tamp_os.errors import InputError
+    from tamp_os.read import read_image
+
+    path = _jpeg_bomb(tmp_path / "bomb.czi")
+    with pytest.raises(InputError, match="max_decoded_gb"):
+        read_image(path)
+    with pytest.raises(InputError, match="subblock being decoded 2.70 GB.*max_memory_gb"):
+        read_image(path, max_decoded_gb=3.0, max_memory_gb=2.0)

@@ -208,3 +208,153 @@ def test_the_jpeg_frame_is_priced_by_both_caps(tmp_path):
         read_image(path)
     with pytest.raises(InputError, match="subblock being decoded 2.70 GB.*max_memory_gb"):
         read_image(path, max_decoded_gb=3.0, max_memory_gb=2.0)
+
+
+# --- the Leica λ axis --------------------------------------------------------------------------------
+# The LIF files are real LIF version 2 files written by tests/lif_builder.py and read by liffile
+# itself (no stub): liffile names the axes 'λ' (emission, DimID 5) and 'Λ' (excitation, DimID 9).
+
+def _sweep(n=8, seed=0, peak=3) -> np.ndarray:
+    """n wavelength planes of noise; plane `peak` holds a bright block (the emission peak)."""
+    rng = np.random.default_rng(seed)
+    a = rng.integers(0, 50, (n, 40, 50)).astype(np.uint8)
+    a[peak, 8:20, 5:30] = 220
+    a[peak - 1, 8:20, 5:30] = 120
+    return a
+
+
+def _lif(tmp_path):
+    from lif_builder import write_lif
+
+    tlz = np.random.default_rng(1).integers(0, 60, (2, 8, 3, 20, 30)).astype(np.uint16)
+    path = write_lif(tmp_path / "sweeps.lif", [
+        ("xy overview", "YX", _sweep()[0], {}),
+        ("lambda scan", "λYX", _sweep(), {"λ": (500e-9, 10e-9)}),
+        ("excitation scan", "ΛYX", _sweep(peak=5), {"Λ": (470e-9, 10e-9)}),
+        ("time lambda z", "TλZYX", tlz, {"λ": (500e-9, 20e-9), "Z": (0.0, 0.5e-6), "T": (0.0, 2.0)}),
+    ])
+    return path, tlz
+
+
+@pytest.mark.timeout(60)
+def test_lambda_scan_reads_its_emission_peak_by_default(tmp_path, capsys):
+    need_module("liffile")
+    path, _ = _lif(tmp_path)
+    code, out, err = run_cli(capsys, "info", path, "--scene", "1", "--json")
+    assert code == 0, err
+    facts = json.loads(out)
+    assert facts["channel_names"] == [f"λ {nm} nm" for nm in range(500, 580, 10)]
+    assert facts["wavelengths_nm"] == [float(nm) for nm in range(500, 580, 10)]
+    assert facts["axes"] == {"scenes": 4, "λ": 8} and facts["channels"] == 1
+    assert facts["chosen"]["channels_used"] == [3] and facts["pixel_size_m"] == pytest.approx(1e-7)
+    assert facts["vendor"]["wavelength_axes"] == {"λ": 8}
+    assert any("emission peak, λ 530 nm" in n for n in facts["notes"])
+    assert any("8 steps from 500 to 570 nm, 10 nm apart" in n for n in facts["notes"])
+    code, out, err = run_cli(capsys, "info", path, "--scene", "1")
+    assert code == 0 and "axes: 4 scenes, 8 emission wavelengths (λ)" in out, out
+    assert "channel names: λ 500 nm, λ 510 nm," in out  # the name says the wavelength once
+
+
+@pytest.mark.timeout(60)
+@pytest.mark.parametrize("channel, index", [("λ 520 nm", 2), ("520nm", 2), ("lambda 560 nm", 6), ("7", 7), ("peak", 3)])
+def test_lambda_plane_is_the_users_choice(tmp_path, channel, index):
+    need_module("liffile")
+    from tamp_os.read import read_image
+
+    path, _ = _lif(tmp_path)
+    picture = read_image(path, scene="lambda scan", channel=channel)
+    assert np.array_equal(picture.values, _sweep()[index].astype(np.float32))
+    assert picture.file.metadata["vendor"]["channels_used"] == [index]
+
+
+@pytest.mark.timeout(60)
+def test_a_wavelength_that_is_not_there_is_one_error_naming_the_wavelengths(tmp_path, capsys):
+    need_module("liffile")
+    path, _ = _lif(tmp_path)
+    code, out, err = run_cli(capsys, "info", path, "--scene", "lambda scan", "--channel", "600 nm")
+    line = one_error_line(err)
+    assert code == 2 and "'600 nm'" in line and "'λ 500 nm'" in line and "'peak'" in line, line
+
+
+@pytest.mark.timeout(60)
+def test_excitation_sweep_and_a_sweep_in_time_and_z(tmp_path):
+    need_module("liffile")
+    from tamp_os.read import read_image
+    from tamp_os.vendor_read import read_channels
+
+    path, tlz = _lif(tmp_path)
+    excitation = read_channels(path, scene=2)
+    assert [c.name for c in excitation][:2] == ["Λ 470 nm", "Λ 480 nm"]
+    assert excitation[0].excitation_nm == 470.0 and excitation[0].emission_nm is None
+    assert np.array_equal(read_image(path, scene="excitation scan").values, _sweep(peak=5)[5].astype(np.float32))
+    picture = read_image(path, scene="time lambda z", time=1, z_slice=2, channel="λ 600 nm")
+    assert np.array_equal(picture.values, tlz[1, 5, 2].astype(np.float32))
+    assert picture.file.axes == {"scenes": 4, "T": 2, "Z": 3, "λ": 8} and picture.file.z_step_m == pytest.approx(0.5e-6)
+    projected = read_image(path, scene=3, channel="λ 500 nm")  # the default over Z: the maximum projection
+    assert np.array_equal(projected.values, tlz[0, 0].max(axis=0).astype(np.float32))
+
+
+@pytest.mark.timeout(60)
+def test_two_detectors_of_a_lambda_scan_are_named_apart(tmp_path):
+    need_module("liffile")
+    from lif_builder import write_lif
+    from tamp_os.vendor_read import read_channels
+
+    a = np.random.default_rng(2).integers(0, 50, (2, 3, 20, 30)).astype(np.uint8)
+    path = write_lif(tmp_path / "two.lif", [("two detectors", "CλYX", a, {"λ": (500e-9, 20e-9)})])
+    channels = read_channels(path)
+    assert [c.name for c in channels] == [f"detector {d} λ {nm} nm" for d in (0, 1) for nm in (500, 520, 540)]
+    assert np.array_equal(np.stack([c.values for c in channels]), a.reshape(6, 20, 30).astype(np.float32))
+
+
+# --- series by name ------------------------------------------------------------------------------------
+
+@pytest.mark.timeout(60)
+def test_info_lists_the_series_by_name_and_scene_takes_a_name(tmp_path, capsys):
+    need_module("liffile")
+    path, _ = _lif(tmp_path)
+    code, out, err = run_cli(capsys, "info", path, "--scene", "LAMBDA SCAN")
+    assert code == 0, err
+    assert ("scenes: 0 'xy overview', 1 'lambda scan' (this one), 2 'excitation scan', 3 'time lambda z'; "
+            "choose one with --scene, a number or a name") in out, out
+    assert json.loads(run_cli(capsys, "info", path, "--scene", "time lambda z", "--json")[1])["chosen"]["scene"] == 3
+
+
+@pytest.mark.timeout(60)
+@pytest.mark.parametrize("command", ["info", "convert"])
+def test_a_series_name_that_does_not_exist_is_one_error_listing_the_names(tmp_path, capsys, command):
+    need_module("liffile")
+    path, _ = _lif(tmp_path)
+    out_dir = tmp_path / "out"
+    argv = ["info", path] if command == "info" else ["convert", path, "-o", out_dir]
+    code, out, err = run_cli(capsys, *argv, "--scene", "lambda")
+    line = one_error_line(err)
+    assert code == (2 if command == "info" else 1), err  # as for a scene number out of range
+    assert "--scene 'lambda' names no image of this file" in line, line
+    assert "0 'xy overview', 1 'lambda scan', 2 'excitation scan', 3 'time lambda z'" in line, line
+    assert not out_dir.exists() or not any(out_dir.iterdir())
+
+
+@pytest.mark.timeout(120)
+def test_convert_a_lambda_series_by_name_prints_one_picture(tmp_path, capsys):
+    """The emission peak as one relief (not the channel path's textures of neighbouring wavelengths)."""
+    need_module("liffile")
+    path, _ = _lif(tmp_path)
+    code, out, err = run_cli(capsys, "convert", path, "--scene", "lambda scan", "-o", tmp_path / "out", "--resolution-px", "40")
+    assert code == 0, err
+    recipe = json.loads((tmp_path / "out" / "sweeps.tamp.json").read_text())
+    assert recipe["params"]["scene"] == "lambda scan"
+    description = (tmp_path / "out" / "sweeps.description.txt").read_text()
+    assert "λ 5" not in description and "channel" not in description.lower()  # no key of wavelengths: one picture
+
+
+@pytest.mark.timeout(60)
+def test_scene_parameter_is_a_number_or_a_name():
+    from tamp_os.errors import ParameterError
+    from tamp_os.params import LithoParams, parse_field
+
+    assert parse_field("scene", "2") == 2 and parse_field("scene", " lambda scan ") == "lambda scan"
+    assert LithoParams(scene="lambda scan").scene == "lambda scan"
+    for bad in ("", "  ", -1, 2.5):
+        with pytest.raises(ParameterError, match="scene"):
+            LithoParams(scene=bad)

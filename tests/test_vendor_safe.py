@@ -95,6 +95,21 @@ def test_czi_of_each_compression_reads_pixel_for_pixel(tmp_path, capsys, compres
     assert facts["pixel_size_m"] == pytest.approx(2e-7) and facts["chosen"]["channels_used"] == [1]
 
 
+@pytest.mark.timeout(60)
+@pytest.mark.parametrize("compression", ["jpeg", "jpegxr"])
+def test_czi_of_jpeg_and_jpeg_xr_subblocks_reads(tmp_path, compression):
+    need_module("czifile")
+    import imagecodecs
+
+    from tamp_os.read import read_image
+
+    a = planes(shape=(1, 60, 80)).astype(np.uint8)  # 8-bit grey, as ZEN writes JPEG
+    stream = imagecodecs.jpeg8_encode(a[0], level=95) if compression == "jpeg" else imagecodecs.jpegxr_encode(a[0], level=1.0)
+    values = read_image(write_czi(tmp_path / "j.czi", a, compression, names=("A",), data=[stream])).values
+    assert values.shape == (60, 80)
+    assert np.abs(values - a[0]).max() <= (0 if compression == "jpegxr" else 40)  # JPEG XR at level 1.0 is lossless
+
+
 @pytest.mark.timeout(120)
 def test_lzw_czi_converts_from_the_command_line(tmp_path, capsys):
     need_module("czifile")
@@ -160,9 +175,23 @@ def _jpeg_bomb(path):
     return write_czi(path, rgb, "jpeg", names=("RGB",), data=[bytes(stream)])
 
 
+def _jpegxr_bomb(path):
+    """A 16×24 grey subblock holding a JPEG XR whose container says 60000×60000 (3.6 GB decoded)."""
+    import imagecodecs
+
+    a = np.zeros((1, 16, 24), np.uint8)
+    stream = bytearray(imagecodecs.jpegxr_encode(a[0]))
+    at = struct.unpack("<I", stream[4:8])[0]
+    for i in range(struct.unpack("<H", stream[at:at + 2])[0]):
+        if struct.unpack("<H", stream[at + 2 + 12 * i:at + 4 + 12 * i])[0] in (0xBC80, 0xBC81):  # width, height
+            stream[at + 10 + 12 * i:at + 14 + 12 * i] = struct.pack("<I", 60000)
+    return write_czi(path, a, "jpegxr", names=("A",), data=[bytes(stream)])
+
+
 HOSTILE = {
     # name: (builder, words the one error line must hold)
     "jpeg_sof_30000": (_jpeg_bomb, ["frame header says 30000×30000", "2.7 GB", "limit of 2 GB (--max-decoded-gb)"]),
+    "jpegxr_header_60000": (_jpegxr_bomb, ["JPEG XR stream whose header says 60000×60000", "3.6 GB", "limit of 2 GB (--max-decoded-gb)"]),
     "lzw_declared_40000": (lambda p: write_czi(p, np.zeros((1, 16, 16), "<u2"), "lzw", names=("A",), stored=(40000, 40000)),
                            ["40000×40000 LZW stream", "3.2 GB", "limit of 2 GB (--max-decoded-gb)"]),
     "zstd_declared_40000": (lambda p: write_czi(p, np.zeros((1, 16, 16), "<u2"), "zstd1", names=("A",), stored=(40000, 40000)),

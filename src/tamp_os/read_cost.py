@@ -126,6 +126,31 @@ def jpeg_frame(head: bytes) -> tuple[int, int, int, int] | None:
     return None
 
 
+JPEGXR_WIDTH, JPEGXR_HEIGHT = 0xBC80, 0xBC81  # tags of the JPEG XR container's (TIFF-like) IFD
+
+
+def jpegxr_frame(head: bytes) -> tuple[int, int] | None:
+    """(height, width) from a JPEG XR container's IFD ('II\\xbc\\x01', then the IFD offset), or None."""
+    import struct
+
+    if head[:4] != b"II\xbc\x01" or len(head) < 8:
+        return None
+    at = struct.unpack("<I", head[4:8])[0]
+    if at + 2 > len(head):
+        return None
+    found = {}
+    for i in range(min(struct.unpack("<H", head[at:at + 2])[0], 256)):
+        entry = head[at + 2 + 12 * i:at + 14 + 12 * i]
+        if len(entry) < 12:
+            break
+        tag, kind, _count, value = struct.unpack("<HHII", entry)
+        if tag in (JPEGXR_WIDTH, JPEGXR_HEIGHT):
+            found[tag] = value & 0xFFFF if kind == 3 else value  # SHORT values sit in the low half
+    if len(found) < 2:
+        return None
+    return found[JPEGXR_HEIGHT], found[JPEGXR_WIDTH]
+
+
 def tiff_jpeg_bytes(path, page) -> float:
     """The largest frame that any JPEG-compressed chunk of `page` declares, in decoded bytes: a
     16×16 tile may hold a JPEG stream of 65000×65000, which the decoder decodes whole."""

@@ -121,19 +121,24 @@ def _price(path, blocks, segments, plane_hw, samples, limits) -> None:
     compressed bytes (read whole) plus what it decodes to, from its declared shape or, for JPEG, the larger
     of that and its frame header (a 16×16 subblock may hold a 30000×30000 JPEG, which the decoder decodes whole)."""
     from ..errors import InputError
-    from ..read_cost import JPEG_HEAD_BYTES, MAX_STREAMS_LOOKED_AT, Cost, check_memory, jpeg_frame, jpeg_frame_bytes, working_bytes
+    from ..read_cost import (JPEG_HEAD_BYTES, MAX_STREAMS_LOOKED_AT, Cost, check_memory, jpeg_frame, jpeg_frame_bytes,
+                             jpegxr_frame, working_bytes)
 
     largest, which, why = 0.0, 0, ""
     with open(path, "rb") as fh:
         for i, block in enumerate(blocks):
             seg = segments[id(block)]
             decoded, frame = _stored_bytes(block), ""
-            if block.compression == JPEG and i < MAX_STREAMS_LOOKED_AT:
+            if block.compression in (JPEG, JPEGXR) and i < MAX_STREAMS_LOOKED_AT:
                 fh.seek(int(seg.data_offset))
                 head = fh.read(min(int(seg.data_size), JPEG_HEAD_BYTES))
-                if jpeg_frame_bytes(head) > decoded:
+                if block.compression == JPEG and jpeg_frame_bytes(head) > decoded:
                     h, w = jpeg_frame(head)[:2]
                     decoded, frame = jpeg_frame_bytes(head), f"a JPEG stream whose frame header says {w}×{h} pixels"
+                xr = jpegxr_frame(head) if block.compression == JPEGXR else None
+                pixel_bytes = decoded / max(float(np.prod([float(n) for n in block.stored_shape[:-1]])), 1.0)
+                if xr and xr[0] * xr[1] * pixel_bytes > decoded:  # the container's own size, at the block's bytes per pixel
+                    decoded, frame = xr[0] * xr[1] * pixel_bytes, f"a JPEG XR stream whose header says {xr[1]}×{xr[0]} pixels"
             in_flight = decoded + (float(seg.data_size) if block.compression else 0.0)  # the stream is read whole first
             if in_flight > largest:
                 largest, which, why = in_flight, i, frame

@@ -56,9 +56,9 @@ def write_czi(path, planes: np.ndarray, compression: str = "lzw", names=("DAPI",
     planes = np.asarray(planes)
     colour = planes.ndim == 4
     pixel_type = BGR24 if colour else PIXEL_TYPES[planes.dtype]
-    n, height, width = planes.shape[:3]
+    height, width = planes.shape[1:3]
     sy, sx = stored or (height, width)
-    dims = lambda c: [("X", 0, sx), ("Y", 0, sy), ("C", c, 1)]  # noqa: E731  (the file lists X first)
+    dims = lambda c: [("X", 0, sx), ("Y", 0, sy), ("C", c, 1)]
     streams = data or [encode(p[..., ::-1] if colour else p, compression) for p in planes]  # CZI stores BGR
     code = COMPRESSION[compression]
     out = bytearray(_segment(b"ZISRAWFILE", bytes(512)))  # filled in at the end

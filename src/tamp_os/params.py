@@ -73,7 +73,7 @@ class LithoParams:
     page: int | None = _f(None, "TIFF page or series to read (default: the first, or the data page beside a preview)", "", 0, 100000)
     z_slice: int | None = _f(None, "z-stack slice to use (default: maximum-intensity projection)", "", 0, 100000)
     time: int | None = _f(None, "time point of a time series to use, from 0 (default: the first)", "", 0, 1000000)
-    scene: int | None = _f(None, "scene, series, image or position of a multi-scene file (CZI, LIF, ND2, EMD, ...), from 0 (default: the first)", "", 0, 100000)
+    scene: int | str | None = _f(None, "scene, series, image or position of a multi-scene file (CZI, LIF, ND2, EMD, ...): a number from 0, or a LIF series name (default: the first)", "", 0, 100000)
     pixel_size: str | float | None = _f(None, "physical pixel size, overriding the file's: a length such as 4.2nm, 0.5um, 3 micron, 0.01mm, or a number in metres (4.2e-9)")
     keep_annotations: bool = _f(False, "keep burned-in scale bars, labels and data bands (default: remove them)")
     save_masks: bool = _f(False, "write NAME.annotations.png showing what was removed")
@@ -238,6 +238,7 @@ def _check_known(names) -> None:
 
 # Text fields that also take a number (in the unit their help names).
 NUMBER_OR_TEXT = ("pixel_size", "scale_bar", "bed_mm")
+NUMBER_OR_NAME = ("scene",)  # a whole number in its range, or a name the reader looks up (a LIF series)
 
 
 def _field(name: str) -> dataclasses.Field:
@@ -267,6 +268,8 @@ def parse_field(name: str, text: str):
     if name == "formats":
         return tuple(v.strip().lower().lstrip(".") for v in text.split(",") if v.strip())
     if m["lo"] is None or m["choices"]:
+        return text
+    if name in NUMBER_OR_NAME and text and not text.lstrip("+-").isdigit():
         return text
     whole = isinstance(m["lo"], int) and isinstance(m["hi"], int)
     try:
@@ -310,6 +313,10 @@ def _check_field(f: dataclasses.Field, value: Any) -> None:
             return  # checked by its parser (pixel_size_m, scale_bar_m, bed_size_mm)
         if not isinstance(value, str) or not value.strip():
             raise _refuse(f, value, "a length or a number" if f.name in NUMBER_OR_TEXT else "text")
+        return
+    if f.name in NUMBER_OR_NAME and isinstance(value, str):
+        if not value.strip():
+            raise _refuse(f, value, f"a number {describe_range(f)} or a name")
         return
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
         raise _refuse(f, value, f"a number {describe_range(f)}")

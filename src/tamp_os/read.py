@@ -102,7 +102,7 @@ MAX_DECODED_GB = 2.0  # default decoded-bytes guard: pixels × samples × bytes 
 def read_image(
     path, *, page: int | None = None, channel: str = "luminance", max_megapixels: float = 100.0, z_slice: int | None = None,
     max_decoded_gb: float = MAX_DECODED_GB, max_memory_gb: float = MAX_MEMORY_GB, time: int | None = None,
-    scene: int | None = None, target_px: int | None = None, keep_colour: bool = False,
+    scene: int | str | None = None, target_px: int | None = None, keep_colour: bool = False,
 ) -> Picture:
     """Read an image file by its content into a Picture.
 
@@ -120,8 +120,9 @@ def read_image(
     max_memory_gb : refuse files whose estimated peak while converting (decoded pixels, tiles,
         copies and the pipeline's float32 working arrays, see read_cost.py) would exceed this.
     time : the time point of a time series (0-based); None: the first, with a note.
-    scene : the scene, series, image or position of a multi-scene file (CZI, LIF, ND2, EMD...);
-        None: the first, with a note. TIFF files choose their series with `page`.
+    scene : the scene, series, image or position of a multi-scene file (CZI, LIF, ND2, EMD...): its
+        number, or its name where the file names them (a LIF series); None: the first, with a note.
+        TIFF files choose their series with `page`.
     target_px : of a pyramid (SVS, pyramidal TIFF, OME-Zarr), read the smallest level at least this
         wide (default 2048), never the full-resolution slide when a smaller level fits the print.
     keep_colour : keep an RGB(A) file's colour pixels (H, W, 3, the array decoded, no copy) in

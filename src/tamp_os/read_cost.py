@@ -95,10 +95,19 @@ MAX_STREAMS_LOOKED_AT = 4096
 def jpeg_frame_bytes(head: bytes) -> float:
     """Decoded bytes (height × width × components, at least one byte each) that a JPEG stream's
     frame header declares, or 0 when `head` holds none. Walks the marker segments; never decodes."""
+    frame = jpeg_frame(head)
+    if frame is None:
+        return 0.0
+    height, width, components, precision = frame
+    return float(height) * width * max(1, components) * (2 if precision > 8 else 1)
+
+
+def jpeg_frame(head: bytes) -> tuple[int, int, int, int] | None:
+    """(height, width, components, precision) from a JPEG stream's frame header (SOF), or None."""
     at = 2 if head[:2] == b"\xff\xd8" else 0
     while at + 4 <= len(head):
         if head[at] != 0xFF:
-            return 0.0
+            return None
         marker = head[at + 1]
         if marker == 0xFF:  # fill byte
             at += 1
@@ -108,15 +117,38 @@ def jpeg_frame_bytes(head: bytes) -> float:
             continue
         length = int.from_bytes(head[at + 2:at + 4], "big")
         if marker in SOF_MARKERS and at + 10 <= len(head):
-            precision = head[at + 4]
             height = int.from_bytes(head[at + 5:at + 7], "big")
             width = int.from_bytes(head[at + 7:at + 9], "big")
-            components = head[at + 9]
-            return float(height) * width * max(1, components) * (2 if precision > 8 else 1)
+            return height, width, head[at + 9], head[at + 4]
         if length < 2:
-            return 0.0
+            return None
         at += 2 + length
-    return 0.0
+    return None
+
+
+JPEGXR_WIDTH, JPEGXR_HEIGHT = 0xBC80, 0xBC81  # tags of the JPEG XR container's (TIFF-like) IFD
+
+
+def jpegxr_frame(head: bytes) -> tuple[int, int] | None:
+    """(height, width) from a JPEG XR container's IFD ('II\\xbc\\x01', then the IFD offset), or None."""
+    import struct
+
+    if head[:4] != b"II\xbc\x01" or len(head) < 8:
+        return None
+    at = struct.unpack("<I", head[4:8])[0]
+    if at + 2 > len(head):
+        return None
+    found = {}
+    for i in range(min(struct.unpack("<H", head[at:at + 2])[0], 256)):
+        entry = head[at + 2 + 12 * i:at + 14 + 12 * i]
+        if len(entry) < 12:
+            break
+        tag, kind, _count, value = struct.unpack("<HHII", entry)
+        if tag in (JPEGXR_WIDTH, JPEGXR_HEIGHT):
+            found[tag] = value & 0xFFFF if kind == 3 else value  # SHORT values sit in the low half
+    if len(found) < 2:
+        return None
+    return found[JPEGXR_HEIGHT], found[JPEGXR_WIDTH]
 
 
 def tiff_jpeg_bytes(path, page) -> float:

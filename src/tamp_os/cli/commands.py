@@ -190,7 +190,8 @@ def _add_info(sub) -> None:
     info.add_argument("--channel", default="luminance", help="channel number or name (default: luminance / first)")
     info.add_argument("--pixel-size", default=None, help="physical pixel size to use, e.g. 4.2nm")
     info.add_argument("--time", type=int, default=None, help="time point of a time series (default: the first)")
-    info.add_argument("--scene", type=int, default=None, help="scene, series or image of a multi-scene file (default: the first)")
+    info.add_argument("--scene", default=None, help="scene, series or image of a multi-scene file: a number from 0, or a LIF "
+                                                    "series name (default: the first)")
 
 
 def _values_may_start_with_a_dash(argv: list[str], parser: argparse.ArgumentParser) -> list[str]:
@@ -766,12 +767,19 @@ def _file_axes_lines(s) -> list[str]:
 
     lines = []
     if s.axes:
-        words = {"scenes": "scenes", "T": "time points", "C": "channels", "Z": "z slices"}
+        words = {"scenes": "scenes", "T": "time points", "C": "channels", "Z": "z slices", "λ": "emission wavelengths (λ)",
+                 "Λ": "excitation wavelengths (Λ)"}
         lines.append("axes: " + ", ".join(f"{n} {words.get(a, a)}" for a, n in s.axes.items()))
+    vendor = s.metadata.get("vendor") or {}
+    names = vendor.get("scene_names") or []
+    if len(names) > 1:
+        lines.append("scenes: " + ", ".join(f"{i} {name!r}" + (" (this one)" if i == vendor.get("scene") else "")
+                                            for i, name in enumerate(names)) + "; choose one with --scene, a number or a name")
     if s.channel_names:
         waves = s.wavelengths_nm or [None] * len(s.channel_names)
         lines.append("channel names: " + ", ".join(
-            f"{name} ({w:g} nm)" if w else name for name, w in zip(s.channel_names, list(waves) + [None] * len(s.channel_names))))
+            f"{name} ({w:g} nm)" if w and f"{w:g} nm" not in name else name
+            for name, w in zip(s.channel_names, list(waves) + [None] * len(s.channel_names))))
     if s.z_step_m:
         lines.append(f"z step: {format_length(s.z_step_m)}")
     if s.reader:
@@ -781,13 +789,15 @@ def _file_axes_lines(s) -> list[str]:
 
 def cmd_info(args) -> int:
     from ..clean.stage import clean_picture
-    from ..read import read_image
     from ..lithograph.report import instrument_words
+    from ..params import parse_field
+    from ..read import read_image
     from ..units import format_length, parse_length_m
 
     pixel_size_m = parse_length_m(args.pixel_size, "pixel_size") if args.pixel_size else None
+    scene = parse_field("scene", args.scene) if args.scene is not None else None  # a number, or a series name
     picture = read_image(args.image, page=args.page, z_slice=args.slice, channel=args.channel, time=args.time,
-                         scene=args.scene)  # the same size guard as convert
+                         scene=scene)  # the same size guard as convert
     s = picture.file
     cleaned = clean_picture(picture, pixel_size_m=pixel_size_m, remove_annotations=True)
     scale, crop, found = cleaned.pixel_size, cleaned.band.as_dict(), cleaned.annotations_with_text

@@ -47,7 +47,7 @@ def open_stack(path: Path, kind: str, scene: int | None, limits, target_px: int 
     if kind == "czi":
         from .czi import open_czi
 
-        return open_czi(path, scene)
+        return open_czi(path, scene, limits)
     if kind == "lif":
         from .lif import open_lif
 
@@ -94,12 +94,19 @@ class VendorPlanes:
             "axes": _axes(s), "scene": s.scene, "scene_name": s.scene_name, "time": c.time, "z": c.z,
             "channels": [{"name": ch.name, "excitation_nm": ch.excitation_nm, "emission_nm": ch.emission_nm} for ch in channels],
             "channels_used": c.channels, **{k: v for k, v in s.metadata.items() if v not in ("", None)},
+            **({"scene_names": list(s.scene_names)} if s.scene_names else {}),
+            **({"wavelength_axes": dict(s.bands), "wavelength_key": s.band_key} if s.bands else {}),
         }
 
 
 def _axes(s: Stack) -> dict[str, int]:
+    """Scenes, T, C, Z and any wavelength axis (λ, Λ) with more than one step; C counts detectors."""
     axes = {"scenes": s.scenes} if s.scenes > 1 else {}
     axes.update({a: s.size(a) for a in "TCZ" if s.size(a) > 1})
+    if s.bands:
+        axes.pop("C", None)
+        axes.update({"C": s.detectors} if s.detectors > 1 else {})
+        axes.update({a: n for a, n in s.bands.items() if n > 1})
     return axes
 
 
@@ -175,7 +182,7 @@ class ChannelPlane:
     emission_nm: float | None = None
 
 
-def read_channels(path, *, scene: int | None = None, time: int | None = None, z_slice: int | None = None,
+def read_channels(path, *, scene: int | str | None = None, time: int | None = None, z_slice: int | None = None,
                   max_megapixels: float = 400.0, max_decoded_gb: float = 2.0) -> list[ChannelPlane]:
     """Every channel of one plane of a microscope file, with names and wavelengths.
 

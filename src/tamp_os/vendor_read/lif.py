@@ -6,10 +6,15 @@ images ("Atypical imaging experiment, use get_plane()") and gives scales only as
 A LIF frame is its two innermost spatial axes: for an XZ scan those are Z and X, so the image's
 rows are depth, not Y; we say so. A spatial axis outside the frame (Y of an XZY stack, or Z of an
 XYZ stack) is the stack axis, projected or sliced like Z.
+
+A wavelength sweep (liffile's `λ`, emission, DimID 5; `Λ`, excitation, DimID 9: λYX, ΛYX, TλZYX…)
+is read as channels, one per wavelength ("λ 520 nm"; with several detectors "HyD 1 λ 520 nm"), so
+`channel` picks one by number or name; by default plan.py reads the emission peak (see there).
 """
 
 from __future__ import annotations
 
+import itertools
 from pathlib import Path
 
 import numpy as np
@@ -18,6 +23,7 @@ from .model import Channel, Stack
 
 KIND = "lif"
 SPATIAL = "XYZ"
+SPECTRAL = {"λ": "emission", "Λ": "excitation"}  # liffile's names of the wavelength axes
 
 
 def _step_m(coords, axis: str, n: int) -> float | None:
@@ -43,19 +49,22 @@ def open_lif(path, scene: int | None) -> Stack:
             block = each.memory_block
             if block is not None and int(block.offset) + int(block.size) > file_bytes:
                 raise EOFError(f"image {each.name!r} runs to byte {int(block.offset) + int(block.size):,}, past the end of the file ({file_bytes:,} bytes)")
-        s = check_index(path, "scene", scene, len(images), "image")
+        s = check_index(path, "scene", scene, len(images), "image", names=[i.name for i in images])
         im = images[s]
         dims, shape = tuple(im.dims), tuple(int(n) for n in im.shape)
         sizes_all = dict(zip(dims, shape))
         has_s = dims[-1] == "S"
         frame_axes = dims[-3:-1] if has_s else dims[-2:]
         stack_axes = [a for a in dims if a in SPATIAL and a not in frame_axes]
-        others = [a for a in dims if a not in SPATIAL and a not in ("C", "T", "S")]
-        if len(stack_axes) > 1 or others:
+        spectral = [a for a in dims if a in SPECTRAL and a not in frame_axes]
+        others = [a for a in dims if a not in SPATIAL and a not in SPECTRAL and a not in ("C", "T", "S")]
+        if len(stack_axes) > 1 or others or any(a in SPECTRAL for a in frame_axes):
             raise NotImplementedError(f"image {im.name!r} has axes {''.join(dims)}")
         coords = {k: np.asarray(v) for k, v in im.coords.items()}
         stack_axis = stack_axes[0] if stack_axes else None
-        sizes = {"T": sizes_all.get("T", 1), "C": sizes_all.get("C", 1), "Z": sizes_all.get(stack_axis, 1) if stack_axis else 1}
+        # C × each wavelength axis, flattened into channels (detector outermost, as LAS X lists them)
+        combos = list(itertools.product(range(sizes_all.get("C", 1)), *(range(sizes_all[a]) for a in spectral)))
+        sizes = {"T": sizes_all.get("T", 1), "C": len(combos), "Z": sizes_all.get(stack_axis, 1) if stack_axis else 1}
         row_axis, col_axis = frame_axes
         px_x, px_y = _step_m(coords, col_axis, sizes_all[col_axis]), _step_m(coords, row_axis, sizes_all[row_axis])
         notes = []
@@ -64,7 +73,11 @@ def open_lif(path, scene: int | None) -> Stack:
                          f"(depth), not Y; the print shows a side view.")
         if stack_axis and stack_axis != "Z" and sizes["Z"] > 1:
             notes.append(f"image {im.name!r} is stacked along {stack_axis} ({sizes['Z']} steps); that axis is used as the z-stack.")
-        channels = _channels(lif, im.name, sizes["C"])
+        channels = _channels(lif, im.name, sizes_all.get("C", 1))
+        bands = {a: sizes_all[a] for a in spectral}
+        if spectral:
+            channels, band_notes = _wavelength_channels(im.name, channels, sizes_all.get("C", 1), combos, spectral, coords)
+            notes += band_notes
         t_step = _step_m(coords, "T", sizes["T"])
         dtype = np.dtype(im.dtype)
     except Exception:
@@ -75,8 +88,10 @@ def open_lif(path, scene: int | None) -> Stack:
         index = {}
         if "T" in sizes_all:
             index["T"] = t
+        detector, *steps = combos[c]
         if "C" in sizes_all:
-            index["C"] = c
+            index["C"] = detector
+        index.update(zip(spectral, steps))
         if stack_axis:
             index[stack_axis] = z
         return im.frame(**index)
@@ -90,8 +105,41 @@ def open_lif(path, scene: int | None) -> Stack:
         z_key=f"coordinates of {stack_axis}" if stack_axis else "", time_step_s=t_step,
         samples=sizes_all.get("S", 1), metadata={"lif_images": [i.name for i in images], "lif_axes": "".join(dims),
                   "picture_axes": {"rows": row_axis, "columns": col_axis}},  # an XZ scan: rows along Z
-        notes=notes, close=lif.close,
+        notes=notes, close=lif.close, scene_names=[i.name for i in images], bands=bands,
+        band_key=f"image {im.name!r} coordinates of {', '.join(spectral)} (Dimensions)" if spectral else "",
     )
+
+
+def _wavelength_channels(name, detectors, n_detectors, combos, spectral, coords) -> tuple[list[Channel], list[str]]:
+    """A Channel per (detector, wavelength…) combination, named by its wavelengths in nm, and a note
+    that says the sweep (its range and step) in words."""
+    from ..errors import Text
+
+    nm = {}
+    for axis in spectral:
+        values = coords.get(axis)
+        nm[axis] = [round(float(v) * 1e9, 1) for v in values] if values is not None and len(values) else None
+    out = []
+    for detector, *steps in combos:
+        prefix = ""
+        if n_detectors > 1:
+            prefix = (detectors[detector].name if detector < len(detectors) else f"detector {detector}") + " "
+        parts, em, ex = [], None, None
+        for axis, k in zip(spectral, steps):
+            value = nm[axis][k] if nm[axis] and k < len(nm[axis]) else None
+            parts.append(f"{axis} {value:g} nm" if value is not None else f"{axis} step {k}")
+            em, ex = (value, ex) if SPECTRAL[axis] == "emission" else (em, value)
+        out.append(Channel(prefix + " ".join(parts), ex, em))
+    notes = []
+    for axis in spectral:
+        values = nm[axis]
+        if values and len(values) > 1:
+            step = (values[-1] - values[0]) / (len(values) - 1)
+            notes.append(Text(f"image {name!r} is an {SPECTRAL[axis]} wavelength sweep ({axis}): {len(values)} steps from "
+                              f"{values[0]:g} to {values[-1]:g} nm, {step:.3g} nm apart, read as channels named by wavelength."))
+        else:
+            notes.append(Text(f"image {name!r} sweeps the {SPECTRAL[axis]} wavelength ({axis}); the file gives no wavelengths."))
+    return out, notes
 
 
 def _channels(lif, name: str, count: int) -> list[Channel]:

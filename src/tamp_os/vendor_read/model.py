@@ -45,6 +45,9 @@ class Stack:
     pixel_size_key : where in the file the pixel size was read (provenance).
     z_step_m, z_key : the z step and where it was read, when the file has a Z axis.
     samples : colour samples per pixel (3 for RGB), 1 for grey.
+    scene_names : the scenes' names where the file gives them (a LIF's series), in order.
+    bands : wavelength axes folded into C ({'λ': 32} for a λ scan): the channels then run over
+        detector × wavelength, and `band_key` says where the wavelengths were read.
     """
 
     format: str
@@ -67,9 +70,20 @@ class Stack:
     metadata: dict = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
     close: Callable[[], None] = lambda: None
+    scene_names: list[str] = field(default_factory=list)
+    bands: dict[str, int] = field(default_factory=dict)
+    band_key: str = ""
 
     def size(self, axis: str) -> int:
         return int(self.sizes.get(axis, 1))
+
+    @property
+    def detectors(self) -> int:
+        """Channels of the file's own C axis (a λ scan of one detector: 1, whatever its wavelengths)."""
+        per = 1
+        for n in self.bands.values():
+            per *= int(n)
+        return max(self.size("C") // per, 1)
 
     def channel_list(self) -> list[Channel]:
         """A Channel for every index of C, named by its number where the file gives no name."""

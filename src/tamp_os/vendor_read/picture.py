@@ -26,7 +26,8 @@ def read_vendor(path: Path, kind, page, channel, limits, z_slice, time, scene, t
     decoded = _Decoded(stack.format, chosen.arrays[0], {"vendor": facts}, max(stack.scenes, 1), notes=notes + planes.notes,
                        channel_chosen=picked != "luminance" or stack.size("C") > 1 or stack.samples == 1)
     decoded.facts = {
-        "axes": facts["axes"], "channel_count": max(stack.size("C"), 1) if stack.samples == 1 else stack.samples,
+        # a λ scan is one detector's channel at many wavelengths: not several channels to print apart
+        "axes": facts["axes"], "channel_count": (stack.detectors if stack.bands else max(stack.size("C"), 1)) if stack.samples == 1 else stack.samples,
         "channel_names": [c.name for c in channels] if named else None, "wavelengths_nm": [c.wavelength_nm for c in channels],
         "z_step_m": stack.z_step_m, "reader": stack.reader,
     }

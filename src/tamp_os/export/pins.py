@@ -516,6 +516,9 @@ def render_key_page(source: PinSource, device: PinDevice, bar_text: str | None) 
             regions.append(PinRegion("braille", label, "braille label", mask))
         plain_rows.append(label)
         top += height + 2
+    marker = _marker(device)  # the key page is held the same way up as the picture pages
+    pins[marker] = device.level("furniture")
+    regions.append(PinRegion("furniture", "orientation marker", "top right corner, as the plate's cut corner", marker))
     plain = "Key: " + "; ".join(plain_rows) + "."
     return PinPage("key", pins, plain, _braille(plain, source.braille_table), None, None, None, regions, None, {})
 

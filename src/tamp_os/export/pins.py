@@ -22,12 +22,15 @@ into a vendor's bytes.
 
 from __future__ import annotations
 
+import logging
 import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..errors import ExportError
+
+log = logging.getLogger(__name__)
 
 MIN_REGION_PINS = 4  # a labelled region smaller than this is not found by a fingertip on pins
 ZOOM = 2  # zoom pages show a quarter of the picture at twice the overview's scale
@@ -527,7 +530,24 @@ def render_key_page(source: PinSource, device: PinDevice, bar_text: str | None) 
 # All pages
 
 
-QUARTERS = ("top left", "top right", "bottom left", "bottom right")
+def zoom_windows(shape: tuple[int, int], device: PinDevice, s: float, zoom: float = ZOOM) -> list[tuple[int, int, int, int]]:
+    """Windows (r0, r1, c0, c1) the display shows at ZOOM × s pins per pixel, tiling the picture:
+    each the display's own shape (a wide strip gives slices along it, a 4:3 picture its quarters),
+    evenly spaced so that together they cover it."""
+    rows, cols = shape
+    win_r = min(rows, max(1, int((device.rows - BAR_ROWS) / (s * zoom))))
+    win_c = min(cols, max(1, int(device.cols / (s * zoom))))
+    starts_r = np.linspace(0, rows - win_r, max(1, math.ceil(rows / win_r))).round().astype(int)
+    starts_c = np.linspace(0, cols - win_c, max(1, math.ceil(cols / win_c))).round().astype(int)
+    return [(int(r), int(r) + win_r, int(c), int(c) + win_c) for r in starts_r for c in starts_c]
+
+
+def _where(window, shape) -> str:
+    r0, r1, c0, c1 = window
+    rows, cols = shape
+    v = ("top" if (r0 + r1) / 2 < rows / 3 else "bottom" if (r0 + r1) / 2 > 2 * rows / 3 else "middle")
+    h = ("left" if (c0 + c1) / 2 < cols / 3 else "right" if (c0 + c1) / 2 > 2 * cols / 3 else "centre")
+    return "centre" if v == "middle" and h == "centre" else f"{v} {h}" if v != "middle" else f"middle {h}" if h != "centre" else v
 
 
 def pin_pages(source: PinSource, device: PinDevice) -> PinSet:
@@ -536,20 +556,75 @@ def pin_pages(source: PinSource, device: PinDevice) -> PinSet:
     s = min(device.cols / cols, (device.rows - BAR_ROWS) / rows)
     overview = render_picture_page(source, device, (0, rows, 0, cols), s, "overview")
     pages = [overview]
-    half_r, half_c = rows // 2, cols // 2
-    windows = [(0, half_r, 0, half_c), (0, half_r, half_c, cols), (half_r, rows, 0, half_c), (half_r, rows, half_c, cols)]
-    for k, (where, window) in enumerate(zip(QUARTERS, windows), start=1):
-        r0, r1, c0, c1 = window
-        if r1 - r0 < 1 or c1 - c0 < 1 or not any(np.any(layer.data[r0:r1, c0:c1]) for layer in source.layers):
-            continue
-        if len(pages) > MAX_ZOOM_PAGES:
-            break
-        pages.append(render_picture_page(source, device, window, s * ZOOM, f"zoom {len(pages)}, {where} quarter, twice the scale"))
+    raised = np.zeros(source.shape, bool)
+    for layer in source.layers:
+        raised |= layer.data.astype(bool)
+    windows = [w for w in zoom_windows(source.shape, device, s) if raised[w[0] : w[1], w[2] : w[3]].any()]
+    if len(windows) > MAX_ZOOM_PAGES:  # the densest, in reading order
+        density = [raised[w[0] : w[1], w[2] : w[3]].mean() for w in windows]
+        chosen = sorted(np.argsort(density)[::-1][:MAX_ZOOM_PAGES])
+        windows = [windows[i] for i in chosen]
+    for window in windows:
+        name = f"zoom {len(pages)}, {_where(window, source.shape)}, twice the scale"
+        pages.append(render_picture_page(source, device, window, s * ZOOM, name))
     bar = overview.scale_bar
     pages.append(render_key_page(source, device, f"scale bar {_um(bar[3] * 1e6)}" if bar else None))
     pin_set = PinSet(device, pages, source)
     _check_useful(pin_set, s)
+    pin_set.notes.extend(_partial_notes(pin_set, s))
+    for note in pin_set.notes:
+        log.warning(note)
     return pin_set
+
+
+def _typical_size_px(layer: Layer) -> float:
+    """About how wide a layer's things are, in picture pixels (members: the median's circle;
+    lines: twice the mean width, the spacing a pin would need to tell two apart)."""
+    if layer.kind == "lines":
+        m = layer.data.astype(bool)
+        return max(m.sum() / max(1, int(_skeleton(m).sum())), 1.0) * 2
+    areas = np.bincount(layer.data.ravel())[1:]
+    areas = areas[areas > 0]
+    return 2 * math.sqrt(float(np.median(areas)) / math.pi) if areas.size else 1.0
+
+
+ZOOMS_TRIED = (3, 4, 6, 8, 12, 16)
+
+
+def zoom_needed(source: PinSource, device: PinDevice, s: float, layer: Layer) -> int | None:
+    """The least zoom (of ZOOMS_TRIED) at which the densest window keeps 90 % of the layer's
+    members it holds, each on its own; None when even 16× does not."""
+    raised = layer.data > 0
+    one = PinSource(source.shape, [layer], source.um_per_px, source.title, source.caption, source.braille_table)
+    for zoom in ZOOMS_TRIED:
+        windows = zoom_windows(source.shape, device, s, zoom)
+        best = max(windows, key=lambda w: raised[w[0] : w[1], w[2] : w[3]].sum())
+        page = render_picture_page(one, device, best, s * zoom, "trial")
+        count = page.counts.get(layer.label, {})
+        if count.get("found") and count.get("kept", 0) >= 0.9 * count["found"]:
+            return zoom
+    return None
+
+
+def _partial_notes(pin_set: PinSet, s: float) -> list[str]:
+    """A sentence for each layer of members the overview shows less than half of, with the zoom
+    at which each would be felt on its own."""
+    notes = []
+    overview = pin_set.overview
+    for layer in pin_set.source.layers:
+        if layer.kind not in ("members", "dots"):
+            continue
+        count = overview.counts.get(layer.label, {})
+        found, kept = count.get("found", 0), count.get("kept", 0)
+        if found and kept < found / 2:
+            zoomed = [p.counts.get(layer.label, {}) for p in pin_set.pages[1:-1]]
+            z_found, z_kept = sum(c.get("found", 0) for c in zoomed), sum(c.get("kept", 0) for c in zoomed)
+            need = zoom_needed(pin_set.source, pin_set.device, s, layer)
+            at = (f"would each be felt on their own at about {need}× (crop the picture to about 1/{need} of its width "
+                  f"for the pin pages)") if need else "stay too close together even at 16×"
+            notes.append(f"{pin_set.device.label}: the overview shows {kept} of the {found} {layer.label} and the zoom pages "
+                         f"{z_kept} of {z_found}; they are too small and close for a pin each, and {at}.")
+    return notes
 
 
 def _check_useful(pin_set: PinSet, s: float) -> None:
@@ -561,19 +636,11 @@ def _check_useful(pin_set: PinSet, s: float) -> None:
     shown = sum(1 for p in pin_set.pages[:-1] for r in p.regions if r.layer not in ("furniture", "braille"))
     if shown:
         return
-    sizes = []
-    for layer in source.layers:
-        if layer.kind == "lines":
-            m = layer.data.astype(bool)
-            length = max(1, int(_skeleton(m).sum()))
-            sizes.append(max(m.sum() / length, 1.0) * 2)  # about the spacing a pin would need to show
-        else:
-            areas = np.bincount(layer.data.ravel())[1:]
-            areas = areas[areas > 0]
-            if areas.size:
-                sizes.append(2 * math.sqrt(float(np.median(areas)) / math.pi))
-    size_px = min(sizes) if sizes else 1.0
+    size_px = min(_typical_size_px(layer) for layer in source.layers)
     need = math.ceil(2 / max(size_px * s, 1e-9))  # two pins across the typical structure
+    tried = [zoom_needed(source, pin_set.device, s, layer) for layer in source.layers if layer.kind != "lines"]
+    if tried and all(tried):
+        need = min(tried)
     pin_um = f" (a pin is {_um(source.um_per_px / (s * ZOOM))} at the closest zoom)" if source.um_per_px else ""
     size = f"about {_um(size_px * source.um_per_px)}" if source.um_per_px else f"about {size_px:.1f} picture pixels"
     raise ExportError(

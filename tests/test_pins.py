@@ -220,11 +220,12 @@ def test_every_file_decodes_to_the_pages_meant(beads_litho, written):
     for k, page in enumerate(sets["graphiti"].pages, start=1):  # the PNG Send Image takes: black = highest
         png = np.asarray(Image.open(folder / f"beads.graphiti-{k}.png"))
         assert png.shape == (40, 60) and int(((png < 255) != (page.pins > 0)).sum()) == 0
-    regions = read_monarch(folder / "beads.monarch.svg")
-    raised = np.zeros((40, 96), bool)
-    for r in regions:
-        raised |= r["pins"]
-    assert int((raised != (sets["monarch"].overview.pins > 0)).sum()) == 0
+    monarch = [folder / "beads.monarch.svg"] + [folder / f"beads.monarch-{k}.svg" for k in range(2, len(sets["monarch"].pages) + 1)]
+    for svg, page in zip(monarch, sets["monarch"].pages):
+        raised = np.zeros((40, 96), bool)
+        for r in read_monarch(svg):
+            raised |= r["pins"]
+        assert int((raised != (page.pins > 0)).sum()) == 0, svg.name
 
 
 def _check_rules(pins: np.ndarray, regions, picture_page: bool):
@@ -342,29 +343,48 @@ def test_lines_stay_connected_and_thin_lines_are_kept():
     assert set(np.unique(one.overview.pins[cross[0].mask])) == {3}  # lines at the middle level
 
 
-def test_members_too_fine_for_any_zoom_say_the_zoom_needed():
+def _specks() -> PinSource:
     labels = np.zeros((600, 800), np.int32)
-    labels[5::8, 5::8] = np.arange(1, labels[5::8, 5::8].size + 1).reshape(labels[5::8, 5::8].shape)  # one-pixel specks
-    source = PinSource(labels.shape, [Layer("members", "specks", labels)], 0.01, "specks", "specks", "en-ueb-g2.ctb")
-    with pytest.raises(ExportError, match=r"zoom of about \d+×"):
-        pin_pages(source, DEVICES["dotpad"])
+    grid = labels[5::8, 5::8]
+    labels[5::8, 5::8] = np.arange(1, grid.size + 1).reshape(grid.shape)  # one-pixel specks, 8 px apart
+    return PinSource(labels.shape, [Layer("members", "specks", labels)], 0.01, "specks", "specks", "en-ueb-g2.ctb")
 
 
-def test_a_picture_too_fine_writes_no_file(tmp_path):
+def test_members_too_fine_for_any_zoom_say_the_zoom_needed():
+    with pytest.raises(ExportError, match=r"finer than a pin on every page .* needs a zoom of about \d+×"):
+        pin_pages(_specks(), DEVICES["dotpad"])
+
+
+def test_a_picture_too_fine_writes_no_file(beads_litho, tmp_path, monkeypatch):
     """The pages are made before any file is opened, so a refusal leaves the folder empty."""
-    from tamp_os import make_lithograph
+    from tamp_os.export import pins
 
-    rng = np.random.default_rng(0)
-    image = np.zeros((600, 800), np.float32)
-    image[rng.integers(0, 600, 3000), rng.integers(0, 800, 3000)] = 1.0
-    litho = make_lithograph(image, preset="low")
-    try:
-        litho.save(tmp_path, formats=("stl", "dotpad"))
-    except ExportError as exc:
-        assert "zoom" in str(exc)
-        assert not list(tmp_path.iterdir())
-    else:  # the relief smoothed the specks into something a pin shows: then the file must be whole
-        assert (tmp_path / f"{litho.name}.dtms").is_file()
+    _, litho = beads_litho
+    monkeypatch.setattr(pins, "source_from_lithograph", lambda litho: _specks())
+    with pytest.raises(ExportError, match="zoom"):
+        litho.save(tmp_path, formats=("stl", "dotpad", "graphiti"))
+    assert not list(tmp_path.iterdir())
+
+
+@pytest.mark.skipif(not (FIXTURES / "real" / "zeiss_dapi_gfp_2ch.czi").is_file(), reason="real fixtures absent")
+def test_real_channel_print_keeps_the_rules_on_every_page(tmp_path):
+    """Nuclei (domes) on a cytoplasm plateau: on the Dot Pad the plateau is an outline, on the
+    Graphiti a low fill with the domes on top; both keep every rule on the decoded files."""
+    from tamp_os import make_lithograph
+    from tamp_os.export.pin_files import pin_sets
+
+    litho = make_lithograph(FIXTURES / "real" / "zeiss_dapi_gfp_2ch.czi", preset="low")
+    sets = pin_sets(litho, ["dotpad", "graphiti"])
+    for fmt, pin_set in sets.items():
+        save_pins(pin_set, fmt, tmp_path, "cells", "t")
+    for decoded, page in zip(read_dtms(tmp_path / "cells.dtms"), sets["dotpad"].pages):
+        _check_rules(decoded["pins"], page.regions, page.name != "key")
+    g = read_graphiti(tmp_path / "cells.graphiti")
+    for decoded, page in zip(g, sets["graphiti"].pages):
+        _check_rules(decoded, page.regions, page.name != "key")
+    assert {2, 4} <= set(np.unique(np.concatenate([p.ravel() for p in g[:-1]])))  # plateau low, domes high
+    key = read_dtms(tmp_path / "cells.dtms")[-1]["plain"]
+    assert "nuclei (DAPI)" in key and "diffuse (GFP)" in key
 
 
 def test_writes_go_through_the_atomic_writer(beads_litho, tmp_path, monkeypatch):
@@ -384,7 +404,7 @@ def test_writes_go_through_the_atomic_writer(beads_litho, tmp_path, monkeypatch)
     sets = _sets(litho)
     for fmt, pin_set in sets.items():
         save_pins(pin_set, fmt, tmp_path, "x", "t")
-    assert {"x.dtms", "x.graphiti", "x.monarch.svg", "x.dotpad-simulator.png"} <= set(calls)
+    assert {"x.dtms", "x.graphiti", "x.monarch.svg", "x.monarch-2.svg", "x.dotpad-simulator.png"} <= set(calls)
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]  # no temporary left behind
 
 

@@ -10,9 +10,10 @@
   for each of the 2400 pins row by row its height (0-4) and blink rate (0), then the checksum
   (two's complement of the byte sum after the start byte); a data or checksum byte equal to 0x1B
   is sent twice. Also each page as a PNG for its Send Image command.
-- Monarch (`.monarch.svg`): an SVG in the IMAGE profile: one <title>, a layer per kind of thing as
-  <g data-image-layer>, each region a path of whole pins with aria-label and aria-description,
-  on a 96 × 40 view box, so that rasterised at 96 × 40 every region covers exactly its pins.
+- Monarch (`.monarch.svg`, then `.monarch-2.svg`... for the zoom and key pages): an SVG a page in
+  the IMAGE profile: one <title>, a layer per kind of thing as <g data-image-layer>, each region a
+  path of whole pins with aria-label and aria-description, on a 96 × 40 view box, so that
+  rasterised at 96 × 40 every region covers exactly its pins.
 
 Every file goes through files.write_atomic.
 """
@@ -161,9 +162,20 @@ def monarch_svg(page: PinPage, pin_set: PinSet, title: str) -> str:
     return "\n".join(out) + "\n"
 
 
-def write_monarch(pin_set: PinSet, path: Path, title: str) -> Path:
-    text = monarch_svg(pin_set.overview, pin_set, title)
-    return write_atomic(Path(path), lambda fh: fh.write(text.encode("utf-8")))
+def monarch_paths(path: Path, pages: int) -> list[Path]:
+    """The overview at `path` (NAME.monarch.svg), each further page beside it (NAME.monarch-2.svg, ...)."""
+    path = Path(path)
+    stem = path.name[: -len(".monarch.svg")] if path.name.endswith(".monarch.svg") else path.stem
+    return [path] + [path.with_name(f"{stem}.monarch-{k}.svg") for k in range(2, pages + 1)]
+
+
+def write_monarch(pin_set: PinSet, path: Path, title: str) -> list[Path]:
+    """One SVG a page (the IMAGE profile holds one graphic): the overview, zooms and key."""
+    out = []
+    for page, target in zip(pin_set.pages, monarch_paths(path, len(pin_set.pages))):
+        text = monarch_svg(page, pin_set, title)
+        out.append(write_atomic(target, lambda fh, text=text: fh.write(text.encode("utf-8"))))
+    return out
 
 
 # ---------------------------------------------------------------------------------------------
@@ -237,6 +249,6 @@ def save_pins(pin_set: PinSet, fmt: str, folder: Path, stem: str, title: str) ->
         for number, page in enumerate(pin_set.pages, start=1):
             written.append(write_png(folder / f"{stem}.graphiti-{number}.png", page_image(page, pin_set.device.levels)))
     elif fmt == "monarch":
-        written.append(write_monarch(pin_set, folder / f"{stem}.monarch.svg", title))
+        written += write_monarch(pin_set, folder / f"{stem}.monarch.svg", title)
     written.append(write_simulator(pin_set, folder / f"{stem}.{fmt}-simulator.png"))
     return written

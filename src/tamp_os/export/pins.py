@@ -172,11 +172,12 @@ def source_from_lithograph(litho) -> PinSource:
     if metres and litho.furniture is not None and litho.furniture.sample_m_per_print_mm:
         um_per_px = litho.furniture.sample_m_per_print_mm * litho.layout.mm_per_px * 1e6
     title = f"Tactile lithograph of {litho.picture.file.name}"
-    caption = params.caption or Path_stem(litho.picture.file.name)
+    caption = params.caption or _spoken_stem(litho.picture.file.name)
     return PinSource((rows, relief.shape[1]), layers, um_per_px, title, caption, params.braille_table)
 
 
-def Path_stem(name: str) -> str:  # noqa: N802  (a file name's stem, said with spaces for braille)
+def _spoken_stem(name: str) -> str:
+    """A file name's stem said with spaces (for braille): fept_spheres_sem -> fept spheres sem."""
     from pathlib import Path
 
     return Path(name).stem.replace("_", " ").replace("-", " ") or "picture"

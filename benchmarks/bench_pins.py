@@ -33,8 +33,9 @@ DEVELOPMENT_SET = ["fept_spheres_sem.png", "real/sem_fei_sio2_particles_35kx.tif
 EIGHT = np.ones((3, 3), bool)
 
 
-def lines_connected(layer_data: np.ndarray, page) -> tuple[int, int]:
-    """(pieces kept on one pin line, pieces) for the source line pieces longer than a pin."""
+def lines_connected(layer_data: np.ndarray, page) -> tuple[int, int, float]:
+    """(pieces kept on one pin line, pieces) for the source line pieces longer than a pin, and the
+    share of the source lines' length that lies within a pin of a pin line."""
     r0, r1, c0, c1 = page.window
     oy, ox, s = page.placement
     skeleton = _skeleton(layer_data.astype(bool))[r0:r1, c0:c1]
@@ -43,6 +44,10 @@ def lines_connected(layer_data: np.ndarray, page) -> tuple[int, int]:
     for k, region in enumerate((r for r in page.regions if r.layer == "lines"), start=1):
         line_id[region.mask] = k
     near = ndimage.grey_dilation(line_id, footprint=EIGHT)  # thinning may move a line by a pin
+    ys, xs = np.nonzero(skeleton)
+    all_py = np.clip((ys * s).astype(int) + oy, 0, page.pins.shape[0] - 1)
+    all_px = np.clip((xs * s).astype(int) + ox, 0, page.pins.shape[1] - 1)
+    length_share = float((near[all_py, all_px] > 0).mean()) if ys.size else 1.0
     kept = total = 0
     for k in range(1, n + 1):
         ys, xs = np.nonzero(pieces == k)
@@ -54,7 +59,7 @@ def lines_connected(layer_data: np.ndarray, page) -> tuple[int, int]:
         ids = near[py, px]
         if (ids > 0).mean() >= 0.9 and len(set(ids[ids > 0])) == 1:
             kept += 1
-    return kept, total
+    return kept, total, length_share
 
 
 def members_separate(page) -> int:
@@ -100,7 +105,7 @@ def bench(path: Path, out: Path) -> None:
             if line_layers:
                 pairs = [lines_connected(layer.data, page) for layer in line_layers]
                 k, t = sum(p[0] for p in pairs), sum(p[1] for p in pairs)
-                connected = f"{k} / {t}"
+                connected = f"{k} / {t} ({min(p[2] for p in pairs):.0%} of the length)"
             members = sum(c.get("kept", 0) for lbl, c in page.counts.items()
                           if any(layer.label == lbl and layer.kind in ("members", "dots") for layer in pin_set.source.layers))
             separate = f"{members_separate(page)} / {members}" if members else "–"

@@ -21,9 +21,9 @@ from scipy import ndimage
 
 from tamp_os.errors import ExportError
 from tamp_os.export.pin_files import pin_sets, save_pins
-from tamp_os.export.pins import _skeleton, _um
-from tamp_os.files import to_uint8, write_png
-from tamp_os.pipeline import make_lithograph
+from tamp_os.export.pins import length_words, skeleton_of
+from tamp_os.export.files import to_uint8, write_png
+from tamp_os import make_lithograph
 
 FIXTURES = Path(__file__).resolve().parents[2] / "shared" / "fixtures"
 if not FIXTURES.is_dir():
@@ -38,7 +38,7 @@ def lines_connected(layer_data: np.ndarray, page) -> tuple[int, int, float]:
     share of the source lines' length that lies within a pin of a pin line."""
     r0, r1, c0, c1 = page.window
     oy, ox, s = page.placement
-    skeleton = _skeleton(layer_data.astype(bool))[r0:r1, c0:c1]
+    skeleton = skeleton_of(layer_data.astype(bool))[r0:r1, c0:c1]
     pieces, n = ndimage.label(skeleton, EIGHT)
     line_id = np.zeros(page.pins.shape, int)
     for k, region in enumerate((r for r in page.regions if r.layer == "lines"), start=1):
@@ -109,7 +109,7 @@ def bench(path: Path, out: Path) -> None:
             members = sum(c.get("kept", 0) for lbl, c in page.counts.items()
                           if any(layer.label == lbl and layer.kind in ("members", "dots") for layer in pin_set.source.layers))
             separate = f"{members_separate(page)} / {members}" if members else "–"
-            scale = _um(page.um_per_pin) if page.um_per_pin else "unknown"
+            scale = length_words(page.um_per_pin) if page.um_per_pin else "unknown"
             name = page.name.split(",")[0]
             print(f"| {fmt} | {name} | {int((page.pins > 0).sum())} | {kept} / {found} | {connected} | {separate} | {scale} |")
 

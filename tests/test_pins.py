@@ -33,9 +33,7 @@ from tamp_os.export.pins import DEVICES, Layer, PinSource, pin_pages
 
 pytestmark = pytest.mark.timeout(120)
 
-FIXTURES = Path(__file__).resolve().parents[1].parent / "shared" / "fixtures"
-if not FIXTURES.is_dir():
-    FIXTURES = Path("/work/shared/fixtures")
+from conftest import FIXTURES  # noqa: E402
 
 
 # ------------------------------------------------------------------------------------------------
@@ -291,7 +289,7 @@ def test_scale_is_right_within_a_pin_on_every_page(beads_litho, written):
         measured = int(decoded["pins"][row].astype(bool)[col:].argmin()) if not decoded["pins"][row, col:].all() else 60 - col
         assert measured == length
         assert abs(measured - metres * 1e6 / page.um_per_pin) <= 1.0, "scale bar off by more than a pin"
-        assert f"1 pin = " in page.plain
+        assert "1 pin = " in page.plain
     # a bead's width on the overview against its true width
     overview = sets["dotpad"].overview
     _, _, s = overview.placement
@@ -304,9 +302,9 @@ def test_scale_is_right_within_a_pin_on_every_page(beads_litho, written):
 
 
 def test_braille_back_translates_to_the_caption_and_key(beads_litho, written):
-    from tamp_os.tactile.braille import _load_binding
+    from tamp_os.tactile.braille import Liblouis
 
-    louis = _load_binding()
+    louis = Liblouis.system().binding
     if louis is None:
         pytest.skip("liblouis' Python binding is not installed")
     folder, _ = written
@@ -366,6 +364,7 @@ def test_a_picture_too_fine_writes_no_file(beads_litho, tmp_path, monkeypatch):
     assert not list(tmp_path.iterdir())
 
 
+@pytest.mark.real
 @pytest.mark.skipif(not (FIXTURES / "real" / "zeiss_dapi_gfp_2ch.czi").is_file(), reason="real fixtures absent")
 def test_real_channel_print_keeps_the_rules_on_every_page(tmp_path):
     """Nuclei (domes) on a cytoplasm plateau: on the Dot Pad the plateau is an outline, on the
@@ -388,7 +387,7 @@ def test_real_channel_print_keeps_the_rules_on_every_page(tmp_path):
 
 
 def test_writes_go_through_the_atomic_writer(beads_litho, tmp_path, monkeypatch):
-    from tamp_os import files
+    from tamp_os.export import files
     from tamp_os.export import pin_files
 
     calls = []
@@ -408,6 +407,7 @@ def test_writes_go_through_the_atomic_writer(beads_litho, tmp_path, monkeypatch)
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]  # no temporary left behind
 
 
+@pytest.mark.real
 @pytest.mark.skipif(not (FIXTURES / "real" / "zeiss_sem_al2o3_grains.czi").is_file(), reason="real fixtures absent")
 def test_real_grain_network_stays_one_network_on_the_zoom_pages():
     from tamp_os import make_lithograph

@@ -218,7 +218,7 @@ def _label_coverage(labels: np.ndarray, yi, xi, n, ph, pw) -> tuple[np.ndarray, 
     return best.reshape(ph, pw), share.reshape(ph, pw)
 
 
-def _skeleton(mask: np.ndarray) -> np.ndarray:
+def skeleton_of(mask: np.ndarray) -> np.ndarray:
     from skimage.morphology import skeletonize
 
     return skeletonize(mask) if mask.any() else mask
@@ -317,9 +317,9 @@ def render_picture_page(source: PinSource, device: PinDevice, window, s: float, 
         sub = layer.data[r0:r1, c0:c1]
         placed = np.zeros((R, C), np.int64)
         if layer.kind == "lines":
-            skeleton = _skeleton(layer.data.astype(bool))
+            skeleton = skeleton_of(layer.data.astype(bool))
             hit = _pooled(skeleton, yi, xi, n, ph, pw).any(axis=2)
-            thin = _skeleton(hit)
+            thin = skeleton_of(hit)
             # a thinned line keeps its topology; endpoints that thinning shortened are not lost
             pieces = cc_label(thin, connectivity=2)
             found = int(cc_label(skeleton[r0:r1, c0:c1], connectivity=2).max())
@@ -348,7 +348,7 @@ def render_picture_page(source: PinSource, device: PinDevice, window, s: float, 
                     pins = _outline(pins)  # a large solid field of raised pins reads as one blur
                 placed[pins] = next_id
                 diameter = 2 * math.sqrt(area_px / math.pi) * (source.um_per_px or 0)
-                desc = f"{layer.label}, about {_um(diameter)} across" if source.um_per_px else layer.label
+                desc = f"{layer.label}, about {length_words(diameter)} across" if source.um_per_px else layer.label
                 info[next_id] = (layer.kind, layer.label, desc)
                 rank[next_id] = RANK_OF[layer.kind] - 1e-6 * pins.sum()
                 next_id += 1
@@ -384,12 +384,12 @@ def render_picture_page(source: PinSource, device: PinDevice, window, s: float, 
             mask[row - 1 : row + 2, col] = True
             mask[row - 1 : row + 2, col + length - 1] = True
             pins[mask] = device.level("furniture")
-            regions.append(PinRegion("furniture", "scale bar", f"{_um(metres * 1e6)} long", mask))
+            regions.append(PinRegion("furniture", "scale bar", f"{length_words(metres * 1e6)} long", mask))
     words = [source.caption if name == "overview" else name]
     if um_pin:
-        words.append(f"1 pin = {_um(um_pin)}")
+        words.append(f"1 pin = {length_words(um_pin)}")
         if bar:
-            words.append(f"bar {_um(bar[3] * 1e6)}")
+            words.append(f"bar {length_words(bar[3] * 1e6)}")
     plain = ". ".join(words) + "."
     return PinPage(name, pins, plain, _braille(plain, source.braille_table), um_pin, window, (oy, ox, s), regions, bar, counts)
 
@@ -433,7 +433,7 @@ def _scale_bar(device: PinDevice, um_per_pin: float) -> tuple[int, int, int, flo
     return device.rows - 2, 0, int(round(length)), um * 1e-6
 
 
-def _um(um: float) -> str:
+def length_words(um: float) -> str:
     from ..units import format_length
 
     return format_length(float(f"{um:.2g}") * 1e-6)
@@ -569,7 +569,7 @@ def pin_pages(source: PinSource, device: PinDevice) -> PinSet:
         name = f"zoom {len(pages)}, {_where(window, source.shape)}, twice the scale"
         pages.append(render_picture_page(source, device, window, s * ZOOM, name))
     bar = overview.scale_bar
-    pages.append(render_key_page(source, device, f"scale bar {_um(bar[3] * 1e6)}" if bar else None))
+    pages.append(render_key_page(source, device, f"scale bar {length_words(bar[3] * 1e6)}" if bar else None))
     pin_set = PinSet(device, pages, source)
     _check_useful(pin_set, s)
     pin_set.notes.extend(_partial_notes(pin_set, s))
@@ -583,7 +583,7 @@ def _typical_size_px(layer: Layer) -> float:
     lines: twice the mean width, the spacing a pin would need to tell two apart)."""
     if layer.kind == "lines":
         m = layer.data.astype(bool)
-        return max(m.sum() / max(1, int(_skeleton(m).sum())), 1.0) * 2
+        return max(m.sum() / max(1, int(skeleton_of(m).sum())), 1.0) * 2
     areas = np.bincount(layer.data.ravel())[1:]
     areas = areas[areas > 0]
     return 2 * math.sqrt(float(np.median(areas)) / math.pi) if areas.size else 1.0
@@ -642,8 +642,8 @@ def _check_useful(pin_set: PinSet, s: float) -> None:
     tried = [zoom_needed(source, pin_set.device, s, layer) for layer in source.layers if layer.kind != "lines"]
     if tried and all(tried):
         need = min(tried)
-    pin_um = f" (a pin is {_um(source.um_per_px / (s * ZOOM))} at the closest zoom)" if source.um_per_px else ""
-    size = f"about {_um(size_px * source.um_per_px)}" if source.um_per_px else f"about {size_px:.1f} picture pixels"
+    pin_um = f" (a pin is {length_words(source.um_per_px / (s * ZOOM))} at the closest zoom)" if source.um_per_px else ""
+    size = f"about {length_words(size_px * source.um_per_px)}" if source.um_per_px else f"about {size_px:.1f} picture pixels"
     raise ExportError(
         f"{source.caption}: the structure ({size} across) is finer than a pin on every page of the "
         f"{pin_set.device.label}{pin_um}; it needs a zoom of about {need}× (the pages go to {ZOOM}×). "

@@ -66,6 +66,7 @@ class Lithograph:
     description: str | None = None  # a panel's or overview's own description (figure.py), else made from the report
     recipe_params: LithoParams | None = None  # what the recipe records, when not `params` (a figure's panel)
     channel_regions: np.ndarray | None = None  # a channel print: (picture rows, cols), i = the i-th key entry's region
+    objects: np.ndarray | None = None  # the members or shape the relief style found: (rows, cols) labels, 0 = ground (pin displays)
 
     @property
     def name(self) -> str:
@@ -157,7 +158,7 @@ def make_lithograph(source, params: LithoParams | None = None, *, printer_profil
         report = dataclasses.replace(report, key=key)
     return Lithograph(mesh=tactile.mesh, heightmap=heights, params=params, printer=machine, layout=layout, picture=picture,
                       report=report, furniture=furniture, mask=cleaned.source_mask(), parts=tactile.parts, tiles=tactile.tiles,
-                      channel_regions=channel_extras.regions if channel_extras else None)
+                      channel_regions=channel_extras.regions if channel_extras else None, objects=relief.objects)
 
 
 @dataclass

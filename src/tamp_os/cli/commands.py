@@ -430,12 +430,11 @@ def cmd_batch(args) -> int:
 
 
 def _dask_client(address: str):
-    from ..errors import InputError, MissingDependencyError
+    from ..errors import InputError, require_extra
 
-    try:
-        from distributed import Client
-    except ImportError:
-        raise MissingDependencyError("--dask-scheduler needs Dask: pip install 'dask[distributed]'.") from None
+    require_extra("dask", "--dask-scheduler", "distributed")
+    from distributed import Client
+
     try:
         return Client(address, timeout="10s")
     except (OSError, TimeoutError) as exc:
@@ -573,6 +572,9 @@ def cmd_render(args) -> int:
 
 
 def cmd_gui(args) -> int:
+    from ..errors import require_extra
+
+    require_extra("gui", "the web app", "fastapi", "uvicorn", "jinja2", "multipart")
     from ..gui import serve
 
     import socket

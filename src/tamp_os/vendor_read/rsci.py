@@ -12,10 +12,11 @@ from __future__ import annotations
 
 import bz2
 import logging
+import os
 
 import numpy as np
 
-from ..errors import Text
+from ..errors import InputError, Text
 from ..units import unit_factor_m
 from .model import Channel, Stack
 
@@ -39,16 +40,125 @@ def _reader(kind: str):
     return file_reader
 
 
+PIECE_BYTES = 1 << 20  # decompressed at most this much at a time: memory stays flat whatever the stream's ratio
+
+
 def elid_decoded_bytes(path, cap_bytes: float) -> int:
-    """Bytes the ELID's bzip2 stream holds once decompressed, counted in small pieces, stopping past `cap_bytes`."""
+    """Bytes the ELID's bzip2 stream holds once decompressed, counted in pieces of at most
+    PIECE_BYTES (a bzip2 stream expands up to ~45 million times: 64 kB in may be GBs out), stopping
+    as soon as the count passes `cap_bytes`. Nothing decompressed is kept."""
     total, decomp = 0, bz2.BZ2Decompressor()
     with open(path, "rb") as fh:
         while not decomp.eof and total <= cap_bytes:
-            chunk = fh.read(1 << 16)
-            if not chunk:
-                raise EOFError("the compressed stream ends early")
-            total += len(decomp.decompress(chunk))
+            if decomp.needs_input:
+                chunk = fh.read(1 << 16)
+                if not chunk:
+                    raise EOFError("the compressed stream ends early")
+            else:
+                chunk = b""  # the decompressor still holds input: drain it, one bounded piece at a time
+            total += len(decomp.decompress(chunk, max_length=PIECE_BYTES))
     return total
+
+
+def check_elid(path, limits) -> None:
+    """Refuse an ELID project whose bzip2 stream decompresses to more than `max_decoded_gb`
+    (rosettasciio decompresses it whole); counted in bounded pieces, stopping past the cap."""
+    import math
+
+    from .errors import KINDS
+
+    cap = limits.max_decoded_gb * 1e9
+    size = elid_decoded_bytes(path, cap)
+    if size > cap:
+        what, todo = KINDS["elid"]
+        raise InputError(
+            f"{path}: {what} whose bzip2 stream decompresses to more than {size / 1e9:.2g} GB (counting stopped there; "
+            f"the file is {os.path.getsize(path):,} bytes), above the limit of {limits.max_decoded_gb:g} GB that guards "
+            f"against decompression bombs; {todo}.",
+            hint=f"If you trust the file and the computer has the memory, raise the limit, for example `max_decoded_gb` "
+                 f"{max(1, math.ceil(size / 1e9) * 2)}.")
+
+
+def check_jeol(path, limits) -> None:
+    """Refuse a JEOL .img whose Image/Size declares more pixels than its Image/Bits hold, or than the cap:
+    rosettasciio resizes the stored bits to the declared size, allocating it whole (zeros past the data)."""
+    from ..read_cost import check_declared
+    from .errors import KINDS
+
+    found = jeol_image_fields(path)
+    what, todo = KINDS["jeol"]
+    if found.get("many"):
+        raise InputError(f"{path}: {what} with more than {MAX_JEOL_FIELDS:,} header fields (a real file has a few hundred); "
+                         f"the file is damaged or hostile; {todo}.")
+    if not found or "Size" not in found:
+        return  # not the layout priced here: rosettasciio reads (or refuses) it
+    width, height = found["Size"]
+    itemsize, stored = found.get("Bits", (1, 0))
+    declared = float(width) * float(height) * itemsize
+    words = f"an image of {width}×{height} pixels"
+    check_declared(path, what, words, declared, stored, limits.max_decoded_gb, todo,
+                   holds=f"the {stored:,} bytes of pixels it stores (Image/Bits)")
+
+
+JEOL_TYPES = {1: 1, 2: 2, 3: 4, 4: 4, 5: 8, 6: 1, 7: 2, 8: 4, 9: 4, 10: 8, 11: 1, 12: 1, 13: 1, 14: 2, 20: 1}
+MAX_JEOL_FIELDS = 100_000
+
+
+def jeol_image_fields(path) -> dict:
+    """{'Size': (width, height), 'Bits': (bytes per value, bytes stored)} of a JEOL .img's Image
+    group, found by walking its tagged tree as rosettasciio does, but skipping over every value
+    (never reading one larger than 16 bytes), so a hostile header costs no memory."""
+    import struct
+
+    size = os.path.getsize(path)
+    out: dict = {}
+    with open(path, "rb") as fh:
+        head = fh.read(48)
+        if len(head) < 48 or struct.unpack("<I", head[:4])[0] != 52:
+            return out
+        data_pos = struct.unpack("<I", head[44:48])[0]
+        fh.seek(data_pos + 12)
+        keys: list[str] = []
+        for _ in range(MAX_JEOL_FIELDS):
+            mark = fh.read(1)
+            if not mark:
+                break
+            mark = struct.unpack("b", mark)[0]
+            if mark == 1:
+                raw = fh.read(4)
+                if len(raw) < 4:
+                    break
+                n = struct.unpack("<i", raw)[0]
+                if not 0 <= n <= 256:
+                    break
+                key = fh.read(n).rstrip(b"\x00").decode("latin-1")
+                kinds = fh.read(8)
+                if len(kinds) < 8:
+                    break
+                val_type, val_len = struct.unpack("<2i", kinds)
+                keys.append(key)  # every field is closed by a -1 mark, a value as a group
+                if val_type == 0:
+                    continue
+                if val_len < 0 or fh.tell() + val_len > size:
+                    val_len = max(0, size - fh.tell())  # numpy reads what is there
+                if keys == ["Image", "Size"] and val_type in (3, 8) and val_len >= 8:
+                    out["Size"] = struct.unpack("<2i", fh.read(8))
+                    fh.seek(val_len - 8, 1)
+                elif keys == ["Image", "Bits"]:
+                    out["Bits"] = (JEOL_TYPES.get(val_type, 1), val_len)
+                    fh.seek(val_len, 1)
+                else:
+                    fh.seek(val_len, 1)
+            elif mark == -1:
+                if keys:
+                    keys.pop()
+                else:
+                    break
+            else:
+                break
+        else:
+            out["many"] = True
+    return out
 
 
 def _image_axes(item) -> tuple[int, int] | None:
@@ -66,11 +176,14 @@ def _image_axes(item) -> tuple[int, int] | None:
 def open_rsciio(path, kind: str, scene: int | None, limits) -> Stack:
     from .plan import check_index
 
-    if kind == "elid":
-        from ..read import _check_bytes
+    if kind in ("emd", "hspy"):
+        from .bounds import check_hdf5
 
-        size = elid_decoded_bytes(path, limits.max_decoded_gb * 1e9)
-        _check_bytes(path, (size,), np.uint8, limits, "Phenom ELID project (decompressed)")
+        check_hdf5(path, kind, limits)  # before rosettasciio opens it: nothing outside the file, chunks priced
+    if kind == "jeol":
+        check_jeol(path, limits)
+    if kind == "elid":
+        check_elid(path, limits)
         items = _reader(kind)(str(path))
     else:
         items = _reader(kind)(str(path), lazy=True)

@@ -121,12 +121,16 @@ def jpeg_frame_bytes(head: bytes) -> float:
 
 def tiff_jpeg_bytes(path, page) -> float:
     """The largest frame that any JPEG-compressed chunk of `page` declares, in decoded bytes: a
-    16×16 tile may hold a JPEG stream of 65000×65000, which the decoder decodes whole."""
+    16×16 tile may hold a JPEG stream of 65000×65000, which the decoder decodes whole.
+    `path` is the TIFF file, or a binary file object holding it (a TIFF embedded in another file)."""
+    import contextlib
+
     if int(getattr(page, "compression", 0)) not in JPEG_CODES:
         return 0.0
     offsets, counts = page.dataoffsets, page.databytecounts
     largest = 0.0
-    with open(path, "rb") as fh:
+    opened = contextlib.nullcontext(path) if hasattr(path, "read") else open(path, "rb")
+    with opened as fh:
         for offset, count in list(zip(offsets, counts))[:MAX_STREAMS_LOOKED_AT]:
             if not count:
                 continue

@@ -69,14 +69,63 @@ def check_elid(path, limits) -> None:
 
     cap = limits.max_decoded_gb * 1e9
     size = elid_decoded_bytes(path, cap)
+    what, todo = KINDS["elid"]
     if size > cap:
-        what, todo = KINDS["elid"]
         raise InputError(
             f"{path}: {what} whose bzip2 stream decompresses to more than {size / 1e9:.2g} GB (counting stopped there; "
             f"the file is {os.path.getsize(path):,} bytes), above the limit of {limits.max_decoded_gb:g} GB that guards "
             f"against decompression bombs; {todo}.",
             hint=f"If you trust the file and the computer has the memory, raise the limit, for example `max_decoded_gb` "
                  f"{max(1, math.ceil(size / 1e9) * 2)}.")
+    for at, cost, (width, height) in elid_tiff_costs(path):
+        if cost.total > cap:
+            raise InputError(
+                f"{path}: {what} whose embedded image at byte {at:,} of the project (a {width}×{height} TIFF) would decode to "
+                f"{cost.total / 1e9:.1f} GB ({cost.words()}), above the limit of {limits.max_decoded_gb:g} GB that guards against "
+                f"decompression bombs. The file is malformed or hostile; {todo}.",
+                hint="The limit is `max_decoded_gb`; raise it only for a file you trust.")
+
+
+TIFF_HEADS = (b"II*\x00", b"MM\x00*")
+
+
+def elid_tiff_costs(path):
+    """(offset, Cost, (width, height)) of every TIFF embedded in an ELID project, priced from its
+    header as read.py prices a TIFF file: pixels, the tiles (or strips) decoded at once, and the
+    frame a JPEG tile declares. rosettasciio stores each as a uint32 length and the TIFF's bytes,
+    and decodes it with tifffile (zlib/deflate or JPEG tiles included); every TIFF signature in the
+    decompressed stream is tried, so none escapes. Call after elid_decoded_bytes has bounded the
+    stream: it is decompressed here in memory (at most the cap)."""
+    import io
+    import math
+
+    import tifffile
+
+    from ..read_cost import Cost, tiff_chunk_bytes, tiff_jpeg_bytes
+
+    data = memoryview(bz2.decompress(open(path, "rb").read()))
+    raw = data.obj
+    out = []
+    for head in TIFF_HEADS:
+        at = raw.find(head)
+        while at >= 4:
+            n = int.from_bytes(raw[at - 4:at], "little")
+            if 8 <= n <= len(raw) - at:
+                buffer = io.BytesIO(data[at:at + n])
+                try:
+                    with tifffile.TiffFile(buffer) as tif:
+                        cost, size = Cost(), None
+                        for page in tif.pages:
+                            shape = tuple(int(v) for v in page.shape)
+                            size = size or (int(page.imagewidth), int(page.imagelength))
+                            cost.add("pixels", math.prod(shape) * page.dtype.itemsize)
+                            cost.add("tiles being decoded", tiff_chunk_bytes(page))
+                            cost.add("JPEG frames", tiff_jpeg_bytes(buffer, page))
+                        out.append((at, cost, size or (0, 0)))
+                except Exception:  # not a TIFF after all (bytes of a spectrum), or a damaged one rosettasciio reports
+                    pass
+            at = raw.find(head, at + 1)
+    return out
 
 
 def check_jeol(path, limits) -> None:

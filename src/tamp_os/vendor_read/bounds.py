@@ -12,7 +12,10 @@ and price what it will decode before decoding it:
   Soft links are allowed and not followed: a soft link holds a path inside the same file, and it
   can only lead out through an external link, which the walk finds and refuses wherever it sits.
   Every dataset's chunk is priced against `max_decoded_gb`: a decoder allocates a whole chunk,
-  and a 64×64 dataset may declare one chunk of 60000×60000.
+  and a 64×64 dataset may declare one chunk of 60000×60000. Datasets other than the payloads
+  (named Data/data: rosettasciio opens the images lazily and plan.py prices the planes read) are
+  priced whole: rosettasciio reads metadata arrays eagerly, and a dataset never written costs no
+  bytes in the file however large it is declared (h5py returns its fill value).
 - OME-Zarr folders: every entry is listed without following symlinks; a symlink (file or folder)
   whose target resolves outside the folder, or an array path that resolves outside it, is refused.
   Symlinks that stay inside the folder are allowed (they read nothing the folder does not hold).
@@ -20,13 +23,15 @@ and price what it will decode before decoding it:
 
 from __future__ import annotations
 
+import math
 import os
 from pathlib import Path
 
 from ..errors import InputError
-from ..read_cost import check_chunk, chunk_bytes
+from ..read_cost import check_chunk, check_declared, chunk_bytes
 from .errors import KINDS
 
+PAYLOADS = ("Data", "data")  # the image (and spectrum) arrays of Velox and HyperSpy files
 MAX_HDF5_LINKS = 200_000  # a Velox file holds a few hundred; more is a file built to make the walk slow
 MAX_FOLDER_ENTRIES = 2_000_000  # files and folders of an OME-Zarr store (a large pyramid holds ~10⁵ chunks)
 
@@ -67,6 +72,10 @@ def check_hdf5(path, kind: str, limits) -> None:
                 if obj.external:
                     found.append(("outside", f"dataset {name} (stored in external files)", None))
                     return True
+                declared = math.prod(float(n) for n in obj.shape or ()) * obj.dtype.itemsize
+                if name.rsplit("/", 1)[-1] not in PAYLOADS and declared > limits.max_decoded_gb * 1e9:
+                    found.append(("declared", name, (obj.shape, obj.dtype.itemsize, declared)))
+                    return True
                 if obj.chunks:
                     chunk = chunk_bytes(obj.shape, obj.chunks, obj.dtype.itemsize)
                     if chunk > limits.max_decoded_gb * 1e9:
@@ -82,6 +91,11 @@ def check_hdf5(path, kind: str, limits) -> None:
         if what == "many":
             raise InputError(f"{path}: {label} with more than {MAX_HDF5_LINKS:,} objects; a microscope file holds a few "
                              f"hundred, so it is not read. {KINDS[kind][1][:1].upper()}{KINDS[kind][1][1:]}.")
+        if what == "declared":
+            shape, itemsize, declared = facts
+            dims = "×".join(str(int(n)) for n in shape)
+            check_declared(path, label, f"a dataset {name} of {dims} values of {itemsize} byte{'s' if itemsize != 1 else ''}", declared, math.inf,
+                           limits.max_decoded_gb, KINDS[kind][1])
         shape, chunks, chunk = facts
         check_chunk(path, f"{label} whose dataset {name}", shape, chunks, chunk, limits.max_decoded_gb, KINDS[kind][1])
 

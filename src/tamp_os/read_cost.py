@@ -129,8 +129,8 @@ def tiff_jpeg_bytes(path, page) -> float:
         return 0.0
     offsets, counts = page.dataoffsets, page.databytecounts
     largest = 0.0
-    opened = contextlib.nullcontext(path) if hasattr(path, "read") else open(path, "rb")
-    with opened as fh:
+    with contextlib.ExitStack() as stack:
+        fh = path if hasattr(path, "read") else stack.enter_context(open(path, "rb"))
         for offset, count in list(zip(offsets, counts))[:MAX_STREAMS_LOOKED_AT]:
             if not count:
                 continue

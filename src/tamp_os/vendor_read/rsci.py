@@ -47,6 +47,12 @@ def elid_decoded_bytes(path, cap_bytes: float) -> int:
     """Bytes the ELID's bzip2 stream holds once decompressed, counted in pieces of at most
     PIECE_BYTES (a bzip2 stream expands up to ~45 million times: 64 kB in may be GBs out), stopping
     as soon as the count passes `cap_bytes`. Nothing decompressed is kept."""
+    return sum(len(piece) for piece in elid_pieces(path, cap_bytes))
+
+
+def elid_pieces(path, cap_bytes: float):
+    """The decompressed pieces (each at most PIECE_BYTES) of the ELID's first bzip2 stream, the one
+    rosettasciio reads (a second stream appended after it is never read by either), until past `cap_bytes`."""
     total, decomp = 0, bz2.BZ2Decompressor()
     with open(path, "rb") as fh:
         while not decomp.eof and total <= cap_bytes:
@@ -56,8 +62,9 @@ def elid_decoded_bytes(path, cap_bytes: float) -> int:
                     raise EOFError("the compressed stream ends early")
             else:
                 chunk = b""  # the decompressor still holds input: drain it, one bounded piece at a time
-            total += len(decomp.decompress(chunk, max_length=PIECE_BYTES))
-    return total
+            piece = decomp.decompress(chunk, max_length=PIECE_BYTES)
+            total += len(piece)
+            yield piece
 
 
 def check_elid(path, limits) -> None:
@@ -77,7 +84,7 @@ def check_elid(path, limits) -> None:
             f"against decompression bombs; {todo}.",
             hint=f"If you trust the file and the computer has the memory, raise the limit, for example `max_decoded_gb` "
                  f"{max(1, math.ceil(size / 1e9) * 2)}.")
-    for at, cost, (width, height) in elid_tiff_costs(path):
+    for at, cost, (width, height) in elid_tiff_costs(path, cap):
         if cost.total > cap:
             raise InputError(
                 f"{path}: {what} whose embedded image at byte {at:,} of the project (a {width}×{height} TIFF) would decode to "
@@ -89,13 +96,16 @@ def check_elid(path, limits) -> None:
 TIFF_HEADS = (b"II*\x00", b"MM\x00*")
 
 
-def elid_tiff_costs(path):
+MAX_TIFFS_TRIED = 10_000  # a project holds tens of images; spectra hold a TIFF signature by chance about once in 4 GB
+
+
+def elid_tiff_costs(path, cap_bytes: float = float("inf")):
     """(offset, Cost, (width, height)) of every TIFF embedded in an ELID project, priced from its
     header as read.py prices a TIFF file: pixels, the tiles (or strips) decoded at once, and the
     frame a JPEG tile declares. rosettasciio stores each as a uint32 length and the TIFF's bytes,
     and decodes it with tifffile (zlib/deflate or JPEG tiles included); every TIFF signature in the
-    decompressed stream is tried, so none escapes. Call after elid_decoded_bytes has bounded the
-    stream: it is decompressed here in memory (at most the cap)."""
+    decompressed stream is tried, so none escapes. Call after elid_decoded_bytes has found the
+    stream within `cap_bytes`: it is decompressed here in memory (at most that)."""
     import io
     import math
 
@@ -103,14 +113,17 @@ def elid_tiff_costs(path):
 
     from ..read_cost import Cost, tiff_chunk_bytes, tiff_jpeg_bytes
 
-    data = memoryview(bz2.decompress(open(path, "rb").read()))
-    raw = data.obj
-    out = []
+    raw = b"".join(elid_pieces(path, cap_bytes))
+    data = memoryview(raw)
+    out, tried = [], 0
     for head in TIFF_HEADS:
         at = raw.find(head)
         while at >= 4:
             n = int.from_bytes(raw[at - 4:at], "little")
-            if 8 <= n <= len(raw) - at:
+            tried += 1
+            if tried > MAX_TIFFS_TRIED:
+                raise ValueError(f"more than {MAX_TIFFS_TRIED:,} TIFF signatures in the project")
+            if n >= 8:  # rosettasciio reads n bytes, or what is left when the stream ends first
                 buffer = io.BytesIO(data[at:at + n])
                 try:
                     with tifffile.TiffFile(buffer) as tif:
@@ -123,7 +136,7 @@ def elid_tiff_costs(path):
                             cost.add("JPEG frames", tiff_jpeg_bytes(buffer, page))
                         out.append((at, cost, size or (0, 0)))
                 except Exception:  # not a TIFF after all (bytes of a spectrum), or a damaged one rosettasciio reports
-                    pass
+                    log.debug("%s: no TIFF at byte %d of the project", path, at)
             at = raw.find(head, at + 1)
     return out
 

@@ -37,17 +37,19 @@ def check_header(path, limits) -> None:
         head = fh.read(HEADER_BYTES)
     if len(head) < HEADER_BYTES:
         return  # mrcfile reports the short header as damage
-    machst = head[212:214]
-    order = ">" if machst[:1] == b"\x11" else "<"  # machine stamp 0x11 0x11: big-endian
-    nx, ny, nz, mode = struct.unpack(order + "4i", head[:16])
-    nsymbt = struct.unpack(order + "i", head[92:96])[0]
-    if mode not in MODE_BYTES:
-        return  # an unknown mode: mrcfile names it
+    stamp = ">" if head[212:213] == b"\x11" else "<"  # machine stamp 0x11 0x11: big-endian
+    for order in (stamp, "<" if stamp == ">" else ">"):  # a wrong stamp: the other order, as mrcfile guesses
+        nx, ny, nz, mode = struct.unpack(order + "4i", head[:16])
+        nsymbt = struct.unpack(order + "i", head[92:96])[0]
+        if mode in MODE_BYTES and min(nx, ny, nz) >= 0:
+            break
+    else:
+        return  # neither byte order gives a known mode: mrcfile names the problem
     what, todo = KINDS[KIND]
     cap = limits.max_decoded_gb if limits is not None else float("inf")
-    if nsymbt < 0 or nx < 0 or ny < 0 or nz < 0:
-        raise InputError(f"{path}: {what} whose header declares negative sizes (nx, ny, nz = {nx}, {ny}, {nz}; extended header "
-                         f"{nsymbt} bytes): the file is damaged or hostile; {todo}.")
+    if nsymbt < 0:
+        raise InputError(f"{path}: {what} whose header declares an extended header of {nsymbt} bytes (negative): the file is "
+                         f"damaged or hostile; {todo}.")
     check_declared(path, what, f"an extended header of {nsymbt:,} bytes", float(nsymbt), size - HEADER_BYTES, cap, todo,
                    holds=f"the {size - HEADER_BYTES:,} bytes after its 1024-byte header hold")
     voxels = float(math.ceil(nx / 2) if mode == 101 else nx * MODE_BYTES[mode]) * ny * nz  # 4-bit rows end on a byte

@@ -152,8 +152,8 @@ def check_jeol(path, limits) -> None:
     if found.get("many"):
         raise InputError(f"{path}: {what} with more than {MAX_JEOL_FIELDS:,} header fields (a real file has a few hundred); "
                          f"the file is damaged or hostile; {todo}.")
-    if not found or "Size" not in found:
-        return  # not the layout priced here: rosettasciio reads (or refuses) it
+    if not found or not found.get("Size"):
+        return  # not the layout priced here (or a size rosettasciio cannot resize to): it reads or refuses it
     width, height = found["Size"]
     itemsize, stored = found.get("Bits", (1, 0))
     declared = float(width) * float(height) * itemsize
@@ -162,7 +162,8 @@ def check_jeol(path, limits) -> None:
                    holds=f"the {stored:,} bytes of pixels it stores (Image/Bits)")
 
 
-JEOL_TYPES = {1: 1, 2: 2, 3: 4, 4: 4, 5: 8, 6: 1, 7: 2, 8: 4, 9: 4, 10: 8, 11: 1, 12: 1, 13: 1, 14: 2, 20: 1}
+JEOL_TYPES = {1: 1, 2: 2, 3: 4, 4: 4, 5: 8, 6: 1, 7: 2, 8: 4, 9: 4, 10: 8, 11: 1, 12: 1, 13: 1, 14: 2, 20: 1}  # bytes (rsciio's jTYPE)
+JEOL_NUMBERS = {1: "B", 2: "H", 3: "i", 4: "f", 5: "d", 6: "B", 7: "H", 8: "i", 9: "f", 10: "d", 14: "H"}
 MAX_JEOL_FIELDS = 100_000
 
 
@@ -191,9 +192,10 @@ def jeol_image_fields(path) -> dict:
                 if len(raw) < 4:
                     break
                 n = struct.unpack("<i", raw)[0]
-                if not 0 <= n <= 256:
-                    break
-                key = fh.read(n).rstrip(b"\x00").decode("latin-1")
+                if n < 0:
+                    break  # rosettasciio reads the rest of the file as the name, and finds no image
+                key = fh.read(n).rstrip(b"\x00")
+                key = (key[:-1] if key[-1:] == b"\xde" else key).decode("latin-1")  # rsciio drops a trailing 0xDE
                 kinds = fh.read(8)
                 if len(kinds) < 8:
                     break
@@ -203,9 +205,12 @@ def jeol_image_fields(path) -> dict:
                     continue
                 if val_len < 0 or fh.tell() + val_len > size:
                     val_len = max(0, size - fh.tell())  # numpy reads what is there
-                if keys == ["Image", "Size"] and val_type in (3, 8) and val_len >= 8:
-                    out["Size"] = struct.unpack("<2i", fh.read(8))
-                    fh.seek(val_len - 8, 1)
+                if keys == ["Image", "Size"] and val_type in JEOL_NUMBERS and val_len <= 64:
+                    item = JEOL_TYPES[val_type]
+                    values = struct.unpack(f"<{val_len // item}{JEOL_NUMBERS[val_type]}", fh.read(val_len // item * item))
+                    fh.seek(val_len % item, 1)
+                    if len(values) == 2 and all(float(v).is_integer() for v in values):  # what rsciio resizes to
+                        out["Size"] = tuple(int(v) for v in values)
                 elif keys == ["Image", "Bits"]:
                     out["Bits"] = (JEOL_TYPES.get(val_type, 1), val_len)
                     fh.seek(val_len, 1)

@@ -272,16 +272,16 @@ def test_ome_zarr_small_array_in_one_huge_chunk_is_refused(tmp_path, zarr_format
 
 # --- 2. MRC: extended header and voxels against the file size ------------------------------------------
 
-def mrc_bytes(nx=8, ny=8, nz=1, mode=2, nsymbt=0, data=None):
+def mrc_bytes(nx=8, ny=8, nz=1, mode=2, nsymbt=0, data=None, order="<", stamp=b"\x44\x44"):
     header = bytearray(1024)
-    struct.pack_into("<4i", header, 0, nx, ny, nz, mode)
-    struct.pack_into("<3i", header, 28, 8, 8, 1)  # mx, my, mz
-    struct.pack_into("<3f", header, 40, 8.0, 8.0, 1.0)  # cella
-    struct.pack_into("<3f", header, 52, 90.0, 90.0, 90.0)
-    struct.pack_into("<3i", header, 64, 1, 2, 3)  # mapc, mapr, maps
-    struct.pack_into("<i", header, 92, nsymbt)
+    struct.pack_into(order + "4i", header, 0, nx, ny, nz, mode)
+    struct.pack_into(order + "3i", header, 28, 8, 8, 1)  # mx, my, mz
+    struct.pack_into(order + "3f", header, 40, 8.0, 8.0, 1.0)  # cella
+    struct.pack_into(order + "3f", header, 52, 90.0, 90.0, 90.0)
+    struct.pack_into(order + "3i", header, 64, 1, 2, 3)  # mapc, mapr, maps
+    struct.pack_into(order + "i", header, 92, nsymbt)
     header[208:212] = b"MAP "
-    header[212:214] = b"\x44\x44"
+    header[212:214] = stamp
     body = data if data is not None else np.arange(64, dtype=np.float32).tobytes()
     return bytes(header) + body
 
@@ -290,13 +290,18 @@ def mrc_bytes(nx=8, ny=8, nz=1, mode=2, nsymbt=0, data=None):
 @pytest.mark.parametrize("case, needles", [
     ("extended_header", ("extended header of 2,000,000,000 bytes", "2 GB")),
     ("voxels", ("60000×60000×100 voxels of 4 bytes (mode 2)", "1,440.0 GB", "2 GB")),
+    ("voxels_big_endian", ("60000×60000×100 voxels of 4 bytes (mode 2)", "2 GB")),
+    ("voxels_big_endian_with_a_wrong_stamp", ("60000×60000×100 voxels of 4 bytes (mode 2)", "2 GB")),
 ])
 def test_mrc_header_declaring_more_than_the_file_is_refused(tmp_path, case, needles):
     path = tmp_path / "upload.mrc"
     if case == "extended_header":
         path.write_bytes(mrc_bytes(nsymbt=2_000_000_000))
-    else:
+    elif case == "voxels":
         path.write_bytes(mrc_bytes(60000, 60000, 100))
+    else:
+        stamp = b"\x11\x11" if case == "voxels_big_endian" else b"\x44\x44"
+        path.write_bytes(mrc_bytes(60000, 60000, 100, order=">", stamp=stamp, data=np.zeros(64, ">f4").tobytes()))
     assert_refused(tmp_path, path, "MRC", *needles, "more than the ")
 
 
@@ -377,7 +382,7 @@ def test_real_elid_counts_the_same(fixture, tmp_path, elid_bomb):
 
 # --- 2. JEOL .img: the declared size against the stored bits and the cap --------------------------------
 
-def jeol_img(width, height, bits: bytes) -> bytes:
+def jeol_img(width, height, bits: bytes, size_type: int = 3) -> bytes:
     """A JEOL Analysis Station .img: magic 52, its format name, offsets, then the tagged tree with Image/Size and Bits."""
     def field(key: str, val_type: int, value: bytes) -> bytes:
         name = key.encode() + b"\0"
@@ -387,7 +392,8 @@ def jeol_img(width, height, bits: bytes) -> bytes:
         name = key.encode() + b"\0"
         return b"\x01" + struct.pack("<i", len(name)) + name + struct.pack("<2i", 0, 0) + body + b"\xff"
 
-    tree = group("Image", field("Size", 3, struct.pack("<2i", width, height)) + field("Bits", 1, bits)) + b"\xff"
+    size = struct.pack({3: "<2i", 2: "<2H", 5: "<2d"}[size_type], width, height)
+    tree = group("Image", field("Size", size_type, size) + field("Bits", 1, bits)) + b"\xff"
     data_pos = 48
     head = struct.pack("<I", 52) + b"JED-2200:LibJxImageForm".ljust(32, b"\0") + struct.pack("<3I", 0, 0, data_pos)
     return head + bytes(12) + tree
@@ -413,9 +419,10 @@ def jeol_image_fields_of(data, tmp=None):
 
 
 @pytest.mark.timeout(120)
-def test_jeol_image_larger_than_its_bits_is_refused(tmp_path):
+@pytest.mark.parametrize("size_type", [3, 2, 5])  # int32 (as JEOL writes it), uint16, float64: rsciio resizes to any
+def test_jeol_image_larger_than_its_bits_is_refused(tmp_path, size_type):
     path = tmp_path / "upload.img"
-    path.write_bytes(jeol_img(60000, 60000, bytes(256)))
+    path.write_bytes(jeol_img(60000, 60000, bytes(256), size_type))
     assert_refused(tmp_path, path, "JEOL", "60000×60000 pixels", "3.6 GB", "more than the 256 bytes of pixels", "2 GB")
 
 

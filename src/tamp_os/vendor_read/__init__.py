@@ -59,11 +59,11 @@ def open_stack(path: Path, kind: str, scene: int | None, limits, target_px: int 
     if kind == "omezarr":
         from .omezarr import open_omezarr
 
-        return open_omezarr(path, scene, target_px)
+        return open_omezarr(path, scene, target_px, limits)
     if kind == "mrc":
         from .mrc import open_mrc
 
-        return open_mrc(path, scene)
+        return open_mrc(path, scene, limits)
     if kind == "oif":
         from .oif import open_oif
 

@@ -26,7 +26,7 @@ def measured_cli(*argv, timeout=60):
     """Run `tamp-os` in a child of a fresh Python, which reports the CLI's own peak RSS (RUSAGE_CHILDREN
     of a process with that one child) and wall time: (exit code, stderr, peak MB, seconds)."""
     probe = ("import json, resource, subprocess, sys, time; t = time.monotonic(); "
-             "r = subprocess.run([sys.executable, '-c', 'import sys; from tamp_os.cli import main; sys.exit(main(sys.argv[1:]))', "
+             "r = subprocess.run([sys.executable, '-c', 'import sys; from tamp_os.cli.commands import main; sys.exit(main(sys.argv[1:]))', "
              "*sys.argv[1:]], capture_output=True, text=True); "
              "print(json.dumps([r.returncode, r.stderr, resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024, "
              "time.monotonic() - t]))")

@@ -128,6 +128,22 @@ def read_image(
     keep_colour : keep an RGB(A) file's colour pixels (H, W, 3, the array decoded, no copy) in
         `Picture.colour`, so that a figure's panels need not read the file again for them
         (figure.figure_colour); files read by the vendor readers never keep them.
+
+    Returns
+    -------
+    Picture
+        `values`: (H, W) float32 at full precision (never squeezed to 8 bits); `file`: an
+        ImageFile with the format, size, bit depth, axes, channels and the vendor metadata the
+        scale is read from; `notes`: what was chosen for the user (a page, a channel, a plane).
+
+    Examples
+    --------
+    >>> import numpy as np, tempfile, tifffile
+    >>> path = tempfile.mkdtemp() + "/ramp.tif"
+    >>> tifffile.imwrite(path, np.arange(12000, dtype=np.uint16).reshape(100, 120))
+    >>> picture = read_image(path)
+    >>> picture.values.shape, picture.values.dtype, float(picture.values.max())  # 16 bits kept
+    ((100, 120), dtype('float32'), 11999.0)
     """
     limits = _Limits(max_megapixels, max_decoded_gb, max_memory_gb)
     path = Path(path)

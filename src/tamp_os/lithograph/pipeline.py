@@ -95,12 +95,35 @@ class Lithograph:
 
 
 def make_lithograph(source, params: LithoParams | None = None, *, printer_profile: PrinterProfile | None = None, **changes) -> Lithograph:
-    """Make a lithograph from an image file, an array or a read Picture.
+    """Make a lithograph from an image file, an array or a read Picture; nothing is written.
 
-    `printer_profile` replaces the profile named by `params.printer` (a recipe brings its own).
+    Parameters
+    ----------
+    source : str, pathlib.Path, numpy.ndarray or Picture
+        An image file (read by its content: TIFF, vendor formats, PNG, JPEG ...), a (rows, cols)
+        array of any numeric type (row 0 is the far edge of the print), or a Picture already read.
+    params : LithoParams, optional
+        Every setting; None gives the defaults (Medium preset, 100 mm wide, 1 mm base, 3 mm relief).
+    printer_profile : PrinterProfile, optional
+        Replaces the profile that `params.printer` names (a recipe brings its own).
+    **changes
+        Any LithoParams field by name (`width_mm=50`), applied over `params`.
 
-    >>> litho = make_lithograph(np.eye(64), width_mm=50, relief_mm=2)   # doctest: +SKIP
-    >>> litho.save("out/")                                              # doctest: +SKIP
+    Returns
+    -------
+    Lithograph
+        `mesh` (the closed solid, vertices in mm), `heightmap` ((rows, cols) heights in mm),
+        `report` (the typed facts), `params`, `printer` and `layout`; `save(folder)` writes it.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> ramp = np.tile(np.linspace(0, 1, 80), (60, 1))
+    >>> litho = make_lithograph(ramp, width_mm=40, relief_mm=2, preset="low")
+    >>> litho.report.print_mm  # width, depth and height in mm: 1 mm base + 2 mm relief
+    [40.0, 30.0, 3.0]
+    >>> litho.heightmap.shape  # (rows, cols) of the grid, one point per 2 nozzle widths at Low
+    (38, 50)
     """
     params = params or LithoParams()
     if changes:

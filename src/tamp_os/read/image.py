@@ -17,8 +17,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import InputError, MissingDependencyError, ParameterError, Text
-from .read_cost import (MAX_MEMORY_GB, Cost, check_memory, pillow_copies_bytes, tiff_chunk_bytes, tiff_jpeg_bytes,
+from ..errors import InputError, MissingDependencyError, ParameterError, Text
+from .cost import (MAX_MEMORY_GB, Cost, check_memory, pillow_copies_bytes, tiff_chunk_bytes, tiff_jpeg_bytes,
                         working_bytes)
 
 log = logging.getLogger(__name__)
@@ -148,7 +148,7 @@ def read_image(
     limits = _Limits(max_megapixels, max_decoded_gb, max_memory_gb)
     path = Path(path)
     if path.is_dir() and _vendor_kind(path):  # an OME-Zarr folder
-        from .vendor_read.picture import read_vendor
+        from .vendor.picture import read_vendor
 
         return read_vendor(path, _vendor_kind(path), page, channel, limits, z_slice, time, scene, target_px)
     _refuse_special(path)
@@ -163,7 +163,7 @@ def read_image(
         raise InputError(f"{path}: the file is empty (0 bytes); it is not an image. Export it again.")
     kind = None if head[:4] in TIFF_MAGIC or head[:4] in DM_MAGIC else _vendor_kind(path)
     if kind:
-        from .vendor_read.picture import read_vendor
+        from .vendor.picture import read_vendor
 
         return read_vendor(path, kind, page, channel, limits, z_slice, time, scene, target_px)
     for name, value in (("time", time), ("scene", scene)):
@@ -190,7 +190,7 @@ DEFAULT_TARGET_PX = 2048  # pyramid level: the smallest at least this wide (prin
 
 
 def _vendor_kind(path: Path) -> str | None:
-    from .vendor_read import detect
+    from .vendor import detect
 
     try:
         return detect(path)
@@ -315,7 +315,7 @@ def _vendor_blocks(tif, data_page: int = 0) -> dict:
     `data_page` (tifffile's `sis_metadata` looks at page 0 only), falling back to page 0.
     """
     meta = {}
-    from .read_stacks import sis_of_page
+    from .stacks import sis_of_page
 
     sis = sis_of_page(tif, data_page) if data_page else None
     if sis:
@@ -350,7 +350,7 @@ def _read_tiff(path, page, limits: _Limits, z_slice=None, channel="luminance", t
 
     try:
         with tifffile.TiffFile(path) as tif:
-            from .read_stacks import pyramid_level, reduce_by_pages, tiff_z_step_m
+            from .stacks import pyramid_level, reduce_by_pages, tiff_z_step_m
 
             source = _tiff_source(path, tif, page)
             level_notes, level_meta = pyramid_level(source, target_px)
@@ -401,7 +401,7 @@ class _TiffSource:
 
 def _tiff_source(path, tif, page: int | None) -> _TiffSource:
     """The series (or, beside a preview, the page) to read; `page` None picks the data page."""
-    from .read_pages import find_data_page
+    from .pages import find_data_page
 
     data_page = find_data_page(tif)
     if data_page is not None:  # pages of different kinds: tifffile's series would mix them

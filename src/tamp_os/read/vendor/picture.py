@@ -4,12 +4,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..errors import ParameterError
+from ...errors import ParameterError
 
 
 def read_vendor(path: Path, kind, page, channel, limits, z_slice, time, scene, target_px):
     """A vendor file (CZI, LIF, ND2, OME-Zarr, TIA, EMD, MRC, JEOL, ELID, HyperSpy, OIB): one plane."""
-    from ..read import CHANNEL_NAMES, DEFAULT_TARGET_PX, _Decoded, _sha256_of, _to_picture
+    from ..image import CHANNEL_NAMES, DEFAULT_TARGET_PX, _Decoded, _sha256_of, _to_picture
     from . import read_planes
     from .plan import Request
 

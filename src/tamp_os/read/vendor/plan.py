@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import ParameterError, Text
+from ...errors import ParameterError, Text
 from .model import Channel, Stack
 
 
@@ -102,7 +102,7 @@ def _folded(name: str) -> str:
 
 def choose(path, stack: Stack, request: Request, limits, *, all_channels: bool = False) -> Chosen:
     """Read the planes `request` asks for, after pricing them with the decoded-size guard."""
-    from ..read import _check_bytes, _check_size
+    from ..image import _check_bytes, _check_size
 
     notes: list[str] = []
     nt, nc, nz = stack.size("T"), stack.size("C"), stack.size("Z")

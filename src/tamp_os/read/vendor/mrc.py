@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError
+from ...errors import InputError
 from .model import Channel, Stack
 
 KIND = "mrc"
@@ -29,7 +29,7 @@ def check_header(path, limits) -> None:
     decoded-bytes cap: mrcfile would otherwise allocate or map them before finding out."""
     import struct
 
-    from ..read_cost import check_declared
+    from ..cost import check_declared
     from .errors import KINDS
 
     size = Path(path).stat().st_size

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..units import unit_factor_m
+from ...units import unit_factor_m
 from .model import Channel, Stack
 
 KIND = "omezarr"
@@ -54,7 +54,7 @@ def open_omezarr(path, scene: int | None, target_px: int = 2048, limits=None) ->
     level = min(wide, key=lambda i: arrays[i].shape[xi]) if wide else 0
     array = arrays[level]
     if limits is not None:  # the level read is decoded chunk by chunk, each chunk whole
-        from ..read_cost import check_chunk, chunk_bytes
+        from ..cost import check_chunk, chunk_bytes
         from .errors import KINDS
 
         chunks = tuple(array.chunks)

@@ -16,8 +16,8 @@ import os
 
 import numpy as np
 
-from ..errors import InputError, Text
-from ..units import unit_factor_m
+from ...errors import InputError, Text
+from ...units import unit_factor_m
 from .model import Channel, Stack
 
 log = logging.getLogger(__name__)
@@ -111,7 +111,7 @@ def elid_tiff_costs(path, cap_bytes: float = float("inf")):
 
     import tifffile
 
-    from ..read_cost import Cost, tiff_chunk_bytes, tiff_jpeg_bytes
+    from ..cost import Cost, tiff_chunk_bytes, tiff_jpeg_bytes
 
     raw = b"".join(elid_pieces(path, cap_bytes))
     data = memoryview(raw)
@@ -144,7 +144,7 @@ def elid_tiff_costs(path, cap_bytes: float = float("inf")):
 def check_jeol(path, limits) -> None:
     """Refuse a JEOL .img whose Image/Size declares more pixels than its Image/Bits hold, or than the cap:
     rosettasciio resizes the stored bits to the declared size, allocating it whole (zeros past the data)."""
-    from ..read_cost import check_declared
+    from ..cost import check_declared
     from .errors import KINDS
 
     found = jeol_image_fields(path)

@@ -13,7 +13,7 @@ KIND = "oif"
 def open_oif(path, scene: int | None, limits) -> Stack:
     import oiffile
 
-    from ..read import _check_bytes
+    from ..image import _check_bytes
     from .plan import check_index
 
     oif = oiffile.OifFile(str(path))

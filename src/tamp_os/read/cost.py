@@ -13,7 +13,7 @@ import math
 import os
 from dataclasses import dataclass, field
 
-from .errors import InputError
+from ..errors import InputError
 
 # Peak bytes per source pixel that the pipeline holds after reading (the float32 grey values,
 # the alpha weights, and the full-resolution copies made while cleaning and stretching), measured

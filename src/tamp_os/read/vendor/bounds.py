@@ -27,8 +27,8 @@ import math
 import os
 from pathlib import Path
 
-from ..errors import InputError
-from ..read_cost import check_chunk, check_declared, chunk_bytes
+from ...errors import InputError
+from ..cost import check_chunk, check_declared, chunk_bytes
 from .errors import KINDS
 
 PAYLOADS = ("Data", "data")  # the image (and spectrum) arrays of Velox and HyperSpy files

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError, MissingDependencyError, ParameterError, Text
+from ...errors import InputError, MissingDependencyError, ParameterError, Text
 from .errors import damaged, missing
 from .model import Channel, Stack
 from .plan import Chosen, Request, choose
@@ -146,7 +146,7 @@ def read_planes(path: Path, kind: str, request: Request, limits, *, all_channels
                 pass
     notes = list(stack.notes) + list(chosen.notes)
     if stack.pixel_size_m and abs(stack.pixel_size_m[1] / stack.pixel_size_m[0] - 1) > 0.01:
-        from ..units import format_length
+        from ...units import format_length
 
         x, y = stack.pixel_size_m
         notes.append(Text(f"pixels are not square ({format_length(x)} across × {format_length(y)} down); the print shows them "
@@ -195,7 +195,7 @@ def read_channels(path, *, scene: int | str | None = None, time: int | None = No
     Returns a list of ChannelPlane in the file's channel order. Raises InputError or
     ParameterError in plain words, as read_image does.
     """
-    from ..read import _Limits, read_image
+    from ..image import _Limits, read_image
 
     path = Path(path)
     limits = _Limits(max_megapixels, max_decoded_gb)
@@ -223,7 +223,7 @@ def read_channels(path, *, scene: int | str | None = None, time: int | None = No
 def _grey(array: np.ndarray) -> np.ndarray:
     array = np.asarray(array)
     if array.ndim == 3:  # a colour plane of a vendor file: luminance
-        from ..read import LUMA_601
+        from ..image import LUMA_601
 
         array = array[..., :3].astype(np.float32) @ LUMA_601
     return array.astype(np.float32)

@@ -63,7 +63,7 @@ def _key_depth(litho) -> float:
 
 def he_rows() -> list[tuple]:
     path = REAL / "aperio_cmu1_he_skin.svs"
-    from tamp_os.vendor_read import read_channels
+    from tamp_os.read.channels import read_channels
 
     litho = make_lithograph(path, width_mm=100)
     r = litho.report
@@ -101,7 +101,7 @@ def speed(runs: int = 5) -> tuple[float, float]:
 def decision_rows() -> list[tuple]:
     """Every real fixture: does it take the channel path by default, and why (relief/channel_auto.py)."""
     from tamp_os.params import LithoParams
-    from tamp_os.read import read_image
+    from tamp_os.read.image import read_image
     from tamp_os.relief.channel_auto import colour_facts, colour_kind, route
 
     top = ROOT.parent / "shared" / "fixtures"

@@ -32,11 +32,11 @@ def cases(tmp: Path):
     from tamp_os.clean.scale import read_pixel_size
     from tamp_os.clean.vendor import ini_sections
     from tamp_os.errors import ParameterError
-    from tamp_os.read import _channel_names
+    from tamp_os.read.model import file_channel_names
     from tamp_os.units import parse_length_m
 
     for name, text in sorted(ADVERSARIAL_XML.items()):
-        yield f"OME-XML {name}: channel names", 1.0, lambda text=text: _channel_names({"ome_metadata": text})
+        yield f"OME-XML {name}: channel names", 1.0, lambda text=text: file_channel_names({"ome_metadata": text})
         yield f"OME-XML {name}: pixel size", 1.0, lambda text=text: read_pixel_size({"ome_metadata": text}, {}, None, 100)
     image = tmp / "sem.tif"
     image.write_bytes(b"")

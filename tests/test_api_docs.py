@@ -10,7 +10,7 @@ from tamp_os import LithoParams
 from tamp_os.lithograph.convert import convert
 from tamp_os.lithograph.pipeline import make_lithograph
 from tamp_os.lithograph.report import Report
-from tamp_os.read import read_image
+from tamp_os.read.image import read_image
 
 PUBLIC = [make_lithograph, convert, read_image, LithoParams, Report]
 

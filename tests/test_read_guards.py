@@ -11,7 +11,7 @@ import tifffile
 
 from conftest import need
 from tamp_os.errors import InputError
-from tamp_os.read import read_image
+from tamp_os.read.image import read_image
 
 
 def _zero_tiled_tiff(path, shape, dtype, tile=(512, 512)):

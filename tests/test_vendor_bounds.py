@@ -152,8 +152,8 @@ def test_real_velox_file_whose_image_is_an_external_link_is_refused_before_roset
         del f[data]
         f[data] = h5py.ExternalLink(str(secret), "/private")
     from tamp_os.errors import InputError
-    from tamp_os.read import read_image
-    from tamp_os.vendor_read import rsci
+    from tamp_os.read.image import read_image
+    from tamp_os.read.vendor import rsci
 
     monkeypatch.setattr(rsci, "_reader", lambda kind: pytest.fail("rosettasciio opened the file"))
     with pytest.raises(InputError, match=OUTSIDE) as info:
@@ -167,7 +167,7 @@ def test_real_files_with_a_soft_link_inside_still_read_the_same(fixture, tmp_pat
     wherever it is): the real Velox and HyperSpy files, with one added, read exactly as before."""
     h5py = need_module("h5py")
     need_module("rsciio")
-    from tamp_os.read import read_image
+    from tamp_os.read.image import read_image
 
     for name in ("velox_talos_haadf_particles.emd", "stem_haadf_sio2_spheres.hspy"):
         source = fixture(f"real/{name}")
@@ -225,7 +225,7 @@ def test_ome_zarr_that_leads_out_of_its_folder_is_refused(tmp_path, case):
 
 @pytest.mark.timeout(120)
 def test_ome_zarr_symlink_inside_its_folder_still_reads(tmp_path):
-    from tamp_os.read import read_image
+    from tamp_os.read.image import read_image
 
     path = small_ome_zarr(tmp_path / "upload.zarr")
     before = read_image(path).values
@@ -308,7 +308,7 @@ def test_mrc_header_declaring_more_than_the_file_is_refused(tmp_path, case, need
 @pytest.mark.timeout(60)
 def test_a_small_honest_mrc_still_reads(tmp_path):
     need_module("mrcfile")
-    from tamp_os.read import read_image
+    from tamp_os.read.image import read_image
 
     path = tmp_path / "ok.mrc"
     path.write_bytes(mrc_bytes())
@@ -336,7 +336,7 @@ def test_elid_bzip2_bomb_is_refused_in_bounded_memory(tmp_path, elid_bomb):
 
 
 def test_elid_counting_keeps_pieces_small(elid_bomb, tmp_path):
-    from tamp_os.vendor_read import rsci
+    from tamp_os.read.vendor import rsci
 
     path = tmp_path / "bomb.elid"
     path.write_bytes(elid_bomb)
@@ -367,8 +367,8 @@ def test_elid_counting_keeps_pieces_small(elid_bomb, tmp_path):
 def test_real_elid_counts_the_same(fixture, tmp_path, elid_bomb):
     """The count is the first bzip2 stream, the one rosettasciio reads: a bomb appended as a second
     stream is read by neither (the embedded TIFFs are looked for in the first stream only)."""
-    from tamp_os.read import read_image
-    from tamp_os.vendor_read.rsci import elid_decoded_bytes, elid_tiff_costs
+    from tamp_os.read.image import read_image
+    from tamp_os.read.vendor.rsci import elid_decoded_bytes, elid_tiff_costs
 
     path = fixture("real/phenom_elid2v4.elid")
     size = len(bz2.decompress(path.read_bytes()))
@@ -401,7 +401,7 @@ def jeol_img(width, height, bits: bytes, size_type: int = 3) -> bytes:
 
 @pytest.mark.timeout(60)
 def test_jeol_walk_matches_rosettasciio_on_the_real_file(fixture):
-    from tamp_os.vendor_read.rsci import jeol_image_fields
+    from tamp_os.read.vendor.rsci import jeol_image_fields
 
     assert jeol_image_fields(fixture("real/jeol_dummy_bf.img")) == {"Size": (256, 256), "Bits": (1, 65536)}
     assert jeol_image_fields_of(jeol_img(60000, 60000, bytes(256))) == {"Size": (60000, 60000), "Bits": (1, 256)}
@@ -410,7 +410,7 @@ def test_jeol_walk_matches_rosettasciio_on_the_real_file(fixture):
 def jeol_image_fields_of(data, tmp=None):
     import tempfile
 
-    from tamp_os.vendor_read.rsci import jeol_image_fields
+    from tamp_os.read.vendor.rsci import jeol_image_fields
 
     with tempfile.NamedTemporaryFile(suffix=".img") as fh:
         fh.write(data)
@@ -529,7 +529,7 @@ def test_elid_whose_embedded_tiff_is_a_tile_bomb_is_refused(fixture, tmp_path):
 
 @pytest.mark.timeout(120)
 def test_real_elid_embedded_images_are_priced_small(fixture):
-    from tamp_os.vendor_read.rsci import elid_tiff_costs
+    from tamp_os.read.vendor.rsci import elid_tiff_costs
 
     costs = elid_tiff_costs(fixture("real/phenom_elid2v4.elid"))
     sizes = {size for _, _, size in costs}

@@ -55,7 +55,7 @@ def content_word(values: np.ndarray, colour: np.ndarray | None = None, *, params
     with on its own (a panel's print: the figure's parameters); the grey decision is made on that
     print's grid (default: LithoParams(), on its printer 100 mm wide)."""
     if colour is not None:
-        from ..read.image import colour_sample
+        from ..read.model import colour_sample
         from ..relief.channel_auto import colour_facts, colour_kind
 
         sample = colour_sample(np.asarray(colour))

@@ -23,7 +23,7 @@ from ..params import LithoParams
 from .pipeline import Lithograph, make_lithograph, read_source
 from .sizing import layout_for, resolve_printer
 from ..printing.printers import PrinterProfile, height_levels
-from ..read.image import Picture
+from ..read.model import Picture
 from .content_word import ContentWord, content_word
 from .report import PanelFacts, Report, describe
 
@@ -210,7 +210,7 @@ def crop_picture(picture: Picture, box: tuple[int, int, int, int], colour: np.nd
     `colour` (the figure's colour pixels, figure_colour) gives the panel its own: its colour
     sample, which the channel path decides by, and the pixels it splits, as a file of the panel
     would have them. Without it the panel is grey (its brightness only)."""
-    from ..read.image import colour_sample
+    from ..read.model import colour_sample
 
     x, y, w, h = box
     alpha = None if picture.alpha is None else picture.alpha[y:y + h, x:x + w]

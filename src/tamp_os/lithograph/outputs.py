@@ -219,9 +219,9 @@ def _version_of(dist) -> str:
 def file_sha256(path: Path) -> str:
     """SHA-256 of a file, read in blocks (of an OME-Zarr folder: its files, as read.py hashes it)."""
     if Path(path).is_dir():
-        from ..read.image import _sha256_of
+        from ..read.model import sha256_of
 
-        return _sha256_of(Path(path))
+        return sha256_of(Path(path))
     digest = hashlib.sha256()
     with open(path, "rb") as fh:
         for block in iter(lambda: fh.read(1 << 20), b""):

@@ -21,7 +21,8 @@ from ..mesh.adaptive import adaptive_solid
 from ..mesh.solid import Mesh, grid_solid
 from ..params import LithoParams, field_table
 from ..printing.printers import PrinterProfile, height_levels
-from ..read.image import Picture, read_array, read_image
+from ..read.image import read_array, read_image
+from ..read.model import Picture
 from ..relief.legibility import Legibility, assess
 from ..relief.layout import Layout
 from ..relief.preprocess import Prepared, prepare

@@ -41,7 +41,7 @@ class ChannelStage:
 def raw_channels(source, params) -> list:
     """[(name, values, excitation_nm, emission_nm)] of the source, or an RGB array to deconvolve."""
     if isinstance(source, (str, Path)):
-        from ..read.vendor import read_channels
+        from ..read.channels import read_channels
 
         planes = read_channels(source, scene=params.scene, time=params.time, z_slice=params.z_slice,
                                max_megapixels=params.max_megapixels, max_decoded_gb=params.max_decoded_gb)

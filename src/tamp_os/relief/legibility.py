@@ -70,6 +70,9 @@ class Legibility(Facts):
         return out
 
 
+ASSESS_MAX_POINTS = 4 * WORK_MAX_POINTS  # legibility is measured on at most this many points
+
+
 def assess(
     heights_mm: np.ndarray,
     mm_per_px: float,
@@ -93,6 +96,13 @@ def assess(
     style : the relief style that made the heights, so the advice never suggests that same style.
     """
     h = np.asarray(heights_mm, dtype=np.float64)
+    if h.size > ASSESS_MAX_POINTS:
+        # A plate wider than about 500 mm at High: measured on every `step`-th point (0.4 mm at
+        # 1000 mm), which still resolves features two nozzles wide; the full 5001 x 3751 grid took
+        # half a GB of the conversion's peak here (quantised levels, their regions, a low-pass).
+        step = math.ceil(math.sqrt(h.size / ASSESS_MAX_POINTS))
+        h, mm_per_px = h[::step, ::step], mm_per_px * step
+        objects = None if objects is None else np.asarray(objects)[::step, ::step]
     grid = WorkGrid.plan(h.shape, mm_per_px, nozzle_mm / 4)  # narrow features need nozzle/4
     work = grid.down(h).astype(np.float64)
     pitch = grid.pitch_mm

@@ -174,9 +174,9 @@ def lif_with_xml(path, xml: str):
     return path
 
 
-def czi_with_nested_metadata(source, path, n: int):
+def czi_with_nested_metadata(source, path, n: int, flat: bool = False):
     """A copy of a real CZI whose file header points to a new metadata segment: its own XML with
-    n nested elements inside the root."""
+    n nested elements inside the root (`flat`: n elements side by side, each holding one)."""
     import struct
 
     data = bytearray(source.read_bytes())
@@ -184,7 +184,8 @@ def czi_with_nested_metadata(source, path, n: int):
     (size,) = struct.unpack_from("<i", data, where + 32)
     xml = bytes(data[where + 288: where + 288 + size]).decode()
     close = xml.rindex("</")
-    xml = (xml[:close] + "<a>" * n + "</a>" * n + xml[close:]).encode()
+    inner = '<a x="1"><b/></a>' * n if flat else "<a>" * n + "</a>" * n
+    xml = (xml[:close] + inner + xml[close:]).encode()
     body = struct.pack("<ii", len(xml), 0) + bytes(248) + xml
     at = len(data) + (-len(data)) % 32
     data += bytes(at - len(data)) + b"ZISRAWMETADATA".ljust(16, b"\0") + struct.pack("<qq", len(body), len(body)) + body
@@ -224,6 +225,18 @@ def test_a_czi_with_metadata_nested_200000_deep_is_refused_in_words(tmp_path, ca
     line = one_error_line(err)
     assert "deep.czi" in line and "Zeiss CZI" in line and "more than 200 deep" in line, line
     assert nothing_written(out)
+
+
+@pytest.mark.timeout(120)
+def test_a_czi_with_200000_metadata_elements_side_by_side_is_read(tmp_path, capsys, fixture):
+    """Wide, not deep: read (in about 4 s on a loaded machine; its XML is walked once, not once
+    per opening of the file)."""
+    path = czi_with_nested_metadata(fixture("real/zeiss_dapi_gfp_2ch.czi"), tmp_path / "wide.czi", NESTED, flat=True)
+    start = time.perf_counter()
+    code, out, err = run(capsys, "convert", path, "-o", tmp_path / "out", "--formats", "stl")
+    assert time.perf_counter() - start < 60
+    assert code == 0, err
+    assert (tmp_path / "out" / "wide.stl").exists()
 
 
 @pytest.mark.timeout(120)

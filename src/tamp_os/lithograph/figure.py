@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..clean.panels import Panel, PanelLayout, detect_panels, forced_grid, given_layout
+from ..clean.panels import Panel, PanelLayout, detect_panels, forced_grid, given_layout, parse_grid
 from ..errors import ParameterError, Text
 from ..params import LithoParams
 from .pipeline import Lithograph, make_lithograph, read_source
@@ -152,8 +152,23 @@ def _layout(picture: Picture, params: LithoParams) -> PanelLayout:
     if params.panel_boxes:
         return given_layout(picture.values, params.panel_boxes)
     if params.panels not in ("auto", "off"):
+        _check_grid(params.panels, picture.values.shape)
         return forced_grid(picture.values, params.panels)
     return detect_panels(picture.values)
+
+
+def _check_grid(grid: str, shape: tuple[int, int]) -> None:
+    """Refuse, before any cutting, a grid whose cells are under MIN_PANEL_PX on a side: none of
+    its panels would be printed on its own (each of their pixels over 2 mm on a plate)."""
+    rows, cols = parse_grid(grid)
+    height, width = shape
+    if width // cols >= MIN_PANEL_PX and height // rows >= MIN_PANEL_PX:
+        return
+    most = f"{max(1, min(height // MIN_PANEL_PX, 99))}x{max(1, min(width // MIN_PANEL_PX, 99))}"
+    raise ParameterError(f"`panels`: each panel of the grid is at least {MIN_PANEL_PX} pixels on a side, so this "
+                         f"{width}×{height} figure takes at most {most}; got {grid.strip()} ({width // cols}×{height // rows} pixels each).",
+                         parameter="panels", value=grid, allowed=f"RxC up to {most} for this figure",
+                         hint="Give the grid the figure has, or print the figure whole with `panels` off.")
 
 
 def _chosen(layout: PanelLayout, params: LithoParams) -> list[Panel]:

@@ -44,6 +44,9 @@ def detect(path: Path) -> str | None:
 
 
 def open_stack(path: Path, kind: str, scene: int | None, limits, target_px: int = DEFAULT_TARGET_PX) -> Stack:
+    from .xmlbound import check_metadata_xml
+
+    check_metadata_xml(path, kind)  # before a reader parses it whole (and liffile walks it recursively)
     if kind == "czi":
         from .czi import open_czi
 

@@ -574,7 +574,7 @@ def cmd_render(args) -> int:
 def cmd_gui(args) -> int:
     from ..errors import require_extra
 
-    require_extra("gui", "the web app", "fastapi", "uvicorn", "jinja2", "multipart")
+    require_extra("gui", "the web app", "fastapi", "uvicorn", "jinja2", "python_multipart")
     from ..gui import serve
 
     import socket

@@ -8,7 +8,6 @@ from pathlib import Path
 
 import numpy as np
 
-from .image import read_image
 from .model import LUMA_601, Limits
 from .vendor import Request, detect, read_planes
 
@@ -42,6 +41,8 @@ def read_channels(path, *, scene: int | str | None = None, time: int | None = No
     Returns a list of ChannelPlane in the file's channel order. Raises InputError or
     ParameterError in plain words, as read_image does.
     """
+    from .image import read_image  # looked up when called, as every reader of a plane is
+
     path = Path(path)
     limits = Limits(max_megapixels, max_decoded_gb)
     kind = detect(path) if path.exists() else None

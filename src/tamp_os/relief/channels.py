@@ -32,11 +32,38 @@ TOP_SHARE = {"domes": 1.0, "ridges": 0.6, "dots": 0.7, "plateau": 0.3}
 OUTLINE_SHARE = 0.6
 MIN_FEATURE_MM = 0.5
 
-_NUCLEAR = re.compile(r"dapi|hoechst|nuc|draq5|sytox|propidium|\bpi\b|haemat|hemat|h33342", re.IGNORECASE)
-_FILAMENT = re.compile(r"actin|phalloid|tubulin|collagen|shg|vimentin|keratin|filament|mitotracker|fibr", re.IGNORECASE)
-_SPOTS = re.compile(r"lyso|vesic|foci|focus|spot|puncta|endosom|peroxi|gamma ?h2ax|53bp1|fish|rab\d", re.IGNORECASE)
-_DIFFUSE = re.compile(r"cytopl|cellmask|cfse|calcein|eosin|membrane|wga", re.IGNORECASE)
+# The one table of signal names (issue 31): a dye, marker or stain's name -> its encoding and the
+# role the key says in words ("nuclei (DAPI)"). The first match wins, so specific names come before
+# the general ones. Channel roles follow the dye first (DESIGN.md "Translating content"): nuclear
+# stains domes; tubulin, actin, collagen ridges; mitochondrial markers network lines (ridges, raised
+# along their own skeleton when tubular); lysosome and vesicle markers dots; diffuse markers a
+# plateau. Fluorescent proteins (GFP, mCherry...) and plain filter names (FITC, TRITC) say nothing of
+# what is labelled: they are not here, so the shape decides.
+SIGNALS: tuple[tuple[str, str, str], ...] = (
+    (r"dapi|hoechst|h33342|draq5|sytox|propidium|\bpi\b|\bdna\b|nucle|\bnuc\b|haemat|hemat|\bh2b\b", "domes", "nuclei"),
+    (r"tubulin|microtub|\beb[13]\b", "ridges", "microtubules"),
+    (r"phalloid|lifeact|actin", "ridges", "actin"),
+    (r"collagen|\bshg\b", "ridges", "collagen"),
+    (r"vimentin|keratin|filament|fibr", "ridges", "filaments"),
+    (r"mitotracker|tom ?20|tmrm|tmre|\bmito|mitochond", "ridges", "mitochondria"),
+    (r"lyso|lamp ?[12]\b", "dots", "lysosomes"),
+    (r"vesic|endosom|peroxi|\brab\d", "dots", "vesicles"),
+    (r"foci|focus|spot|puncta|gamma ?h2ax|53bp1|fish", "dots", "spots"),
+    (r"eosin", "ridges", "stroma"),
+    (r"\bdab\b", "plateau", "DAB positive"),
+    (r"membrane|\bwga\b|cellmask", "plateau", "membranes"),
+    (r"cytopl|cfse|calcein", "plateau", "cytoplasm"),
+)
+_SIGNALS = tuple((re.compile(rx, re.IGNORECASE), enc, role) for rx, enc, role in SIGNALS)
 
+
+def signal_role(name: str) -> tuple[str, str] | None:
+    """(encoding, role in words) of a channel or stain named `name`, from SIGNALS; None when the
+    name says nothing of what is labelled (a fluorescent protein, a filter, "channel 1")."""
+    for rx, enc, role in _SIGNALS:
+        if rx.search(name):
+            return enc, role
+    return None
 
 @dataclass(frozen=True)
 class ChannelImage:
@@ -67,7 +94,8 @@ class KeyEntry:
 class ChannelChoice:
     name: str
     encoding: str
-    why: str  # "name", "wavelength", "shape" or "asked"
+    why: str  # "name", "wavelength", "colour", "shape", "distinct", "asked" or "stain"
+    role: str = ""  # what it shows, in words, when its name, wavelength or colour says ("nuclei"); "" by shape
 
 
 @dataclass
@@ -101,10 +129,8 @@ def parse_assignments(text: str | None) -> dict[str, str]:
 
 
 def _by_name(name: str) -> str | None:
-    for rx, enc in ((_NUCLEAR, "domes"), (_FILAMENT, "ridges"), (_SPOTS, "dots"), (_DIFFUSE, "plateau")):
-        if rx.search(name):
-            return enc
-    return None
+    found = signal_role(name)
+    return found[0] if found else None
 
 
 def _by_wavelength(ex: float | None, em: float | None) -> str | None:
@@ -315,13 +341,20 @@ def choose(channels: list[ChannelImage], assigned: dict[str, str], mm_per_px: fl
                           f"({', '.join(c.name for c in kept)}); left out: {', '.join(dropped)}. "
                           f"Choose others with `channels`."))
     out = []
+    rgb = sorted(c.name for c in channels) == ["blue", "green", "red"]
     for c in kept:
-        enc, why = _by_name(c.name), "name"
-        if enc is None:
-            enc, why = _by_wavelength(c.excitation_nm, c.emission_nm), "wavelength"
-        if enc is None:
-            enc, why = by_shape(shapes[c.name]), "shape"
-        out.append(ChannelChoice(c.name, enc, why))
+        named = signal_role(c.name)
+        if named is not None:
+            out.append(ChannelChoice(c.name, named[0], "name", named[1]))
+            continue
+        enc = _by_wavelength(c.excitation_nm, c.emission_nm)
+        if enc is not None:
+            out.append(ChannelChoice(c.name, enc, "wavelength", "nuclei"))
+        elif rgb and c.name == "blue":
+            # an RGB fluorescence composite without names: by the usual colours, blue is the nuclear stain
+            out.append(ChannelChoice(c.name, "domes", "colour", "nuclei"))
+        else:
+            out.append(ChannelChoice(c.name, by_shape(shapes[c.name]), "shape"))
     # round blobs much smaller than another channel's are spots beside its nuclei
     dome_diams = [shapes[c.name].blob_diam_mm for c in out if c.encoding == "domes"]
     out = [ChannelChoice(c.name, "dots", "shape") if c.encoding == "domes" and c.why == "shape"
@@ -469,26 +502,88 @@ def stain_channels(rgb: np.ndarray) -> list[ChannelImage]:
     return out
 
 
-STAIN_ENCODING = {"haematoxylin": "domes", "eosin": "ridges", "DAB": "plateau"}
-STAIN_LABEL = {"haematoxylin": "nuclei", "eosin": "tissue", "DAB": "DAB positive"}
+STAIN_ENCODING = {n: signal_role(n)[0] for n in ("haematoxylin", "eosin", "DAB")}  # from the one table, SIGNALS
+STAIN_LABEL = {n: signal_role(n)[1] for n in ("haematoxylin", "eosin", "DAB")}
+STAIN_TISSUE = 0.15  # haematoxylin + eosin (each 0..1) of tissue; glass and lumens (white) are under it
+STROMA_TOP_SHARE = 0.35  # the stroma's ridges: a low texture (1.05 mm at 3 mm), under the nuclei
+DOME_RISE_MM = 1.0  # a nuclei region reaches its full height 1 mm in from its edge (crowded nuclei merge into one region)
 
 
-def stain_relief(channels: list[ChannelImage], *, mm_per_px: float, base_mm: float, relief_mm: float) -> ChannelRelief:
-    """H&E / IHC: nuclei domes, eosin tissue as low ridges, DAB-positive regions raised, white at base."""
+def glass_weight(rgb: np.ndarray) -> np.ndarray:
+    """0..1, how much each pixel of a brightfield slide is white glass or a lumen: bright (mean RGB
+    ≥ 0.8) and colourless (max − min < 0.1), as relief/channel_auto.py counts white. Measured on the
+    RGB, not on the stain densities: an off-white glass tile is white, although its densities,
+    stretched, are not zero."""
+    x = rgb[..., :3].astype(np.float64)
+    x = x / (255.0 if x.max() > 1.5 else 1.0)
+    lum = x.mean(axis=2)
+    chroma = x.max(axis=2) - x.min(axis=2)
+    return np.clip((lum - 0.75) / 0.1, 0, 1) * np.clip((0.14 - chroma) / 0.08, 0, 1)
+
+
+NUCLEAR_OD = 0.035  # haematoxylin density (rgb2hed) a nucleus reaches: CMU-1's epidermis 0.11, the carcinoma
+# tile's tissue median 0.049, the stroma tile's nuclei 0.07; a frozen section with almost no haematoxylin (TCGA-CR-7395,
+# its tissue's 99th percentile 0.029) has none that stand out, whatever the stretch makes of its faint tint
+
+
+def nuclear_weight(rgb: np.ndarray) -> np.ndarray:
+    """0..1, how clearly each pixel's haematoxylin density reaches a nucleus's (NUCLEAR_OD ± 0.01)."""
+    x = rgb[..., :3].astype(np.float64)
+    x = x / (255.0 if x.max() > 1.5 else 1.0)
+    h = color.rgb2hed(np.clip(x, 0, 1))[..., 0]
+    return np.clip((h - (NUCLEAR_OD - 0.01)) / 0.02, 0, 1)
+
+
+def stain_relief(channels: list[ChannelImage], *, mm_per_px: float, base_mm: float, relief_mm: float,
+                 glass: np.ndarray | None = None, stained: np.ndarray | None = None) -> ChannelRelief:
+    """H&E / IHC (issue 32): nuclei (haematoxylin) raised as domes, stroma (eosin) a low ridge
+    texture, DAB-positive regions a plateau, glass and lumens (white) at the base, whatever the
+    share of glass.
+
+    Nuclei are where haematoxylin stands above the tissue's own Otsu threshold (haematoxylin tints
+    all tissue; a tile crowded with nuclei has them over half its tissue, a stroma tile a few
+    percent); each region rises to its full height within DOME_RISE_MM of its edge, so a field of
+    crowded nuclei reads as a high field with grooves, not as one low hill. `glass`: where the
+    slide is white (glass_weight ≥ 0.5, on the print grid); else tissue is where the densities are.
+    `stained`: where haematoxylin reaches a nucleus's density (nuclear_weight ≥ 0.5, on the grid);
+    the channels, stretched to 0..1, no longer say how much stain there is.
+    """
+    if relief_mm * STROMA_TOP_SHARE < MIN_FEATURE_MM and relief_mm < 1.7:
+        raise ParameterError(Text(f"`relief_mm` {relief_mm:g} mm is too low for stain textures (each needs "
+                                  f"≥{MIN_FEATURE_MM:g} mm); use at least 1.7 mm."))
     h, e = channels[:2]
-    tissue = (e.image + h.image) > 0.15
-    # haematoxylin tints all tissue: nuclei are where it stands clearly above the tissue's median
-    ref = float(np.median(h.image[tissue])) if tissue.any() else 0.0
-    top = float(np.percentile(h.image, 99.5))
-    h = ChannelImage("haematoxylin", np.clip((h.image - ref) / max(top - ref, 1e-6), 0, 1))
-    assigned = {"haematoxylin": "domes", "eosin": "ridges"}
+    tissue = (e.image + h.image) > STAIN_TISSUE if glass is None else ~glass
+    tissue = morphology.remove_small_objects(tissue, max_size=8)
     notes = []
-    chans = [h, ChannelImage("eosin", np.where(tissue, np.maximum(e.image, 0.5), 0.0))]
+    nuclei = np.zeros(tissue.shape, bool)
+    if tissue.sum() > 16 and float(np.ptp(h.image[tissue])) > 1e-6:
+        smooth = filters.gaussian(h.image, 1.0)
+        nuclei = tissue & (smooth > filters.threshold_otsu(smooth[tissue]))
+        if stained is not None:
+            nuclei &= stained
+        nuclei = morphology.remove_small_objects(nuclei, max_size=8)
+    stroma = tissue & ~nuclei
+    top = relief_mm
+    heights = np.zeros(tissue.shape)
+    # stroma: a low ridge texture on a 0.5 mm plinth (ridges felt as a texture, not as shape)
+    stroma_top = max(STROMA_TOP_SHARE * relief_mm, MIN_FEATURE_MM + 0.3)
+    spec = spec_for(TEXTURE_OF["ridges"], 0.0)
+    tex = pattern(spec, tissue.shape, mm_per_px)
+    heights = np.where(stroma, MIN_FEATURE_MM + (stroma_top - MIN_FEATURE_MM) * tex, heights)
+    masks = {"haematoxylin": nuclei, "eosin": stroma}
+    choices = [ChannelChoice("haematoxylin", "domes", "stain"), ChannelChoice("eosin", "ridges", "stain")]
     if len(channels) > 2:
-        assigned["dab"] = "plateau"
-        chans.append(channels[2])
+        dab = foreground(channels[2].image) & tissue
+        plateau = OUTLINE_SHARE * relief_mm
+        heights = np.where(dab, plateau, heights)
+        masks["DAB"] = dab
+        choices.append(ChannelChoice("DAB", "plateau", "stain"))
     else:
         notes.append(Text("No DAB stain found (an H&E slide): haematoxylin and eosin are printed."))
-    res = channel_relief(chans, mm_per_px=mm_per_px, base_mm=base_mm, relief_mm=relief_mm, assigned=assigned)
-    res.notes[:0] = notes
-    return res
+    # nuclei: domes over everything else, rising fully within DOME_RISE_MM of their edge
+    dist = ndi.distance_transform_edt(nuclei)
+    dome = np.sqrt(np.clip(dist / max(DOME_RISE_MM / mm_per_px, 1.0), 0, 1))
+    heights = np.where(nuclei, MIN_FEATURE_MM + (top - MIN_FEATURE_MM) * dome, heights)
+    if not nuclei.any():
+        notes.append(Text("No nuclei stand out of the tissue's haematoxylin: the tissue is printed as stroma."))
+    return ChannelRelief(base_mm + heights, choices, masks, notes)

@@ -173,7 +173,8 @@ def run(source, layout, params, route=None, cleaned=None) -> ChannelStage | None
     if len(chans) < 2 and not assigned:
         return None  # one channel with signal: nothing for a key to tell apart
     rel = channel_relief(chans, mm_per_px=mm, base_mm=params.base_mm, relief_mm=params.relief_mm, assigned=assigned,
-                         section=route.section if route is not None else "")
+                         section=route.section if route is not None else "",
+                         title=Path(source).stem if isinstance(source, (str, Path)) else "")
     rel.notes[:0] = cleaning_notes
     key = tuple(_entry(ch, labels) for ch in rel.choices)
     return ChannelStage(rel, key, "fluorescence")

@@ -133,6 +133,26 @@ def _by_name(name: str) -> str | None:
     return found[0] if found else None
 
 
+def marker_in_title(title: str, channels: list[ChannelImage]) -> dict[str, tuple[str, str]]:
+    """{channel name: (encoding, role)} for the one channel whose own name, wavelength and colour
+    say nothing, when the file's title (its name, "dapi_tubulin") names exactly one marker that
+    no channel's name already does: "fluo_dapi_tubulin" with channels DAPI and EGFP makes EGFP
+    microtubules. Anything less certain (two such channels, two unused markers) gives {}."""
+    import re as _re
+
+    named = {signal_role(c.name)[1] for c in channels if signal_role(c.name)}
+    if any(_by_wavelength(c.excitation_nm, c.emission_nm) for c in channels if not signal_role(c.name)):
+        named.add("nuclei")  # a DAPI-like wavelength already says which channel the nuclei are
+    unknown = [c for c in channels if signal_role(c.name) is None and _by_wavelength(c.excitation_nm, c.emission_nm) is None
+               and c.name not in ("red", "green", "blue")]
+    found = []
+    for token in _re.split(r"[^a-z0-9]+", title.lower()):
+        role = signal_role(token) if token else None
+        if role and role[1] not in named and role not in found:
+            found.append(role)
+    return {unknown[0].name: found[0]} if len(unknown) == 1 and len(found) == 1 else {}
+
+
 def _by_wavelength(ex: float | None, em: float | None) -> str | None:
     # DAPI / Hoechst: excited near 350-405 nm, emitting 440-470 nm
     if (ex is not None and ex <= 410) or (em is not None and 430 <= em <= 470):
@@ -314,8 +334,10 @@ def foreground(img: np.ndarray) -> np.ndarray:
 
 def choose(channels: list[ChannelImage], assigned: dict[str, str], mm_per_px: float,
            max_channels: int = DEFAULT_MAX_CHANNELS,
-           masks: dict[str, np.ndarray] | None = None, stretch: float = 1.0) -> tuple[list[ChannelChoice], list[str]]:
-    """An encoding for each channel kept; a note when some are left out. `masks`: each channel's
+           masks: dict[str, np.ndarray] | None = None, stretch: float = 1.0,
+           title: str = "") -> tuple[list[ChannelChoice], list[str]]:
+    """An encoding for each channel kept; a note when some are left out. `title`: the file's name,
+    whose marker words may name the one channel nothing else names (marker_in_title). `masks`: each channel's
     foreground() by name, when already found. `stretch` > 1: an axial section, its shapes measured
     with the rows shrunk by it (squeeze_rows), so points the PSF drew long are not taken for lines."""
     notes = []
@@ -342,10 +364,15 @@ def choose(channels: list[ChannelImage], assigned: dict[str, str], mm_per_px: fl
                           f"Choose others with `channels`."))
     out = []
     rgb = sorted(c.name for c in channels) == ["blue", "green", "red"]
+    titled = marker_in_title(title, channels) if title else {}
     for c in kept:
         named = signal_role(c.name)
         if named is not None:
             out.append(ChannelChoice(c.name, named[0], "name", named[1]))
+            continue
+        if c.name in titled:
+            enc, role = titled[c.name]
+            out.append(ChannelChoice(c.name, enc, "file name", role))
             continue
         enc = _by_wavelength(c.excitation_nm, c.emission_nm)
         if enc is not None:
@@ -421,7 +448,7 @@ def encode(img: np.ndarray, encoding: str, mm_per_px: float, relief_mm: float, a
 
 def channel_relief(channels: list[ChannelImage], *, mm_per_px: float, base_mm: float, relief_mm: float,
                    assigned: dict[str, str] | None = None, max_channels: int = DEFAULT_MAX_CHANNELS,
-                   section: str = "") -> ChannelRelief:
+                   section: str = "", title: str = "") -> ChannelRelief:
     """Heights in mm (base included) where each chosen channel's region carries its texture.
 
     `section` "XZ" (or "YZ"): the picture is an axial section, its rows along Z; shapes are
@@ -448,7 +475,11 @@ def channel_relief(channels: list[ChannelImage], *, mm_per_px: float, base_mm: f
         notes.append(Text(said))
     if stretch < AXIAL_STRETCH_MIN:
         stretch = 1.0
-    choices, chose_notes = choose(channels, assigned or {}, mm_per_px, max_channels, found, stretch)
+    choices, chose_notes = choose(channels, assigned or {}, mm_per_px, max_channels, found, stretch, title)
+    for ch in choices:
+        if ch.why == "file name":
+            chose_notes.append(Text(f"The channel {ch.name!r} names no marker of its own; the file's name does "
+                                    f"({ch.role}), so it is printed as {ch.role}: {ch.encoding}. Say otherwise with `channels`."))
     notes += chose_notes
     by_name = {c.name: c for c in channels}
     heights = np.zeros(channels[0].image.shape)

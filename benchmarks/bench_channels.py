@@ -70,7 +70,7 @@ def he_heights(path, **kw) -> dict:
     the masks found from the source independently of the relief: haematoxylin (rgb2hed) of the source
     on the print grid above Otsu within the tissue = nuclei; the tissue's haematoxylin bottom 40 % = stroma;
     brightness > 0.85 = white. Also the share of the nuclei raised ≥ 0.5 mm over the stroma's median."""
-    from tamp_os.vendor_read import read_channels
+    from tamp_os.read.channels import read_channels
 
     litho = make_lithograph(path, width_mm=100, **kw)
     r = litho.report
@@ -122,7 +122,7 @@ def speed(runs: int = 5) -> tuple[float, float]:
 def decision_rows() -> list[tuple]:
     """Every real fixture: does it take the channel path by default, and why (relief/channel_auto.py)."""
     from tamp_os.params import LithoParams
-    from tamp_os.read import read_image
+    from tamp_os.read.image import read_image
     from tamp_os.relief.channel_auto import colour_facts, colour_kind, route
 
     top = ROOT.parent / "shared" / "fixtures"

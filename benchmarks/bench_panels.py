@@ -79,7 +79,7 @@ def main() -> None:
         print(f"| {name} | {w}×{h} | {len(layout.panels)} | {1e3 * g_wall:.0f} / {1e3 * g_cpu:.0f} | "
               f"{1e3 * l_wall:.0f} / {1e3 * l_cpu:.0f} | {1e3 * t_wall:.0f} / {1e3 * t_cpu:.0f} | "
               f"{','.join(lettered.labels())} | {1e3 * c_wall:.0f} |")
-    from tamp_os.read import read_image
+    from tamp_os.read.image import read_image
 
     print("\n| single micrograph | size px | split | s |")
     print("|---|---|---|---|")
@@ -101,7 +101,7 @@ def words() -> None:
 
     from tamp_os.lithograph.figure import figure_colour, panel_contents
     from tamp_os.params import LithoParams
-    from tamp_os.read import read_array
+    from tamp_os.read.image import read_array
 
     def big(image):
         image = image if image.dtype == np.uint8 else (np.clip(image, 0, 1) * 255).astype(np.uint8)

@@ -59,7 +59,10 @@ def convert_all(src: Path, images: list[Path], out: Path) -> None:
     for variant, options in VARIANTS.items():
         for image in images:
             # one call per image: a refused input must not stop the others
-            cmd = [sys.executable, "-m", "tamp_os.cli.commands", "convert", str(image), "-o", str(out / variant), *options]
+            # `tamp_os.cli.main` is the command line in every layout the package has had
+            cmd = [sys.executable, "-c", "import sys; from tamp_os.cli import main; sys.exit(main(sys.argv[1:]))",
+                   "convert", str(image), "-o", str(out / variant), *options]
+            (out / variant).mkdir(parents=True, exist_ok=True)
             result = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=600)
             (out / variant / f"{image.name}.log").write_text(result.stdout + result.stderr + f"exit {result.returncode}\n")
 

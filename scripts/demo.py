@@ -11,7 +11,7 @@ from pathlib import Path
 from tamp_os.lithograph.convert import convert as convert_image
 from tamp_os.errors import TampError
 from tamp_os.params import LithoParams
-from tamp_os.read import read_array
+from tamp_os.read.image import read_array
 
 BUILTIN = ("cell", "immunohistochemistry", "moon")
 FIXTURES = Path(__file__).resolve().parents[2] / "shared" / "fixtures"  # the project's sibling folder

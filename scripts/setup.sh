@@ -35,8 +35,8 @@ stamp=.venv/.tamp-installed
 if [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ] || [ scripts/setup.sh -nt "$stamp" ]; then
   echo "setup: installing the tamp-os package and its Python dependencies into .venv"
   .venv/bin/python -m pip install -q --upgrade pip 2>&1 | grep -v "^WARNING: Location" || true
-  .venv/bin/python -m pip install -q -e ".[test,dm,vendor,ocr]" 2>&1 | grep -v "^WARNING: Location" || true
-  .venv/bin/python -c "import tamp_os, lib3mf, trimesh, tifffile, czifile, liffile, nd2, mrcfile, zarr, h5py, tesserocr" 
+  .venv/bin/python -m pip install -q -e ".[test,all]" 2>&1 | grep -v "^WARNING: Location" || true
+  .venv/bin/python -c "import tamp_os, lib3mf, trimesh, tifffile, czifile, liffile, nd2, mrcfile, zarr, h5py, tesserocr, fastapi, uvicorn, pyvista, distributed" 
   touch "$stamp"
 fi
 

@@ -33,7 +33,7 @@ def font(size: int):
 def micrograph(name: str, rows: int, cols: int) -> np.ndarray:
     """A real micrograph from the fixtures, its picture area (no data band) resized to rows × cols, uint8."""
     from tamp_os.clean.stage import clean_picture
-    from tamp_os.read import read_image
+    from tamp_os.read.image import read_image
 
     picture = read_image(FIXTURES / name)
     cleaned = clean_picture(picture, pixel_size_m=None, remove_annotations=False)
@@ -89,7 +89,7 @@ def fluorescence_composite(rows: int, cols: int, seed: int = 0) -> np.ndarray:
 def stained_section(rows: int, cols: int) -> np.ndarray:
     """A crop of the H&E skin slide fixture (aperio_cmu1_he_skin.svs, 600 × 800 px at full
     resolution: epidermis, dermis and white glass), resized to rows × cols, uint8 RGB."""
-    from tamp_os.vendor_read import read_channels
+    from tamp_os.read.channels import read_channels
 
     planes = read_channels(FIXTURES / "real" / "aperio_cmu1_he_skin.svs")
     crop = np.stack([p.values[1150:1750, 980:1780] for p in planes[:3]], axis=-1).astype(np.uint8)

@@ -230,7 +230,7 @@ def test_real_svs_he_epidermis_raised_white_at_base(fixture):
     need(liblouis_available(), "liblouis (braille key)")
     from skimage.transform import resize
 
-    from tamp_os.vendor_read import read_channels
+    from tamp_os.read.channels import read_channels
 
     path = fixture("real/aperio_cmu1_he_skin.svs")
     litho = make_lithograph(path, channels="auto", width_mm=100)
@@ -302,7 +302,7 @@ def test_automatic_channel_path_on_every_real_fixture(fixture, name):
     """Multi-channel files and the stained slide take the channel path by default; every grey
     picture (SEM, TEM, STEM, grey JPEG stored as RGB, z-stacks, maps) stays on its old path."""
     from tamp_os.params import LithoParams
-    from tamp_os.read import read_image
+    from tamp_os.read.image import read_image
     from tamp_os.relief.channel_auto import route
 
     path = fixture(name)
@@ -330,7 +330,7 @@ def test_colour_decision_grey_lut_diagram_composite_stain():
     import skimage.data
     from PIL import Image, ImageDraw
 
-    from tamp_os.read import read_array
+    from tamp_os.read.image import read_array
     from tamp_os.relief.channel_auto import colour_facts, colour_kind
 
     def kind(rgb):

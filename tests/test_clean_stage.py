@@ -10,7 +10,7 @@ from PIL import Image
 
 from conftest import need
 from tamp_os.clean.stage import clean_picture
-from tamp_os.read import read_image
+from tamp_os.read.image import read_image
 
 
 def stripped(fixture, tmp_path, name) -> tuple:
@@ -74,7 +74,7 @@ def test_saturated_disc_on_black_is_picture_not_a_box():
 def test_natural_pictures_get_no_scale_and_no_warning():
     import skimage.data
 
-    from tamp_os.read import read_array
+    from tamp_os.read.image import read_array
 
     for name in ("cell", "moon", "coins", "camera"):
         cleaned = clean_picture(read_array(getattr(skimage.data, name)()), pixel_size_m=None, remove_annotations=True)
@@ -228,7 +228,7 @@ def test_a_diagrams_strokes_stay_and_its_words_go():
     for an arrow and was inpainted, opening the drawn box); the printed words are removed."""
     from synthetic_content import line_diagram
 
-    from tamp_os.read import read_array
+    from tamp_os.read.image import read_array
 
     truth = line_diagram()
     cleaned = clean_picture(read_array((truth.image * 255).astype(np.uint8)), pixel_size_m=None, remove_annotations=True)

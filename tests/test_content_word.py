@@ -106,7 +106,7 @@ def test_words_for_a_four_panel_4000_by_3000_figure_are_cheap():
     from tamp_os.clean.panels import detect_panels
     from tamp_os.lithograph.figure import figure_colour, panel_contents
     from tamp_os.params import LithoParams
-    from tamp_os.read import read_array
+    from tamp_os.read.image import read_array
 
     rows, cols = 1460, 1960
 
@@ -162,7 +162,7 @@ def test_the_word_agrees_with_the_print_of_the_same_pixels(name, width_mm):
     of lines and the Al2O3 grain boundaries and SiO2 particles as 'picture')."""
     from tamp_os.params import LithoParams
     from tamp_os.lithograph.pipeline import make_lithograph
-    from tamp_os.read import read_image
+    from tamp_os.read.image import read_image
 
     need((FIXTURES / name).is_file(), f"fixture {name}")
     values = read_image(FIXTURES / name).values

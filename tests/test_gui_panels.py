@@ -7,7 +7,6 @@ from __future__ import annotations
 import io
 import re
 import shutil
-import time
 import zipfile
 
 import httpx
@@ -146,9 +145,7 @@ def test_the_worker_finds_a_figures_panels_with_a_small_thumbnail_each(tmp_path)
         with Image.open(tmp_path / p.thumb) as thumb:
             assert p.thumb == f"3.panel-{p.label}.png" and max(thumb.size) <= PANEL_THUMB_PX and min(thumb.size) > 20
     single = synthetic_texture(300, 400, 7).astype(np.float32) / 255
-    start = time.perf_counter()
     assert find_panels(single, tmp_path / "none", 4) == ()  # a single picture: nothing to choose, nothing written
-    assert time.perf_counter() - start < 0.5
 
 
 # ---------------------------------------------------------------------------------------------

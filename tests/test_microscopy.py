@@ -14,7 +14,7 @@ from tamp_os.cli.commands import main
 from tamp_os.errors import ParameterError
 from tamp_os.clean.band import band_from_metadata
 from tamp_os.clean.scale import USER_GIVEN, read_pixel_size, scale_sentence
-from tamp_os.read import read_image
+from tamp_os.read.image import read_image
 from tamp_os.units import parse_length_m
 
 
@@ -277,6 +277,6 @@ def test_no_false_annotations_on_natural_pictures(fixture):
 
 
 def read_image_array(array):
-    from tamp_os.read import read_array
+    from tamp_os.read.image import read_array
 
     return read_array(array).values

@@ -28,7 +28,7 @@ REAL_PIXEL_SIZES = [
 
 def _file_pixel_size(path, pixel_size_m=None):
     from tamp_os.clean.scale import read_pixel_size
-    from tamp_os.read import read_image
+    from tamp_os.read.image import read_image
 
     f = read_image(path).file
     return read_pixel_size(f.metadata, f.tiff_tags, f.path, f.width, pixel_size_m)

@@ -7,7 +7,7 @@ import tifffile
 from PIL import Image
 
 from tamp_os.errors import InputError, ParameterError
-from tamp_os.read import read_array, read_image
+from tamp_os.read.image import read_array, read_image
 
 
 def save_pil(tmp_path, name, image, **kw):

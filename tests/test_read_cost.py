@@ -3,7 +3,7 @@
 import pytest
 
 from tamp_os.errors import InputError
-from tamp_os.read_cost import Cost, check_memory
+from tamp_os.read.cost import Cost, check_memory
 
 
 def test_the_memory_limit_hint_says_the_option_as_it_is_typed():

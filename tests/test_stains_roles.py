@@ -73,7 +73,7 @@ def test_synthetic_tissue_filled_he_tile_takes_the_stain_path_and_raises_nuclei(
     _liblouis()
     from scipy import ndimage as ndi
 
-    from tamp_os.read import read_array
+    from tamp_os.read.image import read_array
     from tamp_os.relief.channel_auto import colour_facts, colour_kind
 
     rgb, nuclei, lumens = synthetic_he_tile()
@@ -101,7 +101,7 @@ def test_pink_and_purple_pictures_that_are_not_slides_stay_plain():
     import skimage.data
 
     from test_channels import _grey_to_lut
-    from tamp_os.read import read_array
+    from tamp_os.read.image import read_array
     from tamp_os.relief.channel_auto import colour_facts, colour_kind
 
     def kind(rgb):
@@ -162,7 +162,7 @@ def test_real_he_slides_nuclei_over_stroma_and_glass_at_base(fixture, name):
 @pytest.mark.timeout(300)
 @pytest.mark.xfail(strict=True, reason=FROZEN)
 def test_real_frozen_section_raises_its_darker_nests_over_the_pale_strands(fixture):
-    from tamp_os.vendor_read import read_channels
+    from tamp_os.read.channels import read_channels
 
     path = fixture("real/aperio_tcga_cr7395_j2k_no_mpp.svs")
     litho = make_lithograph(path, width_mm=100)
@@ -226,7 +226,7 @@ def test_rgb_fluorescence_composite_blue_is_nuclei_by_colour():
 
 @pytest.mark.timeout(120)
 def test_imagej_info_names_the_zen_channels(fixture):
-    from tamp_os.vendor_read import read_channels
+    from tamp_os.read.channels import read_channels
 
     planes = read_channels(fixture("real/fluo_widefield_dapi_tubulin_2ch.tif"))
     assert [(p.name, p.excitation_nm, p.emission_nm) for p in planes] == [("DAPI", 353.0, 465.0), ("EGFP", 488.0, 509.0)]

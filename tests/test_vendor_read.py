@@ -13,7 +13,7 @@ import pytest
 
 from conftest import ROOT, need_module, run_cli, examples
 from tamp_os.errors import InputError, ParameterError
-from tamp_os.read import read_image
+from tamp_os.read.image import read_image
 
 REAL = "real/"
 
@@ -336,7 +336,7 @@ def test_ome_zarr_converts_from_the_command_line(tmp_path, capsys):
 @pytest.mark.timeout(120)
 def test_read_channels_of_an_nd2(real):
     nd2 = need_module("nd2")
-    from tamp_os.vendor_read import read_channels
+    from tamp_os.read.channels import read_channels
 
     path = real("nikon_pbmc_4ch.nd2")
     planes = read_channels(path)
@@ -350,7 +350,7 @@ def test_read_channels_of_an_nd2(real):
 
 @pytest.mark.timeout(120)
 def test_read_channels_of_a_czi_time_point_and_guard(real):
-    from tamp_os.vendor_read import read_channels
+    from tamp_os.read.channels import read_channels
 
     path = real("zeiss_airyscan_2ch_t3.czi", "czifile")
     planes = read_channels(path, time=1)
@@ -365,7 +365,7 @@ def test_read_channels_of_a_czi_time_point_and_guard(real):
 @pytest.mark.timeout(60)
 def test_read_channels_of_ordinary_images(tmp_path):
     from tamp_os.export.files import write_png
-    from tamp_os.vendor_read import read_channels
+    from tamp_os.read.channels import read_channels
 
     rgb = np.zeros((8, 10, 3), np.uint8)
     rgb[..., 0], rgb[..., 2] = 200, 50
@@ -400,7 +400,7 @@ VENDOR_FILES = [
 @pytest.mark.timeout(120)
 @pytest.mark.parametrize("name, module", VENDOR_FILES)
 def test_guard_refuses_before_decoding(real, monkeypatch, name, module):
-    import tamp_os.vendor_read.plan as plan
+    import tamp_os.read.vendor.plan as plan
 
     path = real(name, module)
     need_module("rsciio")
@@ -519,7 +519,7 @@ def test_help_imports_no_vendor_reader():
 @pytest.mark.parametrize("axes, shape", [("ZYX", (5, 40, 50)), ("TZCYX", (2, 3, 2, 20, 30)), ("CZYX", (3, 4, 16, 18))])
 def test_tiff_stack_reduced_page_by_page_equals_the_whole_read(tmp_path, monkeypatch, axes, shape):
     tifffile = need_module("tifffile")
-    import tamp_os.read_stacks as read_stacks
+    import tamp_os.read.stacks as read_stacks
 
     data = np.random.default_rng(len(shape)).integers(0, 60000, size=shape, dtype=np.uint16)
     path = tmp_path / "stack.ome.tif"

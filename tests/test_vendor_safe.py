@@ -80,7 +80,7 @@ def _hilo_zstd1(a: np.ndarray) -> list[bytes]:
 @pytest.mark.parametrize("compression", ["lzw", "zstd0", "zstd1", "zstd1-hilo", "none"])
 def test_czi_of_each_compression_reads_pixel_for_pixel(tmp_path, capsys, compression):
     need_module("czifile")
-    from tamp_os.vendor_read import read_channels
+    from tamp_os.read.channels import read_channels
 
     a = planes()
     kind = compression.split("-")[0]
@@ -101,7 +101,7 @@ def test_czi_of_jpeg_and_jpeg_xr_subblocks_reads(tmp_path, compression):
     need_module("czifile")
     import imagecodecs
 
-    from tamp_os.read import read_image
+    from tamp_os.read.image import read_image
 
     a = planes(shape=(1, 60, 80)).astype(np.uint8)  # 8-bit grey, as ZEN writes JPEG
     stream = imagecodecs.jpeg8_encode(a[0], level=95) if compression == "jpeg" else imagecodecs.jpegxr_encode(a[0], level=1.0)
@@ -125,7 +125,7 @@ def test_czi_colour_subblocks_come_out_rgb(tmp_path, compression):
     """CZI stores BGR; the plane is RGB (czifile flipped it and the reader flipped it back, and
     czifile's dtype '<3u1' made each pixel three values of three samples)."""
     need_module("czifile")
-    from tamp_os.vendor_read.czi import open_czi
+    from tamp_os.read.vendor.czi import open_czi
 
     rgb = np.random.default_rng(3).integers(0, 255, (1, 20, 30, 3)).astype(np.uint8)
     stack = open_czi(write_czi(tmp_path / "rgb.czi", rgb, compression, names=("RGB",)), None)
@@ -150,10 +150,10 @@ BEFORE = {
 @pytest.mark.parametrize("name", sorted(BEFORE))
 def test_real_czi_planes_are_byte_identical_to_before(fixture, name):
     need_module("czifile")
-    from tamp_os.read import _Limits
-    from tamp_os.vendor_read.czi import open_czi
+    from tamp_os.read.model import Limits
+    from tamp_os.read.vendor.czi import open_czi
 
-    stack = open_czi(fixture(f"real/{name}"), None, _Limits(100.0, 2.0))
+    stack = open_czi(fixture(f"real/{name}"), None, Limits(100.0, 2.0))
     try:
         found = {(t, c, z): hashlib.sha256(stack.plane(t, c, z).tobytes()).hexdigest()[:16]
                  for t in range(stack.size("T")) for c in range(stack.size("C")) for z in range(stack.size("Z"))}
@@ -230,7 +230,7 @@ def test_the_jpeg_frame_is_priced_by_both_caps(tmp_path):
     priced in the conversion's memory (`max_memory_gb`) too."""
     need_module("czifile")
     from tamp_os.errors import InputError
-    from tamp_os.read import read_image
+    from tamp_os.read.image import read_image
 
     path = _jpeg_bomb(tmp_path / "bomb.czi")
     with pytest.raises(InputError, match="max_decoded_gb"):
@@ -288,7 +288,7 @@ def test_lambda_scan_reads_its_emission_peak_by_default(tmp_path, capsys):
 @pytest.mark.parametrize("channel, index", [("λ 520 nm", 2), ("520nm", 2), ("lambda 560 nm", 6), ("7", 7), ("peak", 3)])
 def test_lambda_plane_is_the_users_choice(tmp_path, channel, index):
     need_module("liffile")
-    from tamp_os.read import read_image
+    from tamp_os.read.image import read_image
 
     path, _ = _lif(tmp_path)
     picture = read_image(path, scene="lambda scan", channel=channel)
@@ -308,8 +308,8 @@ def test_a_wavelength_that_is_not_there_is_one_error_naming_the_wavelengths(tmp_
 @pytest.mark.timeout(60)
 def test_excitation_sweep_and_a_sweep_in_time_and_z(tmp_path):
     need_module("liffile")
-    from tamp_os.read import read_image
-    from tamp_os.vendor_read import read_channels
+    from tamp_os.read.image import read_image
+    from tamp_os.read.channels import read_channels
 
     path, tlz = _lif(tmp_path)
     excitation = read_channels(path, scene=2)
@@ -327,7 +327,7 @@ def test_excitation_sweep_and_a_sweep_in_time_and_z(tmp_path):
 def test_two_detectors_of_a_lambda_scan_are_named_apart(tmp_path):
     need_module("liffile")
     from lif_builder import write_lif
-    from tamp_os.vendor_read import read_channels
+    from tamp_os.read.channels import read_channels
 
     a = np.random.default_rng(2).integers(0, 50, (2, 3, 20, 30)).astype(np.uint8)
     path = write_lif(tmp_path / "two.lif", [("two detectors", "CλYX", a, {"λ": (500e-9, 20e-9)})])

@@ -155,5 +155,21 @@ class MissingDependencyError(TampError):
     """An optional tool or library that is not installed."""
 
 
+def require_extra(extra: str, what: str, *modules: str) -> None:
+    """Import `modules` (the libraries of the package's optional `extra`), or say in one line which
+    extra to install: `pip install tamp-os` brings what converting needs; the web app, rendering
+    and Dask come with `tamp-os[gui]`, `[render]` and `[dask]` (or `[all]`)."""
+    import importlib
+
+    for name in modules:
+        try:
+            importlib.import_module(name)
+        except ImportError:
+            raise MissingDependencyError(
+                f"{what} needs {name}, which comes with the {extra!r} extra: pip install 'tamp-os[{extra}]' "
+                "(or 'tamp-os[all]')."
+            ) from None
+
+
 class ExportError(TampError):
     """An output that cannot be written."""

@@ -16,7 +16,7 @@ from typing import Callable, Literal
 @dataclass(frozen=True)
 class Format:
     name: str  # as the parameter `formats` takes it: "stl"
-    kind: Literal["mesh", "graphic"]  # a 3-D solid, or a 2-D tactile graphic (swell paper, embosser)
+    kind: Literal["mesh", "graphic", "pins"]  # a 3-D solid, a 2-D tactile graphic (swell paper, embosser), or pin-display pages
     suffixes: tuple[str, ...]  # file suffixes, the first is written: (".step", ".stp")
     what: str  # for people: what the file is for
     writer: str | None = None  # "stl:write_stl" in tamp_os.export (meshes); graphics are drawn by export.tactile2d
@@ -68,11 +68,16 @@ TABLE: tuple[Format, ...] = (
            "step:check_step", bytes_fixed=5000, bytes_per_triangle=800),
     Format("pdf", "graphic", (".pdf",), "swell paper or a braille embosser (2-D tactile graphic)"),
     Format("svg", "graphic", (".svg",), "swell paper, an embosser or a drawing program (2-D tactile graphic)"),
+    # refreshable pin displays (issue 34): pages drawn by export.pins, written by export.pin_files
+    Format("dotpad", "pins", (".dtms",), "the Dot Pad 320 pin display (overview, zoom and key pages, braille text line)"),
+    Format("graphiti", "pins", (".graphiti",), "the Graphiti and Graphiti Plus pin displays (Update Display frames, five heights; pages as PNG)"),
+    Format("monarch", "pins", (".monarch.svg",), "the Monarch pin display (SVG in the IMAGE profile, 96 × 40 pins)"),
 )
 BY_NAME: dict[str, Format] = {f.name: f for f in TABLE}
 NAMES: tuple[str, ...] = tuple(BY_NAME)
 MESH_FORMATS: tuple[str, ...] = tuple(f.name for f in TABLE if f.kind == "mesh")
 GRAPHIC_FORMATS: tuple[str, ...] = tuple(f.name for f in TABLE if f.kind == "graphic")
+PIN_FORMATS: tuple[str, ...] = tuple(f.name for f in TABLE if f.kind == "pins")
 # Meshes we read back (render, check, slice, estimate): ours plus two that trimesh reads too.
 READABLE_MESH_SUFFIXES: tuple[str, ...] = tuple(f.suffix for f in TABLE if f.readable) + (".gltf", ".off")
 

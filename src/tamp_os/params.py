@@ -34,6 +34,26 @@ def _f(default, help, unit="", lo=None, hi=None, choices=None, lo_open=False):
 
 @dataclass(frozen=True)
 class LithoParams:
+    """Every setting of a lithograph in one frozen, validated object.
+
+    Each field's unit, range, default and meaning is listed below (and by `field_table()`);
+    the CLI's options, the web app's fields and a batch's CSV columns are these fields by name.
+    Lengths are in millimetres (`_mm`), and
+    pixel size and scale bar take SI numbers (metres) or text ("4.2nm"). Fields left as None are
+    derived when the lithograph is made, from the printer profile and preset. A value out of range
+    raises ParameterError naming the field, the range and the value.
+
+    Examples
+    --------
+    >>> p = LithoParams(width_mm=60, relief_mm=2.5)
+    >>> p.replace(preset="high").preset, p.width_mm
+    ('high', 60)
+    >>> LithoParams(relief_mm=-1)
+    Traceback (most recent call last):
+    ...
+    tamp_os.errors.ParameterError: relief_mm: must be > 0.0 and ≤ 50.0 mm; got -1 mm.
+    """
+
     preset: str = _f("medium", "grid density from the nozzle: low, medium or high", choices=tuple(PRESETS))
     printer: str = _f("standard", "printer profile (standard, fine, large, one of yours, or a PrusaSlicer system printer: see the printers command)")
     nozzle_mm: float | None = _f(None, "nozzle diameter (default: from the printer)", "mm", 0.05, 2.0)
@@ -327,8 +347,9 @@ def _check_field(f: dataclasses.Field, value: Any) -> None:
         raise _refuse(f, value, describe_range(f), shown=f"{value}{(' ' + m['unit']) if m['unit'] else ''}")
 
 
-LithoParams.__doc__ = (
-    "Every setting of a lithograph, frozen and checked when made; `replace(**changes)` makes a variant.\n\n"
-    "Parameters (name [unit]: meaning. Allowed values; default):\n" + field_table()
+# Every field with its unit, range, default and meaning, in the class's own docstring (help()).
+LithoParams.__doc__ = LithoParams.__doc__.replace(
+    "    Examples\n    --------",
+    "    Parameters\n    ----------\n    (name [unit]: meaning. Allowed values; default)\n" + field_table() + "\n\n    Examples\n    --------",
 )
 register_parameter_names(f.name for f in dataclasses.fields(LithoParams))

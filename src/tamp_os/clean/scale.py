@@ -13,7 +13,7 @@ from pathlib import Path
 
 from ..errors import Text
 from ..units import format_length, unit_factor_m
-from ..xmltext import parse_xml
+from ..read.xmltext import parse_xml
 from .vendor import number, sidecar_keys, sidecar_text, tescan_main
 
 PLAUSIBLE_M = (1e-13, 1e-2)  # 0.1 pm to 1 cm per pixel

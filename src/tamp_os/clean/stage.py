@@ -11,7 +11,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..read import Picture
+from ..read.model import Picture
 from . import annotations as marks
 from .annotations import Annotation
 from .band import Band, band_from_metadata, detect_info_band

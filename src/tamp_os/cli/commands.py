@@ -430,12 +430,11 @@ def cmd_batch(args) -> int:
 
 
 def _dask_client(address: str):
-    from ..errors import InputError, MissingDependencyError
+    from ..errors import InputError, require_extra
 
-    try:
-        from distributed import Client
-    except ImportError:
-        raise MissingDependencyError("--dask-scheduler needs Dask: pip install 'dask[distributed]'.") from None
+    require_extra("dask", "--dask-scheduler", "distributed")
+    from distributed import Client
+
     try:
         return Client(address, timeout="10s")
     except (OSError, TimeoutError) as exc:
@@ -573,6 +572,9 @@ def cmd_render(args) -> int:
 
 
 def cmd_gui(args) -> int:
+    from ..errors import require_extra
+
+    require_extra("gui", "the web app", "fastapi", "uvicorn", "jinja2", "multipart")
     from ..gui import serve
 
     import socket
@@ -648,7 +650,7 @@ def cmd_presets(args) -> int:
     layer = printer.layer_mm
     picture, suggestion = None, None
     if args.image:
-        from ..read import read_image
+        from ..read.image import read_image
 
         picture = read_image(args.image, page=params.page, channel=params.channel, max_megapixels=params.max_megapixels,
                              max_decoded_gb=params.max_decoded_gb, max_memory_gb=params.max_memory_gb)
@@ -791,7 +793,7 @@ def cmd_info(args) -> int:
     from ..clean.stage import clean_picture
     from ..lithograph.report import instrument_words
     from ..params import parse_field
-    from ..read import read_image
+    from ..read.image import read_image
     from ..units import format_length, parse_length_m
 
     pixel_size_m = parse_length_m(args.pixel_size, "pixel_size") if args.pixel_size else None

@@ -67,9 +67,9 @@ def decoded_bytes(path: Path) -> tuple[int, int, int] | None:
             raise InputError(f"{path.name} looks like a TIFF file but is damaged, so it cannot be read. Export it again.") from None
     if head[:4] == b"\x00\x00\x00\x04" or head[:4] == b"\x00\x00\x00\x03":
         return None  # Digital Micrograph
-    from ..read import _vendor_kind
+    from ..read.image import vendor_kind
 
-    if _vendor_kind(path):
+    if vendor_kind(path):
         return None  # a microscope vendor's file: its reader prices the planes it reads before decoding
     from PIL import Image, UnidentifiedImageError
 
@@ -88,7 +88,7 @@ def decoded_bytes(path: Path) -> tuple[int, int, int] | None:
 
 def _level_read(series):
     """The pyramid level read.py reads (the smallest at least 2048 px wide): that is what is decoded."""
-    from ..read import DEFAULT_TARGET_PX
+    from ..read.model import DEFAULT_TARGET_PX
 
     levels = getattr(series, "levels", None) or [series]
     wide = [lv for lv in levels if lv.shape[lv.axes.index("X")] >= DEFAULT_TARGET_PX]
@@ -160,7 +160,7 @@ def inspect_in_worker(path: Path, thumbs: Path, index: int, max_decoded_mb: floa
     """What an upload holds (size, suggested preset, thumbnail, channels and axes), read with the web app's own caps:
     the page read_image will read is priced by read_image itself (tiles, copies, working arrays)."""
     from ..printing.printers import BUILTIN_PRINTERS
-    from ..read import read_image
+    from ..read.image import read_image
     from ..relief.touch import suggest_by_touch
 
     picture = read_image(path, max_megapixels=max_decoded_mb, max_decoded_gb=max_decoded_mb / 1000,

@@ -55,7 +55,7 @@ def content_word(values: np.ndarray, colour: np.ndarray | None = None, *, params
     with on its own (a panel's print: the figure's parameters); the grey decision is made on that
     print's grid (default: LithoParams(), on its printer 100 mm wide)."""
     if colour is not None:
-        from ..read import colour_sample
+        from ..read.model import colour_sample
         from ..relief.channel_auto import colour_facts, colour_kind
 
         sample = colour_sample(np.asarray(colour))
@@ -102,7 +102,7 @@ def print_grid(values: np.ndarray, params=None, printer=None) -> PrintGrid | Non
     from .sizing import layout_for, resolve_printer
     from ..relief.lines import FINE_PITCH_MM
     from ..relief.preprocess import prepare
-    from ..relief.scales import WorkGrid
+    from ..relief.scales import WORK_MAX_POINTS, WorkGrid
 
     params = params or LithoParams()
     machine = resolve_printer(params, printer)
@@ -132,7 +132,7 @@ def print_grid(values: np.ndarray, params=None, printer=None) -> PrintGrid | Non
     if prepared.uniform or float(np.ptp(prepared.image)) <= 1e-6:
         return None
     image = prepared.image
-    grid = WorkGrid.plan(image.shape, plan.mm_per_px, machine.nozzle_mm)
+    grid = WorkGrid.plan(image.shape, plan.mm_per_px, machine.nozzle_mm, WORK_MAX_POINTS)
     width_mm = (image.shape[1] - 1) * plan.mm_per_px
     return PrintGrid(grid.down(image), grid.pitch_mm, width_mm, machine.nozzle_mm, prepared.finer)
 

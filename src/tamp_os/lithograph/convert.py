@@ -80,11 +80,38 @@ class Conversion(Print):
 
 def convert(source, params: LithoParams | None, out_dir, *, stem: str | None = None,
             printer_profile: PrinterProfile | None = None, formats=None) -> Conversion:
-    """Convert one image (a file, an array or a read Picture) into `out_dir`: see the module notes.
-    A multi-panel figure (`params.panels`, figure.py) gives a print per panel plus an overview.
+    """Convert one image into `out_dir`, as every front end does: make, save, slice when asked.
 
-    `stem` names the files (default: after the input); `printer_profile` replaces the printer that
-    `params.printer` names (a recipe brings its own); `formats` replaces `params.formats`.
+    Parameters
+    ----------
+    source : str, pathlib.Path, numpy.ndarray or Picture
+        An image file, a (rows, cols) array, or a Picture already read.
+    params : LithoParams or None
+        Every setting (None: the defaults). A multi-panel figure (`params.panels`) gives a print
+        per panel plus an overview.
+    out_dir : str or pathlib.Path
+        The folder the files are written to (created when missing).
+    stem : str, optional
+        Names the files (default: after the input).
+    printer_profile : PrinterProfile, optional
+        Replaces the printer that `params.printer` names (a recipe brings its own).
+    formats : sequence of str, optional
+        Replaces `params.formats` ("stl", "3mf", "pdf" ...).
+
+    Returns
+    -------
+    Conversion
+        The print (`litho`, `written` with the recipe last, `summary()` the line the CLI prints),
+        and for a figure its `panels` and `figure_files`.
+
+    Examples
+    --------
+    >>> import numpy as np, tempfile
+    >>> from tamp_os import LithoParams
+    >>> ramp = np.tile(np.linspace(0, 1, 80), (60, 1))
+    >>> done = convert(ramp, LithoParams(width_mm=40, preset="low"), tempfile.mkdtemp(), stem="ramp")
+    >>> done.names
+    ['ramp.stl', 'ramp.description.txt', 'ramp.tamp.json']
     """
     from .figure import make_figure
 

@@ -17,13 +17,13 @@ from pathlib import Path
 
 import numpy as np
 
-from ..clean.panels import Panel, PanelLayout, detect_panels, forced_grid, given_layout
+from ..clean.panels import Panel, PanelLayout, detect_panels, forced_grid, given_layout, parse_grid
 from ..errors import ParameterError, Text
 from ..params import LithoParams
 from .pipeline import Lithograph, make_lithograph, read_source
 from .sizing import layout_for, resolve_printer
 from ..printing.printers import PrinterProfile, height_levels
-from ..read import Picture
+from ..read.model import Picture
 from .content_word import ContentWord, content_word
 from .report import PanelFacts, Report, describe
 
@@ -152,8 +152,23 @@ def _layout(picture: Picture, params: LithoParams) -> PanelLayout:
     if params.panel_boxes:
         return given_layout(picture.values, params.panel_boxes)
     if params.panels not in ("auto", "off"):
+        _check_grid(params.panels, picture.values.shape)
         return forced_grid(picture.values, params.panels)
     return detect_panels(picture.values)
+
+
+def _check_grid(grid: str, shape: tuple[int, int]) -> None:
+    """Refuse, before any cutting, a grid whose cells are under MIN_PANEL_PX on a side: none of
+    its panels would be printed on its own (each of their pixels over 2 mm on a plate)."""
+    rows, cols = parse_grid(grid)
+    height, width = shape
+    if width // cols >= MIN_PANEL_PX and height // rows >= MIN_PANEL_PX:
+        return
+    most = f"{max(1, min(height // MIN_PANEL_PX, 99))}x{max(1, min(width // MIN_PANEL_PX, 99))}"
+    raise ParameterError(f"`panels`: each panel of the grid is at least {MIN_PANEL_PX} pixels on a side, so this "
+                         f"{width}×{height} figure takes at most {most}; got {grid.strip()} ({width // cols}×{height // rows} pixels each).",
+                         parameter="panels", value=grid, allowed=f"RxC up to {most} for this figure",
+                         hint="Give the grid the figure has, or print the figure whole with `panels` off.")
 
 
 def _chosen(layout: PanelLayout, params: LithoParams) -> list[Panel]:
@@ -210,7 +225,7 @@ def crop_picture(picture: Picture, box: tuple[int, int, int, int], colour: np.nd
     `colour` (the figure's colour pixels, figure_colour) gives the panel its own: its colour
     sample, which the channel path decides by, and the pixels it splits, as a file of the panel
     would have them. Without it the panel is grey (its brightness only)."""
-    from ..read import colour_sample
+    from ..read.model import colour_sample
 
     x, y, w, h = box
     alpha = None if picture.alpha is None else picture.alpha[y:y + h, x:x + w]

@@ -9,6 +9,7 @@ held (the image's top row at the far edge), a size relative to the largest, and 
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass
 
 import numpy as np
@@ -68,15 +69,22 @@ def find_layout(heights_mm: np.ndarray, mm_per_px: float, base_mm: float, relief
     """The raised pieces of `heights_mm` ((rows, cols), row 0 at the far edge), largest first."""
     from scipy import ndimage
 
+    from ..relief.legibility import ASSESS_MAX_POINTS
+
     h = np.asarray(heights_mm, dtype=np.float64)
+    if h.size > ASSESS_MAX_POINTS:  # a plate over about 500 mm at High: every step-th point (a piece is 4 mm² or more: 25 points at 0.4 mm)
+        step = math.ceil(math.sqrt(h.size / ASSESS_MAX_POINTS))
+        h, mm_per_px = h[::step, ::step], mm_per_px * step
     raised = (h - base_mm) > RAISED_FRACTION * relief_mm
     labels, count = ndimage.label(raised)
     rows, cols = h.shape
     pieces = []
     if count:
         index = np.arange(1, count + 1)
-        sizes = ndimage.sum_labels(np.ones_like(h), labels, index)
-        centres = ndimage.center_of_mass(np.ones_like(h), labels, index)
+        ones = np.ones_like(h)  # one array for both (19M points at 1000 mm, High: 150 MB each)
+        sizes = ndimage.sum_labels(ones, labels, index)
+        centres = ndimage.center_of_mass(ones, labels, index)
+        del ones
         boxes = ndimage.find_objects(labels)
         for k, (size, (cy, cx), box) in enumerate(zip(sizes, centres, boxes)):
             area = float(size) * mm_per_px * mm_per_px

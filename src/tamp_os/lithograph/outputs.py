@@ -20,7 +20,7 @@ import numpy as np
 from ..errors import ExportError, InputError, ParameterError
 from ..export import check_export, save_mesh
 from ..export.files import to_uint8, write_png, write_text
-from ..formats import GRAPHIC_FORMATS
+from ..formats import GRAPHIC_FORMATS, PIN_FORMATS
 from ..params import LithoParams
 from ..printing.printers import PrinterProfile
 from .report import Printing, describe
@@ -68,13 +68,19 @@ def save(litho, target, formats=None, stem: str | None = None) -> list[Path]:
     folder, stem, formats = _target(litho, Path(target), formats, stem)
     meta = metadata(litho)
     graphics = [f for f in formats if f in GRAPHIC_FORMATS]
-    meshes = [f for f in formats if f not in GRAPHIC_FORMATS]
+    pins = [f for f in formats if f in PIN_FORMATS]
+    meshes = [f for f in formats if f not in GRAPHIC_FORMATS and f not in PIN_FORMATS]
     # The mesh as written, every format's own limits and the graphics' page are checked before any file is written.
     graphic = tactile_graphic(litho) if graphics else None
     if graphic is not None:
         from ..export.graphic2d import page_placement
 
         page_placement(graphic.plate_mm, litho.params.page_size)
+    pages = None
+    if pins:  # pin-display pages (export/pins.py): a picture too fine for the pins fails here, before any file
+        from ..export.pin_files import pin_sets
+
+        pages = pin_sets(litho, pins)
     if litho.tiles or litho.parts:  # several solids (export/multipart.py)
         written = _write_multipart(litho, folder, stem, meshes, meta)
     else:
@@ -84,6 +90,11 @@ def save(litho, target, formats=None, stem: str | None = None) -> list[Path]:
         from ..export.tactile2d import save_graphic  # cairo's writer, imported only for PDF/SVG
 
         written += [save_graphic(graphic, folder / f"{stem}.{fmt}", litho.params.page_size, meta) for fmt in graphics]
+    if pages:
+        from ..export.pin_files import save_pins
+
+        for fmt, pin_set in pages.items():
+            written += save_pins(pin_set, fmt, folder, stem, meta["title"])
     if litho.params.save_masks and litho.mask is not None:
         written.append(write_png(folder / f"{stem}.annotations.png", to_uint8(litho.mask, 0.0, 1.0)))
     written.append(write_text(folder / f"{stem}.description.txt", meta["description"] + "\n"))
@@ -208,9 +219,9 @@ def _version_of(dist) -> str:
 def file_sha256(path: Path) -> str:
     """SHA-256 of a file, read in blocks (of an OME-Zarr folder: its files, as read.py hashes it)."""
     if Path(path).is_dir():
-        from ..read import _sha256_of
+        from ..read.model import sha256_of
 
-        return _sha256_of(Path(path))
+        return sha256_of(Path(path))
     digest = hashlib.sha256()
     with open(path, "rb") as fh:
         for block in iter(lambda: fh.read(1 << 20), b""):

@@ -21,7 +21,8 @@ from ..mesh.adaptive import adaptive_solid
 from ..mesh.solid import Mesh, grid_solid
 from ..params import LithoParams, field_table
 from ..printing.printers import PrinterProfile, height_levels
-from ..read import Picture, read_array, read_image
+from ..read.image import read_array, read_image
+from ..read.model import Picture
 from ..relief.legibility import Legibility, assess
 from ..relief.layout import Layout
 from ..relief.preprocess import Prepared, prepare
@@ -66,6 +67,7 @@ class Lithograph:
     description: str | None = None  # a panel's or overview's own description (figure.py), else made from the report
     recipe_params: LithoParams | None = None  # what the recipe records, when not `params` (a figure's panel)
     channel_regions: np.ndarray | None = None  # a channel print: (picture rows, cols), i = the i-th key entry's region
+    objects: np.ndarray | None = None  # the members or shape the relief style found: (rows, cols) labels, 0 = ground (pin displays)
 
     @property
     def name(self) -> str:
@@ -94,12 +96,35 @@ class Lithograph:
 
 
 def make_lithograph(source, params: LithoParams | None = None, *, printer_profile: PrinterProfile | None = None, **changes) -> Lithograph:
-    """Make a lithograph from an image file, an array or a read Picture.
+    """Make a lithograph from an image file, an array or a read Picture; nothing is written.
 
-    `printer_profile` replaces the profile named by `params.printer` (a recipe brings its own).
+    Parameters
+    ----------
+    source : str, pathlib.Path, numpy.ndarray or Picture
+        An image file (read by its content: TIFF, vendor formats, PNG, JPEG ...), a (rows, cols)
+        array of any numeric type (row 0 is the far edge of the print), or a Picture already read.
+    params : LithoParams, optional
+        Every setting; None gives the defaults (Medium preset, 100 mm wide, 1 mm base, 3 mm relief).
+    printer_profile : PrinterProfile, optional
+        Replaces the profile that `params.printer` names (a recipe brings its own).
+    **changes
+        Any LithoParams field by name (`width_mm=50`), applied over `params`.
 
-    >>> litho = make_lithograph(np.eye(64), width_mm=50, relief_mm=2)   # doctest: +SKIP
-    >>> litho.save("out/")                                              # doctest: +SKIP
+    Returns
+    -------
+    Lithograph
+        `mesh` (the closed solid, vertices in mm), `heightmap` ((rows, cols) heights in mm),
+        `report` (the typed facts), `params`, `printer` and `layout`; `save(folder)` writes it.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> ramp = np.tile(np.linspace(0, 1, 80), (60, 1))
+    >>> litho = make_lithograph(ramp, width_mm=40, relief_mm=2, preset="low")
+    >>> litho.report.print_mm  # width, depth and height in mm: 1 mm base + 2 mm relief
+    [40.0, 30.0, 3.0]
+    >>> litho.heightmap.shape  # (rows, cols) of the grid, one point per 2 nozzle widths at Low
+    (38, 50)
     """
     params = params or LithoParams()
     if changes:
@@ -157,7 +182,7 @@ def make_lithograph(source, params: LithoParams | None = None, *, printer_profil
         report = dataclasses.replace(report, key=key)
     return Lithograph(mesh=tactile.mesh, heightmap=heights, params=params, printer=machine, layout=layout, picture=picture,
                       report=report, furniture=furniture, mask=cleaned.source_mask(), parts=tactile.parts, tiles=tactile.tiles,
-                      channel_regions=channel_extras.regions if channel_extras else None)
+                      channel_regions=channel_extras.regions if channel_extras else None, objects=relief.objects)
 
 
 @dataclass

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import MissingDependencyError, ParameterError
+from ..errors import MissingDependencyError, ParameterError, require_extra
 from ..export.files import write_png, write_text
 from ..formats import READABLE_MESH_SUFFIXES as MESH_SUFFIXES
 THEMES = {"light": ("white", "#b9b4ab"), "dark": ("#1e1e1e", "#c8c2b8")}
@@ -53,10 +53,9 @@ def _pyvista():
             "set before PyVista is imported (the tamp-os command and the web app set it; in a notebook run "
             "os.environ.update(tamp_os.lithograph.render.OFFSCREEN_ENV) first)."
         )
-    try:
-        import pyvista
-    except ImportError:
-        raise MissingDependencyError("rendering needs PyVista: pip install pyvista") from None
+    require_extra("render", "rendering", "pyvista")
+    import pyvista
+
     pyvista.OFF_SCREEN = True
     return pyvista
 

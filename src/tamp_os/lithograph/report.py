@@ -81,10 +81,23 @@ class PanelFacts(Facts):
 
 @dataclass(frozen=True)
 class Report:
-    """Facts about one lithograph, built once. Lengths in mm; `print_mm` is the whole object (width,
-    depth, height), `relief_mm` the picture's width and depth on the plate. The parts (plate,
-    crop, annotations, instrument, legibility, printing) are typed; `as_dict()` gives the JSON of
-    the recipe and `report["key"]` reads it."""
+    """Facts about one lithograph, built once, frozen.
+
+    Lengths are in mm: `print_mm` is the whole object (width, depth, height), `relief_mm` the
+    picture's width and depth on the plate, `mm_per_px` the grid pitch; `grid` is (cols, rows).
+    The parts (tactile plate, crop, annotations, instrument, legibility, printing) are typed;
+    `as_dict()` gives the JSON of the recipe and `report["key"]` reads it.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from tamp_os import make_lithograph
+    >>> report = make_lithograph(np.tile(np.linspace(0, 1, 80), (60, 1)), width_mm=40, preset="low").report
+    >>> report.grid, report.mm_per_px, report.height_levels
+    ([50, 38], 0.8163, 25)
+    >>> report["print_mm"]
+    [40.0, 30.0, 4.0]
+    """
 
     input: str
     print_mm: list[float]

@@ -101,7 +101,7 @@ def run_sweep(source, params: LithoParams, vary: dict[str, list], out_dir: Path,
     """Make every variant of an image file, an array or a read Picture, convert each (named
     NAME_VARIANT.ext, sliced when `gcode` is set) and write the contact sheet(s)."""
     from .convert import convert
-    from ..read import Picture
+    from ..read.model import Picture
 
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)

@@ -40,14 +40,32 @@ class ChannelStage:
     kind: str  # "fluorescence" or "stain"
 
 
+MAX_CHANNEL_NAME = 40  # characters of a file's channel name kept for the key, the messages and the recipe
+
+
+def channel_name(name, index: int) -> str:
+    """A file's channel name as the key and the messages can say it: control and format characters
+    (NUL, escape sequences, right-to-left overrides, zero-width marks) dropped, white space made
+    single spaces, at most MAX_CHANNEL_NAME characters ('…' marks a cut); 'channel N' when
+    nothing is left. Letters of any script and emoji are kept: the braille translator says
+    what it cannot write."""
+    import unicodedata
+
+    text = "".join(ch if unicodedata.category(ch) not in ("Cc", "Cf", "Zl", "Zp") else " " for ch in str(name or "")[:10 * MAX_CHANNEL_NAME])
+    text = " ".join(text.split())
+    if len(text) > MAX_CHANNEL_NAME:
+        text = text[:MAX_CHANNEL_NAME - 1].rstrip() + "…"
+    return text or f"channel {index}"
+
+
 def raw_channels(source, params) -> list:
     """[(name, values, excitation_nm, emission_nm)] of the source, or an RGB array to deconvolve."""
     if isinstance(source, (str, Path)):
-        from ..vendor_read import read_channels
+        from ..read.channels import read_channels
 
         planes = read_channels(source, scene=params.scene, time=params.time, z_slice=params.z_slice,
                                max_megapixels=params.max_megapixels, max_decoded_gb=params.max_decoded_gb)
-        return [(p.name, p.values, p.excitation_nm, p.emission_nm) for p in planes]
+        return [(channel_name(p.name, i), p.values, p.excitation_nm, p.emission_nm) for i, p in enumerate(planes)]
     arr = np.asarray(source)
     if arr.ndim == 3 and arr.shape[2] in (3, 4):
         return [(n, arr[..., i].astype(np.float32), None, None) for i, n in enumerate(("red", "green", "blue"))]

@@ -332,6 +332,15 @@ def foreground(img: np.ndarray) -> np.ndarray:
     return morphology.remove_small_objects(mask, max_size=8)
 
 
+def some_names(names: list[str], most: int = 5) -> str:
+    """'a, b, c, d, e and 95 more': a message names a handful of channels, then counts the rest
+    (100 channels named one by one made a warning of 97 names)."""
+    names = list(names)
+    if len(names) <= most + 1:
+        return ", ".join(names)
+    return f"{', '.join(names[:most])} and {len(names) - most:,} more"
+
+
 def choose(channels: list[ChannelImage], assigned: dict[str, str], mm_per_px: float,
            max_channels: int = DEFAULT_MAX_CHANNELS,
            masks: dict[str, np.ndarray] | None = None, stretch: float = 1.0,
@@ -346,8 +355,8 @@ def choose(channels: list[ChannelImage], assigned: dict[str, str], mm_per_px: fl
         unknown = sorted(set(assigned) - {c.name.lower() for c in channels})
         if unknown:
             raise ParameterError(Text(
-                f"`channels`: no channel named {', '.join(unknown)} in this picture; its channels are "
-                f"{', '.join(c.name for c in channels)}."))
+                f"`channels`: no channel named {some_names(unknown)} in this picture; its channels are "
+                f"{some_names([c.name for c in channels])}."))
         return [ChannelChoice(c.name, assigned[c.name.lower()], "asked") for c in keep], notes
     masks = masks or {}
     if stretch > 1.0:
@@ -360,7 +369,7 @@ def choose(channels: list[ChannelImage], assigned: dict[str, str], mm_per_px: fl
         dropped = [c.name for c in channels if c not in kept]
         kept = [c for c in channels if c in kept]
         notes.append(Text(f"The picture has {len(channels)} channels; the {max_channels} with most structure are printed "
-                          f"({', '.join(c.name for c in kept)}); left out: {', '.join(dropped)}. "
+                          f"({', '.join(c.name for c in kept)}); left out: {some_names(dropped)}. "
                           f"Choose others with `channels`."))
     out = []
     rgb = sorted(c.name for c in channels) == ["blue", "green", "red"]

@@ -74,7 +74,8 @@ def _fit(entry: KeyEntry, table: str, max_cells: int) -> tuple[str, str, list[st
     role = to_braille(entry.key_role, table, what="key_labels") if entry.key_role else ""
     wrapped = []
     for form in forms:
-        braille = to_braille(form, table, what="key_labels")
+        # The label may come from the file (a channel's name): say which, and how to give another.
+        braille = to_braille(form, table, what=f"the key's label {form!r} (give the channel a label braille can write with `key_labels`)")
         whole = all(len(word) <= max_cells for word in braille.split(BLANK))
         lines = wrap_cells(braille, max_cells)
         rest = braille[len(role) + 1:]

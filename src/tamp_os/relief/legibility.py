@@ -8,6 +8,7 @@ and the objects' lift above the ground around them; then plain sentences with ad
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass
 
 import numpy as np
@@ -16,7 +17,7 @@ from skimage import measure
 
 from ..errors import Text
 from ..facts import Facts
-from .scales import WorkGrid, disk
+from .scales import WORK_MAX_POINTS, WorkGrid, disk
 
 FINGERTIP_SIGMA_MM = 1.0
 FINE_SHARE_WARN = 0.2  # above this, the print feels like sandpaper
@@ -69,6 +70,9 @@ class Legibility(Facts):
         return out
 
 
+ASSESS_MAX_POINTS = 4 * WORK_MAX_POINTS  # legibility is measured on at most this many points
+
+
 def assess(
     heights_mm: np.ndarray,
     mm_per_px: float,
@@ -92,6 +96,13 @@ def assess(
     style : the relief style that made the heights, so the advice never suggests that same style.
     """
     h = np.asarray(heights_mm, dtype=np.float64)
+    if h.size > ASSESS_MAX_POINTS:
+        # A plate wider than about 500 mm at High: measured on every `step`-th point (0.4 mm at
+        # 1000 mm), which still resolves features two nozzles wide; the full 5001 x 3751 grid took
+        # half a GB of the conversion's peak here (quantised levels, their regions, a low-pass).
+        step = math.ceil(math.sqrt(h.size / ASSESS_MAX_POINTS))
+        h, mm_per_px = h[::step, ::step], mm_per_px * step
+        objects = None if objects is None else np.asarray(objects)[::step, ::step]
     grid = WorkGrid.plan(h.shape, mm_per_px, nozzle_mm / 4)  # narrow features need nozzle/4
     work = grid.down(h).astype(np.float64)
     pitch = grid.pitch_mm
@@ -169,6 +180,19 @@ def _lifts(h: np.ndarray, objects, mm_per_px: float) -> tuple[int, float | None,
     n = int(labels.max())
     if n == 0:
         return 0, None, None
+    if labels.size > WORK_MAX_POINTS:
+        # A plate wider than about 500 mm: every `step`-th point (0.8 mm at 1000 mm, High), so the
+        # dilations, the distance transform and the medians stay within WORK_MAX_POINTS (on the
+        # 5001 x 3751 grid they took 11 s and most of the 2 GB peak). Objects narrower than a step
+        # may drop out; they are not counted.
+        step = math.ceil(math.sqrt(labels.size / WORK_MAX_POINTS))
+        h, labels, mm_per_px = h[::step, ::step], labels[::step, ::step], mm_per_px * step
+        present = np.unique(labels)
+        present = present[present > 0]
+        if present.size == 0:
+            return 0, None, None
+        labels = ((np.searchsorted(present, labels) + 1) * (labels > 0)).astype(np.int32)
+        n = int(present.size)
     mask = labels > 0
     near = ndimage.binary_dilation(mask, iterations=max(1, round(3 / mm_per_px)))
     ground = near & ~ndimage.binary_dilation(mask, iterations=max(1, round(1 / mm_per_px)))

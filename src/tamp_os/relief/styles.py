@@ -31,7 +31,7 @@ from .heightmap import heights_mm
 from .levels import plateau_classes
 from .objects import ObjectMap, dome_profile
 from .picture_scale import find_objects_in_picture
-from .scales import StyleOptions, WorkGrid, gaussian_mm, large_shape, robust_unit
+from .scales import WORK_MAX_POINTS, StyleOptions, WorkGrid, gaussian_mm, large_shape, robust_unit
 
 STYLES = ("reference", "structure", "levels", "objects", "content", "auto")
 LEVEL_RANGE = (2, 5)
@@ -129,7 +129,7 @@ def make_relief(
         used = "reference" if style == "auto" else style
         return ReliefResult(heights_mm(image01, base_mm=base_mm, relief_mm=relief_mm, layer_mm=layer_mm), used, reason)
     # Shape and objects are read at fingertip scale: a grid at the nozzle's pitch carries all of it.
-    grid = WorkGrid.plan(image01.shape, mm_per_px, options.nozzle_mm)
+    grid = WorkGrid.plan(image01.shape, mm_per_px, options.nozzle_mm, WORK_MAX_POINTS)
     work = grid.down(image01)
     # Every style (and auto's choice) reads the same objects: find them once (content asks only if it needs them).
     found_once: list[ObjectMap] = []

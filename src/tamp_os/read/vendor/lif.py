@@ -113,7 +113,7 @@ def open_lif(path, scene: int | None) -> Stack:
 def _wavelength_channels(name, detectors, n_detectors, combos, spectral, coords) -> tuple[list[Channel], list[str]]:
     """A Channel per (detector, wavelength…) combination, named by its wavelengths in nm, and a note
     that says the sweep (its range and step) in words."""
-    from ..errors import Text
+    from ...errors import Text
 
     nm = {}
     for axis in spectral:

@@ -13,7 +13,7 @@ KIND = "oif"
 def open_oif(path, scene: int | None, limits) -> Stack:
     import oiffile
 
-    from ..read import _check_bytes
+    from ..model import check_bytes
     from .plan import check_index
 
     oif = oiffile.OifFile(str(path))
@@ -22,7 +22,7 @@ def open_oif(path, scene: int | None, limits) -> Stack:
         check_index(path, "scene", scene, 1, "image")
         if "Y" not in axes or "X" not in axes or any(a not in "TCZYX" for a in axes):
             raise NotImplementedError(f"axes {axes}")
-        _check_bytes(path, shape, dtype, limits, "Olympus OIB/OIF series")
+        check_bytes(path, shape, dtype, limits, "Olympus OIB/OIF series")
         data = oif.asarray()
     finally:
         oif.close()

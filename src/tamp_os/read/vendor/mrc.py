@@ -9,19 +9,61 @@ Y points up in MRC viewers (ChimeraX, IMOD), so rows are flipped once to match t
 
 from __future__ import annotations
 
+import math
+from pathlib import Path
+
 import numpy as np
 
+from ...errors import InputError
 from .model import Channel, Stack
 
 KIND = "mrc"
 ANGSTROM_M = 1e-10
+HEADER_BYTES = 1024
+MODE_BYTES = {0: 1, 1: 2, 2: 4, 3: 4, 4: 8, 6: 2, 12: 2, 101: 0.5}  # MRC2014 modes (101: 4-bit, two voxels a byte)
 
 
-def open_mrc(path, scene: int | None) -> Stack:
+def check_header(path, limits) -> None:
+    """Refuse, from the 1024-byte header alone, a map whose extended header (nsymbt) and declared
+    voxels (nx × ny × nz × bytes of its mode) need more bytes than the file holds, or more than the
+    decoded-bytes cap: mrcfile would otherwise allocate or map them before finding out."""
+    import struct
+
+    from ..cost import check_declared
+    from .errors import KINDS
+
+    size = Path(path).stat().st_size
+    with open(path, "rb") as fh:
+        head = fh.read(HEADER_BYTES)
+    if len(head) < HEADER_BYTES:
+        return  # mrcfile reports the short header as damage
+    stamp = ">" if head[212:213] == b"\x11" else "<"  # machine stamp 0x11 0x11: big-endian
+    for order in (stamp, "<" if stamp == ">" else ">"):  # a wrong stamp: the other order, as mrcfile guesses
+        nx, ny, nz, mode = struct.unpack(order + "4i", head[:16])
+        nsymbt = struct.unpack(order + "i", head[92:96])[0]
+        if mode in MODE_BYTES and min(nx, ny, nz) >= 0:
+            break
+    else:
+        return  # neither byte order gives a known mode: mrcfile names the problem
+    what, todo = KINDS[KIND]
+    cap = limits.max_decoded_gb if limits is not None else float("inf")
+    if nsymbt < 0:
+        raise InputError(f"{path}: {what} whose header declares an extended header of {nsymbt} bytes (negative): the file is "
+                         f"damaged or hostile; {todo}.")
+    check_declared(path, what, f"an extended header of {nsymbt:,} bytes", float(nsymbt), size - HEADER_BYTES, cap, todo,
+                   holds=f"the {size - HEADER_BYTES:,} bytes after its 1024-byte header hold")
+    voxels = float(math.ceil(nx / 2) if mode == 101 else nx * MODE_BYTES[mode]) * ny * nz  # 4-bit rows end on a byte
+    check_declared(path, what, f"{nx}×{ny}×{nz} voxels of {MODE_BYTES[mode]:g} bytes (mode {mode})", voxels,
+                   size - HEADER_BYTES - nsymbt, cap, todo, capped=False,  # memory-mapped: the planes read are priced
+                   holds=f"the {size - HEADER_BYTES - nsymbt:,} bytes after its headers hold")
+
+
+def open_mrc(path, scene: int | None, limits=None) -> Stack:
     import mrcfile
 
     from .plan import check_index
 
+    check_header(path, limits)
     mrc = mrcfile.mmap(str(path), mode="r")  # strict: a truncated file is refused, not padded
     try:
         h = mrc.header

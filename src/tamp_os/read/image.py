@@ -10,91 +10,28 @@ from __future__ import annotations
 
 import hashlib
 import logging
-import math
-import re
 import struct
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from .errors import InputError, MissingDependencyError, ParameterError, Text
-from .read_cost import (MAX_MEMORY_GB, Cost, check_memory, pillow_copies_bytes, tiff_chunk_bytes, tiff_jpeg_bytes,
+from ..errors import InputError, MissingDependencyError, ParameterError, Text
+from .cost import (MAX_MEMORY_GB, Cost, check_memory, pillow_copies_bytes, tiff_chunk_bytes, tiff_jpeg_bytes,
                         working_bytes)
+from .model import (DEFAULT_TARGET_PX, Decoded, Limits, Picture, Plane, alpha_scale, channel_choice, check_bytes, check_size,
+                    file_channel_names, sha256_of, to_picture)
 
 log = logging.getLogger(__name__)
 
-LUMA_601 = np.array([0.299, 0.587, 0.114], dtype=np.float32)
-CHANNEL_NAMES = {"red": 0, "green": 1, "blue": 2, "alpha": 3}
 TIFF_MAGIC = (b"II*\x00", b"MM\x00*", b"II+\x00", b"MM\x00+")
 DM_MAGIC = (b"\x00\x00\x00\x03", b"\x00\x00\x00\x04")
 
 
-@dataclass
-class ImageFile:
-    """What we know about an input image: where it came from and what it holds.
-
-    `metadata` holds the vendor blocks tifffile or the DM reader found (public keys only);
-    `tiff_tags` the raw tags of the first TIFF page, by tag code (empty for other formats).
-    """
-
-    name: str
-    sha256: str
-    format: str
-    width: int
-    height: int
-    dtype: str
-    bit_depth: int
-    channels: int
-    pages: int = 1
-    path: str | None = None
-    metadata: dict = field(default_factory=dict)
-    tiff_tags: dict[int, object] = field(default_factory=dict)
-    nonfinite_pixels: int = 0
-    transparent_pixels: int = 0
-    notes: list[str] = field(default_factory=list)
-    # What the file holds beyond the plane read (vendor files, OME/ImageJ stacks); see vendor_read.
-    axes: dict[str, int] = field(default_factory=dict)  # axes present and their lengths: scenes, T, C, Z
-    channel_count: int = 0  # channels in the file (C axis, else colour samples); 0: as `channels`
-    channel_names: list[str] | None = None  # None where the format names no channels
-    wavelengths_nm: list[float | None] = field(default_factory=list)  # per channel: emission, else excitation
-    z_step_m: float | None = None
-    reader: str = ""  # the library (and version) that decoded the pixels, for provenance
-    # A colour picture's colours, subsampled to at most COLOUR_SAMPLE_PX a side, 0..1 float32: what
-    # the channel path (relief/channel_auto.py) decides by (a stain, a fluorescence composite, or neither).
-    colour_sample: np.ndarray | None = field(default=None, repr=False, compare=False)
 
 
-@dataclass
-class Picture:
-    """A grayscale image and what is known about the file it came from.
-
-    values : (H, W) float32, NaN where unknown.
-    alpha : (H, W) float32 opacity weights in 0..1, or None when fully opaque.
-    file : the facts about the input file.
-    colour : (H, W, 3) colour pixels at the file's own precision, or None. Only a panel cut from a
-        colour figure carries them (figure.crop_picture): it has no file of its own for the
-        channel path (relief/channel_stage.py) to read its colours from again.
-    """
-
-    values: np.ndarray
-    alpha: np.ndarray | None
-    file: ImageFile
-    colour: np.ndarray | None = field(default=None, repr=False, compare=False)
 
 
-@dataclass
-class _Decoded:
-    """One decoder's result, before it becomes a Picture."""
-
-    format: str
-    array: np.ndarray  # (H, W) or (H, W, S)
-    metadata: dict
-    pages: int
-    tiff_tags: dict[int, object] = field(default_factory=dict)
-    notes: list[str] = field(default_factory=list)
-    channel_chosen: bool = False  # a channel was already picked among the file's planes
-    facts: dict = field(default_factory=dict)  # ImageFile fields the reader knows (axes, channel_names, ...)
 
 
 MAX_DECODED_GB = 2.0  # default decoded-bytes guard: pixels × samples × bytes per sample, before decoding
@@ -129,13 +66,29 @@ def read_image(
     keep_colour : keep an RGB(A) file's colour pixels (H, W, 3, the array decoded, no copy) in
         `Picture.colour`, so that a figure's panels need not read the file again for them
         (figure.figure_colour); files read by the vendor readers never keep them.
-    """
-    limits = _Limits(max_megapixels, max_decoded_gb, max_memory_gb)
-    path = Path(path)
-    if path.is_dir() and _vendor_kind(path):  # an OME-Zarr folder
-        from .vendor_read.picture import read_vendor
 
-        return read_vendor(path, _vendor_kind(path), page, channel, limits, z_slice, time, scene, target_px)
+    Returns
+    -------
+    Picture
+        `values`: (H, W) float32 at full precision (never squeezed to 8 bits); `file`: an
+        ImageFile with the format, size, bit depth, axes, channels and the vendor metadata the
+        scale is read from; `notes`: what was chosen for the user (a page, a channel, a plane).
+
+    Examples
+    --------
+    >>> import numpy as np, tempfile, tifffile
+    >>> path = tempfile.mkdtemp() + "/ramp.tif"
+    >>> tifffile.imwrite(path, np.arange(12000, dtype=np.uint16).reshape(100, 120))
+    >>> picture = read_image(path)
+    >>> picture.values.shape, picture.values.dtype, float(picture.values.max())  # 16 bits kept
+    ((100, 120), dtype('float32'), 11999.0)
+    """
+    limits = Limits(max_megapixels, max_decoded_gb, max_memory_gb)
+    path = Path(path)
+    if path.is_dir() and vendor_kind(path):  # an OME-Zarr folder
+        from .vendor.picture import read_vendor
+
+        return read_vendor(path, vendor_kind(path), page, channel, limits, z_slice, time, scene, target_px)
     _refuse_special(path)
     try:
         with path.open("rb") as fh:  # only the head: the file is hashed by streaming, never held whole
@@ -146,9 +99,9 @@ def read_image(
         raise InputError(f"{path}: cannot be read ({exc.strerror}); check its permissions.") from None
     if not head:
         raise InputError(f"{path}: the file is empty (0 bytes); it is not an image. Export it again.")
-    kind = None if head[:4] in TIFF_MAGIC or head[:4] in DM_MAGIC else _vendor_kind(path)
+    kind = None if head[:4] in TIFF_MAGIC or head[:4] in DM_MAGIC else vendor_kind(path)
     if kind:
-        from .vendor_read.picture import read_vendor
+        from .vendor.picture import read_vendor
 
         return read_vendor(path, kind, page, channel, limits, z_slice, time, scene, target_px)
     for name, value in (("time", time), ("scene", scene)):
@@ -164,18 +117,17 @@ def read_image(
             raise ParameterError(f"{path}: `z_slice` {z_slice} asked for, but this file has no z-stack (it is a "
                                  f"single picture); leave `z_slice` out.", parameter="z_slice", value=z_slice)
         decoded = _read_pillow(path, head, page, limits)
-    sha = _sha256_of(path)  # after the header checks: a refused file costs no read of its bytes
+    sha = sha256_of(path)  # after the header checks: a refused file costs no read of its bytes
     if decoded.channel_chosen:
         channel = "luminance"  # the channel was chosen among the TIFF's planes
-    return _to_picture(decoded, channel, name=path.name, sha=sha, path=str(path),
+    return to_picture(decoded, channel, name=path.name, sha=sha, path=str(path),
                        keep_colour=keep_colour and channel == "luminance" and not decoded.channel_chosen)
 
 
-DEFAULT_TARGET_PX = 2048  # pyramid level: the smallest at least this wide (prints use at most ~1000 grid points)
 
 
-def _vendor_kind(path: Path) -> str | None:
-    from .vendor_read import detect
+def vendor_kind(path: Path) -> str | None:
+    from .vendor import detect
 
     try:
         return detect(path)
@@ -183,21 +135,6 @@ def _vendor_kind(path: Path) -> str | None:
         return None  # the regular path reports it
 
 
-def _sha256_of(path: Path) -> str:
-    """SHA-256 of a file read by blocks (a 5 GB file with a small image never sits in memory), or
-    of a folder's files (name and bytes, sorted: an OME-Zarr folder)."""
-    files = sorted(p for p in path.rglob("*") if p.is_file()) if path.is_dir() else [path]
-    digest = hashlib.sha256()
-    try:
-        for file in files:
-            if path.is_dir():
-                digest.update(file.relative_to(path).as_posix().encode() + b"\0")
-            with file.open("rb") as fh:
-                for block in iter(lambda: fh.read(1 << 20), b""):
-                    digest.update(block)
-    except OSError as exc:
-        raise InputError(f"{path}: cannot be read ({exc.strerror}); check its permissions.") from None
-    return digest.hexdigest()
 
 
 def _refuse_special(path: Path) -> None:
@@ -225,54 +162,18 @@ def read_array(array, *, channel: str = "luminance", name: str = "array") -> Pic
     if array.dtype.kind not in "uif":
         raise InputError(f"{name}: arrays must hold numbers, got dtype {array.dtype}.")
     sha = hashlib.sha256(np.ascontiguousarray(array).tobytes() + str(array.shape).encode()).hexdigest()
-    return _to_picture(_Decoded("array", array, {}, 1), channel, name=name, sha=sha, path=None)
+    return to_picture(Decoded("array", array, {}, 1), channel, name=name, sha=sha, path=None)
 
 
-def _bits(dtype: np.dtype) -> int:
-    return 1 if dtype == bool else dtype.itemsize * 8
 
 
-@dataclass(frozen=True)
-class _Limits:
-    """The decompression-bomb guards: pixels in one plane, and decoded bytes of all planes read."""
-
-    max_megapixels: float
-    max_decoded_gb: float
-    max_memory_gb: float = MAX_MEMORY_GB
 
 
-def _check_bytes(path, shape, dtype, limits: _Limits, what: str = "image", chunk_bytes: float = 0.0) -> None:
-    """Refuse, before decoding, an array of `shape` and `dtype` above the decoded-bytes limit.
-
-    shape : every axis that will be decoded (planes, rows, columns, samples).
-    chunk_bytes : the tiles or strips decoded at once, as declared (a tile may be far larger than the image).
-    """
-    itemsize = np.dtype(dtype).itemsize
-    total = int(np.prod([int(n) for n in shape], dtype=np.float64)) * itemsize
-    if chunk_bytes > total:  # a tile larger than the image: the decoder allocates the whole tile
-        if chunk_bytes > limits.max_decoded_gb * 1e9:
-            raise InputError(
-                f"{path}: this {what} is stored in tiles (or strips) that decode to {chunk_bytes / 1e9:.1f} GB, far larger than "
-                f"its {'×'.join(str(int(n)) for n in shape)} pixels; that exceeds the limit of {limits.max_decoded_gb:g} GB that "
-                f"guards against decompression bombs. The file is malformed or hostile; re-export it from the microscope software."
-            )
-    if total > limits.max_decoded_gb * 1e9:
-        dims = "×".join(str(int(n)) for n in shape)
-        raise InputError(
-            f"{path}: decoding this {what} ({dims} values × {itemsize} bytes = {_gb_words(total)}) would exceed "
-            f"the limit of {limits.max_decoded_gb:g} GB that guards against decompression bombs.",
-            hint=f"If you trust the file and the computer has the memory (about 3× that), raise the limit, "
-                 f"for example `max_decoded_gb` {math.ceil(total / 1e9)}.",
-        )
 
 
-def _gb_words(n_bytes: float) -> str:
-    """Bytes in GB with one decimal, or two significant digits below 0.1 GB (never '0.0 GB' for a small file)."""
-    gb = n_bytes / 1e9
-    return f"{gb:.1f} GB" if gb >= 0.1 else f"{gb:.2g} GB"
 
 
-def _check_cost(path, plane_hw, shape, dtype, limits: _Limits, chunk_bytes: float = 0.0, copies_bytes: float = 0.0) -> None:
+def _check_cost(path, plane_hw, shape, dtype, limits: Limits, chunk_bytes: float = 0.0, copies_bytes: float = 0.0) -> None:
     """Refuse, before decoding, a file whose conversion would need more than max_memory_gb in all."""
     cost = Cost()
     cost.add("decoded pixels", float(np.prod([int(n) for n in shape], dtype=np.float64)) * np.dtype(dtype).itemsize)
@@ -282,15 +183,6 @@ def _check_cost(path, plane_hw, shape, dtype, limits: _Limits, chunk_bytes: floa
     check_memory(path, f"{int(plane_hw[1])}×{int(plane_hw[0])} image", cost, limits.max_memory_gb)
 
 
-def _check_size(path, shape, limits: _Limits) -> None:
-    h, w = shape[0], shape[1]
-    max_megapixels = limits.max_megapixels
-    if h * w > max_megapixels * 1e6:
-        raise InputError(
-            f"{path}: the image claims {w}×{h} pixels ({h * w / 1e6:.0f} Mpx), above the limit of "
-            f"{max_megapixels:g} Mpx that guards against decompression bombs.",
-            hint=f"If you trust the file, raise the limit, for example `max_megapixels` {int(h * w / 1e6) + 1}.",
-        )
 
 
 def _vendor_blocks(tif, data_page: int = 0) -> dict:
@@ -300,7 +192,7 @@ def _vendor_blocks(tif, data_page: int = 0) -> dict:
     `data_page` (tifffile's `sis_metadata` looks at page 0 only), falling back to page 0.
     """
     meta = {}
-    from .read_stacks import sis_of_page
+    from .stacks import sis_of_page
 
     sis = sis_of_page(tif, data_page) if data_page else None
     if sis:
@@ -324,7 +216,7 @@ def _vendor_blocks(tif, data_page: int = 0) -> dict:
     return meta
 
 
-def _read_tiff(path, page, limits: _Limits, z_slice=None, channel="luminance", target_px=DEFAULT_TARGET_PX) -> _Decoded:
+def _read_tiff(path, page, limits: Limits, z_slice=None, channel="luminance", target_px=DEFAULT_TARGET_PX) -> Decoded:
     """One 2-D plane (or Y X S colour plane) from a TIFF series, or from the data page beside a preview.
 
     Axes other than Y, X and S (colour samples) are reduced: Z by a maximum-intensity projection
@@ -335,7 +227,7 @@ def _read_tiff(path, page, limits: _Limits, z_slice=None, channel="luminance", t
 
     try:
         with tifffile.TiffFile(path) as tif:
-            from .read_stacks import pyramid_level, reduce_by_pages, tiff_z_step_m
+            from .stacks import pyramid_level, reduce_by_pages, tiff_z_step_m
 
             source = _tiff_source(path, tif, page)
             level_notes, level_meta = pyramid_level(source, target_px)
@@ -343,9 +235,9 @@ def _read_tiff(path, page, limits: _Limits, z_slice=None, channel="luminance", t
             if "Y" not in axes or "X" not in axes:
                 raise InputError(f"{path}: TIFF series with axes {axes!r} has no 2-D image plane.")
             plane_hw = (shape[axes.index("Y")], shape[axes.index("X")])
-            _check_size(path, plane_hw, limits)
+            check_size(path, plane_hw, limits)
             chunk = max(tiff_chunk_bytes(chosen.keyframe), tiff_jpeg_bytes(path, chosen.keyframe))  # as the file declares
-            _check_bytes(path, shape, chosen.dtype, limits, f"TIFF series ({axes})", chunk)
+            check_bytes(path, shape, chosen.dtype, limits, f"TIFF series ({axes})", chunk)
             _check_cost(path, plane_hw, shape, chosen.dtype, limits, chunk)
             meta = {"tiff_series_axes": axes, "tiff_series": source.series, **_vendor_blocks(tif, source.tag_page), **level_meta}
             tags = {tag.code: tag.value for tag in tif.pages[0].tags}
@@ -359,11 +251,11 @@ def _read_tiff(path, page, limits: _Limits, z_slice=None, channel="luminance", t
             notes = source.notes + level_notes + plane.notes
             facts = {"axes": {a: int(n) for a, n in zip(axes, shape) if a not in "YXS" and n > 1}}
             if "C" in axes:
-                names = _channel_names(meta)
+                names = file_channel_names(meta)
                 facts.update(channel_count=int(shape[axes.index("C")]), channel_names=names or None)
             if "Z" in axes:
                 facts["z_step_m"] = tiff_z_step_m(meta)
-            decoded = _Decoded("TIFF", plane.array, meta, max(source.count, plane.planes), tags, notes, plane.channel_chosen)
+            decoded = Decoded("TIFF", plane.array, meta, max(source.count, plane.planes), tags, notes, plane.channel_chosen)
             decoded.facts = facts
             return decoded
     except (InputError, ParameterError):
@@ -386,7 +278,7 @@ class _TiffSource:
 
 def _tiff_source(path, tif, page: int | None) -> _TiffSource:
     """The series (or, beside a preview, the page) to read; `page` None picks the data page."""
-    from .read_pages import find_data_page
+    from .pages import find_data_page
 
     data_page = find_data_page(tif)
     if data_page is not None:  # pages of different kinds: tifffile's series would mix them
@@ -411,65 +303,17 @@ def _cmyk_to_rgb(cmyk: np.ndarray) -> np.ndarray:
     The naive conversion (no colour profile) that Pillow also uses: R = (1 − C)(1 − K).
     Without it, K would be read as an alpha channel.
     """
-    top = _alpha_scale(cmyk.dtype)
+    top = alpha_scale(cmyk.dtype)
     inks = cmyk[..., :4].astype(np.float32) / np.float32(top)
     rgb = (1 - inks[..., :3]) * (1 - inks[..., 3:4])
     return rgb * np.float32(top)
 
 
-_GENERIC_LABEL = re.compile(r"^\s*(?:c:\d+/\d+\b.*|channel\s*\d+|ch\s*\d+|c\d+)?\s*$", re.IGNORECASE)
-_INFO_KEY = re.compile(r"^\s*Information\|Image\|Channel\|(Name|ExcitationWavelength|EmissionWavelength) #(\d+)\s*=\s*(.+?)\s*$")
 
 
-def imagej_info_channels(ij: dict) -> list[tuple[str, float | None, float | None]]:
-    """[(name, excitation nm, emission nm)] of each channel that a ZEN (Bio-Formats) export keeps
-    in the ImageJ Info text (`Information|Image|Channel|Name #1 = DAPI`); [] when there is none."""
-    info = ij.get("Info") if isinstance(ij, dict) else None
-    if not isinstance(info, str) or "Information|Image|Channel|" not in info:
-        return []
-    found: dict[int, dict[str, str]] = {}
-    for line in info.splitlines():
-        m = _INFO_KEY.match(line) if len(line) < 400 else None
-        if m:
-            found.setdefault(int(m.group(2)), {})[m.group(1)] = m.group(3)
-
-    def nm(text):
-        try:
-            v = float(text)
-        except (TypeError, ValueError):
-            return None
-        return v if 200 <= v <= 2000 else None
-
-    return [(d["Name"], nm(d.get("ExcitationWavelength")), nm(d.get("EmissionWavelength")))
-            for _, d in sorted(found.items()) if d.get("Name")]
 
 
-def _channel_names(meta) -> list[str]:
-    xml = meta.get("ome_metadata")
-    if not xml:
-        ij = meta.get("imagej_metadata") or {}
-        labels = ij.get("Labels")
-        labels = [str(x) for x in labels] if isinstance(labels, (list, tuple)) else []
-        info = [c[0] for c in imagej_info_channels(ij)]
-        # Fiji's labels of a converted file ("c:1/2 - Snap-03.czi #1") name only the position:
-        # the original's channel names, kept in the ImageJ Info text, name the dye
-        if info and (not labels or all(_GENERIC_LABEL.match(x) for x in labels)):
-            return info
-        return labels
-    from .xmltext import ome_channel_names  # a parser, not a regex: linear in the text's length
-
-    return ome_channel_names(xml)
-
-
-@dataclass
-class _Plane:
-    array: np.ndarray  # (H, W) or (H, W, S)
-    planes: int = 1  # planes the page index chose among
-    notes: list[str] = field(default_factory=list)
-    channel_chosen: bool = False
-
-
-def _reduce_axes(path, array, axes, page, z_slice, channel, meta) -> _Plane:
+def _reduce_axes(path, array, axes, page, z_slice, channel, meta) -> Plane:
     """Reduce an n-D TIFF series to one (H, W) or (H, W, S) plane: channel, then Z, then page."""
     notes: list[str] = []
     chosen = "C" in axes
@@ -480,31 +324,14 @@ def _reduce_axes(path, array, axes, page, z_slice, channel, meta) -> _Plane:
     array, axes, planes = _pick_page(path, array, axes, page)
     if "S" in axes and axes.index("S") < axes.index("Y"):
         array = np.moveaxis(array, 0, -1)  # planar RGB -> Y X S
-    return _Plane(array, planes, notes, chosen)
+    return Plane(array, planes, notes, chosen)
 
 
 def _pick_channel(path, array, axes, channel, meta, notes):
-    index = _channel_choice(path, array.shape[axes.index("C")], channel, meta, notes)
+    index = channel_choice(path, array.shape[axes.index("C")], channel, meta, notes)
     return np.take(array, index, axis=axes.index("C")), axes.replace("C", "")
 
 
-def _channel_choice(path, n: int, channel, meta, notes) -> int:
-    """The C index `channel` names among `n` (a number, an OME/ImageJ name, or luminance: 0 with a note)."""
-    names = _channel_names(meta)
-    if channel.isdigit():
-        index = int(channel)
-    elif channel in names:
-        index = names.index(channel)
-    elif channel == "luminance":
-        index = 0
-        if n > 1:
-            named = f" ({', '.join(names)})" if names else ""
-            notes.append(Text(f"{n} channels{named}; using channel 0. Choose another with `channel` (a number or a name)."))
-    else:
-        raise ParameterError(f"{path}: `channel` {channel!r} is not one of 0–{n - 1}{' or ' + ', '.join(names) if names else ''}.")
-    if not 0 <= index < n:
-        raise ParameterError(f"{path}: `channel` must be 0–{n - 1}; got {index}.")
-    return index
 
 
 def _pick_z(path, array, axes, z_slice, notes):
@@ -535,7 +362,7 @@ def _pick_page(path, array, axes, page):
     return array, "".join(keep), planes
 
 
-def _read_dm(path, limits: _Limits, file_bytes: int) -> _Decoded:
+def _read_dm(path, limits: Limits, file_bytes: int) -> Decoded:
     """The first 2-D plane of a DM3/DM4 file, its size checked before any pixel is decoded."""
     try:
         from rsciio.digitalmicrograph import file_reader
@@ -548,8 +375,8 @@ def _read_dm(path, limits: _Limits, file_bytes: int) -> _Decoded:
         item = file_reader(str(path), lazy=True)[0]  # lazy: the header's shape and dtype, no pixels yet
         data = item["data"]
         plane = data[(0,) * (data.ndim - 2)] if data.ndim > 2 else data
-        _check_size(path, plane.shape, limits)
-        _check_bytes(path, plane.shape, data.dtype, limits, "DigitalMicrograph plane")
+        check_size(path, plane.shape, limits)
+        check_bytes(path, plane.shape, data.dtype, limits, "DigitalMicrograph plane")
         _check_cost(path, plane.shape, plane.shape, data.dtype, limits)
         array = np.asarray(plane)
     except (InputError, ParameterError):
@@ -558,7 +385,7 @@ def _read_dm(path, limits: _Limits, file_bytes: int) -> _Decoded:
         raise InputError(f"{path}: a damaged DM3/DM4 file ({exc}).") from None
     if array.ndim != 2:
         raise InputError(f"{path}: the DM3/DM4 image has shape {array.shape}; expected a 2-D image.")
-    return _Decoded("DM", array, {"dm_axes": item.get("axes", []), "dm_metadata": item.get("metadata", {})}, 1)
+    return Decoded("DM", array, {"dm_axes": item.get("axes", []), "dm_metadata": item.get("metadata", {})}, 1)
 
 
 def _open_pillow(stream):
@@ -566,7 +393,7 @@ def _open_pillow(stream):
 
     `Image.open` checks the size against the process-wide `Image.MAX_IMAGE_PIXELS`; changing
     that per call would race between the web app's conversion threads. Calling the registered
-    plugin factories directly skips that check, and `_check_size` applies ours instead.
+    plugin factories directly skips that check, and `check_size` applies ours instead.
     """
     from PIL import Image, UnidentifiedImageError
 
@@ -591,7 +418,7 @@ def _open_pillow(stream):
     raise UnidentifiedImageError("cannot identify image file")
 
 
-def _read_pillow(path, head, page, limits: _Limits) -> _Decoded:
+def _read_pillow(path, head, page, limits: Limits) -> Decoded:
     from PIL import UnidentifiedImageError
 
     fmt = "image"
@@ -601,8 +428,8 @@ def _read_pillow(path, head, page, limits: _Limits) -> _Decoded:
         im = _open_pillow(stream)
         fmt = im.format or "image"
         hw = (im.size[1], im.size[0])
-        _check_size(path, hw, limits)
-        _check_bytes(path, (*hw, *_pillow_samples(im.mode)), np.uint8, limits, f"{fmt} image")
+        check_size(path, hw, limits)
+        check_bytes(path, (*hw, *_pillow_samples(im.mode)), np.uint8, limits, f"{fmt} image")
         _check_cost(path, hw, (*hw, _mode_bytes(im.mode)), np.uint8, limits,
                     copies_bytes=pillow_copies_bytes(im.mode, hw[0] * hw[1]))
         frames = getattr(im, "n_frames", 1)
@@ -633,7 +460,7 @@ def _read_pillow(path, head, page, limits: _Limits) -> _Decoded:
     array = _pillow_array(im)
     if im.mode == "I" and array.size and array.min() >= 0 and array.max() <= 65535:
         meta["note_int32"] = "32-bit integer pixels"
-    return _Decoded(fmt, array, meta, frames, notes=notes)
+    return Decoded(fmt, array, meta, frames, notes=notes)
 
 
 def _pillow_samples(mode: str) -> tuple[int]:
@@ -685,109 +512,17 @@ def _pillow_array(im) -> np.ndarray:
     return np.asarray(im)
 
 
-def _to_picture(decoded: _Decoded, channel, *, name, sha, path, keep_colour: bool = False) -> Picture:
-    array = np.asarray(decoded.array)
-    if array.ndim == 3 and array.shape[-1] == 1:
-        array = array[..., 0]
-    if array.ndim not in (2, 3) or (array.ndim == 3 and array.shape[-1] not in (2, 3, 4)):
-        raise InputError(f"{name}: expected a 2-D image (optionally with 2–4 colour channels); got shape {array.shape}.")
-    h, w = array.shape[:2]
-    if h < 2 or w < 2:
-        raise InputError(
-            f"{name}: the image is {w}×{h} pixels; at least 2×2 is needed to make a relief."
-        )
-    file = ImageFile(
-        name=name,
-        sha256=sha,
-        format=decoded.format,
-        width=w,
-        height=h,
-        dtype=str(array.dtype),
-        bit_depth=_bits(array.dtype),
-        channels=1 if array.ndim == 2 else array.shape[-1],
-        pages=decoded.pages,
-        path=path,
-        metadata=decoded.metadata,
-        tiff_tags=decoded.tiff_tags,
-        notes=list(decoded.notes),
-        **decoded.facts,
-    )
-    file.channel_count = file.channel_count or file.channels
-    if array.ndim == 3 and array.shape[-1] >= 3:
-        file.colour_sample = colour_sample(array)
-    values, alpha = _grayscale(array, channel, name)
-    values, alpha = _weigh_unknown(file, values, alpha)
-    if file.nonfinite_pixels == h * w:
-        raise InputError(f"{name}: every pixel is NaN or infinite; there is no image to print.")
-    colour = array[..., :3] if keep_colour and array.ndim == 3 and array.shape[-1] >= 3 else None
-    return Picture(values=values, alpha=alpha, file=file, colour=colour)
 
 
-COLOUR_SAMPLE_PX = 512
 
 
-def colour_sample(array: np.ndarray) -> np.ndarray:
-    """Every k-th pixel of the colour samples (not alpha), at most COLOUR_SAMPLE_PX a side, 0..1."""
-    step = max(1, -(-max(array.shape[:2]) // COLOUR_SAMPLE_PX))
-    rgb = np.nan_to_num(array[::step, ::step, :3].astype(np.float32), nan=0.0, posinf=0.0, neginf=0.0)
-    # 8 bits: full scale; 16-bit and float colour often fills only part of its range (12-bit cameras)
-    top = 255.0 if array.dtype == np.uint8 else float(rgb.max()) if rgb.size else 1.0
-    return np.clip(rgb / np.float32(top if top > 0 else 1.0), 0, 1)
 
 
-def _weigh_unknown(file: ImageFile, values, alpha):
-    """Give NaN/inf pixels zero weight; count them and the transparent ones in `file`."""
-    bad = ~np.isfinite(values)
-    file.nonfinite_pixels = int(bad.sum())
-    if file.nonfinite_pixels:
-        file.notes.append(f"{file.nonfinite_pixels} pixels were NaN or infinite; they are printed at base level.")
-        values = np.where(bad, np.nan, values).astype(np.float32)
-        alpha = np.where(bad, 0.0, 1.0 if alpha is None else alpha).astype(np.float32)
-    if alpha is not None:
-        file.transparent_pixels = int((alpha < 1.0).sum())
-        if file.transparent_pixels:
-            file.notes.append(f"{file.transparent_pixels} pixels are (partly) transparent; transparent means base level.")
-    return values, alpha
 
 
-LUMA_ROWS = 512  # rows converted at a time: the (rows, W, 3) float32 copy stays small
 
 
-def _luminance(colour: np.ndarray) -> np.ndarray:
-    """(H, W) float32 luminance of (H, W, 3) colour, a block of rows at a time.
-
-    float32 keeps 16-bit sources exact to ~1e-3 of a grey level, at a third of float64's cost;
-    converting by blocks avoids a full (H, W, 3) float32 copy (12 bytes a pixel).
-    """
-    out = np.empty(colour.shape[:2], np.float32)
-    for r in range(0, colour.shape[0], LUMA_ROWS):
-        np.matmul(colour[r:r + LUMA_ROWS].astype(np.float32), LUMA_601, out=out[r:r + LUMA_ROWS])
-    return out
 
 
-def _alpha_scale(dtype) -> float:
-    return float(np.iinfo(dtype).max) if np.dtype(dtype).kind in "ui" else 1.0
 
 
-def _grayscale(array, channel: str, name: str):
-    """(values, alpha) from any pixel layout; values keep their full source precision in float."""
-    if array.ndim == 2:
-        if channel not in ("luminance", "0"):
-            raise ParameterError(f"{name}: channel {channel} asked for, but the image has a single channel; use luminance.")
-        return array.astype(np.float32), None
-    n = array.shape[-1]
-    has_alpha = n in (2, 4)
-    alpha = array[..., -1].astype(np.float32) / _alpha_scale(array.dtype) if has_alpha else None
-    colour = array[..., : n - 1] if has_alpha else array
-    if channel == "luminance":
-        if colour.shape[-1] == 1:
-            values = colour[..., 0].astype(np.float32)
-        else:
-            values = _luminance(colour)
-        return values, alpha
-    index = CHANNEL_NAMES.get(channel.lower()) if not channel.isdigit() else int(channel)
-    if index is None or index >= n:
-        raise ParameterError(
-            f"{name}: `channel` must be luminance, a number 0–{n - 1} or a colour name the image has; got {channel!r}."
-        )
-    return array[..., index].astype(np.float32), (None if index == n - 1 and has_alpha else alpha)

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..units import unit_factor_m
+from ...units import unit_factor_m
 from .model import Channel, Stack
 
 KIND = "omezarr"
@@ -26,11 +26,13 @@ def _multiscales(attrs: dict) -> list:
     return attrs.get("multiscales") or (attrs.get("ome") or {}).get("multiscales") or []
 
 
-def open_omezarr(path, scene: int | None, target_px: int = 2048) -> Stack:
+def open_omezarr(path, scene: int | None, target_px: int = 2048, limits=None) -> Stack:
     import zarr
 
+    from .bounds import check_array_paths, check_folder
     from .plan import check_index
 
+    check_folder(path, KIND)  # before zarr reads a byte: no symlink may lead out of the folder
     group = zarr.open_group(str(path), mode="r")
     attrs = dict(group.attrs)
     multiscales = _multiscales(attrs)
@@ -41,6 +43,7 @@ def open_omezarr(path, scene: int | None, target_px: int = 2048) -> Stack:
     axes = [a["name"].upper() if isinstance(a, dict) else str(a).upper() for a in ms.get("axes", [])]
     units = [a.get("unit", "") if isinstance(a, dict) else "" for a in ms.get("axes", [])]
     datasets = ms["datasets"]
+    check_array_paths(path, KIND, [d["path"] for d in datasets])
     arrays = [group[d["path"]] for d in datasets]
     if not axes:
         axes = list("TCZYX"[-arrays[0].ndim:])
@@ -50,6 +53,13 @@ def open_omezarr(path, scene: int | None, target_px: int = 2048) -> Stack:
     wide = [i for i, a in enumerate(arrays) if a.shape[xi] >= target_px]
     level = min(wide, key=lambda i: arrays[i].shape[xi]) if wide else 0
     array = arrays[level]
+    if limits is not None:  # the level read is decoded chunk by chunk, each chunk whole
+        from ..cost import check_chunk, chunk_bytes
+        from .errors import KINDS
+
+        chunks = tuple(array.chunks)
+        check_chunk(path, f"{KINDS[KIND][0]} whose array {datasets[level]['path']!r}", array.shape, chunks,
+                    chunk_bytes(array.shape, chunks, np.dtype(array.dtype).itemsize), limits.max_decoded_gb, KINDS[KIND][1], whole="folder")
     scale = _scale(ms, datasets[level], len(axes))
     fx, fy = unit_factor_m(units[xi] or ""), unit_factor_m(units[yi] or "")
     pixel = (scale[xi] * fx, scale[yi] * (fy or fx)) if fx and scale[xi] > 0 else None

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from ..errors import InputError
+from ...errors import InputError
 
 # kind -> (what it is, what to do instead)
 KINDS = {
@@ -34,7 +34,7 @@ def unsupported(path, kind: str, why: str) -> InputError:
 
 
 def missing(path, kind: str, package: str):
-    from ..errors import MissingDependencyError
+    from ...errors import MissingDependencyError
 
     what, _ = KINDS[kind]
     return MissingDependencyError(

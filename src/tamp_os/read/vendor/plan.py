@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import ParameterError, Text
+from ...errors import ParameterError, Text
 from .model import Channel, Stack
 
 
@@ -102,7 +102,7 @@ def _folded(name: str) -> str:
 
 def choose(path, stack: Stack, request: Request, limits, *, all_channels: bool = False) -> Chosen:
     """Read the planes `request` asks for, after pricing them with the decoded-size guard."""
-    from ..read import _check_bytes, _check_size
+    from ..model import check_bytes, check_size
 
     notes: list[str] = []
     nt, nc, nz = stack.size("T"), stack.size("C"), stack.size("Z")
@@ -131,10 +131,10 @@ def choose(path, stack: Stack, request: Request, limits, *, all_channels: bool =
     else:
         z = check_index(path, "z_slice", request.z_slice, nz, "slice")
         zs, z_words = [z], (f"slice {z}" if nz > 1 else "")
-    _check_size(path, (stack.height, stack.width), limits)
+    check_size(path, (stack.height, stack.width), limits)
     read = len(zs) * (nc if peak else len(channels))  # the peak is found by reading every wavelength's plane
     shape = (read, stack.height, stack.width) + ((stack.samples,) if stack.samples > 1 else ())
-    _check_bytes(path, shape, stack.dtype, limits, f"{stack.format} plane{'s' if shape[0] > 1 else ''}")
+    check_bytes(path, shape, stack.dtype, limits, f"{stack.format} plane{'s' if shape[0] > 1 else ''}")
     if peak:
         array, c = _emission_peak(stack, t, zs)
         names = stack.channel_list()

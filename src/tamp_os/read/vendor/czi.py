@@ -120,8 +120,8 @@ def _price(path, blocks, segments, plane_hw, samples, limits) -> None:
     """Refuse, before decoding, a subblock whose stream would decode to more than `max_decoded_gb`: its
     compressed bytes (read whole) plus what it decodes to, from its declared shape or, for JPEG, the larger
     of that and its frame header (a 16×16 subblock may hold a 30000×30000 JPEG, which the decoder decodes whole)."""
-    from ..errors import InputError
-    from ..read_cost import (JPEG_HEAD_BYTES, MAX_STREAMS_LOOKED_AT, Cost, check_memory, jpeg_frame, jpeg_frame_bytes,
+    from ...errors import InputError
+    from ..cost import (JPEG_HEAD_BYTES, MAX_STREAMS_LOOKED_AT, Cost, check_memory, jpeg_frame, jpeg_frame_bytes,
                              jpegxr_frame, working_bytes)
 
     largest, which, why = 0.0, 0, ""

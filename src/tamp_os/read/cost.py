@@ -13,7 +13,7 @@ import math
 import os
 from dataclasses import dataclass, field
 
-from .errors import InputError
+from ..errors import InputError
 
 # Peak bytes per source pixel that the pipeline holds after reading (the float32 grey values,
 # the alpha weights, and the full-resolution copies made while cleaning and stretching), measured
@@ -153,12 +153,16 @@ def jpegxr_frame(head: bytes) -> tuple[int, int] | None:
 
 def tiff_jpeg_bytes(path, page) -> float:
     """The largest frame that any JPEG-compressed chunk of `page` declares, in decoded bytes: a
-    16×16 tile may hold a JPEG stream of 65000×65000, which the decoder decodes whole."""
+    16×16 tile may hold a JPEG stream of 65000×65000, which the decoder decodes whole.
+    `path` is the TIFF file, or a binary file object holding it (a TIFF embedded in another file)."""
+    import contextlib
+
     if int(getattr(page, "compression", 0)) not in JPEG_CODES:
         return 0.0
     offsets, counts = page.dataoffsets, page.databytecounts
     largest = 0.0
-    with open(path, "rb") as fh:
+    with contextlib.ExitStack() as stack:
+        fh = path if hasattr(path, "read") else stack.enter_context(open(path, "rb"))
         for offset, count in list(zip(offsets, counts))[:MAX_STREAMS_LOOKED_AT]:
             if not count:
                 continue
@@ -169,3 +173,48 @@ def tiff_jpeg_bytes(path, page) -> float:
                 found = jpeg_frame_bytes(fh.read(min(int(count), JPEG_HEAD_BYTES)))
             largest = max(largest, found)
     return largest
+
+
+def chunk_bytes(shape, chunks, itemsize: int) -> float:
+    """Bytes of the chunks (HDF5, Zarr) decoded at once: one chunk as declared, not clipped to the
+    array (a decoder allocates it whole, even when it is far larger than the array), once per
+    thread that may decode one at the same time (at most one per chunk)."""
+    if not chunks:
+        return 0.0
+    one = math.prod(float(n) for n in chunks) * itemsize
+    count = math.prod(max(1, math.ceil(int(s) / max(1, int(c)))) for s, c in zip(shape, chunks)) if shape else 1
+    return one * max(1, min(count, os.cpu_count() or 1))
+
+
+def check_chunk(path, what: str, shape, chunks, n_bytes: float, max_decoded_gb: float, todo: str, whole: str = "file") -> None:
+    """Refuse, before decoding, a store whose chunks decode to more than `max_decoded_gb` at once."""
+    if n_bytes > max_decoded_gb * 1e9:
+        dims = "×".join(str(int(n)) for n in shape) or "scalar"
+        raise InputError(
+            f"{path}: {what} is stored in chunks of {'×'.join(str(int(n)) for n in chunks)} values that decode to "
+            f"{n_bytes / 1e9:.1f} GB (a decoder allocates a whole chunk, whatever the {dims} size of the data); that exceeds the "
+            f"limit of {max_decoded_gb:g} GB that guards against decompression bombs. The {whole} is malformed or hostile; {todo}.",
+            hint="The limit is `max_decoded_gb`; raise it only for a file you trust.",
+        )
+
+
+def check_declared(path, what: str, declared_words: str, declared_bytes: float, file_bytes: int, max_decoded_gb: float,
+                   todo: str, *, capped: bool = True, holds: str = "") -> None:
+    """Refuse, before reading, a header that declares more bytes than the file holds or (when
+    `capped`: the bytes are decoded whole) more than the decoded-bytes cap allows. `holds` says
+    what `file_bytes` counts ("the file holds (1,280 bytes)" by default)."""
+    size = f"{declared_bytes / 1e9:,.1f} GB" if declared_bytes >= 1e8 else f"{declared_bytes / 1e9:.2g} GB"
+    holds = holds or f"the file holds ({file_bytes:,} bytes)"
+    if declared_bytes > file_bytes:
+        raise InputError(
+            f"{path}: {what} whose header declares {declared_words}, {size} in all, more than "
+            f"{holds} (the limit for decoded data is {max_decoded_gb:g} GB): the file is damaged, truncated or "
+            f"hostile; {todo}."
+        )
+    if capped and declared_bytes > max_decoded_gb * 1e9:
+        raise InputError(
+            f"{path}: {what} whose header declares {declared_words}, {size} in all, above the limit of "
+            f"{max_decoded_gb:g} GB that guards against decompression bombs; {todo}.",
+            hint=f"If you trust the file and the computer has the memory, raise the limit, for example `max_decoded_gb` "
+                 f"{math.ceil(declared_bytes / 1e9)}.",
+        )

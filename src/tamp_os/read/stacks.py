@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .errors import ParameterError, Text
+from ..errors import ParameterError, Text
 
 
 def sis_of_page(tif, index: int) -> dict | None:
@@ -53,7 +53,7 @@ def tiff_z_step_m(meta) -> float | None:
     """The z step of an ImageJ (spacing + unit) or OME (PhysicalSizeZ) stack, in metres."""
     import re
 
-    from .units import unit_factor_m
+    from ..units import unit_factor_m
 
     ij = meta.get("imagej_metadata") or {}
     if "spacing" in ij:
@@ -79,7 +79,7 @@ STREAM_BYTES = 64e6  # series larger than this are reduced page by page, never d
 def reduce_by_pages(path, series, axes, shape, page, z_slice, channel, meta):
     """Like _reduce_axes, but decoding one page at a time (a running maximum over Z), for a series
     stored one plane per page with its other axes first; None when it is small or not laid out so."""
-    from .read import _channel_choice, _Plane
+    from .model import channel_choice, Plane
 
     if int(np.prod([int(n) for n in shape])) * np.dtype(series.dtype).itemsize <= STREAM_BYTES:
         return None
@@ -92,7 +92,7 @@ def reduce_by_pages(path, series, axes, shape, page, z_slice, channel, meta):
     notes: list[str] = []
     fixed = {}
     if "C" in names:
-        fixed["C"] = _channel_choice(path, dims[names.index("C")], channel, meta, notes)
+        fixed["C"] = channel_choice(path, dims[names.index("C")], channel, meta, notes)
     zs = [0]
     if "Z" in names:
         nz = dims[names.index("Z")]
@@ -121,4 +121,4 @@ def reduce_by_pages(path, series, axes, shape, page, z_slice, channel, meta):
     rest = axes[len(names):]
     if "S" in rest and rest.index("S") < rest.index("Y"):
         out = np.moveaxis(out, 0, -1)
-    return _Plane(out, planes, notes, "C" in names)
+    return Plane(out, planes, notes, "C" in names)

@@ -4,12 +4,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..errors import ParameterError
+from ...errors import ParameterError
 
 
 def read_vendor(path: Path, kind, page, channel, limits, z_slice, time, scene, target_px):
     """A vendor file (CZI, LIF, ND2, OME-Zarr, TIA, EMD, MRC, JEOL, ELID, HyperSpy, OIB): one plane."""
-    from ..read import CHANNEL_NAMES, DEFAULT_TARGET_PX, _Decoded, _sha256_of, _to_picture
+    from ..model import CHANNEL_NAMES, DEFAULT_TARGET_PX, Decoded, sha256_of, to_picture
     from . import read_planes
     from .plan import Request
 
@@ -23,7 +23,7 @@ def read_vendor(path: Path, kind, page, channel, limits, z_slice, time, scene, t
     facts = planes.facts()
     channels = stack.channel_list()
     named = any(not c.name.startswith("channel ") for c in channels)
-    decoded = _Decoded(stack.format, chosen.arrays[0], {"vendor": facts}, max(stack.scenes, 1), notes=notes + planes.notes,
+    decoded = Decoded(stack.format, chosen.arrays[0], {"vendor": facts}, max(stack.scenes, 1), notes=notes + planes.notes,
                        channel_chosen=picked != "luminance" or stack.size("C") > 1 or stack.samples == 1)
     decoded.facts = {
         # a λ scan is one detector's channel at many wavelengths: not several channels to print apart
@@ -32,7 +32,7 @@ def read_vendor(path: Path, kind, page, channel, limits, z_slice, time, scene, t
         "z_step_m": stack.z_step_m, "reader": stack.reader,
     }
     if channel in CHANNEL_NAMES and stack.samples > 1:
-        decoded.channel_chosen = False  # red/green/blue of a colour plane: _grayscale picks it
+        decoded.channel_chosen = False  # red/green/blue of a colour plane: grayscale picks it
     elif channel in CHANNEL_NAMES:
         raise ParameterError(f"{path}: channel {channel!r} names a colour, but this file's planes are grey; give a channel number or name.")
-    return _to_picture(decoded, "luminance" if decoded.channel_chosen else channel, name=path.name, sha=_sha256_of(path), path=str(path))
+    return to_picture(decoded, "luminance" if decoded.channel_chosen else channel, name=path.name, sha=sha256_of(path), path=str(path))

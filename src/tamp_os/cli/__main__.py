@@ -1,0 +1,7 @@
+"""`python -m tamp_os.cli`: the same as the `tamp-os` command."""
+
+import sys
+
+from .commands import main
+
+sys.exit(main())

@@ -276,3 +276,23 @@ def test_real_fluorescence_channel_roles(fixture, name, index):
     if label:
         assert key[index].label == label
     assert not any(e.label.startswith("round blobs") for e in key if "DAPI" in e.label)
+
+
+@pytest.mark.timeout(120)
+def test_light_source_in_a_channel_name_gives_its_wavelength():
+    """Channels named by their LED ("LED385", "LED475", "LED555") and nothing else: the 385 nm
+    channel is the nuclear stain by its wavelength (domes, "nuclei (LED385)") whatever its shape,
+    never "round blobs (LED385)"; the others by shape."""
+    _liblouis()
+    from test_channels import _synthetic_channels
+
+    nuclei, fil, spots = _synthetic_channels()
+    diffuse_nuclei = np.clip(nuclei * 0.6 + 0.4 * (fil > 0), 0, 1)  # a nuclear channel with some bleed-through
+    stack = np.stack([diffuse_nuclei, fil, spots]) * 200
+    from tamp_os.relief.channels import ChannelImage, channel_relief
+
+    res = channel_relief([ChannelImage("LED385", stack[0] / 200), ChannelImage("LED475", stack[1] / 200),
+                          ChannelImage("LED555", stack[2] / 200)], mm_per_px=0.3, base_mm=1.0, relief_mm=3.0)
+    got = {c.name: (c.encoding, c.why, c.role) for c in res.choices}
+    assert got["LED385"] == ("domes", "wavelength", "nuclei"), got
+    assert got["LED475"][0] == "ridges" and got["LED555"][0] == "dots", got

@@ -141,9 +141,9 @@ def marker_in_title(title: str, channels: list[ChannelImage]) -> dict[str, tuple
     import re as _re
 
     named = {signal_role(c.name)[1] for c in channels if signal_role(c.name)}
-    if any(_by_wavelength(c.excitation_nm, c.emission_nm) for c in channels if not signal_role(c.name)):
+    if any(_by_wavelength(*_wavelengths(c)) for c in channels if not signal_role(c.name)):
         named.add("nuclei")  # a DAPI-like wavelength already says which channel the nuclei are
-    unknown = [c for c in channels if signal_role(c.name) is None and _by_wavelength(c.excitation_nm, c.emission_nm) is None
+    unknown = [c for c in channels if signal_role(c.name) is None and _by_wavelength(*_wavelengths(c)) is None
                and c.name not in ("red", "green", "blue")]
     found = []
     for token in _re.split(r"[^a-z0-9]+", title.lower()):
@@ -151,6 +151,18 @@ def marker_in_title(title: str, channels: list[ChannelImage]) -> dict[str, tuple
         if role and role[1] not in named and role not in found:
             found.append(role)
     return {unknown[0].name: found[0]} if len(unknown) == 1 and len(found) == 1 else {}
+
+
+_LIGHT_IN_NAME = re.compile(r"\b(?:led|laser|ex|exc)[\s_-]*(\d{3})(?:\s*nm)?\b|\b(\d{3})\s*nm\b", re.IGNORECASE)
+
+
+def _wavelengths(c: ChannelImage) -> tuple[float | None, float | None]:
+    """(excitation, emission) nm of a channel: the file's, else an excitation its name gives
+    ("LED385", "Laser 405", "405 nm": the light source, not a dye)."""
+    if c.excitation_nm is not None or c.emission_nm is not None:
+        return c.excitation_nm, c.emission_nm
+    m = _LIGHT_IN_NAME.search(c.name)
+    return (float(m.group(1) or m.group(2)), None) if m else (None, None)
 
 
 def _by_wavelength(ex: float | None, em: float | None) -> str | None:
@@ -383,7 +395,7 @@ def choose(channels: list[ChannelImage], assigned: dict[str, str], mm_per_px: fl
             enc, role = titled[c.name]
             out.append(ChannelChoice(c.name, enc, "file name", role))
             continue
-        enc = _by_wavelength(c.excitation_nm, c.emission_nm)
+        enc = _by_wavelength(*_wavelengths(c))
         if enc is not None:
             out.append(ChannelChoice(c.name, enc, "wavelength", "nuclei"))
         elif rgb and c.name == "blue":

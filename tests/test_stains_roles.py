@@ -296,3 +296,29 @@ def test_light_source_in_a_channel_name_gives_its_wavelength():
     got = {c.name: (c.encoding, c.why, c.role) for c in res.choices}
     assert got["LED385"] == ("domes", "wavelength", "nuclei"), got
     assert got["LED475"][0] == "ridges" and got["LED555"][0] == "dots", got
+
+
+@pytest.mark.timeout(300)
+def test_real_widefield_tubulin_sheet_is_a_ridged_area_with_its_gaps_at_the_base(fixture):
+    """fluo_widefield_dapi_tubulin_2ch.tif: "a confluent sheet of polygonal cells with fibrous
+    cytoplasm and cell-free dark gaps on the right". The EGFP ridges cover the sheet (its dim cells
+    too, not only the bright cytoplasm around the nuclei), the gaps stay at the base."""
+    _liblouis()
+    from skimage import filters
+    from skimage.transform import resize
+
+    from tamp_os.read.channels import read_channels
+
+    path = fixture("real/fluo_widefield_dapi_tubulin_2ch.tif")
+    litho = make_lithograph(path, width_mm=100)
+    planes = read_channels(path)
+    egfp, dapi = planes[1].values.astype(float), planes[0].values.astype(float)
+    h, _ = _picture_heights(litho, egfp.shape)
+    e = resize(filters.gaussian(egfp, 4), h.shape)
+    d = resize(filters.gaussian(dapi, 4), h.shape)
+    gaps = (e < np.percentile(e, 12)) & (d < np.percentile(d, 50))  # darkest in both: no cells
+    raised = h >= RAISED_MM - 1e-6
+    assert float(raised.mean()) >= 0.6  # the sheet covers about three quarters of the picture
+    assert np.median(h[gaps]) < 0.1 and float(raised[gaps].mean()) < 0.05
+    bright = e > filters.threshold_otsu(e)
+    assert float(raised[bright].mean()) > 0.95

@@ -333,6 +333,20 @@ def by_shape(shape: Shape) -> str:
     return shape_ranking(shape)[0]
 
 
+SHEET_EPS = 0.01  # the darkest signal the log scale tells apart (0..1 channel values)
+
+
+def sheet_foreground(img: np.ndarray) -> np.ndarray:
+    """Where a channel has signal over its dark ground, on a log scale (Otsu of log(value + 0.01),
+    lightly smoothed): a fluorescent sheet's dim cells as well as its bright ones, not its gaps."""
+    img = np.asarray(img, np.float64)
+    if float(img.max() - img.min()) < 1e-6:
+        return np.zeros(img.shape, bool)
+    smooth = np.log(np.clip(filters.gaussian(img, 1.0), 0, None) + SHEET_EPS)
+    mask = smooth > filters.threshold_otsu(smooth)
+    return morphology.remove_small_objects(mask, max_size=8)
+
+
 def foreground(img: np.ndarray) -> np.ndarray:
     """Where the channel has signal: Otsu threshold of the lightly smoothed channel, small specks dropped."""
     img = np.asarray(img, np.float64)  # one definition, whatever the channel's dtype
@@ -457,6 +471,10 @@ def encode(img: np.ndarray, encoding: str, mm_per_px: float, relief_mm: float, a
     if encoding == "plateau":
         edge = mask & ~ndi.binary_erosion(mask, iterations=max(1, round(0.5 / mm_per_px)))
         return np.where(edge, OUTLINE_SHARE * relief_mm, np.where(mask, top, 0.0)), mask
+    if encoding == "ridges":
+        # a fibrous area (a sheet of cells' cytoskeleton): its extent is where there is signal over
+        # the dark ground, which spans decades; Otsu of the brightness keeps only the brightest cytoplasm
+        mask = mask | sheet_foreground(img)
     spec = spec_for(TEXTURE_OF[encoding], angle_deg)
     tex = pattern(spec, img.shape, mm_per_px)
     # Structures narrower than the texture's pitch (a filament, a spot) are their own ridge or dot:

@@ -276,6 +276,12 @@ CHANNEL_FIXTURES = {  # the real files that print channel by channel by default,
     "real/zeiss_dapi_gfp_2ch.czi": "channels", "real/zeiss_airyscan_2ch_t3.czi": "channels",
     "real/nikon_pbmc_4ch.nd2": "channels", "real/leica_beads_xz_2ch.lif": "channels",
     "real/aperio_cmu1_he_skin.svs": "stain",
+    # second batch (fixtures README): two ImageJ multi-channel fluorescence TIFFs; three H&E slides,
+    # two of them tiles the tissue fills (≈2 % and ≈8 % glass) and a frozen section with ≈40 % glass
+    # (issue 32). The moth SEM and the two atomic-resolution STEM files are grey: luminance.
+    "real/fluo_cell_dna_mt_actin_3ch.tif": "channels", "real/fluo_widefield_dapi_tubulin_2ch.tif": "channels",
+    "real/histo_he_carcinoma_dense_nuclei.png": "stain", "real/histo_he_stroma_collagen_vessel.png": "stain",
+    "real/aperio_tcga_cr7395_j2k_no_mpp.svs": "stain",
 }
 
 

@@ -108,23 +108,30 @@ def detect_info_band(values: np.ndarray) -> tuple[int, int]:
     row_std = filled.std(axis=1) / (hi - lo)
     h = values.shape[0]
     bottom = _band_run(list(range(h - 1, -1, -1)), bandlike, fraction, row_std)
-    if bottom and not _holds_marks(filled[h - bottom + 3 :], lo, hi):  # not the frame rows next to the picture
+    if bottom and not _holds_marks(filled[h - bottom + 3 :], lo, hi, inner_row=0):  # not the frame rows next to the picture
         bottom = 0
     top = _band_run(list(range(h)), bandlike, fraction, row_std) if not bottom else 0
-    if top and not _holds_marks(filled[: top - 3], lo, hi):
+    if top and not _holds_marks(filled[: top - 3], lo, hi, inner_row=-1):
         top = 0
     return top, bottom
 
 
-def _holds_marks(band: np.ndarray, lo: float, hi: float) -> bool:
+def _holds_marks(band: np.ndarray, lo: float, hi: float, inner_row: int | None = None) -> bool:
     """Whether rows of uniform background hold text or a scale bar (a data band) rather than
-    nothing (a black or white margin, which is left alone: it is not known to be unwanted)."""
+    nothing (a black or white margin, which is left alone: it is not known to be unwanted).
+
+    `inner_row`: the band's row next to the picture (0 or -1). A mark that reaches it runs on into
+    the picture: it is the picture's content at its edge (tissue on the glass of a slide), not a
+    band's text, and is not counted."""
     from scipy import ndimage
 
     if band.size == 0:
         return False
     background = np.median(band)
     ink = np.abs(band - background) > 0.5 * (hi - lo)
+    if inner_row is not None:  # grouped 2 px around, as a noisy edge breaks into specks
+        labels, _ = ndimage.label(ndimage.binary_dilation(ink, iterations=2))
+        ink &= ~np.isin(labels, np.unique(labels[inner_row][labels[inner_row] > 0]))
     if ink.sum() < 0.002 * ink.size:
         return False
     _, marks = ndimage.label(ink)

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .model import LUMA_601, Limits
+from .model import LUMA_601, Limits, imagej_info_channels
 from .vendor import Request, detect, read_planes
 
 
@@ -55,10 +55,17 @@ def read_channels(path, *, scene: int | str | None = None, time: int | None = No
     count = first.file.channel_count
     if count > 1 and "C" in first.file.axes:
         names = first.file.channel_names or [f"channel {i}" for i in range(count)]
-        out = [ChannelPlane(names[0] if names else "channel 0", None, first.values)]
+        info = imagej_info_channels(first.file.metadata.get("imagej_metadata") or {})
+        waves = [(ex, em) for n, ex, em in info] if [n for n, _, _ in info] == names[:len(info)] else []
+
+        def plane(i, values):
+            ex, em = waves[i] if i < len(waves) else (None, None)
+            return ChannelPlane(names[i] if i < len(names) else f"channel {i}", em or ex, values, ex, em)
+
+        out = [plane(0, first.values)]
         for i in range(1, count):
             p = read_image(path, page=scene, z_slice=z_slice, channel=str(i), max_megapixels=max_megapixels, max_decoded_gb=max_decoded_gb)
-            out.append(ChannelPlane(names[i] if i < len(names) else f"channel {i}", None, p.values))
+            out.append(plane(i, p.values))
         return out
     if first.file.channels in (3, 4):
         return [ChannelPlane(colour, None, read_image(path, page=scene, channel=colour, max_megapixels=max_megapixels,

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import hashlib
 import math
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -163,11 +164,45 @@ def check_size(path, shape, limits: Limits) -> None:
         )
 
 
+_GENERIC_LABEL = re.compile(r"^\s*(?:c:\d+/\d+\b.*|channel\s*\d+|ch\s*\d+|c\d+)?\s*$", re.IGNORECASE)
+_INFO_KEY = re.compile(r"^\s*Information\|Image\|Channel\|(Name|ExcitationWavelength|EmissionWavelength) #(\d+)\s*=\s*(.+?)\s*$")
+
+
+def imagej_info_channels(ij: dict) -> list[tuple[str, float | None, float | None]]:
+    """[(name, excitation nm, emission nm)] of each channel that a ZEN (Bio-Formats) export keeps
+    in the ImageJ Info text (`Information|Image|Channel|Name #1 = DAPI`); [] when there is none."""
+    info = ij.get("Info") if isinstance(ij, dict) else None
+    if not isinstance(info, str) or "Information|Image|Channel|" not in info:
+        return []
+    found: dict[int, dict[str, str]] = {}
+    for line in info.splitlines():
+        m = _INFO_KEY.match(line) if len(line) < 400 else None
+        if m:
+            found.setdefault(int(m.group(2)), {})[m.group(1)] = m.group(3)
+
+    def nm(text):
+        try:
+            v = float(text)
+        except (TypeError, ValueError):
+            return None
+        return v if 200 <= v <= 2000 else None
+
+    return [(d["Name"], nm(d.get("ExcitationWavelength")), nm(d.get("EmissionWavelength")))
+            for _, d in sorted(found.items()) if d.get("Name")]
+
+
 def file_channel_names(meta) -> list[str]:
     xml = meta.get("ome_metadata")
     if not xml:
-        labels = (meta.get("imagej_metadata") or {}).get("Labels")
-        return [str(x) for x in labels] if isinstance(labels, (list, tuple)) else []
+        ij = meta.get("imagej_metadata") or {}
+        labels = ij.get("Labels")
+        labels = [str(x) for x in labels] if isinstance(labels, (list, tuple)) else []
+        info = [c[0] for c in imagej_info_channels(ij)]
+        # Fiji's labels of a converted file ("c:1/2 - Snap-03.czi #1") name only the position:
+        # the original's channel names, kept in the ImageJ Info text, name the dye
+        if info and (not labels or all(_GENERIC_LABEL.match(x) for x in labels)):
+            return info
+        return labels
     from .xmltext import ome_channel_names  # a parser, not a regex: linear in the text's length
 
     return ome_channel_names(xml)

@@ -9,7 +9,11 @@ colour picture takes it only when its colours carry the meaning:
   luminance: it is a grey picture in disguise;
 - a stained brightfield slide: a white background (glass), tissue in the hues colour deconvolution
   separates (haematoxylin blue-purple, eosin pink, DAB brown; not green), with continuous texture.
-  A diagram has a white ground and colours too, but a handful of flat fills.
+  A diagram has a white ground and colours too, but a handful of flat fills;
+- a stained tile the tissue fills (issue 32: little or no glass): no white share to lean on, so the
+  tissue's own colour decides: nearly all of it in the stains' hues (haematoxylin purple to eosin
+  pink; or DAB brown with a haematoxylin counterstain), of a stain's moderate saturation, lit
+  (no dark surround, as a fundus photograph has), colour not following brightness (a LUT).
 
 A grey picture stored as RGB (R = G = B) has no chroma and never takes it. `channel` (one channel)
 and `channels` = off keep the picture on the luminance path.
@@ -38,7 +42,16 @@ TISSUE_SHARE = 0.02
 TISSUE_CHROMA = 0.12  # median chroma of the tissue (slides 0.21-0.22; a photograph such as skimage's astronaut 0.08)
 GREEN_SHARE = 0.1  # stains are not green (ink, a leaf, a diagram's green fill)
 PALETTE = 12  # colours (16 levels a channel) covering 80 % of the coloured tissue: a diagram has few
-STAIN_INDEPENDENCE = 0.05  # a LUT's colours follow its brightness exactly (≈0.003); a slide's do not
+STAIN_INDEPENDENCE = 0.02  # a LUT's colours follow its brightness exactly (≤ 0.008 for inferno, magma, RdPu,
+# PuRd, BuPu, viridis over skimage's camera); a slide's do not (the frozen section TCGA-CR-7395, all pink, 0.035)
+# the tissue-filled tile (issue 32), measured on the two histolab tiles, the frozen section and the CMU-1 slide
+FILLED_TISSUE = 0.5  # tissue covers at least half the tile
+FILLED_LUM = 0.3  # lit: brightfield (the carcinoma tile 0.44, its nuclei crowded)
+DARK_SHARE = 0.02  # under 2 % of the pixels near black (tiles ≈0.003 %; skimage's retina photograph 23 %)
+FILLED_CHROMA_MAX = 0.5  # a stain's saturation (slides 0.22-0.39); the retina photograph 0.56
+STAIN_HUE_SHARE = 0.85  # coloured tissue in haematoxylin-to-eosin hues (slides 0.94-1.0; a cat 0.12)
+FILLED_INDEPENDENCE = 0.03  # the stroma tile 0.098, the carcinoma tile 0.23, a synthetic tile 0.048; LUTs ≤ 0.008 (plasma 0.019)
+COUNTERSTAIN_SHARE = 0.03  # IHC: some haematoxylin blue beside the DAB brown (a coffee or a cat photograph: 0)
 
 
 @dataclass(frozen=True)
@@ -56,6 +69,10 @@ class ColourFacts:
     tissue_chroma: float
     green_share: float  # coloured tissue whose hue is green (70–170°)
     palette: int  # quantised colours covering 80 % of the coloured tissue
+    stain_hue_share: float = 0.0  # coloured tissue in haematoxylin-to-eosin hues (≥ 250° or < 20°: purple, pink, red)
+    brown_share: float = 0.0  # coloured tissue in DAB hues (20–50°)
+    blue_share: float = 0.0  # coloured tissue in haematoxylin blue-violet hues (200–300°)
+    dark_share: float = 0.0  # pixels near black (brightness < 0.1)
 
 
 def colour_facts(rgb: np.ndarray) -> ColourFacts:
@@ -65,7 +82,8 @@ def colour_facts(rgb: np.ndarray) -> ColourFacts:
     lum = x.mean(axis=2)
     chroma = x.max(axis=2) - x.min(axis=2)
     if float((chroma >= CHROMA).mean()) < GREY_COLOURED_SHARE:  # grey: nothing more to measure
-        return ColourFacts(float((chroma >= CHROMA).mean()), float(np.median(lum)), 0.0, 0.0, 0.0, 0, 0.0, 0.0, 0.0, 0.0, 0)
+        return ColourFacts(float((chroma >= CHROMA).mean()), float(np.median(lum)), 0.0, 0.0, 0.0, 0, 0.0, 0.0, 0.0, 0.0, 0,
+                           dark_share=float((lum < 0.1).mean()))
     med = float(np.median(lum))
     signal = np.abs(lum - med) > 0.1
     signal_chroma = float(np.median(chroma[signal])) if signal.any() else 0.0
@@ -75,12 +93,16 @@ def colour_facts(rgb: np.ndarray) -> ColourFacts:
     tissue = ~white & ((lum < 0.85) | (chroma >= CHROMA))
     coloured_tissue = tissue & (chroma >= CHROMA)
     hue = rgb2hsv(x[coloured_tissue][:, None, :])[:, 0, 0] * 360.0 if coloured_tissue.any() else np.zeros(0)
-    green = float(((hue > 70) & (hue < 170)).sum() / max(coloured_tissue.sum(), 1))
+    n_coloured = max(int(coloured_tissue.sum()), 1)
+    green = float(((hue > 70) & (hue < 170)).sum() / n_coloured)
     return ColourFacts(
         coloured_share=float((chroma >= CHROMA).mean()), median_lum=med, signal_chroma=signal_chroma,
         independence=independence, spread=spread, colour_channels=channels, white_share=float(white.mean()),
         tissue_share=float(tissue.mean()), tissue_chroma=float(np.median(chroma[tissue])) if tissue.any() else 0.0,
-        green_share=green, palette=_palette(x, coloured_tissue))
+        green_share=green, palette=_palette(x, coloured_tissue),
+        stain_hue_share=float(((hue >= 250) | (hue < 20)).sum() / n_coloured),
+        brown_share=float(((hue >= 20) & (hue < 50)).sum() / n_coloured),
+        blue_share=float(((hue >= 200) & (hue < 300)).sum() / n_coloured), dark_share=float((lum < 0.1).mean()))
 
 
 def _independence(x: np.ndarray, lum: np.ndarray, where: np.ndarray) -> tuple[float, float]:
@@ -121,6 +143,10 @@ def colour_kind(facts: ColourFacts) -> tuple[str, str]:
             and f.green_share < GREEN_SHARE and f.palette >= PALETTE and f.independence >= STAIN_INDEPENDENCE):
         return "stain", (f"a stained brightfield slide: white background ({100 * f.white_share:.0f} % of the slide), "
                          f"tissue in stain hues")
+    if filled_stain(f):
+        return "stain", (f"a stained brightfield tile the tissue fills ({100 * f.tissue_share:.0f} %): "
+                         f"{100 * (f.stain_hue_share + f.brown_share):.0f} % of it in stain hues "
+                         f"(haematoxylin purple, eosin pink{', DAB brown' if f.brown_share >= 0.1 else ''})")
     if f.palette <= 6 and f.median_lum >= DARK_MEDIAN:
         why = f"a few flat colours ({f.palette}), as in a diagram"
     elif f.median_lum < DARK_MEDIAN and f.colour_channels < 2:
@@ -132,6 +158,17 @@ def colour_kind(facts: ColourFacts) -> tuple[str, str]:
     else:
         why = "neither a fluorescence composite (dark background) nor a stained slide (white background, stain hues)"
     return "plain", why
+
+
+def filled_stain(f: ColourFacts) -> bool:
+    """A stained tile (H&E, or IHC with a haematoxylin counterstain) that tissue fills, told by
+    the tissue's colour alone: without glass, the white share says nothing (issue 32)."""
+    he = f.stain_hue_share >= STAIN_HUE_SHARE
+    ihc = (f.stain_hue_share + f.brown_share >= STAIN_HUE_SHARE and f.brown_share >= 0.1
+           and f.blue_share >= COUNTERSTAIN_SHARE)
+    return bool(f.tissue_share >= FILLED_TISSUE and f.median_lum >= FILLED_LUM and f.dark_share < DARK_SHARE
+                and TISSUE_CHROMA <= f.tissue_chroma <= FILLED_CHROMA_MAX and f.green_share < GREEN_SHARE
+                and f.palette >= PALETTE and f.independence >= FILLED_INDEPENDENCE and (he or ihc))
 
 
 def channels_mode(text: str | None) -> str:

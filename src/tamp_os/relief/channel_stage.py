@@ -20,6 +20,8 @@ from .channels import (
     ChannelRelief,
     KeyEntry,
     channel_relief,
+    glass_weight,
+    nuclear_weight,
     is_fluorescence_composite,
     is_stained_brightfield,
     parse_assignments,
@@ -88,6 +90,17 @@ def _on_grid(values: np.ndarray, layout, params) -> np.ndarray:
                    invert=False, flip_x=params.flip_x).image
 
 
+def _weight_on_grid(w: np.ndarray, layout, params) -> np.ndarray:
+    """Where a 0..1 weight (relief/channels.py glass_weight, nuclear_weight) is at least 0.5, on the print grid."""
+    if float(w.max()) < 0.5:
+        return np.zeros((layout.rows, layout.cols), bool)
+    if float(w.min()) > 0.5:
+        return np.ones((layout.rows, layout.cols), bool)
+    grid = prepare(w.astype(np.float32), None, rows=layout.rows, cols=layout.cols, target_aspect=layout.target_aspect,
+                   fit=layout.fit, low_pct=0.0, high_pct=100.0, sigma_px=0.0, invert=False, flip_x=params.flip_x).image
+    return grid >= 0.5
+
+
 def _labels(text: str | None) -> dict[str, str]:
     """`key_labels` "DAPI=nuclei,GFP=actin" -> {"dapi": "nuclei", ...}."""
     out = {}
@@ -110,8 +123,9 @@ def _entry(choice, labels: dict[str, str]) -> KeyEntry:
     given = labels.get(choice.name.lower())
     if given is not None:  # the user's own words, written as given
         return KeyEntry(given, choice.encoding)
-    words = _SHAPE_WORD if choice.why in ("shape", "distinct") else _ROLE
-    role = words[choice.encoding]
+    # the role from the one table of signal names (relief/channels.py SIGNALS), the wavelength or the
+    # colour convention; a shape says only what the shape is
+    role = choice.role or (_SHAPE_WORD if choice.why in ("shape", "distinct") else _ROLE)[choice.encoding]
     return KeyEntry(f"{role} ({choice.name})", choice.encoding, key_forms=label_forms(role, choice.name), key_role=role)
 
 
@@ -156,8 +170,11 @@ def run(source, layout, params, route=None, cleaned=None) -> ChannelStage | None
         if stain and not assigned:
             stack = _near_grid(stack, layout)
             on_grid = [ChannelImage(c.name, _on_grid(c.image, layout, params)) for c in stain_channels(stack)]
-            # stain densities are already 0..1; prepare() stretched them again, which keeps white at 0
-            rel = stain_relief(on_grid, mm_per_px=mm, base_mm=params.base_mm, relief_mm=params.relief_mm)
+            # stain densities are already 0..1; prepare() stretched them again; glass and lumens are
+            # found on the colours themselves (an off-white glass tile's stretched densities are not 0)
+            rel = stain_relief(on_grid, mm_per_px=mm, base_mm=params.base_mm, relief_mm=params.relief_mm,
+                               glass=_weight_on_grid(glass_weight(stack), layout, params),
+                               stained=_weight_on_grid(nuclear_weight(stack), layout, params))
             rel.notes[:0] = cleaning_notes
             key = tuple(KeyEntry(labels.get(ch.name.lower(), STAIN_LABEL[ch.name]), ch.encoding) for ch in rel.choices)
             return ChannelStage(rel, key, "stain")
@@ -174,7 +191,8 @@ def run(source, layout, params, route=None, cleaned=None) -> ChannelStage | None
     if len(chans) < 2 and not assigned:
         return None  # one channel with signal: nothing for a key to tell apart
     rel = channel_relief(chans, mm_per_px=mm, base_mm=params.base_mm, relief_mm=params.relief_mm, assigned=assigned,
-                         section=route.section if route is not None else "")
+                         section=route.section if route is not None else "",
+                         title=Path(source).stem if isinstance(source, (str, Path)) else "")
     rel.notes[:0] = cleaning_notes
     key = tuple(_entry(ch, labels) for ch in rel.choices)
     return ChannelStage(rel, key, "fluorescence")

@@ -32,11 +32,38 @@ TOP_SHARE = {"domes": 1.0, "ridges": 0.6, "dots": 0.7, "plateau": 0.3}
 OUTLINE_SHARE = 0.6
 MIN_FEATURE_MM = 0.5
 
-_NUCLEAR = re.compile(r"dapi|hoechst|nuc|draq5|sytox|propidium|\bpi\b|haemat|hemat|h33342", re.IGNORECASE)
-_FILAMENT = re.compile(r"actin|phalloid|tubulin|collagen|shg|vimentin|keratin|filament|mitotracker|fibr", re.IGNORECASE)
-_SPOTS = re.compile(r"lyso|vesic|foci|focus|spot|puncta|endosom|peroxi|gamma ?h2ax|53bp1|fish|rab\d", re.IGNORECASE)
-_DIFFUSE = re.compile(r"cytopl|cellmask|cfse|calcein|eosin|membrane|wga", re.IGNORECASE)
+# The one table of signal names (issue 31): a dye, marker or stain's name -> its encoding and the
+# role the key says in words ("nuclei (DAPI)"). The first match wins, so specific names come before
+# the general ones. Channel roles follow the dye first (DESIGN.md "Translating content"): nuclear
+# stains domes; tubulin, actin, collagen ridges; mitochondrial markers network lines (ridges, raised
+# along their own skeleton when tubular); lysosome and vesicle markers dots; diffuse markers a
+# plateau. Fluorescent proteins (GFP, mCherry...) and plain filter names (FITC, TRITC) say nothing of
+# what is labelled: they are not here, so the shape decides.
+SIGNALS: tuple[tuple[str, str, str], ...] = (
+    (r"dapi|hoechst|h33342|draq5|sytox|propidium|\bpi\b|\bdna\b|nucle|\bnuc\b|haemat|hemat|\bh2b\b", "domes", "nuclei"),
+    (r"tubulin|microtub|\beb[13]\b", "ridges", "microtubules"),
+    (r"phalloid|lifeact|actin", "ridges", "actin"),
+    (r"collagen|\bshg\b", "ridges", "collagen"),
+    (r"vimentin|keratin|filament|fibr", "ridges", "filaments"),
+    (r"mitotracker|tom ?20|tmrm|tmre|\bmito|mitochond", "ridges", "mitochondria"),
+    (r"lyso|lamp ?[12]\b", "dots", "lysosomes"),
+    (r"vesic|endosom|peroxi|\brab\d", "dots", "vesicles"),
+    (r"foci|focus|spot|puncta|gamma ?h2ax|53bp1|fish", "dots", "spots"),
+    (r"eosin", "ridges", "stroma"),
+    (r"\bdab\b", "plateau", "DAB positive"),
+    (r"membrane|\bwga\b|cellmask", "plateau", "membranes"),
+    (r"cytopl|cfse|calcein", "plateau", "cytoplasm"),
+)
+_SIGNALS = tuple((re.compile(rx, re.IGNORECASE), enc, role) for rx, enc, role in SIGNALS)
 
+
+def signal_role(name: str) -> tuple[str, str] | None:
+    """(encoding, role in words) of a channel or stain named `name`, from SIGNALS; None when the
+    name says nothing of what is labelled (a fluorescent protein, a filter, "channel 1")."""
+    for rx, enc, role in _SIGNALS:
+        if rx.search(name):
+            return enc, role
+    return None
 
 @dataclass(frozen=True)
 class ChannelImage:
@@ -67,7 +94,8 @@ class KeyEntry:
 class ChannelChoice:
     name: str
     encoding: str
-    why: str  # "name", "wavelength", "shape" or "asked"
+    why: str  # "name", "wavelength", "colour", "shape", "distinct", "asked" or "stain"
+    role: str = ""  # what it shows, in words, when its name, wavelength or colour says ("nuclei"); "" by shape
 
 
 @dataclass
@@ -101,10 +129,40 @@ def parse_assignments(text: str | None) -> dict[str, str]:
 
 
 def _by_name(name: str) -> str | None:
-    for rx, enc in ((_NUCLEAR, "domes"), (_FILAMENT, "ridges"), (_SPOTS, "dots"), (_DIFFUSE, "plateau")):
-        if rx.search(name):
-            return enc
-    return None
+    found = signal_role(name)
+    return found[0] if found else None
+
+
+def marker_in_title(title: str, channels: list[ChannelImage]) -> dict[str, tuple[str, str]]:
+    """{channel name: (encoding, role)} for the one channel whose own name, wavelength and colour
+    say nothing, when the file's title (its name, "dapi_tubulin") names exactly one marker that
+    no channel's name already does: "fluo_dapi_tubulin" with channels DAPI and EGFP makes EGFP
+    microtubules. Anything less certain (two such channels, two unused markers) gives {}."""
+    import re as _re
+
+    named = {signal_role(c.name)[1] for c in channels if signal_role(c.name)}
+    if any(_by_wavelength(*_wavelengths(c)) for c in channels if not signal_role(c.name)):
+        named.add("nuclei")  # a DAPI-like wavelength already says which channel the nuclei are
+    unknown = [c for c in channels if signal_role(c.name) is None and _by_wavelength(*_wavelengths(c)) is None
+               and c.name not in ("red", "green", "blue")]
+    found = []
+    for token in _re.split(r"[^a-z0-9]+", title.lower()):
+        role = signal_role(token) if token else None
+        if role and role[1] not in named and role not in found:
+            found.append(role)
+    return {unknown[0].name: found[0]} if len(unknown) == 1 and len(found) == 1 else {}
+
+
+_LIGHT_IN_NAME = re.compile(r"\b(?:led|laser|ex|exc)[\s_-]*(\d{3})(?:\s*nm)?\b|\b(\d{3})\s*nm\b", re.IGNORECASE)
+
+
+def _wavelengths(c: ChannelImage) -> tuple[float | None, float | None]:
+    """(excitation, emission) nm of a channel: the file's, else an excitation its name gives
+    ("LED385", "Laser 405", "405 nm": the light source, not a dye)."""
+    if c.excitation_nm is not None or c.emission_nm is not None:
+        return c.excitation_nm, c.emission_nm
+    m = _LIGHT_IN_NAME.search(c.name)
+    return (float(m.group(1) or m.group(2)), None) if m else (None, None)
 
 
 def _by_wavelength(ex: float | None, em: float | None) -> str | None:
@@ -275,6 +333,20 @@ def by_shape(shape: Shape) -> str:
     return shape_ranking(shape)[0]
 
 
+SHEET_EPS = 0.01  # the darkest signal the log scale tells apart (0..1 channel values)
+
+
+def sheet_foreground(img: np.ndarray) -> np.ndarray:
+    """Where a channel has signal over its dark ground, on a log scale (Otsu of log(value + 0.01),
+    lightly smoothed): a fluorescent sheet's dim cells as well as its bright ones, not its gaps."""
+    img = np.asarray(img, np.float64)
+    if float(img.max() - img.min()) < 1e-6:
+        return np.zeros(img.shape, bool)
+    smooth = np.log(np.clip(filters.gaussian(img, 1.0), 0, None) + SHEET_EPS)
+    mask = smooth > filters.threshold_otsu(smooth)
+    return morphology.remove_small_objects(mask, max_size=8)
+
+
 def foreground(img: np.ndarray) -> np.ndarray:
     """Where the channel has signal: Otsu threshold of the lightly smoothed channel, small specks dropped."""
     img = np.asarray(img, np.float64)  # one definition, whatever the channel's dtype
@@ -297,8 +369,10 @@ def some_names(names: list[str], most: int = 5) -> str:
 
 def choose(channels: list[ChannelImage], assigned: dict[str, str], mm_per_px: float,
            max_channels: int = DEFAULT_MAX_CHANNELS,
-           masks: dict[str, np.ndarray] | None = None, stretch: float = 1.0) -> tuple[list[ChannelChoice], list[str]]:
-    """An encoding for each channel kept; a note when some are left out. `masks`: each channel's
+           masks: dict[str, np.ndarray] | None = None, stretch: float = 1.0,
+           title: str = "") -> tuple[list[ChannelChoice], list[str]]:
+    """An encoding for each channel kept; a note when some are left out. `title`: the file's name,
+    whose marker words may name the one channel nothing else names (marker_in_title). `masks`: each channel's
     foreground() by name, when already found. `stretch` > 1: an axial section, its shapes measured
     with the rows shrunk by it (squeeze_rows), so points the PSF drew long are not taken for lines."""
     notes = []
@@ -324,13 +398,25 @@ def choose(channels: list[ChannelImage], assigned: dict[str, str], mm_per_px: fl
                           f"({', '.join(c.name for c in kept)}); left out: {some_names(dropped)}. "
                           f"Choose others with `channels`."))
     out = []
+    rgb = sorted(c.name for c in channels) == ["blue", "green", "red"]
+    titled = marker_in_title(title, channels) if title else {}
     for c in kept:
-        enc, why = _by_name(c.name), "name"
-        if enc is None:
-            enc, why = _by_wavelength(c.excitation_nm, c.emission_nm), "wavelength"
-        if enc is None:
-            enc, why = by_shape(shapes[c.name]), "shape"
-        out.append(ChannelChoice(c.name, enc, why))
+        named = signal_role(c.name)
+        if named is not None:
+            out.append(ChannelChoice(c.name, named[0], "name", named[1]))
+            continue
+        if c.name in titled:
+            enc, role = titled[c.name]
+            out.append(ChannelChoice(c.name, enc, "file name", role))
+            continue
+        enc = _by_wavelength(*_wavelengths(c))
+        if enc is not None:
+            out.append(ChannelChoice(c.name, enc, "wavelength", "nuclei"))
+        elif rgb and c.name == "blue":
+            # an RGB fluorescence composite without names: by the usual colours, blue is the nuclear stain
+            out.append(ChannelChoice(c.name, "domes", "colour", "nuclei"))
+        else:
+            out.append(ChannelChoice(c.name, by_shape(shapes[c.name]), "shape"))
     # round blobs much smaller than another channel's are spots beside its nuclei
     dome_diams = [shapes[c.name].blob_diam_mm for c in out if c.encoding == "domes"]
     out = [ChannelChoice(c.name, "dots", "shape") if c.encoding == "domes" and c.why == "shape"
@@ -385,6 +471,10 @@ def encode(img: np.ndarray, encoding: str, mm_per_px: float, relief_mm: float, a
     if encoding == "plateau":
         edge = mask & ~ndi.binary_erosion(mask, iterations=max(1, round(0.5 / mm_per_px)))
         return np.where(edge, OUTLINE_SHARE * relief_mm, np.where(mask, top, 0.0)), mask
+    if encoding == "ridges":
+        # a fibrous area (a sheet of cells' cytoskeleton): its extent is where there is signal over
+        # the dark ground, which spans decades; Otsu of the brightness keeps only the brightest cytoplasm
+        mask = mask | sheet_foreground(img)
     spec = spec_for(TEXTURE_OF[encoding], angle_deg)
     tex = pattern(spec, img.shape, mm_per_px)
     # Structures narrower than the texture's pitch (a filament, a spot) are their own ridge or dot:
@@ -397,7 +487,7 @@ def encode(img: np.ndarray, encoding: str, mm_per_px: float, relief_mm: float, a
 
 def channel_relief(channels: list[ChannelImage], *, mm_per_px: float, base_mm: float, relief_mm: float,
                    assigned: dict[str, str] | None = None, max_channels: int = DEFAULT_MAX_CHANNELS,
-                   section: str = "") -> ChannelRelief:
+                   section: str = "", title: str = "") -> ChannelRelief:
     """Heights in mm (base included) where each chosen channel's region carries its texture.
 
     `section` "XZ" (or "YZ"): the picture is an axial section, its rows along Z; shapes are
@@ -424,7 +514,11 @@ def channel_relief(channels: list[ChannelImage], *, mm_per_px: float, base_mm: f
         notes.append(Text(said))
     if stretch < AXIAL_STRETCH_MIN:
         stretch = 1.0
-    choices, chose_notes = choose(channels, assigned or {}, mm_per_px, max_channels, found, stretch)
+    choices, chose_notes = choose(channels, assigned or {}, mm_per_px, max_channels, found, stretch, title)
+    for ch in choices:
+        if ch.why == "file name":
+            chose_notes.append(Text(f"The channel {ch.name!r} names no marker of its own; the file's name does "
+                                    f"({ch.role}), so it is printed as {ch.role}: {ch.encoding}. Say otherwise with `channels`."))
     notes += chose_notes
     by_name = {c.name: c for c in channels}
     heights = np.zeros(channels[0].image.shape)
@@ -478,26 +572,88 @@ def stain_channels(rgb: np.ndarray) -> list[ChannelImage]:
     return out
 
 
-STAIN_ENCODING = {"haematoxylin": "domes", "eosin": "ridges", "DAB": "plateau"}
-STAIN_LABEL = {"haematoxylin": "nuclei", "eosin": "tissue", "DAB": "DAB positive"}
+STAIN_ENCODING = {n: signal_role(n)[0] for n in ("haematoxylin", "eosin", "DAB")}  # from the one table, SIGNALS
+STAIN_LABEL = {n: signal_role(n)[1] for n in ("haematoxylin", "eosin", "DAB")}
+STAIN_TISSUE = 0.15  # haematoxylin + eosin (each 0..1) of tissue; glass and lumens (white) are under it
+STROMA_TOP_SHARE = 0.35  # the stroma's ridges: a low texture (1.05 mm at 3 mm), under the nuclei
+DOME_RISE_MM = 1.0  # a nuclei region reaches its full height 1 mm in from its edge (crowded nuclei merge into one region)
 
 
-def stain_relief(channels: list[ChannelImage], *, mm_per_px: float, base_mm: float, relief_mm: float) -> ChannelRelief:
-    """H&E / IHC: nuclei domes, eosin tissue as low ridges, DAB-positive regions raised, white at base."""
+def glass_weight(rgb: np.ndarray) -> np.ndarray:
+    """0..1, how much each pixel of a brightfield slide is white glass or a lumen: bright (mean RGB
+    ≥ 0.8) and colourless (max − min < 0.1), as relief/channel_auto.py counts white. Measured on the
+    RGB, not on the stain densities: an off-white glass tile is white, although its densities,
+    stretched, are not zero."""
+    x = rgb[..., :3].astype(np.float64)
+    x = x / (255.0 if x.max() > 1.5 else 1.0)
+    lum = x.mean(axis=2)
+    chroma = x.max(axis=2) - x.min(axis=2)
+    return np.clip((lum - 0.75) / 0.1, 0, 1) * np.clip((0.14 - chroma) / 0.08, 0, 1)
+
+
+NUCLEAR_OD = 0.035  # haematoxylin density (rgb2hed) a nucleus reaches: CMU-1's epidermis 0.11, the carcinoma
+# tile's tissue median 0.049, the stroma tile's nuclei 0.07; a frozen section with almost no haematoxylin (TCGA-CR-7395,
+# its tissue's 99th percentile 0.029) has none that stand out, whatever the stretch makes of its faint tint
+
+
+def nuclear_weight(rgb: np.ndarray) -> np.ndarray:
+    """0..1, how clearly each pixel's haematoxylin density reaches a nucleus's (NUCLEAR_OD ± 0.01)."""
+    x = rgb[..., :3].astype(np.float64)
+    x = x / (255.0 if x.max() > 1.5 else 1.0)
+    h = color.rgb2hed(np.clip(x, 0, 1))[..., 0]
+    return np.clip((h - (NUCLEAR_OD - 0.01)) / 0.02, 0, 1)
+
+
+def stain_relief(channels: list[ChannelImage], *, mm_per_px: float, base_mm: float, relief_mm: float,
+                 glass: np.ndarray | None = None, stained: np.ndarray | None = None) -> ChannelRelief:
+    """H&E / IHC (issue 32): nuclei (haematoxylin) raised as domes, stroma (eosin) a low ridge
+    texture, DAB-positive regions a plateau, glass and lumens (white) at the base, whatever the
+    share of glass.
+
+    Nuclei are where haematoxylin stands above the tissue's own Otsu threshold (haematoxylin tints
+    all tissue; a tile crowded with nuclei has them over half its tissue, a stroma tile a few
+    percent); each region rises to its full height within DOME_RISE_MM of its edge, so a field of
+    crowded nuclei reads as a high field with grooves, not as one low hill. `glass`: where the
+    slide is white (glass_weight ≥ 0.5, on the print grid); else tissue is where the densities are.
+    `stained`: where haematoxylin reaches a nucleus's density (nuclear_weight ≥ 0.5, on the grid);
+    the channels, stretched to 0..1, no longer say how much stain there is.
+    """
+    if relief_mm * STROMA_TOP_SHARE < MIN_FEATURE_MM and relief_mm < 1.7:
+        raise ParameterError(Text(f"`relief_mm` {relief_mm:g} mm is too low for stain textures (each needs "
+                                  f"≥{MIN_FEATURE_MM:g} mm); use at least 1.7 mm."))
     h, e = channels[:2]
-    tissue = (e.image + h.image) > 0.15
-    # haematoxylin tints all tissue: nuclei are where it stands clearly above the tissue's median
-    ref = float(np.median(h.image[tissue])) if tissue.any() else 0.0
-    top = float(np.percentile(h.image, 99.5))
-    h = ChannelImage("haematoxylin", np.clip((h.image - ref) / max(top - ref, 1e-6), 0, 1))
-    assigned = {"haematoxylin": "domes", "eosin": "ridges"}
+    tissue = (e.image + h.image) > STAIN_TISSUE if glass is None else ~glass
+    tissue = morphology.remove_small_objects(tissue, max_size=8)
     notes = []
-    chans = [h, ChannelImage("eosin", np.where(tissue, np.maximum(e.image, 0.5), 0.0))]
+    nuclei = np.zeros(tissue.shape, bool)
+    if tissue.sum() > 16 and float(np.ptp(h.image[tissue])) > 1e-6:
+        smooth = filters.gaussian(h.image, 1.0)
+        nuclei = tissue & (smooth > filters.threshold_otsu(smooth[tissue]))
+        if stained is not None:
+            nuclei &= stained
+        nuclei = morphology.remove_small_objects(nuclei, max_size=8)
+    stroma = tissue & ~nuclei
+    top = relief_mm
+    heights = np.zeros(tissue.shape)
+    # stroma: a low ridge texture on a 0.5 mm plinth (ridges felt as a texture, not as shape)
+    stroma_top = max(STROMA_TOP_SHARE * relief_mm, MIN_FEATURE_MM + 0.3)
+    spec = spec_for(TEXTURE_OF["ridges"], 0.0)
+    tex = pattern(spec, tissue.shape, mm_per_px)
+    heights = np.where(stroma, MIN_FEATURE_MM + (stroma_top - MIN_FEATURE_MM) * tex, heights)
+    masks = {"haematoxylin": nuclei, "eosin": stroma}
+    choices = [ChannelChoice("haematoxylin", "domes", "stain"), ChannelChoice("eosin", "ridges", "stain")]
     if len(channels) > 2:
-        assigned["dab"] = "plateau"
-        chans.append(channels[2])
+        dab = foreground(channels[2].image) & tissue
+        plateau = OUTLINE_SHARE * relief_mm
+        heights = np.where(dab, plateau, heights)
+        masks["DAB"] = dab
+        choices.append(ChannelChoice("DAB", "plateau", "stain"))
     else:
         notes.append(Text("No DAB stain found (an H&E slide): haematoxylin and eosin are printed."))
-    res = channel_relief(chans, mm_per_px=mm_per_px, base_mm=base_mm, relief_mm=relief_mm, assigned=assigned)
-    res.notes[:0] = notes
-    return res
+    # nuclei: domes over everything else, rising fully within DOME_RISE_MM of their edge
+    dist = ndi.distance_transform_edt(nuclei)
+    dome = np.sqrt(np.clip(dist / max(DOME_RISE_MM / mm_per_px, 1.0), 0, 1))
+    heights = np.where(nuclei, MIN_FEATURE_MM + (top - MIN_FEATURE_MM) * dome, heights)
+    if not nuclei.any():
+        notes.append(Text("No nuclei stand out of the tissue's haematoxylin: the tissue is printed as stroma."))
+    return ChannelRelief(base_mm + heights, choices, masks, notes)

@@ -1,0 +1,160 @@
+"""Issue 32: a lattice is raised column by column, evenly, and named with its pitch; one object is
+one dome (a member is split only at a real neck); the description never contradicts itself.
+
+Synthetic pictures with exact truth, 100 mm wide, 3 mm relief; every figure measured on the
+heights in mm on the print.
+"""
+
+import re
+
+import numpy as np
+import pytest
+from scipy import ndimage
+
+from tamp_os.relief.content import MIN_PITCH_MM
+from tamp_os.relief.preprocess import prepare
+from tamp_os.relief.styles import make_relief
+
+BASE, RELIEF = 1.0, 3.0
+
+
+def prep(image):
+    rows, cols = image.shape
+    return prepare(image, None, rows=rows, cols=cols, target_aspect=(rows - 1) / (cols - 1), fit="stretch",
+                   low_pct=2.0, high_pct=98.0, sigma_px=1.2, invert=False, flip_x=False).image
+
+
+def pitch(image):
+    return 100.0 / (image.shape[1] - 1)
+
+
+def content(image):
+    return make_relief(prep(image), style="content", mm_per_px=pitch(image), base_mm=BASE, relief_mm=RELIEF, layer_mm=0.12)
+
+
+def lattice(rows=192, cols=256, pitch_px=10.0, dim=(), brighter_below=None, seed=0):
+    """A square lattice of Gaussian columns (sigma a tenth of the pitch... a fifth) on a dark
+    ground with noise: (image, column centres (n, 2), bool per column: dim). `dim`: indices of
+    columns drawn at 40 % of the others' brightness; `brighter_below`: rows below this are a
+    brighter layer (columns 1.6 × as bright)."""
+    rng = np.random.default_rng(seed)
+    yy, xx = np.mgrid[0:rows, 0:cols].astype(np.float32)
+    centres = np.array([(y, x) for y in np.arange(pitch_px / 2, rows - pitch_px / 4, pitch_px)
+                        for x in np.arange(pitch_px / 2, cols - pitch_px / 4, pitch_px)])
+    image = np.full((rows, cols), 0.1, np.float32)
+    amp = np.ones(len(centres), np.float32)
+    amp[list(dim)] = 0.4
+    if brighter_below is not None:
+        amp[centres[:, 0] > brighter_below] *= 1.6
+    s = pitch_px / 5
+    for (cy, cx), a in zip(centres, amp):
+        r0, r1 = int(max(0, cy - 3 * s)), int(min(rows, cy + 3 * s + 1))
+        c0, c1 = int(max(0, cx - 3 * s)), int(min(cols, cx + 3 * s + 1))
+        image[r0:r1, c0:c1] += 0.5 * a * np.exp(-((yy[r0:r1, c0:c1] - cy) ** 2 + (xx[r0:r1, c0:c1] - cx) ** 2) / (2 * s * s))
+    image += 0.02 * rng.standard_normal((rows, cols)).astype(np.float32)
+    return np.clip(image, 0, 1), centres, np.isin(np.arange(len(centres)), list(dim))
+
+
+def column_lifts(h, centres, mm, pitch_px):
+    """Per true column: the highest point within a quarter pitch of its centre minus the median
+    of the troughs around it (the ring between 0.4 and 0.6 of a pitch from its centre)."""
+    yy, xx = np.mgrid[0:h.shape[0], 0:h.shape[1]]
+    out = []
+    for cy, cx in centres:
+        d = np.hypot(yy - cy, xx - cx)
+        out.append(h[d <= pitch_px / 4].max() - np.median(h[(d >= 0.4 * pitch_px) & (d <= 0.6 * pitch_px)]))
+    return np.array(out)
+
+
+@pytest.mark.timeout(60)
+def test_a_lattice_with_dim_columns_raises_every_column_evenly_and_says_its_pitch():
+    image, centres, dim = lattice(dim=range(3, 400, 37))
+    made = content(image)
+    mm, h = pitch(image), made.heights_mm
+    assert made.content_kind == "lattice", made.reason
+    lifts = column_lifts(h, centres, mm, 10.0)
+    inner = (centres[:, 0] > 5) & (centres[:, 0] < image.shape[0] - 6) & (centres[:, 1] > 5) & (centres[:, 1] < image.shape[1] - 6)
+    assert (lifts[inner] >= 0.5).mean() >= 0.95, np.round(np.sort(lifts[inner])[:10], 2)
+    # Evenly: the dim columns as high as the bright ones (within a layer step of 0.5 mm).
+    assert dim[inner].sum() >= 8
+    assert abs(np.median(lifts[inner & dim]) - np.median(lifts[inner & ~dim])) <= 0.3
+    assert np.percentile(lifts[inner], 90) - np.percentile(lifts[inner], 10) <= 0.5
+    said = re.search(r"a lattice of ([0-9.]+) mm pitch", made.reason)
+    assert said and float(said.group(1)) == pytest.approx(10.0 * mm, rel=0.1), made.reason
+    # The check counts the columns against the picture, once.
+    assert made.checks and made.checks[0].startswith("A lattice of ") and "stand at least 0.5 mm" in made.checks[0]
+
+
+@pytest.mark.timeout(60)
+def test_a_brighter_layer_of_columns_stands_a_feelable_step_higher():
+    image, centres, _ = lattice(brighter_below=130)
+    made = content(image)
+    mm, h = pitch(image), made.heights_mm
+    assert made.content_kind == "lattice", made.reason
+    lifts = column_lifts(h, centres, mm, 10.0)
+    assert (lifts >= 0.5).mean() >= 0.95
+    yy, xx = np.mgrid[0:h.shape[0], 0:h.shape[1]]
+    tops = np.array([h[np.hypot(yy - cy, xx - cx) <= 2.5].max() for cy, cx in centres])
+    below, above = centres[:, 0] > 130, (centres[:, 0] < 120) & (centres[:, 0] > 5)
+    assert np.median(tops[below]) - np.median(tops[above]) >= 0.5
+    assert any("brighter layer" in c for c in made.checks)
+
+
+@pytest.mark.timeout(60)
+def test_a_lattice_finer_than_a_fingertip_says_what_width_resolves_it():
+    image, centres, _ = lattice(pitch_px=6.0)  # 2.4 mm on the print
+    made = content(image)
+    assert made.content_kind == "lattice", made.reason
+    assert (column_lifts(made.heights_mm, centres, pitch(image), 6.0) >= 0.5).mean() >= 0.9
+    said = " ".join(made.checks)
+    width = re.search(r"a wider print \(`width_mm` (\d+)\)", said)
+    assert width, said
+    assert int(width.group(1)) >= 100 * MIN_PITCH_MM / 2.4 - 1
+
+
+def discs_and_dumbbells(seed=1):
+    """16 members: 4 large discs whose shading is mottled (each one object), 3 pairs of touching
+    discs and 3 dumbbells whose lobes join by a neck a quarter of their diameter (two each)."""
+    rng = np.random.default_rng(seed)
+    rows, cols = 192, 256
+    yy, xx = np.mgrid[0:rows, 0:cols].astype(np.float32)
+    mask = np.zeros((rows, cols), bool)
+    for cy, cx in ((35, 35), (35, 110), (150, 35), (150, 110)):  # large mottled discs, 11 mm across
+        mask |= np.hypot(yy - cy, xx - cx) <= 14
+    for cy, cx in ((30, 170), (95, 170), (160, 170)):  # touching pairs, 6.3 mm discs
+        mask |= (np.hypot(yy - cy, xx - cx) <= 8) | (np.hypot(yy - cy, xx - cx - 16) <= 8)
+    for cy, cx in ((95, 40), (95, 110)):  # dumbbells: lobes 8 px in radius, 30 px apart, neck 4 px wide
+        mask |= (np.hypot(yy - cy, xx - cx) <= 8) | (np.hypot(yy - cy, xx - cx - 30) <= 8)
+        mask |= (np.abs(yy - cy) <= 2) & (xx >= cx) & (xx <= cx + 30)
+    cy, cx = 95, 215
+    mask |= (np.hypot(yy - cy, xx - cx) <= 8) | (np.hypot(yy - cy - 30, xx - cx) <= 8)
+    mask |= (np.abs(xx - cx) <= 2) & (yy >= cy) & (yy <= cy + 30)
+    mottle = ndimage.gaussian_filter(rng.standard_normal((rows, cols)).astype(np.float32), 3.0)
+    mottle /= np.abs(mottle).max()
+    image = np.where(mask, 0.75 + 0.2 * mottle, 0.1)
+    image = ndimage.gaussian_filter(image.astype(np.float32), 0.8) + 0.01 * rng.standard_normal((rows, cols))
+    return np.clip(image, 0, 1).astype(np.float32)
+
+
+@pytest.mark.timeout(60)
+def test_touching_discs_and_dumbbells_are_split_only_at_their_necks():
+    made = content(discs_and_dumbbells())
+    assert made.content_kind == "members", made.reason
+    assert made.object_count == 16, made.object_count
+
+
+@pytest.mark.timeout(120)
+def test_the_description_of_a_lattice_print_states_it_once_with_its_pitch_in_nm_and_mm():
+    from tamp_os.lithograph.pipeline import make_lithograph
+    from tamp_os.lithograph.report import describe
+
+    image, _, _ = lattice(cols=256)
+    litho = make_lithograph((image * 65535).astype(np.uint16), relief_style="content", scale_bar="off",
+                            pixel_size=3.9e-11)  # 10 px = 0.39 nm: an atomic lattice
+    text = describe(litho.report, litho.params, "lattice.tif")
+    assert litho.report.content_kind == "lattice"
+    assert "felt as texture" not in text and "stand only" not in text and "(median)" not in text
+    assert re.search(r"[0-9.]+ mm apart on the print \(0\.3[0-9]* nm in the sample\)", text), text
+    # One count of columns: every number said before "columns" is the same.
+    counts = {int(m) for m in re.findall(r"(\d+) columns", text) if "brighter layer" not in text}
+    assert len(counts) <= 1, counts

@@ -38,6 +38,8 @@ NECK_MM = 0.5  # members joined by a neck this much narrower than both are two m
 # of two touching discs is always shorter; a particle cracked in halves or quarters by noise in its
 # shading has borders 1.2-2 times as wide) or a groove of shading between them (NECK_SADDLE).
 NECK_SHARE = 1.0
+CRACK_SHARE = 1.5  # a border this many times the smaller one's inscribed diameter is a crack, whatever the shading,
+CHIP_SHARE = 0.5  # when the smaller piece is at most this share of the larger (a chip of it; touching particles are alike)
 NECK_SADDLE = 0.8  # and their shading has no groove between them: the saddle stands this share of the lower peak
 
 
@@ -263,16 +265,30 @@ def neckless_pairs(labels: np.ndarray, top: np.ndarray | None = None) -> tuple[n
     dist = ndimage.distance_transform_edt(inside)
     diameter = 2.0 * (label_max(dist, labels, n) + 0.5)
     a, b = pair // (n + 1), pair % (n + 1)
-    wide = width > NECK_SHARE * np.minimum(diameter[a], diameter[b])
+    ratio = width / np.minimum(diameter[a], diameter[b])
+    wide = ratio > NECK_SHARE
     if top is not None:
         peak = label_max(top, labels, n)
         saddle = label_max(np.concatenate(levels), where.reshape(-1), pair.size - 1, -1.0)
-        wide &= saddle >= NECK_SADDLE * np.minimum(peak[a], peak[b])
+        area = np.bincount(labels.ravel(), minlength=n + 1)
+        chip = np.minimum(area[a], area[b]) <= CHIP_SHARE * np.maximum(area[a], area[b])
+        wide &= (saddle >= NECK_SADDLE * np.minimum(peak[a], peak[b])) | ((ratio > CRACK_SHARE) & chip)
     return a[wide], b[wide]
 
 
-def merge_without_neck(labels: np.ndarray, top: np.ndarray | None = None) -> np.ndarray:
-    """Members split where their outline has no neck (neckless_pairs) joined again, renumbered."""
+def merge_without_neck(labels: np.ndarray, top: np.ndarray | None = None, rounds: int = 1) -> np.ndarray:
+    """Members split where their outline has no neck (neckless_pairs) joined again, renumbered;
+    again on the joined ones (a particle cracked in many pieces joins piece by piece), up to
+    `rounds` times."""
+    for _ in range(rounds):
+        joined = _merge_once(labels, top)
+        if joined is labels:
+            break
+        labels = joined
+    return labels
+
+
+def _merge_once(labels: np.ndarray, top: np.ndarray | None) -> np.ndarray:
     a, b = neckless_pairs(labels, top)
     if a.size == 0:
         return labels

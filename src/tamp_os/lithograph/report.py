@@ -419,7 +419,9 @@ def _layout_sentence(report: Report) -> str | None:
         if not layout.pieces:  # domes under a fingertip's area each: the check sentences count them (one count)
             return None
         same = report.legibility is not None and report.legibility.object_count == len(layout.pieces)
-        noun = "dome" if same else "raised group"
+        if not same:  # touching members grouped: where they stand, without a second count beside the check's
+            return layout_sentence(layout, "raised group", counted=True)
+        noun = "dome"
 
     counted = report.relief_style == "objects" and report.legibility is not None and report.legibility.object_count == len(layout.pieces)
     return layout_sentence(layout, noun, counted=counted)
@@ -430,8 +432,8 @@ _CONTENT_RAISED = {
     "members": ("Every member of the population found in the picture (particles, beads, cells or nuclei, dim or "
                 "bright alike) stands up as a dome by the same lift, up to {up} above a flat ground; touching "
                 "members are parted by a groove."),
-    "lattice": ("The picture is a lattice (atomic columns or a grid of dots): every column stands up as a small dome of "
-                "the same height, up to {up} above a flat ground, in a regular grid{pitch}."),
+    "lattice": ("The picture is a lattice (atomic columns or a grid of dots): every column stands up as a small, "
+                "rounded dome of the same height over a flat ground, in a regular grid{pitch}."),
     "lines": ("The picture's lines (boundaries, membranes or drawn strokes, whether dark or bright in the image) "
               "stand up as raised lines about {line_mm} mm high over a flat ground; the areas they enclose stay low."),
     "grains": ("The grains, told apart by their weak contrast, stand up as a few flat plateaus above the mount, "

@@ -177,6 +177,7 @@ class LatticeFound:
     upper: int = 0
     step_mm: float = 0.0
     drawn: bool = True
+    dome_mm: float = 0.0  # each column's dome height over its ground (the plateau under a brighter layer)
 
 
 @dataclass(frozen=True)
@@ -691,31 +692,34 @@ def _as_lattice(shape: tuple[int, int], x: np.ndarray, x_pitch_mm: float, pitch_
         return ContentMade(np.full(shape, 0.5, np.float32), "lattice", None, reason, (), lattice=found)
     smooth = ndimage.gaussian_filter(x.astype(np.float32), max(0.5, 0.12 * spacing_mm / x_pitch_mm), mode="nearest")
     upper = _layers(smooth[tuple(peaks.T)], peaks, smooth[tuple(peaks.T)] - float(np.percentile(smooth, 5)))
+    radius = max(1.0, COLUMN_SHARE * spacing_mm / pitch_mm / 2)  # on the working grid
     # The columns on the working grid (found on a finer picture, if so).
     scale = (np.array(shape, np.float64) - 1) / (np.array(x.shape, np.float64) - 1)
     peaks = np.clip(np.rint(peaks * scale).astype(np.int64), 0, np.array(shape) - 1)
-    step_mm = min(max(GRAIN_STEP_MM, relief_mm / 4), relief_mm / 2) if upper is not None and relief_mm > 0 else 0.0
-    lift = np.ones(len(peaks) + 1, np.float32)
+    # A brighter layer stands on a plateau a step higher (the cells of its columns); every column
+    # is a domed cap of one height (as a braille dot), at most PIN_ASPECT times its radius tall:
+    # a 3 mm spike on a 1 mm base is a prick, not a dome, and does not print.
+    step_mm = min(max(GRAIN_STEP_MM, relief_mm / 4), relief_mm / 3) if upper is not None and relief_mm > 0 else 0.0
+    dome_mm = min(relief_mm - step_mm, PIN_ASPECT * (radius + 0.5) * pitch_mm)
+    on_plateau = np.zeros(len(peaks) + 1, np.float32)
     if upper is not None:
-        lift[1:][~upper] = 1.0 - step_mm / relief_mm
-    lift[0] = 0.0
+        on_plateau[1:][upper] = step_mm
     ids = np.zeros(shape, np.int32)
     ids[tuple(peaks.T)] = np.arange(1, len(peaks) + 1)
     dist, (iy, ix) = ndimage.distance_transform_edt(ids == 0, return_indices=True)
     owner = ids[iy, ix]
-    radius = max(1.0, COLUMN_SHARE * spacing_mm / pitch_mm / 2)
-    # A domed cap (as a braille dot): full lift at the column, down to the ground at radius + 0.5 px.
-    cap = np.sqrt(np.clip(1.0 - (dist / (radius + 0.5)) ** 2, 0.0, 1.0))
-    relief01 = (lift[owner] * cap).astype(np.float32)
+    cap = np.sqrt(np.clip(1.0 - (dist / (radius + 0.5)) ** 2, 0.0, 1.0))  # down to the ground at radius + 0.5 px
+    relief01 = ((on_plateau[owner] + dome_mm * cap) / max(relief_mm, 1e-9)).astype(np.float32)
     labels = np.where(dist <= radius, owner, 0).astype(np.int32)
     found = LatticeFound(len(peaks), spacing_mm, len(fine_peaks), fine_spacing_mm, 1 if upper is None else 2,
-                         0 if upper is None else int(upper.sum()), step_mm)
-    what = f"a lattice of {spacing_mm:.1f} mm pitch on the print: {len(peaks)} columns, each raised as a dome of the same lift"
+                         0 if upper is None else int(upper.sum()), step_mm, dome_mm=dome_mm)
+    what = (f"a lattice of {spacing_mm:.1f} mm pitch on the print: {len(peaks)} columns, each raised as a dome {dome_mm:.1f} mm "
+            f"high and {2 * (radius + 0.5) * pitch_mm:.1f} mm across")
     if len(peaks) < len(fine_peaks):
         what += (f" (the brighter of the picture's {len(fine_peaks)} columns: those {fine_spacing_mm:.1f} mm apart are too close "
                  f"to print apart on a {pitch_mm:.1f} mm grid)")
     if upper is not None:
-        what += f"; a brighter layer of {int(upper.sum())} columns stands {step_mm:.1f} mm higher"
+        what += f"; a brighter layer of {int(upper.sum())} columns stands on a plateau {step_mm:.1f} mm high"
     notes = []
     if fine_spacing_mm < MIN_PITCH_MM or len(peaks) < len(fine_peaks):
         notes.append(f"content: the lattice's columns are {fine_spacing_mm:.1f} mm apart on the print, under the {MIN_PITCH_MM:g} mm "
@@ -910,7 +914,7 @@ def lattice_sentences(heights_mm: np.ndarray, made: ContentMade, mm_per_px: floa
     out = [f"A lattice of {n} columns {found.spacing_mm:.1f} mm apart: {felt} of them ({felt / max(n, 1):.0%}) stand at least "
            f"{FELT_MM:g} mm over the troughs beside them (median {float(np.median(lifts)):.1f} mm, lowest {float(lifts.min()):.1f} mm)."]
     if found.layers == 2:
-        out.append(f"The {found.upper} columns of the brighter layer stand {found.step_mm:.1f} mm higher than the others: a step a "
+        out.append(f"The {found.upper} columns of the brighter layer stand on a plateau {found.step_mm:.1f} mm high: a step a "
                    f"finger finds at the interface.")
     if felt < 0.9 * found.picture_columns:
         out.append(f"The picture shows about {found.picture_columns} columns {found.picture_spacing_mm:.1f} mm apart; the print raises "

@@ -190,3 +190,24 @@ def test_sintered_particles_with_mottled_shading_are_one_dome_each():
     made = content(image)
     assert count == 12 and made.content_kind == "members", made.reason
     assert made.object_count == count, made.object_count
+
+
+@pytest.mark.timeout(120)
+def test_columns_too_close_to_print_apart_are_said_missing_with_the_width_that_prints_them():
+    """A 1.07 mm lattice (6510 columns) on a 0.39 mm print grid: the brighter columns at least
+    three grid points apart are raised, evenly, and the check says how many the picture shows."""
+    image, centres, _ = lattice(rows=768, cols=1024, pitch_px=11.0)
+    prepared = prepare(image, None, rows=192, cols=256, target_aspect=191 / 255, fit="stretch", low_pct=2.0, high_pct=98.0,
+                       sigma_px=1.2, invert=False, flip_x=False)
+    made = make_relief(prepared.image, style="content", mm_per_px=100 / 255, base_mm=BASE, relief_mm=RELIEF, layer_mm=0.12,
+                       fine=prepared.finer)
+    assert made.content_kind == "lattice", made.reason
+    said = " ".join(made.checks)
+    shown = re.search(r"The picture shows about (\d+) columns ([0-9.]+) mm apart; the print raises (\d+)", said)
+    assert shown, said
+    assert int(shown.group(1)) == pytest.approx(len(centres), rel=0.05)
+    assert float(shown.group(2)) == pytest.approx(11.0 * 100 / 1023, rel=0.1)
+    assert int(shown.group(3)) < 0.5 * len(centres)
+    assert re.search(r"a wider print \(`width_mm` (\d+)\)", said)
+    # The columns it raises stand evenly: every one at least 0.5 mm over its troughs.
+    assert said.startswith(f"A lattice of {shown.group(3)} columns") and "(100%)" in said

@@ -597,16 +597,18 @@ def _as_dense_field(blobs: BlobScale, picture: np.ndarray, pitch_mm: float, reli
     return ContentMade(relief01, "members", labels, reason, (note,))
 
 
-def find_columns(x: np.ndarray, pitch_mm: float, spacing_mm: float, noise: float) -> np.ndarray:
+def find_columns(x: np.ndarray, pitch_mm: float, spacing_mm: float, noise: float, apart_mm: float = 0.0) -> np.ndarray:
     """(n, 2) row, col of a lattice's columns on the working grid (content bright in `x`): the
     local maxima at least half a `spacing_mm` apart that stand COLUMN_CONTRAST of a typical
     column's contrast (its 75th percentile) and three noise deviations over the troughs within
-    three quarters of a spacing; dim columns stay, the noise in the troughs does not."""
+    three quarters of a spacing; dim columns stay, the noise in the troughs does not. With
+    `apart_mm`, only the brightest columns at least that far apart (a coarser sublattice)."""
     from skimage.feature import peak_local_max
 
     d_px = spacing_mm / pitch_mm
     smooth = ndimage.gaussian_filter(x.astype(np.float32), max(0.5, 0.12 * d_px), mode="nearest")
-    peaks = peak_local_max(smooth, min_distance=max(1, int(0.5 * d_px)), exclude_border=False)
+    apart = int(np.ceil(apart_mm / pitch_mm)) - 1 if apart_mm > 0 else 0
+    peaks = peak_local_max(smooth, min_distance=max(1, int(0.5 * d_px), apart), exclude_border=False)
     if len(peaks) == 0:
         return peaks
     trough = ndimage.minimum_filter(smooth, size=2 * int(np.ceil(0.75 * d_px)) + 1, mode="nearest")
@@ -646,20 +648,24 @@ def _layers(values: np.ndarray, peaks: np.ndarray, contrast: np.ndarray) -> np.n
 
 def _lattice_picture(work: np.ndarray, spectrum: Spectrum, fine, pitch_mm: float, width_mm: float, noise: float):
     """(picture, its pitch in mm, its Period, its noise) to find a lattice's columns on, or None:
-    the working grid when its spectrum is a lattice's (is_lattice); else, when the spectrum is
-    peaked but the print grid's blur has faded the columns (atomic columns 1.3-1.8 mm apart at
-    100 mm), the picture before that blur (Prepared.finer) on a grid twice as fine."""
-    if is_lattice(spectrum, width_mm):
-        return work, pitch_mm, spectrum.period, noise
-    if fine is None or spectrum.peaked < PEAK_SHARE:
-        return None
+    the working grid when its spectrum is a lattice's (is_lattice) with columns at least
+    2 * MIN_COLUMN_PX grid points apart; else, as the print grid's blur fades closer columns
+    (atomic columns 1.3-1.8 mm apart at 100 mm), the picture before that blur (Prepared.finer) on
+    a grid twice as fine, when its spectrum is a lattice's."""
+    on_work = (work, pitch_mm, spectrum.period, noise) if is_lattice(spectrum, width_mm) else None
+    # Columns fewer than 2 * MIN_COLUMN_PX grid points apart are faded by the print grid's blur:
+    # found on the finer picture when there is one.
+    if on_work is not None and (fine is None or spectrum.period.pitch_mm >= 2 * MIN_COLUMN_PX * pitch_mm):
+        return on_work
+    if fine is None:
+        return on_work
     picture = fine(2 * work.shape[1] - 1)
     if picture is None or picture.shape[1] < 2 * work.shape[1] - 1:
-        return None
+        return on_work
     fine_pitch_mm = width_mm / (picture.shape[1] - 1)
     found = lattice_spectrum(picture, fine_pitch_mm)
     if not is_lattice(found, width_mm):
-        return None
+        return on_work
     return picture, fine_pitch_mm, found.period, noise_level(picture.astype(np.float32))
 
 
@@ -678,7 +684,7 @@ def _as_lattice(shape: tuple[int, int], x: np.ndarray, x_pitch_mm: float, pitch_
     fine_spacing_mm = _spacing_px(fine_peaks) * x_pitch_mm
     peaks = fine_peaks
     if fine_spacing_mm < MIN_COLUMN_PX * pitch_mm:
-        peaks = find_columns(x, x_pitch_mm, MIN_COLUMN_PX * pitch_mm, noise)
+        peaks = find_columns(x, x_pitch_mm, period.pitch_mm, noise, apart_mm=MIN_COLUMN_PX * pitch_mm)
     spacing_mm = _spacing_px(peaks) * x_pitch_mm
     if peaks is fine_peaks and abs(period.pitch_mm - spacing_mm) <= 0.25 * spacing_mm:
         spacing_mm = fine_spacing_mm = period.pitch_mm  # the spectrum's period: finer than the grid's rounding

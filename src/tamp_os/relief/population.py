@@ -40,6 +40,7 @@ NECK_MM = 0.5  # members joined by a neck this much narrower than both are two m
 NECK_SHARE = 1.0
 CRACK_SHARE = 1.5  # a border this many times the smaller one's inscribed diameter is a crack, whatever the shading,
 CHIP_SHARE = 0.5  # when the smaller piece is at most this share of the larger (a chip of it; touching particles are alike)
+CRACK_MIN_MM = 4.0  # the shading rule joins pieces at least this wide (inscribed, on the print): a large particle's shading varies across it
 NECK_SADDLE = 0.8  # and their shading has no groove between them: the saddle stands this share of the lower peak
 
 
@@ -110,7 +111,8 @@ def find_members(bright01: np.ndarray, *, pitch_mm: float, noise: float | None =
     labels = np.where((basins > 0) & (top >= 0.5 * peak[basins]), basins, 0)
     # Shading's cracks joined first (merge_without_neck), then parted again where the outline has a
     # neck (_split_touching): one object, one dome.
-    labels = _split_touching(merge_without_neck(_filled(_merge_shallow(_largest_parts(labels), top)), top), NECK_MM / pitch_mm)
+    labels = _split_touching(merge_without_neck(_filled(_merge_shallow(_largest_parts(labels), top)), top,
+                                                large_px=CRACK_MIN_MM / pitch_mm), NECK_MM / pitch_mm)
     labels = _with_evidence(labels, top, pitch_mm, h)
     labels = _solid(_above_texture(labels, top))
     labels, _, _ = segmentation.relabel_sequential(labels)
@@ -238,7 +240,7 @@ def _merge_shallow(labels: np.ndarray, top: np.ndarray) -> np.ndarray:
     return roots[labels].astype(labels.dtype)
 
 
-def neckless_pairs(labels: np.ndarray, top: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+def neckless_pairs(labels: np.ndarray, top: np.ndarray | None = None, large_px: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """Touching members (a, b arrays) whose shared border is wider than NECK_SHARE of the smaller
     one's inscribed diameter: no neck between them, so one object was split (by shading, not by
     its outline). The border's width counts the 4-neighbour pixel pairs across it (per row or
@@ -272,24 +274,28 @@ def neckless_pairs(labels: np.ndarray, top: np.ndarray | None = None) -> tuple[n
         saddle = label_max(np.concatenate(levels), where.reshape(-1), pair.size - 1, -1.0)
         area = np.bincount(labels.ravel(), minlength=n + 1)
         chip = np.minimum(area[a], area[b]) <= CHIP_SHARE * np.maximum(area[a], area[b])
-        wide &= (saddle >= NECK_SADDLE * np.minimum(peak[a], peak[b])) | ((ratio > CRACK_SHARE) & chip)
+        # Both rules join pieces of large objects only (a piece CRACK_MIN_MM wide: both pieces for
+        # the shading's rule, the larger one for a chip): small members are parted by their seeds.
+        large = np.minimum(diameter[a], diameter[b]) >= large_px
+        chip &= np.maximum(diameter[a], diameter[b]) >= large_px
+        wide &= ((saddle >= NECK_SADDLE * np.minimum(peak[a], peak[b])) & large) | ((ratio > CRACK_SHARE) & chip)
     return a[wide], b[wide]
 
 
-def merge_without_neck(labels: np.ndarray, top: np.ndarray | None = None, rounds: int = 1) -> np.ndarray:
+def merge_without_neck(labels: np.ndarray, top: np.ndarray | None = None, rounds: int = 1, large_px: float = 0.0) -> np.ndarray:
     """Members split where their outline has no neck (neckless_pairs) joined again, renumbered;
     again on the joined ones (a particle cracked in many pieces joins piece by piece), up to
     `rounds` times."""
     for _ in range(rounds):
-        joined = _merge_once(labels, top)
+        joined = _merge_once(labels, top, large_px)
         if joined is labels:
             break
         labels = joined
     return labels
 
 
-def _merge_once(labels: np.ndarray, top: np.ndarray | None) -> np.ndarray:
-    a, b = neckless_pairs(labels, top)
+def _merge_once(labels: np.ndarray, top: np.ndarray | None, large_px: float = 0.0) -> np.ndarray:
+    a, b = neckless_pairs(labels, top, large_px)
     if a.size == 0:
         return labels
     n = int(labels.max())

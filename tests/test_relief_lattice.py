@@ -211,3 +211,17 @@ def test_columns_too_close_to_print_apart_are_said_missing_with_the_width_that_p
     assert re.search(r"a wider print \(`width_mm` (\d+)\)", said)
     # The columns it raises stand evenly: every one at least 0.5 mm over its troughs.
     assert said.startswith(f"A lattice of {shown.group(3)} columns") and "(100%)" in said
+
+
+def test_the_check_says_when_domes_may_split_one_object_and_the_option_that_changes_it():
+    from tamp_os.relief.content import ContentMade, check_sentences
+
+    labels = np.zeros((40, 60), np.int32)
+    labels[10:30, 10:20], labels[10:30, 20:30], labels[10:30, 35:50] = 1, 2, 3
+    heights = BASE + 2.0 * (labels > 0)
+    made = ContentMade(np.zeros(labels.shape, np.float32), "members", labels, "", (), split_pairs=2)
+    said = check_sentences(heights, made, 0.4, BASE)
+    assert said[0].startswith("Found 3 members, all raised at least 2.0 mm")
+    assert "may have been split into several domes" in said[1] and "`relief_style` objects" in said[1]
+    whole = ContentMade(np.zeros(labels.shape, np.float32), "members", labels, "", ())
+    assert len(check_sentences(heights, whole, 0.4, BASE)) == 1

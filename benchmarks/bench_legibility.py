@@ -164,12 +164,12 @@ def content_table(png_dir: Path | None):
     from content_metrics import grain_relief, lattice_modulation, lines_over_enclosed, members_felt, spurious
     from content_truth import real_cases, sparse_cases, synthetic_cases
 
-    print("| picture | style | members felt | lines − enclosed mm | lattice modulation mm | grain relief mm | fine share | spurious raised regions |")
-    print("|---|---|---|---|---|---|---|---|")
+    print("| picture | style | members felt | members made (truth) | lines − enclosed mm | lattice modulation mm | grain relief mm | fine share | spurious raised regions |")
+    print("|---|---|---|---|---|---|---|---|---|")
     extra = []
     for case in synthetic_cases() + sparse_cases() + real_cases():
         if case.truth is None:
-            print(f"| {case.name} | skipped: {case.skipped} | | | | | | |")
+            print(f"| {case.name} | skipped: {case.skipped} | | | | | | | |")
             continue
         t, mm = case.truth, case.mm_per_px
         content = None
@@ -199,7 +199,8 @@ def content_table(png_dir: Path | None):
             grains = grain_relief(h, t.grains, mm) if t.grains is not None else None
             spur = spurious(h, content, mm, BASE) if content is not None else None
             label = style + (f" → {r.style}" if style == "auto" else "")
-            print(f"| {case.name} | {label} | {cell(felt, '.0%')} | {cell(lines, '+.2f')} | {cell(lattice, '.2f')} | "
+            count = f"{int(r.objects.max())} ({int(t.members.max())})" if r.objects is not None and t.members is not None else "–"
+            print(f"| {case.name} | {label} | {cell(felt, '.0%')} | {count} | {cell(lines, '+.2f')} | {cell(lattice, '.2f')} | "
                   f"{cell(grains, '.2f')} | {rep.fine_share:.0%} | {cell(spur, 'd')} |")
             if png_dir is not None:
                 from PIL import Image

@@ -85,7 +85,15 @@ def dot_lattice(rows: int = 192, cols: int = 256, pitch_px: float = 10.0, seed: 
     bump = (1 + np.cos(2 * np.pi * yy / p)) * (1 + np.cos(2 * np.pi * xx / p)) / 4  # 1 at each lattice point
     image = 0.3 + 0.5 * (bump > 0.5)
     image = ndimage.gaussian_filter(image.astype(np.float32), 0.1 * p) + 0.05 * rng.standard_normal((rows, cols))
-    return Truth("dot_lattice", np.clip(image, 0, 1).astype(np.float32), pitch_px=p)
+    # Every lattice point in the picture, one member each (a disk a fifth of the pitch across, at
+    # the dot's centre; cut by the picture's edge at the border, as the dots are).
+    labels = np.zeros((rows, cols), np.int32)
+    k = 0
+    for cy in np.arange(0, rows, p):
+        for cx in np.arange(0, cols, p):
+            k += 1
+            labels[(yy - cy) ** 2 + (xx - cx) ** 2 <= (p / 5) ** 2] = k
+    return Truth("dot_lattice", np.clip(image, 0, 1).astype(np.float32), members=labels, pitch_px=p)
 
 
 def faint_grains(rows: int = 192, cols: int = 256, seed: int = 6) -> Truth:

@@ -362,9 +362,12 @@ def test_object_verdicts_singular_plural_low_and_high():
     one_low = _verdicts(object_count=1, object_lift_mm=0.4, lowest_lift_mm=0.4)
     assert one_low[2] == ("The 1 object stands only 0.4 mm (median) above the ground around it; a finger may not find it; "
                           "try relief_style objects.")
-    two_low = _verdicts(object_count=2, object_lift_mm=0.99, lowest_lift_mm=0.5, style="content")
+    two_low = _verdicts(object_count=2, object_lift_mm=0.99, lowest_lift_mm=0.5, style="objects")
     assert two_low[2] == ("The 2 objects stand only 0.99 mm (median) above the ground around them; a finger may not find "
                           "them; try a taller relief_mm.")
+    # The content style's own check measures its members against the picture (issue 32: a dense
+    # lattice's "stand only 0 mm (median)" beside "392 members, all raised at least 2.0 mm").
+    assert not any("stand only" in v for v in _verdicts(object_count=2, object_lift_mm=0.0, lowest_lift_mm=0.0, style="content"))
     assert _verdicts(object_count=2, object_lift_mm=0.5, lowest_lift_mm=0.5, style="objects")[2].endswith("try a taller relief_mm.")
     assert _verdicts(object_count=1, object_lift_mm=1.0, lowest_lift_mm=1.0)[2] == (
         "1 object stands 1 mm (median; lowest 1 mm) above the ground around it.")

@@ -31,9 +31,9 @@ MIN_AREA_MM2 = 6.0  # the styles' smallest region (StyleOptions.min_area_mm2)
 LABEL_SIDE = 0.3  # a panel letter's label box lies within this share of the shorter side from its corner
 PLAIN = 0.02  # and is plain: within this of pure white or black (0..1 after the stretch)
 DRAWING_REGIONS = 6  # lines on empty paper enclosing at most this many regions are a drawing, not a network
-PEAK_BINS = 24  # a lattice's spectrum: a few peaks (each a few bins wide under the window) ...
-PEAK_SHARE = 0.5  # ... holding this share of the detail's power
-MIN_REPEATS = 12  # and repeating at least this often across the panel (a few blobs of one size are no lattice)
+# A lattice: a few peaks holding a clear share of the detail's power, repeating at least
+# MIN_REPEATS times across the panel: relief/content.py's lattice_spectrum (one FFT for both) and
+# its PEAK_BINS, PEAK_SHARE and MIN_REPEATS, imported where used (the CLI starts without scipy).
 
 KINDS = ("fluorescence", "stain", "lines", "line art", "grains", "region", "lattice", "members", "picture")
 
@@ -195,7 +195,7 @@ def _without_boxes(v: np.ndarray, cols: int) -> np.ndarray:
 
 
 def _grey_word(grid: PrintGrid) -> ContentWord:
-    from ..relief.content import MIN_PITCH_MM, lattice_period, make_content
+    from ..relief.content import MIN_PITCH_MM, MIN_REPEATS, PEAK_SHARE, lattice_spectrum, make_content
     from ..relief.picture_scale import find_objects_in_picture
 
     work, pitch_mm = grid.work, grid.pitch_mm
@@ -206,6 +206,8 @@ def _grey_word(grid: PrintGrid) -> ContentWord:
     made = make_content(work, pitch_mm=pitch_mm, relief_mm=RELIEF_MM, width_mm=grid.width_mm, found=found,
                         min_area_mm2=MIN_AREA_MM2, fallback=False, fine=grid.fine)
     kind = made.kind if made is not None else None
+    if kind == "lattice":
+        return ContentWord("lattice", "a lattice")
     if kind == "lines":
         if _drawing(made.reason):
             return ContentWord("line art", "line drawing")
@@ -215,8 +217,9 @@ def _grey_word(grid: PrintGrid) -> ContentWord:
     if kind == "plateau" and made.labels is not None and made.labels.max():
         n = int(made.labels.max())
         return ContentWord("region", "one region on an empty ground" if n == 1 else f"{n} regions on an empty ground", n)
-    period = lattice_period(work, pitch_mm)
-    if period is not None and MIN_PITCH_MM <= period.pitch_mm <= grid.width_mm / MIN_REPEATS and peaked(work, pitch_mm):
+    spectrum = lattice_spectrum(work, pitch_mm)
+    period = spectrum.period
+    if period is not None and MIN_PITCH_MM <= period.pitch_mm <= grid.width_mm / MIN_REPEATS and spectrum.peaked >= PEAK_SHARE:
         return ContentWord("lattice", "a lattice")
     if kind == "members" and made.labels is not None:
         n = int(made.labels.max())
@@ -242,21 +245,10 @@ def peaked(work: np.ndarray, pitch_mm: float) -> bool:
     hold at least PEAK_SHARE of the power that content.lattice_period measures. A field of blobs
     of one size (noise smoothed to a scale) has a ring of power at that scale too, but spread over
     every direction (measured: particle fields and noisy textures 0.14-0.28; dot lattices and a
-    grating 0.9-1.0)."""
-    import scipy.fft
-    from scipy import ndimage
+    grating 0.9-1.0). The same FFT as the content style's (content.lattice_spectrum)."""
+    from ..relief.content import PEAK_SHARE, lattice_spectrum
 
-    rows, cols = work.shape
-    detail = work - ndimage.gaussian_filter(work, 4.0 / pitch_mm, mode="nearest")
-    window = np.outer(np.hanning(rows), np.hanning(cols)).astype(np.float32)
-    spectrum = scipy.fft.rfft2(detail * window)
-    power = spectrum.real**2 + spectrum.imag**2
-    freq = np.hypot(np.fft.fftfreq(rows)[:, None], np.fft.rfftfreq(cols)[None, :]) / pitch_mm
-    band = power[(freq > 1 / 12.0) & (freq < 0.5 / pitch_mm)]
-    if band.size <= PEAK_BINS or float(band.sum()) <= 0:
-        return False
-    top = np.partition(band, band.size - PEAK_BINS)[-PEAK_BINS:]
-    return float(top.sum() / band.sum()) >= PEAK_SHARE
+    return lattice_spectrum(work, pitch_mm).peaked >= PEAK_SHARE
 
 
 def count_phrase(n: int) -> str:

@@ -401,6 +401,7 @@ def _report(picture, cleaned, prepared, layout, params, machine, mesh, placed, m
         relief_style=relief.style,
         relief_reason=relief.reason,
         content_kind=relief.content_kind,
+        lattice_pitch_mm=round(relief.lattice_pitch_mm, 3) if relief.lattice_pitch_mm else None,
         legibility=legibility,
         instrument=cleaned.instrument,
         source_px=(picture.file.width, picture.file.height),

@@ -125,7 +125,8 @@ class Report:
     print: Printing | None = None  # slicing results; `with_printing` makes the report of a sliced print
     relief_style: str = "reference"  # the style that made the heights (auto resolved)
     relief_reason: str = ""  # why that style, or what it did, in one sentence
-    content_kind: str = ""  # the content style: "members", "lines", "grains", "plateau" or "shape" (what it raised)
+    content_kind: str = ""  # the content style: "members", "lattice", "lines", "grains", "plateau" or "shape" (what it raised)
+    lattice_pitch_mm: float | None = None  # content_kind "lattice": the columns' spacing on the print
     legibility: Legibility | None = None  # figures and verdicts
     instrument: Instrument | None = None  # magnification, kv, detector, signal, source when the file records them
     source_px: tuple[int, int] = (0, 0)  # the source image's width and height (where annotations were)
@@ -157,6 +158,8 @@ class Report:
             d[key] = list(d[key])
         if not self.content_kind:  # only content prints say it (other recipes keep their keys)
             del d["content_kind"]
+        if self.lattice_pitch_mm is None:
+            del d["lattice_pitch_mm"]
         if self.print is None:
             del d["print"]
         else:
@@ -421,13 +424,17 @@ def _layout_sentence(report: Report) -> str | None:
         return None
     from .layout_words import layout_sentence
 
-    if report.content_kind in ("lines", "grains", "plateau"):
-        return None  # a network or plateaus tiling the picture: the sentence before says what to find
+    if report.content_kind in ("lines", "grains", "plateau", "lattice"):
+        return None  # a network, plateaus or a lattice tiling the picture: the sentence before says what to find
     layout = report.layout
     noun = {"objects": "dome", "levels": "raised area"}.get(report.relief_style, "raised shape")
     if report.content_kind == "members":  # a piece is one dome, or touching members grouped
+        if not layout.pieces:  # domes under a fingertip's area each: the check sentences count them (one count)
+            return None
         same = report.legibility is not None and report.legibility.object_count == len(layout.pieces)
-        noun = "dome" if same else "raised group"
+        if not same:  # touching members grouped: where they stand, without a second count beside the check's
+            return layout_sentence(layout, "raised group", counted=True)
+        noun = "dome"
 
     counted = report.relief_style == "objects" and report.legibility is not None and report.legibility.object_count == len(layout.pieces)
     return layout_sentence(layout, noun, counted=counted)
@@ -438,6 +445,8 @@ _CONTENT_RAISED = {
     "members": ("Every member of the population found in the picture (particles, beads, cells or nuclei, dim or "
                 "bright alike) stands up as a dome by the same lift, up to {up} above a flat ground; touching "
                 "members are parted by a groove."),
+    "lattice": ("The picture is a lattice (atomic columns or a grid of dots): every column stands up as a small, "
+                "rounded dome of the same height over a flat ground, in a regular grid{pitch}."),
     "lines": ("The picture's lines (boundaries, membranes or drawn strokes, whether dark or bright in the image) "
               "stand up as raised lines about {line_mm} mm high over a flat ground; the areas they enclose stay low."),
     "grains": ("The grains, told apart by their weak contrast, stand up as a few flat plateaus above the mount, "
@@ -447,6 +456,25 @@ _CONTENT_RAISED = {
     "shape": ("The picture's shape at fingertip scale is raised, its contrast evened out locally, up to {up} above "
               "the base; the empty background stays at the base."),
 }
+
+
+def _lattice_pitch_words(report: Report) -> str:
+    """', 1.3 mm apart on the print (0.39 nm in the sample)' for a lattice print; without a known
+    scale the pitch in the picture's pixels instead."""
+    if report.content_kind != "lattice" or not report.lattice_pitch_mm:
+        return ""
+    mm = report.lattice_pitch_mm
+    source_px_per_mm = report.source_px[0] / max(report.relief_mm[0], 1e-9) if report.source_px[0] else None
+    if report.pixel_size_m and source_px_per_mm:
+        metres = mm * source_px_per_mm * report.pixel_size_m
+        if metres < 1e-6:  # atomic lattices: said in nm, as crystallographers do
+            return f", {mm:.1f} mm apart on the print ({metres * 1e9:.3g} nm in the sample)"
+        from ..units import format_length
+
+        return f", {mm:.1f} mm apart on the print ({format_length(metres)} in the sample)"
+    if source_px_per_mm:
+        return f", {mm:.1f} mm apart on the print (about {mm * source_px_per_mm:.0f} pixels of the picture; its scale is not known)"
+    return f", {mm:.1f} mm apart on the print"
 
 
 def _what_is_raised(report: Report, params: LithoParams) -> str:
@@ -473,7 +501,8 @@ def _what_is_raised(report: Report, params: LithoParams) -> str:
     if report.relief_style == "content" and report.content_kind in _CONTENT_RAISED:
         from ..relief.lines import LINE_HEIGHT_MM
 
-        return _CONTENT_RAISED[report.content_kind].format(up=up, line_mm=f"{LINE_HEIGHT_MM:g}", raised=raised)
+        return _CONTENT_RAISED[report.content_kind].format(up=up, line_mm=f"{LINE_HEIGHT_MM:g}", raised=raised,
+                                                           pitch=_lattice_pitch_words(report))
     if report.relief_style == "structure":
         return (f"The {raised} parts of the image are raised, up to {up} above the base, simplified to shapes a "
                 f"fingertip can follow; finer detail is kept only as a low texture.")

@@ -49,6 +49,7 @@ from .objects import ObjectMap, dome_profile, label_max, label_median
 from .population import (
     BACKGROUND_MM,
     Members,
+    neckless_pairs,
     roundness,
     find_members,
     local_tophat,
@@ -76,6 +77,23 @@ DENSE_OVER_MEMBERS = 1.5  # a dense field with this many times more blobs than m
 DENSE_TOPHAT_WIDTHS = 2.5  # a dense field's local ground: a square this many members wide (swept 1.5-3: 96-90 % felt on 10kx, 5-0 spurious)
 DENSE_LIFT_PCT = 80.0  # its top-hat's scale: this percentile (swept 60-99, clip or tanh, on the 10kx field: 88-93 % felt)
 MIN_PITCH_MM = 2.5  # a lattice finer than this on the print is felt as roughness
+# A lattice (issue 32): its spectrum is a few sharp peaks (PEAK_BINS frequencies hold PEAK_SHARE of
+# the detail's power; particle fields and noisy textures 0.14-0.28, dot lattices and gratings
+# 0.9-1.0), in two directions at least LATTICE_ANGLE_DEG apart (a grating has one), repeating at
+# least MIN_REPEATS times across the picture. It is raised column by column, evenly.
+PEAK_BINS = 24
+PEAK_SHARE = 0.5
+MIN_REPEATS = 12
+LATTICE_ANGLE_DEG = 30.0
+SECOND_PEAK = 0.15  # the other direction's peak holds at least this share of the strongest one's power
+MIN_COLUMN_PX = 3.0  # columns closer than this many working-grid points cannot be printed apart (a dome and a trough)
+COLUMN_SHARE = 0.6  # a column's dome spans this share of the spacing between columns
+COLUMN_CONTRAST = 0.25  # a local maximum is a column when it stands this share of a typical column's contrast over its troughs
+MIN_COLUMNS = 20  # fewer columns found than this: no lattice to raise
+LAYER_SEPARATION = 4.0  # two layers: the columns' brightness falls in two groups this many robust deviations apart
+LAYER_COHERENCE = 0.8  # and this share of each column's nearest neighbours lie in its own group (a layer, not alternation)
+LAYER_SHARE = 0.1  # and the smaller group holds at least this share of the columns
+LAYER_CONTRAST = 0.3  # and the groups differ by at least this share of a column's contrast over the ground
 MEMBER_ROUND_MM = 10.0  # dome shoulders (as the objects style); wider members get rounded plateaus
 PIN_ASPECT = 2.0  # a member's dome stands at most this many times its inscribed radius (no pins)
 EMPTY_GROUND_SHARE = 0.5  # a bright ground this share of the picture lies within 0.06 of is empty (paper, brightfield)
@@ -132,6 +150,37 @@ class Period:
 
 
 @dataclass(frozen=True)
+class Spectrum:
+    """The detail's spectrum (lattice_spectrum): its strongest period, if it holds a clear share
+    of the detail's power; `peaked`: the share the PEAK_BINS strongest frequencies hold; `two_way`:
+    a second strong peak in a direction at least LATTICE_ANGLE_DEG away (a 2-D lattice)."""
+
+    period: Period | None
+    peaked: float
+    two_way: bool
+
+
+@dataclass(frozen=True)
+class LatticeFound:
+    """A lattice raised column by column: `columns` raised, `spacing_mm` apart on the print (median
+    nearest neighbour); `picture_columns` the columns the picture shows at its own finest spacing
+    `picture_spacing_mm` (more than `columns` when those are too close to print apart and only the
+    brighter ones were raised); `layers` (1, or 2 when a brighter layer stands a step higher),
+    `upper` the columns of the brighter layer, `step_mm` its step; `drawn` False when no column
+    could be printed apart (the lattice is then one flat plateau)."""
+
+    columns: int
+    spacing_mm: float
+    picture_columns: int
+    picture_spacing_mm: float
+    layers: int = 1
+    upper: int = 0
+    step_mm: float = 0.0
+    drawn: bool = True
+    dome_mm: float = 0.0  # each column's dome height over its ground (the plateau under a brighter layer)
+
+
+@dataclass(frozen=True)
 class ContentMade:
     """What the content style made: relief01 on the working grid (0..1 of the relief; lines stop
     at LINE_HEIGHT_MM / relief), the kind ('lines', 'members', 'grains', 'plateau', 'shape'), labels of the
@@ -144,6 +193,8 @@ class ContentMade:
     notes: tuple[str, ...]
     line_mask: np.ndarray | None = None
     levels: int = 0  # grains as plateaus: how many grey levels
+    lattice: LatticeFound | None = None  # kind 'lattice': what was raised
+    split_pairs: int = 0  # touching members with neither a neck nor a groove of shading between them (one object split?)
 
 
 def content_polarity(work: np.ndarray, pitch_mm: float, within: np.ndarray | None = None, signal: str | None = None) -> Polarity:
@@ -183,28 +234,53 @@ def content_polarity(work: np.ndarray, pitch_mm: float, within: np.ndarray | Non
     return Polarity(bright, mode, reason, empty=mode >= 0.6 and not bright)
 
 
-def lattice_period(work: np.ndarray, pitch_mm: float) -> Period | None:
-    """The strongest period of the picture's detail (spectrum peak beyond 12 mm wavelengths), if
-    its peak holds a clear share of the detail's power; else None."""
+def lattice_spectrum(work: np.ndarray, pitch_mm: float) -> Spectrum:
+    """The spectrum of the picture's detail (what a 4 mm blur leaves), windowed: its strongest
+    period beyond 12 mm wavelengths when the ring of that frequency holds a clear share (0.35) of
+    the detail's power, how peaked it is, and whether it peaks in two directions. One FFT serves
+    the content style, the legibility check (on the heights) and the content word of a panel."""
     rows, cols = work.shape
     detail = work - ndimage.gaussian_filter(work, 4.0 / pitch_mm, mode="nearest")
     window = np.outer(np.hanning(rows), np.hanning(cols)).astype(np.float32)
     # scipy.fft keeps float32 (numpy's FFT works in float64): half the work, the same peak.
-    spectrum = scipy.fft.rfft2(detail * window)
+    spectrum = scipy.fft.rfft2((detail * window).astype(np.float32))
     power = spectrum.real**2 + spectrum.imag**2
     fy = np.fft.fftfreq(rows)[:, None]
     fx = np.fft.rfftfreq(cols)[None, :]
     freq = np.hypot(fy, fx) / pitch_mm  # cycles per mm
-    band = (freq > 1 / 12.0) & (freq < 0.5 / pitch_mm)
-    total = float(power[band].sum())
-    if total <= 0:
-        return None
-    at = np.unravel_index(np.argmax(np.where(band, power, 0)), power.shape)
+    # Wavelengths under 12 mm that repeat at least six times across the picture in their own
+    # direction (a thin strip's one step between two layers is no period).
+    band = (freq > 1 / 12.0) & (freq < 0.5 / pitch_mm) & (np.hypot(fy * rows, fx * cols) >= 6.0)
+    inside = power[band]
+    total = float(inside.sum())
+    if total <= 0 or inside.size <= PEAK_BINS:
+        return Spectrum(None, 0.0, False)
+    peaked = float(np.partition(inside, inside.size - PEAK_BINS)[-PEAK_BINS:].sum() / total)
+    banded = np.where(band, power, 0)
+    at = np.unravel_index(np.argmax(banded), power.shape)
     near = band & (np.abs(freq - freq[at]) <= 0.08 * freq[at])  # the ring of that frequency (all orientations)
     share = float(power[near].sum() / total)
-    if share < 0.35:
-        return None
-    return Period(float(1.0 / freq[at]), share)
+    # A second direction: the strongest peak at least LATTICE_ANGLE_DEG from the first (angles
+    # modulo 180 degrees: the half-plane spectrum holds each direction once), within an octave.
+    angle = np.degrees(np.arctan2(np.broadcast_to(fy, power.shape), np.broadcast_to(fx, power.shape)))
+    turn = np.abs((angle - angle[at] + 90.0) % 180.0 - 90.0)
+    other = band & (turn >= LATTICE_ANGLE_DEG) & (freq >= 0.5 * freq[at]) & (freq <= 2.0 * freq[at])
+    two_way = bool(other.any()) and float(banded[other].max()) >= SECOND_PEAK * float(banded[at])
+    period = Period(float(1.0 / freq[at]), share) if share >= 0.35 else None
+    return Spectrum(period, peaked, two_way)
+
+
+def lattice_period(work: np.ndarray, pitch_mm: float) -> Period | None:
+    """The strongest period of the picture's detail (spectrum peak beyond 12 mm wavelengths), if
+    its peak holds a clear share of the detail's power; else None."""
+    return lattice_spectrum(work, pitch_mm).period
+
+
+def is_lattice(spectrum: Spectrum, width_mm: float) -> bool:
+    """A 2-D lattice: a few sharp peaks (PEAK_SHARE), in two directions, repeating at least
+    MIN_REPEATS times across the print."""
+    return (spectrum.period is not None and spectrum.peaked >= PEAK_SHARE and spectrum.two_way
+            and spectrum.period.pitch_mm * MIN_REPEATS <= width_mm)
 
 
 def make_content(work: np.ndarray, *, pitch_mm: float, relief_mm: float, width_mm: float, found,
@@ -224,7 +300,8 @@ def make_content(work: np.ndarray, *, pitch_mm: float, relief_mm: float, width_m
     hints = hints or ContentHints()
     polarity = content_polarity(work, pitch_mm, None if specimen.all() else specimen, hints.signal)
     x = work if polarity.bright else 1.0 - work
-    period = lattice_period(work, pitch_mm)
+    spectrum = lattice_spectrum(work, pitch_mm)
+    period = spectrum.period
     meta = f"; file metadata: {hints.words()}" if hints.words() else ""
     lattice = _lattice_words(period, width_mm)
     if not specimen.all():
@@ -232,6 +309,22 @@ def make_content(work: np.ndarray, *, pitch_mm: float, relief_mm: float, width_m
         if hi - lo < WEAK_SPREAD:
             return _weak_contrast(work, x, pitch_mm, relief_mm, width_mm, min_area_mm2, polarity, lattice + meta, specimen)
     finder = _Finder(work, pitch_mm, min_area_mm2)
+    found_lattice = _lattice_picture(work, spectrum, fine, pitch_mm, width_mm, finder.noise)
+    if found_lattice is not None:
+        # A lattice (atomic columns, a dot grid) is raised column by column, evenly: found as
+        # members one by one, a dim column on a dark patch goes missing and noise cracks the rest.
+        picture, picture_pitch_mm, picture_period, picture_noise = found_lattice
+        if polarity.undecided:
+            # A mid-grey ground: the columns are the side whose detail is skewed (sharp peaks over
+            # broad troughs), bright dots on a dark ground or dark ones on a bright one.
+            detail = picture - ndimage.gaussian_filter(picture, picture_period.pitch_mm / picture_pitch_mm, mode="nearest")
+            bright = float(np.mean(detail**3)) >= 0.0
+            if bright != polarity.bright:
+                polarity = polarity.flipped("the lattice's columns are on that side (its detail is skewed that way)")
+        made = _as_lattice(work.shape, picture if polarity.bright else 1.0 - picture, picture_pitch_mm, pitch_mm, picture_period,
+                           relief_mm, width_mm, polarity, meta, picture_noise)
+        if made is not None:
+            return made
     lines = finder.lines(polarity.bright)
     members = finder.members(polarity.bright)
     if polarity.undecided and not _is_population(members, pitch_mm):
@@ -477,7 +570,8 @@ def _as_members(labels: np.ndarray, pitch_mm, relief_mm, polarity, extra, what, 
             notes.append(f"content: a dense field ({count} members over {cover:.0%} of the picture): the members not parted "
                          f"from their neighbours rise by their local contrast, as a texture of small domes.")
     reason = f"content: {what}; each raised as a dome by the same lift, touching ones apart by a groove; {polarity.reason}{extra}"
-    return ContentMade(domes, "members", labels, reason, tuple(notes))
+    split = 0 if picture is None else int(neckless_pairs(labels, local_tophat(picture.astype(np.float32), pitch_mm))[0].size)
+    return ContentMade(domes, "members", labels, reason, tuple(notes), split_pairs=split)
 
 
 def _as_dense_field(blobs: BlobScale, picture: np.ndarray, pitch_mm: float, relief_mm: float, polarity: Polarity, extra: str) -> ContentMade:
@@ -501,6 +595,149 @@ def _as_dense_field(blobs: BlobScale, picture: np.ndarray, pitch_mm: float, reli
     note = (f"content: a dense field of {int(labels.max())} domes (members) {blobs.diameter_mm:.1f} mm across, too many and too "
             f"close to draw one by one: they read as a texture of small domes.")
     return ContentMade(relief01, "members", labels, reason, (note,))
+
+
+def find_columns(x: np.ndarray, pitch_mm: float, spacing_mm: float, noise: float, apart_mm: float = 0.0) -> np.ndarray:
+    """(n, 2) row, col of a lattice's columns on the working grid (content bright in `x`): the
+    local maxima at least half a `spacing_mm` apart that stand COLUMN_CONTRAST of a typical
+    column's contrast (its 75th percentile) and three noise deviations over the troughs within
+    three quarters of a spacing; dim columns stay, the noise in the troughs does not. With
+    `apart_mm`, only the brightest columns at least that far apart (a coarser sublattice)."""
+    from skimage.feature import peak_local_max
+
+    d_px = spacing_mm / pitch_mm
+    smooth = ndimage.gaussian_filter(x.astype(np.float32), max(0.5, 0.12 * d_px), mode="nearest")
+    apart = int(np.ceil(apart_mm / pitch_mm)) - 1 if apart_mm > 0 else 0
+    peaks = peak_local_max(smooth, min_distance=max(1, int(0.5 * d_px), apart), exclude_border=False)
+    if len(peaks) == 0:
+        return peaks
+    trough = ndimage.minimum_filter(smooth, size=2 * int(np.ceil(0.75 * d_px)) + 1, mode="nearest")
+    contrast = smooth[tuple(peaks.T)] - trough[tuple(peaks.T)]
+    keep = contrast >= max(3.0 * noise, COLUMN_CONTRAST * float(np.percentile(contrast, 75)))
+    return peaks[keep]
+
+
+def _spacing_px(peaks: np.ndarray) -> float:
+    from scipy.spatial import cKDTree
+
+    return float(np.median(cKDTree(peaks).query(peaks, k=2)[0][:, 1])) if len(peaks) >= 2 else 0.0
+
+
+def _layers(values: np.ndarray, peaks: np.ndarray, contrast: np.ndarray) -> np.ndarray | None:
+    """Which columns belong to a brighter layer (bool per column), or None for one layer: the
+    columns' brightness in two groups (Otsu) LAYER_SEPARATION robust deviations apart, the smaller
+    holding at least LAYER_SHARE, and each column's four nearest neighbours mostly of its own group
+    (a layer; alternating bright and dim columns are one lattice, raised evenly)."""
+    from scipy.spatial import cKDTree
+
+    if len(values) < MIN_COLUMNS or np.ptp(values) <= 1e-6:
+        return None
+    upper = values > filters.threshold_otsu(values)
+    share = float(upper.mean())
+    if not LAYER_SHARE <= share <= 1 - LAYER_SHARE:
+        return None
+    hi, lo = values[upper], values[~upper]
+    spread = 1.4826 * float(np.median(np.concatenate([np.abs(hi - np.median(hi)), np.abs(lo - np.median(lo))])))
+    gap = float(np.median(hi) - np.median(lo))
+    if gap < LAYER_SEPARATION * max(spread, 1e-6) or gap < LAYER_CONTRAST * float(np.median(contrast)):
+        return None
+    _, near = cKDTree(peaks).query(peaks, k=5)
+    same = float(np.mean(upper[near[:, 1:]] == upper[:, None]))
+    return upper if same >= LAYER_COHERENCE else None
+
+
+def _lattice_picture(work: np.ndarray, spectrum: Spectrum, fine, pitch_mm: float, width_mm: float, noise: float):
+    """(picture, its pitch in mm, its Period, its noise) to find a lattice's columns on, or None:
+    the working grid when its spectrum is a lattice's (is_lattice) with columns at least
+    2 * MIN_COLUMN_PX grid points apart; else, as the print grid's blur fades closer columns
+    (atomic columns 1.3-1.8 mm apart at 100 mm), the picture before that blur (Prepared.finer) on
+    a grid twice as fine, when its spectrum is a lattice's."""
+    on_work = (work, pitch_mm, spectrum.period, noise) if is_lattice(spectrum, width_mm) else None
+    # Columns fewer than 2 * MIN_COLUMN_PX grid points apart are faded by the print grid's blur:
+    # found on the finer picture when there is one.
+    if on_work is not None and (fine is None or spectrum.period.pitch_mm >= 2 * MIN_COLUMN_PX * pitch_mm):
+        return on_work
+    if fine is None:
+        return on_work
+    picture = fine(2 * work.shape[1] - 1)
+    if picture is None or picture.shape[1] < 2 * work.shape[1] - 1:
+        return on_work
+    fine_pitch_mm = width_mm / (picture.shape[1] - 1)
+    found = lattice_spectrum(picture, fine_pitch_mm)
+    if not is_lattice(found, width_mm):
+        return on_work
+    return picture, fine_pitch_mm, found.period, noise_level(picture.astype(np.float32))
+
+
+def _as_lattice(shape: tuple[int, int], x: np.ndarray, x_pitch_mm: float, pitch_mm: float, period: Period, relief_mm: float,
+                width_mm: float, polarity: Polarity, extra: str, noise: float) -> ContentMade | None:
+    """A lattice raised column by column (issue 32): every column a dome of the same lift,
+    COLUMN_SHARE of the spacing across, on a flat ground; a brighter layer's columns a step
+    (GRAIN_STEP_MM, or a quarter of the relief) higher. Columns closer than MIN_COLUMN_PX grid
+    points cannot be printed apart: then the brighter columns at least that far apart are raised
+    (a coarser sublattice) and the sentences say how many the picture shows and at what width
+    every one would be printed; if none can, the lattice is one flat plateau, and said so. None
+    when fewer than MIN_COLUMNS columns are found (the picture is no lattice to raise)."""
+    fine_peaks = find_columns(x, x_pitch_mm, period.pitch_mm, noise)
+    if len(fine_peaks) < MIN_COLUMNS:
+        return None
+    fine_spacing_mm = _spacing_px(fine_peaks) * x_pitch_mm
+    peaks = fine_peaks
+    if fine_spacing_mm < MIN_COLUMN_PX * pitch_mm:
+        peaks = find_columns(x, x_pitch_mm, period.pitch_mm, noise, apart_mm=MIN_COLUMN_PX * pitch_mm)
+    spacing_mm = _spacing_px(peaks) * x_pitch_mm
+    if peaks is fine_peaks and abs(period.pitch_mm - spacing_mm) <= 0.25 * spacing_mm:
+        spacing_mm = fine_spacing_mm = period.pitch_mm  # the spectrum's period: finer than the grid's rounding
+    resolve_mm = width_mm * MIN_PITCH_MM / max(fine_spacing_mm, 1e-9)
+    if len(peaks) < MIN_COLUMNS or spacing_mm < 0.9 * MIN_COLUMN_PX * pitch_mm:
+        found = LatticeFound(0, fine_spacing_mm, len(fine_peaks), fine_spacing_mm, drawn=False)
+        reason = (f"content: a lattice of {fine_spacing_mm:.1f} mm pitch on the print ({len(fine_peaks)} columns), too close to "
+                  f"print apart on a {pitch_mm:.1f} mm grid: raised as one flat plateau; at a print width of about "
+                  f"{_round_up(resolve_mm)} mm its columns would be {MIN_PITCH_MM:g} mm apart and printed one by one; "
+                  f"{polarity.reason}{extra}")
+        return ContentMade(np.full(shape, 0.5, np.float32), "lattice", None, reason, (), lattice=found)
+    smooth = ndimage.gaussian_filter(x.astype(np.float32), max(0.5, 0.12 * spacing_mm / x_pitch_mm), mode="nearest")
+    upper = _layers(smooth[tuple(peaks.T)], peaks, smooth[tuple(peaks.T)] - float(np.percentile(smooth, 5)))
+    radius = max(1.0, COLUMN_SHARE * spacing_mm / pitch_mm / 2)  # on the working grid
+    # The columns on the working grid (found on a finer picture, if so).
+    scale = (np.array(shape, np.float64) - 1) / (np.array(x.shape, np.float64) - 1)
+    peaks = np.clip(np.rint(peaks * scale).astype(np.int64), 0, np.array(shape) - 1)
+    # A brighter layer stands on a plateau a step higher (the cells of its columns); every column
+    # is a domed cap of one height (as a braille dot), at most PIN_ASPECT times its radius tall:
+    # a 3 mm spike on a 1 mm base is a prick, not a dome, and does not print.
+    step_mm = min(max(GRAIN_STEP_MM, relief_mm / 4), relief_mm / 3) if upper is not None and relief_mm > 0 else 0.0
+    dome_mm = min(relief_mm - step_mm, PIN_ASPECT * (radius + 0.5) * pitch_mm)
+    on_plateau = np.zeros(len(peaks) + 1, np.float32)
+    if upper is not None:
+        on_plateau[1:][upper] = step_mm
+    ids = np.zeros(shape, np.int32)
+    ids[tuple(peaks.T)] = np.arange(1, len(peaks) + 1)
+    dist, (iy, ix) = ndimage.distance_transform_edt(ids == 0, return_indices=True)
+    owner = ids[iy, ix]
+    cap = np.sqrt(np.clip(1.0 - (dist / (radius + 0.5)) ** 2, 0.0, 1.0))  # down to the ground at radius + 0.5 px
+    relief01 = ((on_plateau[owner] + dome_mm * cap) / max(relief_mm, 1e-9)).astype(np.float32)
+    labels = np.where(dist <= radius, owner, 0).astype(np.int32)
+    found = LatticeFound(len(peaks), spacing_mm, len(fine_peaks), fine_spacing_mm, 1 if upper is None else 2,
+                         0 if upper is None else int(upper.sum()), step_mm, dome_mm=dome_mm)
+    what = (f"a lattice of {spacing_mm:.1f} mm pitch on the print: {len(peaks)} columns, each raised as a dome {dome_mm:.1f} mm "
+            f"high and {2 * (radius + 0.5) * pitch_mm:.1f} mm across")
+    if len(peaks) < len(fine_peaks):
+        what += (f" (the brighter of the picture's {len(fine_peaks)} columns: those {fine_spacing_mm:.1f} mm apart are too close "
+                 f"to print apart on a {pitch_mm:.1f} mm grid)")
+    if upper is not None:
+        what += f"; a brighter layer of {int(upper.sum())} columns stands on a plateau {step_mm:.1f} mm high"
+    notes = []
+    if fine_spacing_mm < MIN_PITCH_MM or len(peaks) < len(fine_peaks):
+        notes.append(f"content: the lattice's columns are {fine_spacing_mm:.1f} mm apart on the print, under the {MIN_PITCH_MM:g} mm "
+                     f"a fingertip tells apart (braille dots' spacing): it is felt as a fine, even grain; at a print width of about "
+                     f"{_round_up(resolve_mm)} mm every column is {MIN_PITCH_MM:g} mm from the next.")
+    reason = (f"content: {what}, on a flat ground (its spectrum peaks at {period.pitch_mm:.1f} mm, {period.share:.0%} of the detail); "
+              f"{polarity.reason}{extra}")
+    return ContentMade(relief01, "lattice", labels, reason, tuple(notes), lattice=found)
+
+
+def _round_up(mm: float, to: float = 10.0) -> int:
+    return int(np.ceil(mm / to) * to)
 
 
 def _with_interior(labels: np.ndarray) -> np.ndarray:
@@ -634,14 +871,23 @@ def _weak_contrast(work, x, pitch_mm, relief_mm, width_mm, min_area_mm2, polarit
 def check_sentences(heights_mm: np.ndarray, made: ContentMade, mm_per_px: float, base_mm: float) -> tuple[str, ...]:
     """Compare the print with what was found: how many members and how high the lowest stands
     above the ground around it; the lines' height over what they enclose."""
+    if made.kind == "lattice" and made.lattice is not None:
+        return lattice_sentences(heights_mm, made, mm_per_px)
     if made.kind == "members" and made.labels is not None and made.labels.max():
         lifts = member_tops(heights_mm, made.labels, mm_per_px)
         n = lifts.size
         felt = int((lifts >= 0.5).sum())
         if felt == n:
-            return (f"Found {n} member{'s' * (n != 1)}, all raised at least {lifts.min():.1f} mm above the ground around them.",)
-        return (f"Found {n} members; {felt} stand at least 0.5 mm above the ground around them, {n - felt} do not "
-                f"(lowest {lifts.min():.1f} mm).",)
+            out = [f"Found {n} member{'s' * (n != 1)}, all raised at least {lifts.min():.1f} mm above the ground around them."]
+        else:
+            out = [f"Found {n} members; {felt} stand at least 0.5 mm above the ground around them, {n - felt} do not "
+                   f"(lowest {lifts.min():.1f} mm): a finger may miss them; a taller `relief_mm` raises them further."]
+        split = made.split_pairs
+        if split and split >= max(2, 0.1 * n):
+            out.append(f"{split} pairs of touching domes share a border as wide as the domes themselves, with no neck between "
+                       f"them: one object of the picture may have been split into several domes; `relief_style` objects "
+                       f"raises one dome per outlined object.")
+        return tuple(out)
     if made.kind == "plateau" and made.labels is not None and made.labels.max():
         n = int(made.labels.max())
         lift = float(np.median(member_tops(heights_mm, made.labels, mm_per_px)))
@@ -655,6 +901,34 @@ def check_sentences(heights_mm: np.ndarray, made: ContentMade, mm_per_px: float,
         what = "grain outlines" if made.kind == "grains" else "a network of lines"
         return (f"{what[0].upper() + what[1:]}, raised {rise:.1f} mm over the areas they enclose.",)
     return ()
+
+
+def lattice_sentences(heights_mm: np.ndarray, made: ContentMade, mm_per_px: float) -> tuple[str, ...]:
+    """The lattice as printed against the picture: how many columns stand FELT_MM over the troughs
+    beside them (a ring half a spacing wide), how evenly, and how many the picture shows; what
+    may be wrong and the one option that changes it."""
+    found = made.lattice
+    width_mm = (heights_mm.shape[1] - 1) * mm_per_px
+    resolve = _round_up(width_mm * MIN_PITCH_MM / max(found.picture_spacing_mm, 1e-9))
+    if not found.drawn or made.labels is None or not made.labels.max():
+        return (f"The picture shows a lattice of about {found.picture_columns} columns {found.picture_spacing_mm:.1f} mm apart on "
+                f"the print, too close to print apart: the print is one flat plateau where they are; a wider print "
+                f"(`width_mm` {resolve}) raises every column.",)
+    lifts = member_tops(heights_mm, made.labels, mm_per_px, ring_mm=max(mm_per_px, 0.5 * found.spacing_mm))
+    n = lifts.size
+    felt = int((lifts >= FELT_MM).sum())
+    out = [f"A lattice of {n} columns {found.spacing_mm:.1f} mm apart: {felt} of them ({felt / max(n, 1):.0%}) stand at least "
+           f"{FELT_MM:g} mm over the troughs beside them (median {float(np.median(lifts)):.1f} mm, lowest {float(lifts.min()):.1f} mm)."]
+    if found.layers == 2:
+        out.append(f"The {found.upper} columns of the brighter layer stand on a plateau {found.step_mm:.1f} mm high: a step a "
+                   f"finger finds at the interface.")
+    if felt < 0.9 * found.picture_columns:
+        out.append(f"The picture shows about {found.picture_columns} columns {found.picture_spacing_mm:.1f} mm apart; the print raises "
+                   f"{felt}, so columns may be missing; a wider print (`width_mm` {resolve}) raises every one of them.")
+    elif found.picture_spacing_mm < MIN_PITCH_MM:
+        out.append(f"Its columns are {found.picture_spacing_mm:.1f} mm apart, under the {MIN_PITCH_MM:g} mm a fingertip tells apart: "
+                   f"felt as an even grain; a wider print (`width_mm` {resolve}) spaces them {MIN_PITCH_MM:g} mm apart.")
+    return tuple(out)
 
 
 def member_tops(heights_mm: np.ndarray, labels: np.ndarray, mm_per_px: float, ring_mm: float = 1.5) -> np.ndarray:

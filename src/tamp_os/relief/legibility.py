@@ -243,12 +243,16 @@ def verdicts(f: dict, nozzle_mm: float, style: str | None = None) -> tuple[str, 
         )
     elif step is not None:
         out.append(f"{levels} distinct height levels, at least {step:.2g} mm apart: easy to tell apart by touch.")
-    if f["narrow_share"] > 0.05:
+    if f["narrow_share"] > 0.05 and style == "content":  # a lattice's columns, small domes: drawn so on purpose
+        out.append(f"{f['narrow_area_mm2']:.0f} mm² ({f['narrow_share']:.0%} of the picture) is raised detail narrower than two "
+                   f"nozzle widths ({2 * nozzle_mm:g} mm): the drawn content's small domes and lines, kept on purpose; a wider "
+                   f"print makes them wider.")
+    elif f["narrow_share"] > 0.05:
         out.append(Text(
             f"{f['narrow_area_mm2']:.0f} mm² ({f['narrow_share']:.0%} of the picture) is ridges or grooves narrower than two "
             f"nozzle widths ({2 * nozzle_mm:g} mm): they may not print and read as noise; a larger `detail_mm` removes them."
         ))
-    if f["object_count"]:
+    if f["object_count"] and style != "content":  # the content style's own check says how high its members stand (once)
         lift, low = f["object_lift_mm"], f["lowest_lift_mm"]
         n = f["object_count"]
         if lift < LIFT_MM:
@@ -258,7 +262,7 @@ def verdicts(f: dict, nozzle_mm: float, style: str | None = None) -> tuple[str, 
                 f"a finger may not find {'it' if n == 1 else 'them'}; "
                 + ("try a taller `relief_mm`." if style in ("objects", "content") else "try `relief_style` objects.")
             ))
-        elif style != "content":  # the content style's own check says how high its members stand (once)
+        else:
             out.append(f"{n} object{'s' * (n != 1)} stand{'s' * (n == 1)} {lift:.2g} mm (median; lowest {low:.2g} mm) above the "
                        f"ground around {'it' if n == 1 else 'them'}.")
     out.append(f"The steepest slope is {f['steepest_slope_deg']:.0f} degrees.")

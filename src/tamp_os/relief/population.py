@@ -33,6 +33,15 @@ SMALL_PX = 30
 SADDLE_SHARE = 0.9
 TEXTURE_RATIO = 3.0  # measured: keeps exactly the 14 particles of particles_on_texture, 5 of 313 TEM texture grains
 NECK_MM = 0.5  # members joined by a neck this much narrower than both are two members
+# One object, one dome (issue 32): touching members stay apart only where their outline has a real
+# neck (the border they share at most NECK_SHARE of the smaller one's inscribed diameter: a chord
+# of two touching discs is always shorter; a particle cracked in halves or quarters by noise in its
+# shading has borders 1.2-2 times as wide) or a groove of shading between them (NECK_SADDLE).
+NECK_SHARE = 1.0
+CRACK_SHARE = 1.5  # a border this many times the smaller one's inscribed diameter is a crack, whatever the shading,
+CHIP_SHARE = 0.5  # when the smaller piece is at most this share of the larger (a chip of it; touching particles are alike)
+CRACK_MIN_MM = 4.0  # the shading rule joins pieces at least this wide (inscribed, on the print): a large particle's shading varies across it
+NECK_SADDLE = 0.8  # and their shading has no groove between them: the saddle stands this share of the lower peak
 
 
 @dataclass(frozen=True)
@@ -100,7 +109,10 @@ def find_members(bright01: np.ndarray, *, pitch_mm: float, noise: float | None =
     peak = label_max(top, basins, n)
     # Each member at half its own peak: dim and bright members get their true size.
     labels = np.where((basins > 0) & (top >= 0.5 * peak[basins]), basins, 0)
-    labels = _split_touching(_filled(_merge_shallow(_largest_parts(labels), top)), NECK_MM / pitch_mm)
+    # Shading's cracks joined first (merge_without_neck), then parted again where the outline has a
+    # neck (_split_touching): one object, one dome.
+    labels = _split_touching(merge_without_neck(_filled(_merge_shallow(_largest_parts(labels), top)), top,
+                                                large_px=CRACK_MIN_MM / pitch_mm), NECK_MM / pitch_mm)
     labels = _with_evidence(labels, top, pitch_mm, h)
     labels = _solid(_above_texture(labels, top))
     labels, _, _ = segmentation.relabel_sequential(labels)
@@ -226,6 +238,81 @@ def _merge_shallow(labels: np.ndarray, top: np.ndarray) -> np.ndarray:
             parent[max(rx, ry)] = min(rx, ry)
     roots = np.array([root(k) for k in range(n + 1)])
     return roots[labels].astype(labels.dtype)
+
+
+def neckless_pairs(labels: np.ndarray, top: np.ndarray | None = None, large_px: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """Touching members (a, b arrays) whose shared border is wider than NECK_SHARE of the smaller
+    one's inscribed diameter: no neck between them, so one object was split (by shading, not by
+    its outline). The border's width counts the 4-neighbour pixel pairs across it (per row or
+    column crossed: a straight border of length L gives L). With `top` (the local contrast), only
+    pairs whose shading has no groove between them either (the saddle at least NECK_SADDLE of the
+    lower one's peak): touching particles are parted by a groove of shading, cracks are not."""
+    n = int(labels.max())
+    if n < 2:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    keys, levels = [], []
+    for a, b, sa, sb in ((labels[:, 1:], labels[:, :-1], (slice(None), slice(1, None)), (slice(None), slice(None, -1))),
+                         (labels[1:], labels[:-1], (slice(1, None), slice(None)), (slice(None, -1), slice(None)))):
+        touch = (a != b) & (a > 0) & (b > 0)
+        if touch.any():
+            pa, pb = a[touch].astype(np.int64), b[touch].astype(np.int64)
+            keys.append(np.minimum(pa, pb) * (n + 1) + np.maximum(pa, pb))
+            if top is not None:
+                levels.append(np.minimum(top[sa][touch], top[sb][touch]))
+    if not keys:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    pair, where, width = np.unique(np.concatenate(keys), return_inverse=True, return_counts=True)
+    # Each member's inscribed diameter: twice its largest distance to anything not itself.
+    inside = (labels > 0) & ~inner_outline(labels)
+    dist = ndimage.distance_transform_edt(inside)
+    diameter = 2.0 * (label_max(dist, labels, n) + 0.5)
+    a, b = pair // (n + 1), pair % (n + 1)
+    ratio = width / np.minimum(diameter[a], diameter[b])
+    wide = ratio > NECK_SHARE
+    if top is not None:
+        peak = label_max(top, labels, n)
+        saddle = label_max(np.concatenate(levels), where.reshape(-1), pair.size - 1, -1.0)
+        area = np.bincount(labels.ravel(), minlength=n + 1)
+        chip = np.minimum(area[a], area[b]) <= CHIP_SHARE * np.maximum(area[a], area[b])
+        # Both rules join pieces of large objects only (a piece CRACK_MIN_MM wide: both pieces for
+        # the shading's rule, the larger one for a chip): small members are parted by their seeds.
+        large = np.minimum(diameter[a], diameter[b]) >= large_px
+        chip &= np.maximum(diameter[a], diameter[b]) >= large_px
+        wide &= ((saddle >= NECK_SADDLE * np.minimum(peak[a], peak[b])) & large) | ((ratio > CRACK_SHARE) & chip)
+    return a[wide], b[wide]
+
+
+def merge_without_neck(labels: np.ndarray, top: np.ndarray | None = None, rounds: int = 1, large_px: float = 0.0) -> np.ndarray:
+    """Members split where their outline has no neck (neckless_pairs) joined again, renumbered;
+    again on the joined ones (a particle cracked in many pieces joins piece by piece), up to
+    `rounds` times."""
+    for _ in range(rounds):
+        joined = _merge_once(labels, top, large_px)
+        if joined is labels:
+            break
+        labels = joined
+    return labels
+
+
+def _merge_once(labels: np.ndarray, top: np.ndarray | None, large_px: float = 0.0) -> np.ndarray:
+    a, b = neckless_pairs(labels, top, large_px)
+    if a.size == 0:
+        return labels
+    n = int(labels.max())
+    parent = np.arange(n + 1)
+
+    def root(k):
+        while parent[k] != k:
+            parent[k] = parent[parent[k]]
+            k = parent[k]
+        return k
+
+    for x, y in zip(a.tolist(), b.tolist()):
+        rx, ry = root(x), root(y)
+        if rx != ry:
+            parent[max(rx, ry)] = min(rx, ry)
+    roots = np.array([root(k) for k in range(n + 1)])
+    return segmentation.relabel_sequential(roots[labels])[0].astype(labels.dtype)
 
 
 def _filled(labels: np.ndarray) -> np.ndarray:

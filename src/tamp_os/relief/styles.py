@@ -63,6 +63,7 @@ class ReliefResult:
     notes: tuple[str, ...] = field(default_factory=tuple)
     checks: tuple[str, ...] = field(default_factory=tuple)
     content_kind: str = ""
+    lattice_pitch_mm: float | None = None  # content_kind "lattice": the raised columns' spacing on the print
 
     @property
     def object_count(self) -> int:
@@ -148,7 +149,8 @@ def make_relief(
             return content
         if content is not None and content.content_kind != "shape":
             return ReliefResult(content.heights_mm, "content", f"auto chose content ({_KIND_WORDS[content.content_kind]}): {content.reason}",
-                                content.objects, (), content.notes, content.checks, content.content_kind)
+                                content.objects, (), content.notes, content.checks, content.content_kind,
+                                content.lattice_pitch_mm)
     found = objects_found()
     if style == "auto":
         style, reason = choose_style(work, pitch_mm=grid.pitch_mm, options=options, found=found)
@@ -167,7 +169,7 @@ def make_relief(
     return ReliefResult(heights, style, reason or made.summary, labels, levels, made.notes)
 
 
-_KIND_WORDS = {"plateau": "one region against an empty ground", "members": "a population of members found", "lines": "a line network found", "grains": "grains found by their weak contrast"}
+_KIND_WORDS = {"plateau": "one region against an empty ground", "members": "a population of members found", "lattice": "a lattice found", "lines": "a line network found", "grains": "grains found by their weak contrast"}
 
 
 def _content(image01, grid, work, found, *, mm_per_px, base_mm, relief_mm, layer_mm, options, hints,
@@ -193,7 +195,8 @@ def _content(image01, grid, work, found, *, mm_per_px, base_mm, relief_mm, layer
     # The check reads the heights on the working grid, where the members and lines were found
     # (at 4096² a distance transform of the full grid alone would cost a second).
     checks = check_sentences(grid.down(heights).astype(np.float64), made, grid.pitch_mm, base_mm)
-    return ReliefResult(heights, "content", made.reason, labels, (), made.notes, checks, made.kind)
+    pitch = made.lattice.spacing_mm if made.lattice is not None else None
+    return ReliefResult(heights, "content", made.reason, labels, (), made.notes, checks, made.kind, pitch)
 
 
 def _full_span(relief01: np.ndarray) -> np.ndarray:

@@ -7,8 +7,12 @@ setup:
 demo: setup
 	.venv/bin/python scripts/demo.py demo-output
 
+# Two workers (the machine's two cores); a file's tests stay on one worker, so its module-scoped
+# set-ups (a server, a browser, a conversion) are made once.
+PARALLEL ?= -n 2 --dist loadfile
+
 test: setup
-	.venv/bin/python -m pytest $(PYTEST_ARGS)
+	.venv/bin/python -m pytest $(PARALLEL) $(PYTEST_ARGS)
 
 bench: setup
 	.venv/bin/python benchmarks/bench_core.py
@@ -19,4 +23,4 @@ clean:
 # The developer's loop: everything but the slow tiers (browser, slicer, real microscope files,
 # slow), with few hypothesis examples (docs/testing.md).
 test-fast: setup
-	TAMP_HYPOTHESIS=dev .venv/bin/python -m pytest -m "not slow and not browser and not slicer and not real" $(PYTEST_ARGS)
+	TAMP_HYPOTHESIS=dev .venv/bin/python -m pytest $(PARALLEL) -m "not slow and not browser and not slicer and not real" $(PYTEST_ARGS)

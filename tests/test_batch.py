@@ -8,6 +8,7 @@ import sys
 import time
 
 import numpy as np
+import pytest
 from PIL import Image
 
 from conftest import need_module, run_cli as run
@@ -24,6 +25,7 @@ def make_inputs(folder, good=25, hostile=5, size=(48, 64)):
     return folder
 
 
+@pytest.mark.slow
 def test_hostile_inputs_never_stop_the_batch(tmp_path, capsys):
     src = make_inputs(tmp_path / "in")
     code, out, _ = run(capsys, "batch", src, "-o", tmp_path / "out", "--preset", "low", "--workers", "2", "--formats", "stl,3mf")
@@ -45,6 +47,7 @@ def test_hostile_inputs_never_stop_the_batch(tmp_path, capsys):
     assert "25 converted" in out
 
 
+@pytest.mark.slow
 def test_killed_batch_resumes_without_rewriting_finished_work(tmp_path):
     src = make_inputs(tmp_path / "in", good=12, hostile=0, size=(300, 400))
     out = tmp_path / "out"
@@ -70,6 +73,7 @@ def test_killed_batch_resumes_without_rewriting_finished_work(tmp_path):
     assert skipped >= len(finished) and all(r["status"] != "failed" for r in report)
 
 
+@pytest.mark.slow
 def test_dask_cluster_gives_the_same_outputs_as_the_local_pool(tmp_path, capsys):
     distributed = need_module("distributed")
     src = make_inputs(tmp_path / "in", good=6, hostile=1)
@@ -106,6 +110,7 @@ def test_overrides_recursive_include_and_name_collisions(tmp_path, capsys):
     assert code == 1 and "line 2" in err and "relief_mm" in err
 
 
+@pytest.mark.slow
 def test_unreachable_dask_scheduler_is_a_clear_usage_error(tmp_path, capsys):
     from tamp_os.gui import free_port
 

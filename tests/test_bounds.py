@@ -144,6 +144,7 @@ def test_the_working_grid_is_bounded_and_leaves_plates_up_to_500_mm_alone():
     assert np.prod(big.work_shape) <= WORK_MAX_POINTS
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(900)
 def test_a_1000_mm_plate_at_high_is_made_within_a_gigabyte(tmp_path):
     """Was 229 s and 2.3 GB (the content analysis on the nozzle's 2500 x 1875 grid); the time is

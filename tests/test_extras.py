@@ -28,6 +28,7 @@ def run_child(missing: list[str], argv: list[str], cwd) -> subprocess.CompletedP
                           env={"PYTHONPATH": str(ROOT / "src"), "PATH": "/usr/bin:/bin"})
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(300)
 def test_converting_needs_no_extra(tmp_path, gradient_image):
     from PIL import Image

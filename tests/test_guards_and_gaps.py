@@ -129,6 +129,7 @@ def test_the_batch_report_is_rewritten_after_each_input_and_stale_parts_go(tmp_p
     assert not stale.exists()
 
 
+@pytest.mark.slow
 def test_the_demo_entry_point_runs(tmp_path):
     env = dict(os.environ, PYTHONPATH=str(ROOT / "src"))
     done = subprocess.run([sys.executable, str(ROOT / "scripts" / "demo.py"), str(tmp_path / "demo")],

@@ -69,6 +69,7 @@ def random_params(rng, image: np.ndarray, braille: bool) -> dict:
     return p
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(300)
 @pytest.mark.parametrize("chunk", range(CHUNKS))
 def test_random_configurations_write_closed_solids_as_slicers_read_them(tmp_path, chunk):

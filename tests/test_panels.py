@@ -209,6 +209,7 @@ def test_letters_parsed_as_ocr_gives_them():
     assert [parse_letter(t) for t in ("a", "(b)", "C.", "Cc", "oO", "ab", "1", "")] == ["a", "b", "C", "?c", "?o", None, None, None]
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(60)
 def test_speed_of_detection_geometry_on_a_4000_by_3000_figure():
     """Speed: the geometry (gutters, cut, classification) within 0.3 s; measured, with letters, in
@@ -341,6 +342,7 @@ def test_overview_words_agree_with_each_panels_print_and_not_with_the_choice():
     assert np.array_equal(alone.heightmap, over.heightmap)
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(300)
 def test_panel_choice_off_and_forced_grid(printed):
     from tamp_os.lithograph.figure import make_figure
@@ -419,6 +421,7 @@ def _encodings(litho):
     return [(e.encoding, e.label) for e in litho.report.key]
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(600)
 def test_colour_panels_take_the_channel_path_as_on_their_own(tmp_path):
     """A fluorescence composite, a grey SEM panel and an H&E section in one figure: each colour
@@ -540,6 +543,7 @@ def test_a_single_colour_or_multichannel_picture_keeps_its_channel_path(tmp_path
     assert make_figure(grey, width_mm=60).prints[0][1].report.relief_style != "channels"  # grey stored as RGB
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(600)
 def test_overview_says_what_each_panel_shows_whichever_panels_are_printed(tmp_path):
     """Panels of known kinds (a population of ten beads, a network of grain boundaries, faint grains
@@ -679,6 +683,7 @@ def test_letters_are_read_in_process_by_tesserocr():
     assert ocr.read_text(page, 10, "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ").strip() == "K"
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(300)
 def test_large_figures_exact_boxes_and_letters_by_both_backends(monkeypatch):
     """4000 × 3000: cut on every second pixel, edges found again at full resolution (exact
@@ -698,6 +703,7 @@ def test_large_figures_exact_boxes_and_letters_by_both_backends(monkeypatch):
             assert detect_panels(values).labels() == figure.letters
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(120)
 def test_speed_of_the_whole_detection_with_letters_on_a_4000_by_3000_figure():
     """Issue 23: at most 0.3 s letters included (benchmarks/bench_panels.py measures it); here the

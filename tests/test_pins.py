@@ -348,11 +348,13 @@ def _specks() -> PinSource:
     return PinSource(labels.shape, [Layer("members", "specks", labels)], 0.01, "specks", "specks", "en-ueb-g2.ctb")
 
 
+@pytest.mark.slow
 def test_members_too_fine_for_any_zoom_say_the_zoom_needed():
     with pytest.raises(ExportError, match=r"finer than a pin on every page .* needs a zoom of about \d+×"):
         pin_pages(_specks(), DEVICES["dotpad"])
 
 
+@pytest.mark.slow
 def test_a_picture_too_fine_writes_no_file(beads_litho, tmp_path, monkeypatch):
     """The pages are made before any file is opened, so a refusal leaves the folder empty."""
     from tamp_os.export import pins

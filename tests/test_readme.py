@@ -29,6 +29,7 @@ def test_python_example_runs(tmp_path, monkeypatch):
     assert namespace["litho"].params.relief_mm == 2.5
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(300)
 def test_the_first_conversion_runs_as_written(tmp_path):
     """The README's first conversion, its recipe rebuild, presets and check, run as a user types them."""

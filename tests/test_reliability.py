@@ -150,6 +150,7 @@ def small_png(path: Path, shape=(60, 80), seed=0) -> Path:
 
 # --- 1. memory priced before decoding ---------------------------------------------------------------
 
+@pytest.mark.slow
 @pytest.mark.timeout(120)
 def test_rgb_png_bomb_is_refused_in_one_line_within_a_memory_limit(tmp_path):
     bomb = zero_png(tmp_path / "rgb.png", 20000, 20000, 2)
@@ -198,6 +199,7 @@ def test_tiff_tile_larger_than_the_image_is_priced_as_declared(tmp_path, compres
     assert peak < REFUSAL_PEAK_MB, peak  # decoding the tile would take 4.3 GB
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(120)
 def test_a_large_sparse_tiff_is_hashed_by_streaming(tmp_path):
     path = tmp_path / "big.tif"
@@ -216,6 +218,7 @@ def test_a_large_sparse_tiff_is_hashed_by_streaming(tmp_path):
     assert peak < 250, f"peak {peak:.0f} MB: the 1.5 GB file was held in memory"
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(300)
 def test_the_working_estimate_bounds_the_measured_peak_of_a_conversion(tmp_path):
     """WORKING_BYTES_PER_PX is an upper bound of what a conversion really holds per source pixel."""
@@ -586,6 +589,7 @@ def test_stale_part_files_are_swept_by_the_next_convert(tmp_path, capsys):
     assert sorted(p.name for p in out.iterdir()) == ["in.description.txt", "in.stl", "in.tamp.json", "notes.part.txt"]
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(300)
 @pytest.mark.parametrize("signame", ["SIGTERM", "SIGHUP"])
 def test_a_signal_during_convert_leaves_no_temporary_file(tmp_path, signame):
@@ -784,6 +788,7 @@ def _vm_hwm_mb(pid: int) -> float:
     return 0.0
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(300)
 def test_bombs_cost_the_web_server_one_message_each_and_no_memory(tmp_path):
     import httpx

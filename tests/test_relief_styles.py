@@ -105,6 +105,7 @@ def _regions(heights):
     return measure.label(np.round(heights, 6) * 1e6, background=-1, connectivity=1)
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(120)
 @settings(max_examples=examples(8), deadline=None)
 @given(count=st.integers(2, 5), seed=st.integers(0, 50), which=st.sampled_from(["tem", "particles"]))

@@ -119,6 +119,7 @@ def test_pegs_fit_sockets_with_the_clearance(tiled):
         assert _inside(socket, ring(radius + CLEARANCE_MM + 0.05)).all()  # the socket is larger by the clearance
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(300)
 def test_tiles_cover_the_plate_without_overlap(tiled):
     litho, tiles, whole, _ = tiled

@@ -326,6 +326,7 @@ def elid_bomb():
     return b"".join(parts) + packer.flush()
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(180)
 def test_elid_bzip2_bomb_is_refused_in_bounded_memory(tmp_path, elid_bomb):
     assert len(elid_bomb) < 5000

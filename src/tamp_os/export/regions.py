@@ -17,6 +17,7 @@ bar, the caption and the key, as they lie below the picture.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -27,6 +28,7 @@ from .graphic2d import Graphic2D
 
 MAX_PICTURE_REGIONS = 40  # more than this is not a tour; the largest are kept and the rest counted
 MIN_REGION_MM2 = 1.0  # a piece smaller than a fingertip's square millimetre is not a stop on the tour
+MIN_TOUCH_DEPTH_PX = 2.0  # a touch point lies this far inside its region's own part (outlines are simplified)
 NOUNS = {"members": "dome", "dots": "dot", "lines": "raised line", "areas": "raised area"}
 DRAW_ORDER = {"picture": 0, "areas": 1, "lines": 2, "members": 3, "dots": 3, "furniture": 4}
 
@@ -80,20 +82,21 @@ def _contour_path(mask: np.ndarray, to_page) -> str:
         contour = approximate_polygon(contour - 1.0, tolerance=0.25)
         if len(contour) < 3:
             continue
-        points = [to_page(r, c) for r, c in contour]
+        points = [to_page(r + 0.5, c + 0.5) for r, c in contour]  # contours run through pixel centres
         parts.append("M" + "L".join(f"{x:.2f} {y:.2f}" for x, y in points) + "Z")
     return "".join(parts)
 
 
-def _inner_point(mask: np.ndarray) -> tuple[int, int] | None:
-    """The pixel of `mask` farthest from its edge (row, col), or None for an empty mask."""
+def _inner_point(mask: np.ndarray) -> tuple[tuple[int, int] | None, float]:
+    """The pixel of `mask` farthest from its edge (row, col) and its distance from the edge in
+    pixels; (None, 0) for an empty mask."""
     from scipy.ndimage import distance_transform_edt
 
     if not mask.any():
-        return None
+        return None, 0.0
     distance = distance_transform_edt(np.pad(mask, 1))[1:-1, 1:-1]
     r, c = np.unravel_index(int(np.argmax(distance)), distance.shape)
-    return int(r), int(c)
+    return (int(r), int(c)), float(distance[r, c])
 
 
 @dataclass
@@ -120,8 +123,10 @@ def _pieces(layers, shape) -> list[_Piece]:
     return out
 
 
-def picture_regions(layers, shape: tuple[int, int], graphic: Graphic2D, um_per_px: float | None) -> tuple[list[Region], int]:
-    """The picture's regions in reading order, and how many smaller pieces were left out."""
+def picture_regions(layers, shape: tuple[int, int], graphic: Graphic2D, um_per_px: float | None
+                    ) -> tuple[list[Region], int, tuple[float, float] | None]:
+    """The picture's regions in reading order, how many smaller pieces were left out, and a point
+    of the picture (page mm) that no region covers (None when they cover it all)."""
     rows, cols = shape
     px0, py0, px1, py1 = graphic.picture_box
     plate_d = graphic.plate_mm[1]
@@ -157,9 +162,15 @@ def picture_regions(layers, shape: tuple[int, int], graphic: Graphic2D, um_per_p
     touch_of = {}
     for index in sorted(range(len(placed)), key=lambda i: -DRAW_ORDER.get(placed[i][3].kind, 2)):
         piece = placed[index][3]
-        point = _inner_point(piece.mask & ~above) or _inner_point(piece.mask)
+        point, depth = _inner_point(piece.mask & ~above)
+        if depth < MIN_TOUCH_DEPTH_PX:
+            if piece.kind == "areas":  # a thin rim around the domes on it: felt as the domes, not a stop of its own
+                continue
+            point, depth = _inner_point(piece.mask)
         touch_of[index] = point
         above |= piece.mask
+    placed = [p for i, p in enumerate(placed) if i in touch_of]
+    touch_of = {new: touch_of[old] for new, old in enumerate(sorted(touch_of))}
     counts: dict[tuple[str, str], int] = {}
     for _, _, _, piece, _, _ in placed:
         counts[(piece.kind, piece.label)] = counts.get((piece.kind, piece.label), 0) + 1
@@ -175,7 +186,8 @@ def picture_regions(layers, shape: tuple[int, int], graphic: Graphic2D, um_per_p
         regions.append(Region(
             f"r{index + 1}", piece.kind, label, _piece_description(piece, sx, sy, um_per_px, (x1 - x0, y1 - y0), where_words(cx, cy)),
             _contour_path(piece.mask, to_page), to_page(r + 0.5, c + 0.5), (x0, y0, x1, y1)))
-    return regions, left_out
+    ground, _ = _inner_point(~above)
+    return regions, left_out, (to_page(ground[0] + 0.5, ground[1] + 0.5) if ground else None)
 
 
 def _piece_label(piece: _Piece, number: int, total: int) -> str:
@@ -232,6 +244,7 @@ def furniture_regions(graphic: Graphic2D, caption: str | None, key_labels: list[
     out["picture"] = rect("picture", "the picture",
                           f"The picture, {mm_words(px1 - px0)} wide and {mm_words(py1 - py0)} deep, at the top of the plate; "
                           "the regions on it follow, top to bottom and left to right.", graphic.picture_box)
+    out["picture"] = dataclasses.replace(out["picture"], kind="picture")  # drawn under the regions on it
     bar = graphic.scale_bar
     if bar is not None:
         out["scale-bar"] = rect("scale-bar", "scale bar",
@@ -265,7 +278,9 @@ def tour_of(graphic: Graphic2D, layers, shape, um_per_px: float | None, title: s
             key_labels: list[str]) -> Tour:
     """The touch tour of a 2-D graphic and the layers it shows."""
     furniture = furniture_regions(graphic, caption, key_labels)
-    picture, left_out = picture_regions(layers, shape, graphic, um_per_px)
+    picture, left_out, ground = picture_regions(layers, shape, graphic, um_per_px)
+    if ground is not None:  # touching the picture where nothing is raised names the picture
+        furniture["picture"] = dataclasses.replace(furniture["picture"], touch=ground)
     order = [furniture[k] for k in ("corner", "picture") if k in furniture] + picture
     order += [furniture[k] for k in ("scale-bar", "scale-value", "caption") if k in furniture]
     order += [furniture[k] for k in sorted(furniture) if k.startswith("key-")]

@@ -353,3 +353,12 @@ def test_real_packages_conform(name, tmp_path, fixture):
     else:
         need(False, "epubcheck (apt-get install epubcheck)")
 
+
+
+def test_the_formats_table_and_the_web_form_offer_both():
+    from tamp_os import formats
+    from tamp_os.gui.routes import FORMATS as web_formats
+
+    assert formats.BY_NAME["ebraille"].suffix == ".ebrl" and formats.BY_NAME["tour"].suffix == ".tour.html"
+    assert set(formats.DOCUMENT_FORMATS) == {"ebraille", "tour"} <= set(web_formats)
+    assert formats.by_suffix(".ebrl").name == "ebraille"

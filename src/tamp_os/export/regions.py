@@ -203,6 +203,11 @@ def _piece_label(piece: _Piece, number: int, total: int) -> str:
 
 
 def _piece_description(piece: _Piece, sx: float, sy: float, um_per_px: float | None, extent_mm, where: str) -> str:
+    text = _piece_words(piece, sx, sy, um_per_px, extent_mm, where)
+    return text[:1].upper() + text[1:]
+
+
+def _piece_words(piece: _Piece, sx: float, sy: float, um_per_px: float | None, extent_mm, where: str) -> str:
     if piece.kind == "lines":
         w, h = extent_mm
         size = f"spanning {mm_words(w)} by {mm_words(h)} on the plate"

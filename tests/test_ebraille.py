@@ -362,3 +362,10 @@ def test_the_formats_table_and_the_web_form_offer_both():
     assert formats.BY_NAME["ebraille"].suffix == ".ebrl" and formats.BY_NAME["tour"].suffix == ".tour.html"
     assert set(formats.DOCUMENT_FORMATS) == {"ebraille", "tour"} <= set(web_formats)
     assert formats.by_suffix(".ebrl").name == "ebraille"
+
+
+def test_a_file_name_picks_the_format(beads, tmp_path):
+    litho, _, _ = beads
+    assert [p.name for p in litho.save(tmp_path / "one.ebrl")][0] == "one.ebrl"
+    assert [p.name for p in litho.save(tmp_path / "two.tour.html")][0] == "two.tour.html"
+    assert check_bytes((tmp_path / "one.ebrl").read_bytes(), "one.ebrl") == []

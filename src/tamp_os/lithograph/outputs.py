@@ -20,7 +20,7 @@ import numpy as np
 from ..errors import ExportError, InputError, ParameterError
 from ..export import check_export, save_mesh
 from ..export.files import to_uint8, write_png, write_text
-from ..formats import DOCUMENT_FORMATS, GRAPHIC_FORMATS, PIN_FORMATS
+from ..formats import BY_NAME, DOCUMENT_FORMATS, GRAPHIC_FORMATS, PIN_FORMATS
 from ..params import LithoParams
 from ..printing.printers import PrinterProfile
 from .report import Printing, describe
@@ -122,7 +122,10 @@ def _target(litho, target: Path, formats, stem) -> tuple[Path, str, list[str]]:
     from ..export.files import check_path_length
 
     check_path_length(target)  # before any look at the file system: a too-long name fails there
-    if target.suffix and not target.is_dir():
+    document = next((f for f in DOCUMENT_FORMATS if target.name.lower().endswith(BY_NAME[f].suffix)), None)
+    if document and not target.is_dir():  # NAME.ebrl, NAME.tour.html (a suffix of two parts)
+        folder, stem, formats = target.parent, target.name[: -len(BY_NAME[document].suffix)], [document]
+    elif target.suffix and not target.is_dir():
         folder, stem, formats = target.parent, target.stem, [target.suffix.lstrip(".").lower()]
     else:
         folder, stem = target, stem or litho.name

@@ -6,7 +6,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 # python3-venv for .venv; tesseract-ocr-eng holds the model that both the tesseract command and tesserocr (the ocr extra) read; libcairo2-dev + pkg-config to build pycairo; poppler-utils (pdfinfo, pdftoppm) to check PDFs; Mesa EGL/GL for PyVista offscreen; GLU and X client libraries that the gmsh wheel links.
-APT_PACKAGES="python3-venv liblouis-bin liblouis-data python3-louis prusa-slicer chromium tesseract-ocr tesseract-ocr-eng fonts-dejavu-core libegl1 libgl1 libglu1-mesa libxcursor1 libxft2 libxinerama1 libcairo2-dev pkg-config poppler-utils nodejs npm"
+APT_PACKAGES="python3-venv liblouis-bin liblouis-data python3-louis prusa-slicer chromium tesseract-ocr tesseract-ocr-eng fonts-dejavu-core libegl1 libgl1 libglu1-mesa libxcursor1 libxft2 libxinerama1 libcairo2-dev pkg-config poppler-utils nodejs npm epubcheck"
 missing=""
 for pkg in $APT_PACKAGES; do
   dpkg -s "$pkg" >/dev/null 2>&1 || missing="$missing $pkg"

@@ -16,7 +16,7 @@ from typing import Callable, Literal
 @dataclass(frozen=True)
 class Format:
     name: str  # as the parameter `formats` takes it: "stl"
-    kind: Literal["mesh", "graphic", "pins"]  # a 3-D solid, a 2-D tactile graphic (swell paper, embosser), or pin-display pages
+    kind: Literal["mesh", "graphic", "pins", "document"]  # a 3-D solid, a 2-D tactile graphic (swell paper, embosser), pin-display pages, or a document about the plate
     suffixes: tuple[str, ...]  # file suffixes, the first is written: (".step", ".stp")
     what: str  # for people: what the file is for
     writer: str | None = None  # "stl:write_stl" in tamp_os.export (meshes); graphics are drawn by export.tactile2d
@@ -72,12 +72,16 @@ TABLE: tuple[Format, ...] = (
     Format("dotpad", "pins", (".dtms",), "the Dot Pad 320 pin display (overview, zoom and key pages, braille text line)"),
     Format("graphiti", "pins", (".graphiti",), "the Graphiti and Graphiti Plus pin displays (Update Display frames, five heights; pages as PNG)"),
     Format("monarch", "pins", (".monarch.svg",), "the Monarch pin display (SVG in the IMAGE profile, 96 × 40 pins)"),
+    # documents about the plate (issue 35): written by export.ebraille and export.tour
+    Format("ebraille", "document", (".ebrl",), "eBraille 1.0 readers and braille displays (braille text, the tactile graphic as SVG and PDF, a touch tour)"),
+    Format("tour", "document", (".tour.html",), "a tablet beside or under the plate: a touch tour that says each region (one self-contained web page)"),
 )
 BY_NAME: dict[str, Format] = {f.name: f for f in TABLE}
 NAMES: tuple[str, ...] = tuple(BY_NAME)
 MESH_FORMATS: tuple[str, ...] = tuple(f.name for f in TABLE if f.kind == "mesh")
 GRAPHIC_FORMATS: tuple[str, ...] = tuple(f.name for f in TABLE if f.kind == "graphic")
 PIN_FORMATS: tuple[str, ...] = tuple(f.name for f in TABLE if f.kind == "pins")
+DOCUMENT_FORMATS: tuple[str, ...] = tuple(f.name for f in TABLE if f.kind == "document")
 # Meshes we read back (render, check, slice, estimate): ours plus two that trimesh reads too.
 READABLE_MESH_SUFFIXES: tuple[str, ...] = tuple(f.suffix for f in TABLE if f.readable) + (".gltf", ".off")
 

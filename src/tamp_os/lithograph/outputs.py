@@ -20,7 +20,7 @@ import numpy as np
 from ..errors import ExportError, InputError, ParameterError
 from ..export import check_export, save_mesh
 from ..export.files import to_uint8, write_png, write_text
-from ..formats import GRAPHIC_FORMATS, PIN_FORMATS
+from ..formats import BY_NAME, DOCUMENT_FORMATS, GRAPHIC_FORMATS, PIN_FORMATS
 from ..params import LithoParams
 from ..printing.printers import PrinterProfile
 from .report import Printing, describe
@@ -69,10 +69,11 @@ def save(litho, target, formats=None, stem: str | None = None) -> list[Path]:
     meta = metadata(litho)
     graphics = [f for f in formats if f in GRAPHIC_FORMATS]
     pins = [f for f in formats if f in PIN_FORMATS]
-    meshes = [f for f in formats if f not in GRAPHIC_FORMATS and f not in PIN_FORMATS]
+    documents = [f for f in formats if f in DOCUMENT_FORMATS]  # eBraille and the touch tour (issue 35)
+    meshes = [f for f in formats if f not in GRAPHIC_FORMATS and f not in PIN_FORMATS and f not in DOCUMENT_FORMATS]
     # The mesh as written, every format's own limits and the graphics' page are checked before any file is written.
-    graphic = tactile_graphic(litho) if graphics else None
-    if graphic is not None:
+    graphic = tactile_graphic(litho) if graphics or documents else None
+    if graphics:
         from ..export.graphic2d import page_placement
 
         page_placement(graphic.plate_mm, litho.params.page_size)
@@ -95,6 +96,10 @@ def save(litho, target, formats=None, stem: str | None = None) -> list[Path]:
 
         for fmt, pin_set in pages.items():
             written += save_pins(pin_set, fmt, folder, stem, meta["title"])
+    if documents:
+        from ..export.tour import save_documents
+
+        written += save_documents(litho, graphic, documents, folder, stem, meta["description"])
     if litho.params.save_masks and litho.mask is not None:
         written.append(write_png(folder / f"{stem}.annotations.png", to_uint8(litho.mask, 0.0, 1.0)))
     written.append(write_text(folder / f"{stem}.description.txt", meta["description"] + "\n"))
@@ -117,7 +122,10 @@ def _target(litho, target: Path, formats, stem) -> tuple[Path, str, list[str]]:
     from ..export.files import check_path_length
 
     check_path_length(target)  # before any look at the file system: a too-long name fails there
-    if target.suffix and not target.is_dir():
+    document = next((f for f in DOCUMENT_FORMATS if target.name.lower().endswith(BY_NAME[f].suffix)), None)
+    if document and not target.is_dir():  # NAME.ebrl, NAME.tour.html (a suffix of two parts)
+        folder, stem, formats = target.parent, target.name[: -len(BY_NAME[document].suffix)], [document]
+    elif target.suffix and not target.is_dir():
         folder, stem, formats = target.parent, target.stem, [target.suffix.lstrip(".").lower()]
     else:
         folder, stem = target, stem or litho.name

@@ -58,6 +58,18 @@ def test_bottom_is_a_fan_not_a_grid():
     assert len(mesh.vertices) == rows * cols + perimeter_edges + 1
 
 
+@settings(max_examples=examples(40), deadline=None)
+@given(st.integers(2, 40), st.integers(2, 40), st.integers(0, 10_000), st.sampled_from([0.01, 0.06, 0.3]))
+def test_the_adaptive_outline_is_the_edges_used_once_in_the_same_order(rows, cols, seed, error_mm):
+    """The adaptive top's outline, found from the rectangle's sides, is boundary_edges' own."""
+    from tamp_os.mesh.adaptive import adaptive_top
+    from tamp_os.mesh.solid import rectangle_boundary_edges
+
+    heights = np.random.default_rng(seed).random((rows, cols)) * 3
+    verts, faces = adaptive_top(heights, 7.0 * cols, 5.0 * rows, error_mm)
+    assert np.array_equal(rectangle_boundary_edges(verts, faces, 7.0 * cols, 5.0 * rows), boundary_edges(faces))
+
+
 def test_grid_outline_matches_the_edges_used_once():
     verts, faces, boundary = grid_top(np.zeros((4, 6)), 5, 3)
     found = boundary_edges(faces)

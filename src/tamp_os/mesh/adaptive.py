@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .solid import INDEX, Mesh, boundary_edges, close_top, grid_solid
+from .solid import INDEX, Mesh, close_top, grid_solid, rectangle_boundary_edges
 
 
 def _delatin_top(heights: np.ndarray, width_mm: float, depth_mm: float, max_error_mm: float):
@@ -98,4 +98,4 @@ def adaptive_solid(heights: np.ndarray, width_mm: float, depth_mm: float, max_er
     if max_error_mm <= 0:
         return grid_solid(heights, width_mm, depth_mm)
     vertices, faces = adaptive_top(heights, width_mm, depth_mm, max_error_mm)
-    return close_top(vertices, faces, boundary_edges(faces), width_mm, depth_mm)
+    return close_top(vertices, faces, rectangle_boundary_edges(vertices, faces, width_mm, depth_mm), width_mm, depth_mm)

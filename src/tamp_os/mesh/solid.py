@@ -99,6 +99,18 @@ def boundary_edges(faces: np.ndarray) -> np.ndarray:
     return edges[~np.isin(keys, reverse)]
 
 
+def rectangle_boundary_edges(vertices: np.ndarray, faces: np.ndarray, width_mm: float, depth_mm: float) -> np.ndarray:
+    """`boundary_edges` of a triangulation that covers the whole rectangle [0, width] × [0, depth]
+    (an adaptive top, whose sides sit exactly on the bounds): the edges with both ends on one side.
+    No edge inside the rectangle joins two points of one side (it would run along that side, over
+    the points between them), so these are the same edges in the same order, found without the
+    sort that matching each edge with its reverse needs (2 s of a 1000 mm plate's 22 s at High)."""
+    edges = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]).astype(np.int64)
+    x, y = vertices[:, 0], vertices[:, 1]
+    side = ((x == 0) * 1 | (x == width_mm) * 2 | (y == 0) * 4 | (y == depth_mm) * 8).astype(np.uint8)
+    return edges[(side[edges[:, 0]] & side[edges[:, 1]]) != 0]
+
+
 def close_top(top_vertices: np.ndarray, top_faces: np.ndarray, boundary: np.ndarray, width_mm: float, depth_mm: float) -> Mesh:
     """Add walls and a bottom under a top surface whose outline is `boundary` (directed, CCW)."""
     n_top = len(top_vertices)

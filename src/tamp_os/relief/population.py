@@ -209,13 +209,6 @@ def _merge_shallow(labels: np.ndarray, top: np.ndarray) -> np.ndarray:
     if n < 2:
         return labels
     peak = label_max(top, labels, n)
-    parent = np.arange(n + 1)
-
-    def root(k):
-        while parent[k] != k:
-            parent[k] = parent[parent[k]]
-            k = parent[k]
-        return k
 
     # The saddle of each touching pair: the highest of min(top) over the pixel pairs joining them
     # (one sort over pair keys, not a loop over pixels).
@@ -232,12 +225,26 @@ def _merge_shallow(labels: np.ndarray, top: np.ndarray) -> np.ndarray:
     saddle = label_max(np.concatenate(levels), where.reshape(-1), pair.size - 1, -1.0)
     x_of, y_of = pair // (n + 1), pair % (n + 1)
     shallow = saddle >= SADDLE_SHARE * np.minimum(peak[x_of], peak[y_of])
-    for x, y in zip(x_of[shallow].tolist(), y_of[shallow].tolist()):
+    roots = joined_roots(n, x_of[shallow].tolist(), y_of[shallow].tolist())
+    return roots[labels].astype(labels.dtype)
+
+
+def joined_roots(n: int, xs, ys) -> np.ndarray:
+    """For labels 0..n, the smallest label of the group each ends in when every pair (xs[i], ys[i])
+    is joined (union-find with path halving): index it with a label image to merge the groups."""
+    parent = np.arange(n + 1)
+
+    def root(k):
+        while parent[k] != k:
+            parent[k] = parent[parent[k]]
+            k = parent[k]
+        return k
+
+    for x, y in zip(xs, ys):
         rx, ry = root(x), root(y)
         if rx != ry:
             parent[max(rx, ry)] = min(rx, ry)
-    roots = np.array([root(k) for k in range(n + 1)])
-    return roots[labels].astype(labels.dtype)
+    return np.array([root(k) for k in range(n + 1)])
 
 
 def neckless_pairs(labels: np.ndarray, top: np.ndarray | None = None, large_px: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
@@ -298,20 +305,7 @@ def _merge_once(labels: np.ndarray, top: np.ndarray | None, large_px: float = 0.
     a, b = neckless_pairs(labels, top, large_px)
     if a.size == 0:
         return labels
-    n = int(labels.max())
-    parent = np.arange(n + 1)
-
-    def root(k):
-        while parent[k] != k:
-            parent[k] = parent[parent[k]]
-            k = parent[k]
-        return k
-
-    for x, y in zip(a.tolist(), b.tolist()):
-        rx, ry = root(x), root(y)
-        if rx != ry:
-            parent[max(rx, ry)] = min(rx, ry)
-    roots = np.array([root(k) for k in range(n + 1)])
+    roots = joined_roots(int(labels.max()), a.tolist(), b.tolist())
     return segmentation.relabel_sequential(roots[labels])[0].astype(labels.dtype)
 
 

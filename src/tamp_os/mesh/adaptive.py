@@ -49,10 +49,43 @@ def adaptive_top(heights: np.ndarray, width_mm: float, depth_mm: float, max_erro
     vertices, faces = _delatin_top(heights, width_mm, depth_mm, max_error_mm)
     if (vertices == peak).all(axis=1).any():
         return vertices, faces
-    # Inserting the peak lifts the surface around it by up to the error there, which could
-    # double the error at its neighbours: triangulate to half the bound, then insert it.
+    # Inserting the peak changes the surface only inside the triangle(s) it falls in. Where the
+    # error there stays within the bound, this triangulation serves; else (the peak lifts its
+    # neighbours by up to the error there, which could double it) triangulate to half the bound,
+    # then insert it. The check saves a second pass over the whole grid (4.5 s at 1000 mm, High).
+    with_peak, with_peak_faces = insert_point(vertices, faces, peak)
+    around = with_peak_faces[(with_peak_faces == len(vertices)).any(axis=1)]
+    if error_at_grid_points(with_peak, around, heights, width_mm, depth_mm) <= max_error_mm:
+        return with_peak, with_peak_faces
     vertices, faces = _delatin_top(heights, width_mm, depth_mm, max_error_mm / 2)
     return insert_point(vertices, faces, peak)
+
+
+def error_at_grid_points(vertices: np.ndarray, faces: np.ndarray, heights: np.ndarray, width_mm: float,
+                         depth_mm: float) -> float:
+    """The largest |surface − height| (mm) at the grid points inside `faces`, whose vertices are in mm
+    as adaptive_top places them (x = column × pitch, y = (rows − 1 − row) × pitch)."""
+    rows, cols = heights.shape
+    worst = 0.0
+    for tri in vertices[faces]:
+        col = tri[:, 0] * ((cols - 1) / width_mm)
+        row = (rows - 1) - tri[:, 1] * ((rows - 1) / depth_mm)
+        c0, c1 = max(int(np.floor(col.min())), 0), min(int(np.ceil(col.max())), cols - 1)
+        r0, r1 = max(int(np.floor(row.min())), 0), min(int(np.ceil(row.max())), rows - 1)
+        cc, rr = np.meshgrid(np.arange(c0, c1 + 1, dtype=np.float64), np.arange(r0, r1 + 1, dtype=np.float64))
+        area = (col[1] - col[0]) * (row[2] - row[0]) - (row[1] - row[0]) * (col[2] - col[0])
+        if area == 0:
+            continue
+        w1 = ((cc - col[0]) * (row[2] - row[0]) - (rr - row[0]) * (col[2] - col[0])) / area
+        w2 = ((col[1] - col[0]) * (rr - row[0]) - (row[1] - row[0]) * (cc - col[0])) / area
+        w0 = 1 - w1 - w2
+        inside = (w0 >= -1e-9) & (w1 >= -1e-9) & (w2 >= -1e-9)
+        if not inside.any():
+            continue
+        z = w0 * tri[0, 2] + w1 * tri[1, 2] + w2 * tri[2, 2]
+        found = heights[rr[inside].astype(np.int64), cc[inside].astype(np.int64)]
+        worst = max(worst, float(np.abs(z[inside] - found).max()))
+    return worst
 
 
 def insert_point(vertices: np.ndarray, faces: np.ndarray, point: np.ndarray):

@@ -125,3 +125,42 @@ def test_insert_point_inside_on_edge_and_on_vertex():
         u, w = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
         area = u[:, 0] * w[:, 1] - u[:, 1] * w[:, 0]
         assert (area > 0).all() and area.sum() == pytest.approx(8.0)
+
+
+def test_a_peak_the_first_pass_leaves_out_is_inserted_without_a_second_pass():
+    """A ramp with a bump 0.01 mm high at its top: within 0.06 mm, so pydelatin's first pass leaves
+    the highest point out; it is inserted, the error checked around it, and no second pass runs."""
+    from tamp_os.mesh import adaptive
+
+    rows, cols, width, depth = 40, 60, 30.0, 20.0
+    heights = np.tile(np.linspace(1.0, 3.0, cols), (rows, 1))  # base + relief, above z = 0
+    heights[20, 50] += 0.01
+    passes = []
+    original = adaptive._delatin_top
+
+    def counted(*args):
+        passes.append(args[-1])
+        return original(*args)
+
+    adaptive._delatin_top = counted
+    try:
+        mesh = adaptive_solid(heights, width, depth, 0.06)
+    finally:
+        adaptive._delatin_top = original
+    assert passes == [0.06]  # one pass at the full bound
+    assert mesh.vertices[:, 2].max() == heights.max()  # the print reaches exactly base + relief
+    z = surface_at_grid_nodes(mesh, rows, cols, width, depth)
+    assert np.abs(z - heights).max() <= 0.06 + 1e-6
+    assert check_solid(mesh).ok
+
+
+def test_the_check_around_an_inserted_peak_measures_the_grid_points_inside():
+    from tamp_os.mesh.adaptive import error_at_grid_points
+
+    heights = np.zeros((11, 11))
+    heights[5, 5] = 1.0
+    # one triangle over the whole left half at z = 0: the only point off it is outside; then a
+    # triangle that covers (5, 5) at z = 0 misses it by 1 mm
+    vertices = np.array([[0.0, 0.0, 0.0], [4.0, 0.0, 0.0], [0.0, 10.0, 0.0], [10.0, 10.0, 0.0], [10.0, 0.0, 0.0]])
+    assert error_at_grid_points(vertices, np.array([[0, 1, 2]]), heights, 10.0, 10.0) == 0.0
+    assert error_at_grid_points(vertices, np.array([[0, 4, 3]]), heights, 10.0, 10.0) == pytest.approx(1.0)

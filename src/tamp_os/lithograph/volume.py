@@ -218,15 +218,20 @@ def _model(path, picture, params, printer, read, voxel_m, rel, factors, budget_v
     sizes = np.bincount(labels.ravel())[1:] * float(np.prod(step * provisional))
     keep = np.flatnonzero(sizes >= SPECK_MM3) + 1
     if keep.size == 0:
-        keep = np.array([int(np.argmax(sizes)) + 1])  # the largest part, however small: the model is made of it
+        biggest = float(sizes.max()) if sizes.size else 0.0
+        raise InputError(f"{path}: above `iso_level` {level:g} the stack holds only specks ({n} parts, the largest "
+                         f"{biggest:.2g} mm³ at this size, each smaller than {SPECK_MM3:g} mm³), nothing a hand can find; choose a "
+                         f"lower `iso_level` (the stack's values run from {lo:g} to {hi:g}) or a larger `size_mm`.")
     kept = np.isin(labels, keep)
     del labels, mask0
     box = ndimage.find_objects(kept.astype(np.int8))[0]
-    box = tuple(slice(max(b.start - 1, 0), min(b.stop + 1, n_)) for b, n_ in zip(box, values.shape))
+    box = tuple(slice(max(b.start - 3, 0), min(b.stop + 3, n_)) for b, n_ in zip(box, values.shape))  # room for the smoothing
     margin = ndimage.binary_dilation(kept[box], iterations=2)
     cropped = np.where(margin, values[box], np.float32(lo)).astype(np.float32)
-    del kept, margin
-    extent = np.asarray([b.stop - b.start for b in box], dtype=float) * step  # z, y, x in sample units
+    del margin
+    inner = ndimage.find_objects(kept[box].astype(np.int8))[0]
+    extent = np.asarray([b.stop - b.start for b in inner], dtype=float) * step  # z, y, x in sample units: the object's own
+    del kept
     scale = size_mm / float(extent.max())  # print mm per sample unit
     pitch = step * scale
     # A coarse grid is interpolated up (linear) so the surface is smooth: towards FINEST_PITCH_MM, within the budget.

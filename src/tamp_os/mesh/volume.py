@@ -96,8 +96,9 @@ def thicken(mask: np.ndarray, spacing_mm, min_wall_mm: float, report: MaskReport
 
     The thin parts are the voxels a ball of diameter `min_wall_mm` cannot reach from inside (the
     mask minus its morphological opening, by distance transforms; a voxel's depth is counted from
-    the surface half a voxel outside its outer centres). Parts smaller than such a ball (the rounded
-    corners of a box) are not walls and stay. Each thin part grows, only near itself, by whole voxel
+    the surface half a voxel outside its outer centres). Parts smaller than such a ball, and the edges
+    and corners of thick parts (all within a wall's thickness of the balls that fill them), are not
+    walls and stay. Each thin part grows, only near itself, by whole voxel
     layers until its thinnest wall reaches `min_wall_mm`, so thick parts keep their size. Where
     growing joins parts that were apart, `report.joined` counts them; `report.thin_regions_mm` lists
     where the thin parts are.
@@ -112,13 +113,17 @@ def thicken(mask: np.ndarray, spacing_mm, min_wall_mm: float, report: MaskReport
     core = inside - 0.5 * vox >= radius - 0.25 * vox  # centres of wall-sized balls that fit inside
     reach = ndimage.distance_transform_edt(~core, sampling=spacing) if core.any() else np.full(mask.shape, np.inf)
     thin = mask & (reach > radius + 0.5 * vox)
-    del reach, core
+    del core
     labels, n = ndimage.label(thin, structure=_structure())
     if n:
+        # Edges and corners of thick parts (a wedge's tip, a box's corner) lie within a wall's thickness
+        # of the balls that fill the part, and parts smaller than such a ball are no walls: both stay.
         sizes = np.bincount(labels.ravel())[1:] * float(np.prod(spacing))
-        corners = np.flatnonzero(sizes < np.pi / 6 * min_wall_mm ** 3) + 1
+        farthest = np.asarray(ndimage.maximum(reach, labels, np.arange(1, n + 1)), dtype=float).reshape(-1)
+        corners = np.flatnonzero((sizes < np.pi / 6 * min_wall_mm ** 3) | (farthest <= min_wall_mm)) + 1
         if corners.size:
             thin &= ~np.isin(labels, corners)
+    del reach
     report.thin_voxels = int(thin.sum())
     if not report.thin_voxels:
         return mask

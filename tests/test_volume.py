@@ -327,3 +327,24 @@ def test_real_stacks_become_closed_solids(fixture, tmp_path, name):
     assert v.voxel_m is not None and v.sample_m_per_mm
     assert max(v.size_mm) == pytest.approx(100.0, rel=0.005)
     assert v.deviation_mm <= 0.1
+
+
+@pytest.mark.timeout(120)
+def test_orientation_top_row_far_and_first_slice_low(tmp_path):
+    """An asymmetric stack: a cube in the first rows, first columns and first slices, a long bar in the
+    last rows and last slices. Seen from above the model looks like the image (row 0 at the far edge,
+    +y), and z is the slice index, up."""
+    stack = np.zeros((30, 40, 50), np.uint16)
+    stack[2:10, 2:10, 2:10] = 1000  # first slices, top rows, left columns
+    stack[20:28, 30:38, 5:45] = 1000  # last slices, bottom rows, a bar along x
+    path = tmp_path / "asym.tif"
+    tifffile.imwrite(path, stack, imagej=True, resolution=(1.0, 1.0), metadata={"spacing": 1.0, "unit": "um", "axes": "ZYX"})
+    done = convert_volume(path, LithoParams(volume=True, volume_stand="none", size_mm=40.0), tmp_path)
+    mesh = read_back(tmp_path / "asym.stl")
+    parts = sorted(mesh.split(only_watertight=True), key=lambda m: m.volume)
+    cube, bar = parts[0], parts[-1]
+    assert done.model.parts == 2
+    assert cube.centroid[1] > bar.centroid[1]  # the top rows lie at the far edge
+    assert cube.centroid[2] < bar.centroid[2]  # the first slices lie low
+    assert cube.centroid[0] < bar.centroid[0]  # the left columns lie left
+    assert np.ptp(bar.vertices[:, 0]) > 3 * np.ptp(bar.vertices[:, 1])  # the bar runs along x

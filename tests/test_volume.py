@@ -348,3 +348,12 @@ def test_orientation_top_row_far_and_first_slice_low(tmp_path):
     assert cube.centroid[2] < bar.centroid[2]  # the first slices lie low
     assert cube.centroid[0] < bar.centroid[0]  # the left columns lie left
     assert np.ptp(bar.vertices[:, 0]) > 3 * np.ptp(bar.vertices[:, 1])  # the bar runs along x
+
+
+@pytest.mark.timeout(60)
+def test_batch_does_not_make_a_relief_of_a_volume_silently(tmp_path):
+    from tamp_os.errors import ParameterError
+    from tamp_os.lithograph.convert import convert
+
+    with pytest.raises(ParameterError, match="volume"):
+        convert(np.zeros((8, 8)), LithoParams(volume=True), tmp_path)

@@ -69,6 +69,7 @@ def walls(model: Mesh, n=6000):
     return points, mb.wall_thickness(solid, points, normals, reach_mm=100.0)
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(240)
 @pytest.mark.parametrize("thickness", [0.5, 1.0, 2.0])
 def test_open_spherical_shells_keep_or_reach_the_wall(tmp_path, thickness):
@@ -238,6 +239,7 @@ def test_on_its_base_with_the_furniture(tmp_path):
     assert model3mf.GetMeshObjects().MoveNext()
 
 
+@pytest.mark.slow
 @settings(max_examples=4, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(radius=st.floats(3.0, 7.0), size=st.floats(20.0, 80.0), shift=st.floats(-1.0, 1.0))
 @pytest.mark.timeout(300)

@@ -411,8 +411,10 @@ class VolumeConversion:
         v = self.model
         x, y, z = v.size_mm
         scale = f", 1 mm = {_length_words(v.sample_m_per_mm)}" if v.sample_m_per_mm else ", scale unknown"
+        surface = (f"simplified within {v.deviation_mm:.3f} mm of the full surface" if v.tolerance_mm
+                   else "the full surface, not simplified")
         return (f"{v.name}: 3-D model {x:.1f} × {y:.1f} × {z:.1f} mm{scale}, {v.mesh.n_triangles:,} triangles "
-                f"(within {v.deviation_mm:.3f} mm of the full surface), thinnest wall {v.wall_p1_mm:.2f} mm; "
+                f"({surface}), thinnest wall {v.wall_p1_mm:.2f} mm; "
                 f"wrote {', '.join(self.names)}")
 
     def lines(self) -> list[str]:

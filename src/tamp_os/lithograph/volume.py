@@ -79,7 +79,8 @@ class VolumeModel:
     thin_voxels: int
     joined: int
     thin_regions_mm: list
-    floating: int = 0
+    floating: int = 0  # parts that do not reach the base
+    posts: int = 0  # of those, held up by a post
     plate_mm: tuple[float, float] | None = None
     scale_label: str | None = None
     caption_braille: list[str] = field(default_factory=list)
@@ -303,7 +304,7 @@ def _model(path, picture, params, printer, read, voxel_m, rel, factors, budget_v
             corner_cut=params.orientation_corner == "cut", spec=params.braille_spec(),
         )
         stand, out.mesh = _fused(path, simplified, x, y, params.base_mm, furniture, stand_model)
-        out.floating = stand.floating
+        out.floating, out.posts = stand.floating, stand.posts
         out.plate_mm = stand.placed.plate_mm
         out.scale_label = stand.placed.scale_label
         out.caption_braille = stand.placed.caption_braille
@@ -383,8 +384,14 @@ def describe_volume(v: VolumeModel) -> str:
                      f"{format_length(dy)} × {format_length(dz)}, z scaled as measured).")
     else:
         parts.append("The voxel size is not known: the voxels are shown as cubes, and the model has no scale.")
+    joined = ""
+    if v.parts > 1 and v.plate_mm:
+        loose = v.floating - v.posts
+        joined = (", all standing on the base" if not v.floating else
+                  f", standing on the base ({v.posts} of them on posts{f'; {loose} lie loose above other parts' if loose else ''})")
     parts.append(f"It is {'one solid part' if v.parts == 1 else f'{v.parts} separate parts'}"
-                 + (f" with {v.genus} hole{'s' if v.genus != 1 else ''} through it" if v.genus else "") + ".")
+                 + (f" with {v.genus} hole{'s' if v.genus != 1 else ''} through {'it' if v.parts == 1 else 'them'}" if v.genus else "")
+                 + joined + ".")
     if v.voids_filled:
         parts.append(f"{v.voids_filled} internal void{'s were' if v.voids_filled > 1 else ' was'} filled, since a finger cannot reach it.")
     if v.thin_voxels:

@@ -124,6 +124,13 @@ class LithoParams:
     panel: str | None = _f(None, "print only these panels of a figure, by letter or number, e.g. b,c")
     panel_boxes: str | None = _f(None, "the panels' boxes in source pixels, label=x,y,w,h;… (the recipe records them, so a rebuild is identical)")
     page_size: str = _f("plate", "page of the pdf and svg graphics: plate (its own size), a4 or letter (centred)", choices=("plate", "a4", "letter"))
+    volume: bool = _f(False, "make a 3-D model of a z-stack or density map (a watertight solid on a base with the braille caption, scale bar and cut corner) instead of a relief")
+    size_mm: float | None = _f(None, "longest side of a `volume` model (default: the printer's print width, 100 mm)", "mm", 5.0, 1000.0)
+    z_step: str | float | None = _f(None, "z step of a `volume` stack, overriding the file's: a length such as 0.5um, or a number in metres")
+    iso_level: float | None = _f(None, "isosurface level of a `volume` model, in the stack's own values (default: Otsu's threshold of the stack)", "", -1e38, 1e38)
+    max_triangles: int = _f(200_000, "most triangles of a `volume` model (simplified within 0.1 mm of the full surface)", "", 1000, 50_000_000)
+    min_wall_mm: float | None = _f(None, "thinnest wall of a `volume` model: thinner walls are thickened (default: 1.0 mm, 0.6 mm for a resin printer)", "mm", 0.1, 10.0)
+    volume_stand: str = _f("plate", "what a `volume` model stands on: plate (a base with the furniture, fused) or none (the bare model)", choices=("plate", "none"))
 
     def __post_init__(self):
         for f in dataclasses.fields(self):
@@ -136,7 +143,7 @@ class LithoParams:
             raise ParameterError(
                 f"`stretch_low_pct` must be below `stretch_high_pct`; got {self.stretch_low_pct} and {self.stretch_high_pct}."
             )
-        self.pixel_size_m, self.scale_bar_m, self.bed_size_mm  # noqa: B018  each parsed (and so checked) here, once
+        self.pixel_size_m, self.scale_bar_m, self.bed_size_mm, self.z_step_m  # noqa: B018  each parsed (and so checked) here, once
         self.braille_spec()  # checks the dot sizes against each other
         if self.bed_mm is not None:
             if self.multicolour:
@@ -156,6 +163,11 @@ class LithoParams:
     def pixel_size_m(self) -> float | None:
         """`pixel_size` in metres (None: use the file's)."""
         return _length_m(self.pixel_size, "pixel_size", PIXEL_SIZE_RANGE_M)
+
+    @property
+    def z_step_m(self) -> float | None:
+        """`z_step` in metres (None: use the file's)."""
+        return _length_m(self.z_step, "z_step", PIXEL_SIZE_RANGE_M)
 
     @property
     def scale_bar_m(self) -> float | None:
@@ -257,7 +269,7 @@ def _check_known(names) -> None:
 
 
 # Text fields that also take a number (in the unit their help names).
-NUMBER_OR_TEXT = ("pixel_size", "scale_bar", "bed_mm")
+NUMBER_OR_TEXT = ("pixel_size", "scale_bar", "bed_mm", "z_step")
 NUMBER_OR_NAME = ("scene",)  # a whole number in its range, or a name the reader looks up (a LIF series)
 
 

@@ -356,6 +356,8 @@ def cmd_convert(args) -> int:
 
     def convert_job(job_and_stem):
         (image, job_params, printer), stem = job_and_stem
+        if job_params.volume:  # a z-stack as a 3-D model (lithograph/volume.py)
+            return _convert_volume(image, job_params, Path(args.output), stem, printer)
         with _WorkingLine(Path(image).name):  # its line is cleared before the warnings and results are printed
             conversion = convert(image, job_params, Path(args.output), stem=stem, printer_profile=printer)
         lines = [line for each in conversion.prints for line in _say(each, verbose=args.verbose)]
@@ -377,6 +379,17 @@ def cmd_convert(args) -> int:
             raise
         print(f"error: {cli_words(exc)}", file=sys.stderr)
         return EXIT_FAILED
+
+
+def _convert_volume(image, params, out: Path, stem: str, printer) -> list[str]:
+    """`convert --volume`: the 3-D model's warnings to stderr, its lines returned."""
+    from ..lithograph.volume import convert_volume
+
+    with _WorkingLine(Path(image).name):
+        done = convert_volume(image, params, out, stem=stem, printer_profile=printer)
+    for warning in done.model.warnings:
+        print(f"warning: {cli_words(warning)}", file=sys.stderr)
+    return [cli_words(line) for line in done.lines()]
 
 
 def _say(conversion, verbose: bool = False) -> list[str]:

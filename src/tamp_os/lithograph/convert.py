@@ -115,6 +115,12 @@ def convert(source, params: LithoParams | None, out_dir, *, stem: str | None = N
     """
     from .figure import make_figure
 
+    if params is not None and params.volume:  # lithograph/volume.py makes those; a relief here would ignore it silently
+        from ..errors import ParameterError
+
+        raise ParameterError("`volume`: 3-D models of z-stacks are made by `tamp-os convert` (lithograph.volume.convert_volume); "
+                             "batch, sweep and the web app do not make them yet. Leave `volume` out for a relief.",
+                             parameter="volume", value=True)
     figure = make_figure(source, params or LithoParams(), printer_profile=printer_profile)
     out = Path(out_dir)
     base = stem or figure.prints[0][1].name

@@ -1,0 +1,121 @@
+"""`convert --volume` on the real development stacks and a synthetic 512³ uint16 stack: a table of
+voxels, triangles, deviation, thinnest wall, time and peak memory (each conversion in its own
+process, so its peak is its own: ru_maxrss).
+
+    python benchmarks/bench_volume.py [--out DIR] [--no-big] [--render]
+
+--render also renders each model (tamp-os render, PyVista offscreen) and writes the stack's
+maximum projection beside it (NAME.projection.png), to look at them side by side.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+FIXTURES = Path(os.environ.get("TAMP_FIXTURES") or ROOT.parent / "shared" / "fixtures") / "real"
+REAL = ["confocal_beads_zstack_41z.tif", "confocal_membranes_cells3d.tif", "nikon_widefield_zstack_11z.nd2",
+        "mrc_emdb3001_microed.map", "mrc_emdb3197_subtomo.map"]
+
+ONE = r"""
+import json, resource, sys, time
+from tamp_os import LithoParams
+from tamp_os.errors import TampError
+from tamp_os.lithograph.volume import convert_volume
+start = time.perf_counter()
+try:
+    done = convert_volume(sys.argv[1], LithoParams(volume=True, formats=("stl",)), sys.argv[2])
+    v = done.model
+    row = {"voxels": "x".join(map(str, v.source_shape[::-1])), "working": "x".join(map(str, v.working_shape[::-1])),
+           "triangles": v.mesh.n_triangles, "full": v.triangles_full, "deviation": v.deviation_mm, "wall_p1": v.wall_p1_mm,
+           "wall_min": v.min_wall_mm, "size": "x".join(f"{s:.0f}" for s in v.size_mm), "parts": v.parts,
+           "floating": v.floating, "budget_met": v.budget_met, "stl": str(done.written[0])}
+except TampError as exc:
+    row = {"error": str(exc).split(";")[0][:90]}
+row["seconds"] = time.perf_counter() - start
+row["peak_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+print(json.dumps(row))
+"""
+
+
+def big_stack(path: Path, n: int = 512) -> Path:
+    """A 512³ uint16 stack (268 MB): noisy spheres, a torus and a hollow shell, written plane by plane."""
+    import numpy as np
+    import tifffile
+
+    rng = np.random.default_rng(0)
+    y, x = np.mgrid[:n, :n].astype(np.float32)
+    balls = [(150, 160, 140, 90), (360, 150, 330, 70), (256, 380, 250, 110)]
+
+    def planes():
+        for z in range(n):
+            inside = np.zeros((n, n), np.float32)
+            for cx, cy, cz, r in balls:
+                inside = np.maximum(inside, np.clip((r - np.sqrt((x - cx) ** 2 + (y - cy) ** 2 + (z - cz) ** 2)) / 3 + 0.5, 0, 1))
+            rho = np.sqrt((x - 380) ** 2 + (y - 380) ** 2)
+            torus = np.clip((30 - np.sqrt((rho - 80) ** 2 + (z - 120) ** 2)) / 3 + 0.5, 0, 1)
+            plane = 300 + 3000 * np.maximum(inside, torus) + rng.normal(0, 120, (n, n))
+            yield np.clip(plane, 0, 65535).astype(np.uint16)
+
+    tifffile.imwrite(path, planes(), shape=(n, n, n), dtype=np.uint16, imagej=True, resolution=(1 / 0.1, 1 / 0.1),
+                     metadata={"spacing": 0.1, "unit": "um", "axes": "ZYX"})
+    return path
+
+
+def projection(stack: Path, out: Path) -> None:
+    """The stack's maximum projection as a PNG (read as the 2-D readers read it)."""
+    import numpy as np
+    from PIL import Image
+
+    from tamp_os.read.image import read_image
+
+    values = read_image(stack).values
+    lo, hi = np.percentile(values, [1, 99.8])
+    Image.fromarray((np.clip((values - lo) / max(hi - lo, 1e-9), 0, 1) * 255).astype(np.uint8)).save(out)
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", default=None, help="folder for the models (default: a temporary one)")
+    parser.add_argument("--no-big", action="store_true", help="leave out the 512³ synthetic stack")
+    parser.add_argument("--render", action="store_true", help="render each model beside its maximum projection")
+    args = parser.parse_args()
+    out = Path(args.out or tempfile.mkdtemp(prefix="bench_volume_"))
+    out.mkdir(parents=True, exist_ok=True)
+    cases = [(name, FIXTURES / name) for name in REAL]
+    if not args.no_big:
+        cases.append(("synthetic 512³ uint16", big_stack(out / "synthetic_512.tif")))
+    env = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
+    rows = []
+    for name, path in cases:
+        result = subprocess.run([sys.executable, "-c", ONE, str(path), str(out)], capture_output=True, text=True, env=env)
+        lines = [line for line in result.stdout.splitlines() if line.startswith("{")]
+        row = json.loads(lines[-1]) if lines else {"error": (result.stderr.strip().splitlines() or ["failed"])[-1][:90]}
+        rows.append((name, row))
+        if args.render and "stl" in row:
+            subprocess.run([sys.executable, "-m", "tamp_os.cli", "render", row["stl"], "-o", str(out / "renders")], env=env,
+                           capture_output=True)
+            projection(path, out / "renders" / f"{Path(row['stl']).stem}.projection.png")
+    head = f"{'stack':34} {'voxels':>12} {'working':>12} {'size mm':>11} {'triangles':>10} {'dev mm':>7} {'wall p1':>8} {'parts':>5} {'s':>6} {'peak MB':>8}"
+    print(head)
+    print("-" * len(head))
+    for name, r in rows:
+        if "error" in r:
+            print(f"{name:34} refused: {r['error']} ({r['seconds']:.1f} s, {r['peak_mb']:.0f} MB)" if "seconds" in r else f"{name:34} {r['error']}")
+            continue
+        budget = "" if r["budget_met"] else "*"
+        print(f"{name:34} {r['voxels']:>12} {r['working']:>12} {r['size']:>11} {r['triangles']:>9,}{budget:1} {r['deviation']:7.3f} "
+              f"{r['wall_p1']:8.2f} {r['parts']:>5} {r['seconds']:6.1f} {r['peak_mb']:8.0f}")
+    print("* over the triangle budget: no simplification within 0.1 mm reached it (the model keeps the surface, and says so)")
+    print(f"models in {out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

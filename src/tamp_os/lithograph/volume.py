@@ -1,0 +1,481 @@
+"""A z-stack or density map as a 3-D tactile model (issue 36): `make_volume` and `convert_volume`.
+
+The steps, each in the stage that owns it:
+
+1. read (read/volume.py): the stack's size and voxel size from its header (the first slice is read
+   as a Picture, so the scale comes from the same places as a relief's: ImageJ, OME, vendor headers);
+   the working grid is chosen so the volume fits `max_memory_gb` (priced before any slice is read),
+   and the planes are block-averaged to it as they are read;
+2. voxels (mesh/volume.py): level (Otsu, or `iso_level`), specks dropped, internal voids filled,
+   walls thinner than `min_wall_mm` thickened; a coarse stack is interpolated up to a finer grid
+   first, so the surface is smooth rather than a staircase of voxels;
+3. surface: marching cubes, scaled so the model's longest side is `size_mm` exactly, then simplified
+   to `max_triangles` (mesh/budget.py) within 0.1 mm, the deviation measured afterwards;
+4. stand (tactile/stand.py): the model on a base with the braille caption, scale bar and cut
+   corner, fused; floating parts held up by posts;
+5. written through the exporters like every print (checked as written first), with a description
+   and a recipe (NAME.tamp.json).
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError, ParameterError, Text
+from ..mesh.solid import Mesh
+from ..params import LithoParams
+
+log = logging.getLogger(__name__)
+
+MAX_WORKING_VOXELS = 8_000_000  # the working grid's cap (200³): its voxel steps need ~0.5 GB
+BYTES_PER_WORKING_VOXEL = 56  # float32 values, masks, two float64 distance maps, labels, the smoothed field (measured: ~50)
+FINEST_PITCH_MM = 0.4  # a coarse stack is interpolated up to about this voxel size on the print (a nozzle's width), never finer
+MAX_DEVIATION_MM = 0.1
+SMOOTH_VOXELS = 0.5  # Gaussian sigma on the working grid before the level: noise of a voxel does not become a bump
+SPECK_MM3 = 1.0  # parts smaller than a 1 mm cube are noise to a finger: dropped
+WALL_SAMPLES = 5000
+RESIN_WORDS = ("resin", "sla", "msla", "dlp", "lcd")
+FDM_WALL_MM, RESIN_WALL_MM = 1.0, 0.6
+
+
+@dataclass
+class VolumeModel:
+    """A 3-D model made from a stack: the solid, the bare model, and what was measured."""
+
+    mesh: Mesh  # what is written (on its base unless `volume_stand` is none)
+    model: Mesh  # the bare model, its lowest point at z = 0, its longest side `size_mm`
+    params: LithoParams
+    name: str
+    path: str | None
+    sha256: str
+    format: str
+    source_shape: tuple[int, int, int]  # z, y, x
+    working_shape: tuple[int, int, int]
+    voxel_m: tuple[float, float, float] | None  # z, y, x in the sample; None when unknown
+    pitch_mm: tuple[float, float, float]  # the working voxel on the print, z, y, x
+    size_mm: tuple[float, float, float]  # the model's x, y, z extent
+    level: float
+    level_from: str
+    specks_dropped: int
+    voids_filled: int
+    parts: int
+    genus: int
+    triangles_full: int
+    triangles: int
+    deviation_mm: float
+    tolerance_mm: float
+    budget_met: bool
+    min_wall_mm: float
+    wall_p1_mm: float  # the 1st percentile of the sampled walls
+    wall_wanted_mm: float
+    thickened_mm: float
+    thin_voxels: int
+    joined: int
+    thin_regions_mm: list
+    floating: int = 0  # parts that do not reach the base
+    posts: int = 0  # of those, held up by a post
+    plate_mm: tuple[float, float] | None = None
+    scale_label: str | None = None
+    caption_braille: list[str] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
+    seconds: float = 0.0
+    sample_m_per_mm: float | None = None  # the sample length one millimetre of the model stands for
+
+
+def min_wall_for(params: LithoParams, printer_name: str, printer_description: str) -> float:
+    """`min_wall_mm`, or 1.0 mm for FDM and 0.6 mm for a resin printer (by its profile's name and words)."""
+    if params.min_wall_mm is not None:
+        return float(params.min_wall_mm)
+    words = f"{printer_name} {printer_description}".lower()
+    return RESIN_WALL_MM if any(w in words for w in RESIN_WORDS) else FDM_WALL_MM
+
+
+def _voxel_size(picture, params: LithoParams, notes: list[str], warnings: list[str]):
+    """(z, y, x) voxel size in metres from the file (or the user), or None when unknown."""
+    from ..clean.scale import read_pixel_size
+
+    f = picture.file
+    vendor = (f.metadata or {}).get("vendor") or {}
+    size = read_pixel_size(f.metadata, f.tiff_tags, f.path, f.width, params.pixel_size_m)
+    warnings.extend(size.warnings)
+    xy = None
+    if params.pixel_size_m is None and vendor.get("pixel_size_m"):
+        x, y = vendor["pixel_size_m"]
+        xy = (float(y), float(x))
+    elif size.metres:
+        xy = (float(size.metres), float(size.metres))
+    z = params.z_step_m or f.z_step_m
+    from ..units import format_length
+
+    if xy is None:
+        notes.append(Text("the voxel size is not known (give `pixel_size` and `z_step`): the voxels are shown as cubes and "
+                          "the model has no scale bar."))
+        return None
+    if z is None:
+        warnings.append(Text(f"the z step is not known: taken equal to the pixel size, {format_length(xy[1])} (give `z_step`)."))
+        z = xy[1]
+    return (float(z), xy[0], xy[1])
+
+
+def _working_grid(shape, voxel_rel, budget_voxels: int):
+    """Whole reduction factors (z, y, x) so the reduced stack has at most `budget_voxels`, coarsening
+    the finest axes (in the sample) first."""
+    nz, ny, nx = shape
+    steps = np.asarray(voxel_rel, dtype=float)
+    pitch = float(steps.min())
+    for _ in range(200):
+        factors = [max(1, int(math.floor(pitch / s + 1e-9))) for s in steps]
+        count = math.prod(-(-n // f) for n, f in zip(shape, factors))
+        if count <= budget_voxels:
+            return tuple(factors)
+        pitch *= 1.1
+    return tuple(max(1, n // 2) for n in (nz, ny, nx))
+
+
+def make_volume(source, params: LithoParams | None = None, *, printer=None) -> VolumeModel:
+    """The 3-D model of the stack in `source` (a file of any format the readers read)."""
+    from ..mesh import budget as mb
+    from ..mesh import volume as mv
+    from ..read.cost import Cost, check_memory
+    from ..read.image import read_image
+    from ..read.model import Limits
+    from ..read.volume import open_stack_shape, read_volume
+    from .sizing import resolve_printer
+
+    start = time.perf_counter()
+    params = params or LithoParams(volume=True)
+    path = Path(source)
+    printer = printer or resolve_printer(params)
+    notes: list[str] = []
+    warnings: list[str] = []
+    limits = Limits(params.max_megapixels, params.max_decoded_gb, params.max_memory_gb)
+    picture = read_image(path, z_slice=0, channel=params.channel, time=params.time, scene=params.scene,
+                         max_megapixels=params.max_megapixels, max_decoded_gb=params.max_decoded_gb,
+                         max_memory_gb=params.max_memory_gb)
+    nz = int(picture.file.axes.get("Z", 1))
+    if nz < 2:
+        raise InputError(f"{path}: holds a single plane ({picture.file.width}×{picture.file.height} pixels, no z axis); `volume` "
+                         f"needs a z-stack of at least 2 slices. Convert it as a relief (leave `volume` out), or export the "
+                         f"whole stack from the microscope software.")
+    voxel_m = _voxel_size(picture, params, notes, warnings)
+    shape = open_stack_shape(path, channel=params.channel, time=params.time, scene=params.scene, limits=limits)
+    source_shape = (shape.nz, shape.ny, shape.nx)
+    # The memory the voxel steps need, priced before any slice is read: the working grid is chosen to fit.
+    budget_voxels = int(min(MAX_WORKING_VOXELS, params.max_memory_gb * 1e9 * 0.8 / BYTES_PER_WORKING_VOXEL))
+    rel = voxel_m if voxel_m else (1.0, 1.0, 1.0)
+    factors = _working_grid(source_shape, rel, budget_voxels)
+    cost = Cost()
+    cost.add("one slice decoded", float(shape.ny) * shape.nx * (shape.dtype.itemsize + 4))
+    reduced = math.prod(-(-n // f) for n, f in zip(source_shape, factors))
+    cost.add("the working grid's voxel steps", float(reduced) * BYTES_PER_WORKING_VOXEL)
+    check_memory(path, f"{shape.nx}×{shape.ny}×{shape.nz} stack", cost, params.max_memory_gb)
+    try:
+        read = read_volume(shape, factors, path)
+    except MemoryError:
+        raise InputError(f"{path}: not enough memory to read this stack; lower `max_memory_gb` so it is read coarser.") from None
+    notes += read.notes
+    if any(f > 1 for f in factors):
+        notes.append(f"the stack ({shape.nx}×{shape.ny}×{shape.nz} voxels) was averaged over blocks of "
+                     f"{factors[2]}×{factors[1]}×{factors[0]} voxels to fit the working grid.")
+    try:
+        return _model(path, picture, params, printer, read, voxel_m, rel, factors, budget_voxels, notes, warnings, start, mv, mb)
+    except MemoryError:
+        raise InputError(f"{path}: not enough memory to mesh this stack; lower `max_memory_gb` (the stack is then read on a "
+                         f"coarser grid) or `size_mm`.") from None
+
+
+def _model(path, picture, params, printer, read, voxel_m, rel, factors, budget_voxels, notes, warnings, start, mv, mb) -> VolumeModel:
+    from scipy import ndimage
+
+    from ..tactile.furniture import Furniture
+    from ..tactile.stand import stand_model
+    from ..units import format_length
+
+    values = read.values
+    lo, hi = float(values.min()), float(values.max())
+    if lo == hi:
+        raise InputError(f"{path}: the stack is blank: every voxel is {lo:g}, so there is no surface to model. Check the "
+                         f"channel (`channel`) and time point (`time`).")
+    level_from = "given" if params.iso_level is not None else "Otsu"
+    level = float(params.iso_level) if params.iso_level is not None else mv.otsu_level(values)
+    if not lo <= level < hi:
+        raise ParameterError(f"{path}: `iso_level` must lie within the stack's values, {lo:g} to {hi:g} (below its largest "
+                             f"value, so some voxels lie above it); got {level:g}. Leave it out for Otsu's level.",
+                             parameter="iso_level", value=level, allowed=f"{lo:g} to {hi:g}")
+    size_mm = float(params.size_mm or printer.width_mm)
+    step = np.asarray(rel, dtype=float) * np.asarray(factors, dtype=float)  # working voxel, sample units (m, or voxels)
+    # Specks, at the scale of the whole stack (the model is at least this large): what is left sets the model's extent.
+    provisional = size_mm / float((np.asarray(values.shape) * step).max())
+    mask0 = values > level
+    labels, n = ndimage.label(mask0)
+    sizes = np.bincount(labels.ravel())[1:] * float(np.prod(step * provisional))
+    keep = np.flatnonzero(sizes >= SPECK_MM3) + 1
+    if keep.size == 0:
+        biggest = float(sizes.max()) if sizes.size else 0.0
+        raise InputError(f"{path}: above `iso_level` {level:g} the stack holds only specks ({n} parts, the largest "
+                         f"{biggest:.2g} mm³ at this size, each smaller than {SPECK_MM3:g} mm³), nothing a hand can find; choose a "
+                         f"lower `iso_level` (the stack's values run from {lo:g} to {hi:g}) or a larger `size_mm`.")
+    kept = np.isin(labels, keep)
+    del labels, mask0
+    box = ndimage.find_objects(kept.astype(np.int8))[0]
+    box = tuple(slice(max(b.start - 3, 0), min(b.stop + 3, n_)) for b, n_ in zip(box, values.shape))  # room for the smoothing
+    margin = ndimage.binary_dilation(kept[box], iterations=2)
+    cropped = np.where(margin, values[box], np.float32(lo)).astype(np.float32)
+    del margin
+    inner = ndimage.find_objects(kept[box].astype(np.int8))[0]
+    extent = np.asarray([b.stop - b.start for b in inner], dtype=float) * step  # z, y, x in sample units: the object's own
+    del kept
+    scale = size_mm / float(extent.max())  # print mm per sample unit
+    pitch = step * scale
+    # A coarse grid is interpolated up (linear) so the surface is smooth: towards FINEST_PITCH_MM, within the budget.
+    zoom = np.maximum(1.0, pitch / FINEST_PITCH_MM)
+    grown = float(np.prod(np.asarray(cropped.shape) * zoom))
+    if grown > budget_voxels:
+        zoom = np.maximum(1.0, zoom * (budget_voxels / grown) ** (1 / 3))
+    zoom = np.round(zoom * 4) / 4
+    if (zoom > 1).any():
+        cropped = ndimage.zoom(cropped, zoom, order=1, mode="nearest", grid_mode=True)
+        pitch = pitch / zoom
+    if SMOOTH_VOXELS:
+        cropped = ndimage.gaussian_filter(cropped, SMOOTH_VOXELS, mode="nearest")
+    wall = min_wall_for(params, printer.name, printer.description)
+    filled, report = mv.solid_mask(cropped, level, tuple(pitch), SPECK_MM3)
+    if not report.voxels:
+        raise InputError(f"{path}: no part of the stack above `iso_level` {level:g} is larger than {SPECK_MM3:g} mm³ on the "
+                         f"model; choose a lower `iso_level` (the stack's values run from {lo:g} to {hi:g}) or a larger `size_mm`.")
+    mv.thicken(filled, tuple(pitch), wall, report)
+    working_shape = tuple(int(n_) for n_ in filled.shape)
+    surface = mv.surface_field(cropped, level, filled, report, tuple(pitch))
+    del cropped, filled
+    report.grow_field = None
+    full = mv.isosurface(surface, tuple(pitch))
+    del surface
+    full = _exact_size(full, size_mm)
+    solid = mb.to_manifold(full)
+    import manifold3d as m3
+
+    if solid.status() != m3.Error.NoError:
+        raise InputError(f"{path}: the isosurface at `iso_level` {level:g} could not be made a closed solid "
+                         f"({solid.status()}); try another `iso_level` or a smaller `size_mm`, and please report this stack.")
+    simplified, budget = mb.meet_budget(solid, params.max_triangles, MAX_DEVIATION_MM, full)
+    model = mb.from_manifold(simplified)
+    deviation = budget.deviation_mm
+    if not budget.met:
+        warnings.append(Text(f"the model needs {budget.triangles:,} triangles to stay within {MAX_DEVIATION_MM} mm of its surface, "
+                             f"more than `max_triangles` {params.max_triangles:,}; it was kept at {budget.triangles:,}. Raise "
+                             f"`max_triangles`, or lower `size_mm` for fewer, larger details."))
+    points, normals = mb.sample_surface(model, WALL_SAMPLES, seed=3)
+    walls = mb.wall_thickness(simplified, points, normals, reach_mm=size_mm)
+    pieces = simplified.decompose()
+    genus = sum(int(p.genus()) for p in pieces)
+    if report.thin_voxels and report.joined:
+        where = "; ".join(f"x {b[0]:.0f}–{b[3]:.0f}, y {b[1]:.0f}–{b[4]:.0f}, z {b[2]:.0f}–{b[5]:.0f} mm" for b in report.thin_regions_mm[:3])
+        warnings.append(Text(f"thickening walls to {wall:g} mm joined {report.joined} parts that were apart (thin parts at {where}); "
+                             f"a larger `size_mm` keeps them apart."))
+    if float(np.percentile(walls, 1)) < wall * 0.9:
+        warnings.append(Text(f"some walls are thinner than {wall:g} mm where the surface bends ({np.percentile(walls, 1):.2f} mm at "
+                             f"the thinnest 1 % of {WALL_SAMPLES:,} points); a larger `size_mm` makes them thicker."))
+    x, y, z = (float(v) for v in (model.vertices.max(axis=0) - model.vertices.min(axis=0)))
+    per_mm = None if voxel_m is None else 1.0 / scale  # sample metres per print mm
+    out = VolumeModel(
+        mesh=model, model=model, params=params, name=path.name, path=str(path), sha256=picture.file.sha256,
+        format=read.format, source_shape=read.source_shape, working_shape=working_shape, voxel_m=voxel_m,
+        pitch_mm=tuple(float(p) for p in pitch), size_mm=(x, y, z), level=level, level_from=level_from,
+        specks_dropped=report.specks_dropped, voids_filled=report.voids_filled, parts=len(pieces), genus=genus,
+        triangles_full=budget.triangles_before, triangles=budget.triangles, deviation_mm=deviation,
+        tolerance_mm=budget.tolerance_mm, budget_met=budget.met, min_wall_mm=float(walls.min()),
+        wall_p1_mm=float(np.percentile(walls, 1)), wall_wanted_mm=wall, thickened_mm=report.grown_mm,
+        thin_voxels=report.thin_voxels, joined=report.joined, thin_regions_mm=report.thin_regions_mm,
+        notes=notes, warnings=warnings, sample_m_per_mm=per_mm,
+    )
+    if params.volume_stand == "plate":
+        furniture = Furniture(
+            caption=params.caption if params.caption is not None else path.stem.replace("_", " ")[:60],
+            braille_table=params.braille_table, scale_bar_m=params.scale_bar_m,
+            auto_scale_bar=params.scale_bar == "auto", sample_m_per_print_mm=per_mm,
+            corner_cut=params.orientation_corner == "cut", spec=params.braille_spec(),
+        )
+        stand, out.mesh = _fused(path, simplified, x, y, params.base_mm, furniture, stand_model)
+        out.floating, out.posts = stand.floating, stand.posts
+        out.plate_mm = stand.placed.plate_mm
+        out.scale_label = stand.placed.scale_label
+        out.caption_braille = stand.placed.caption_braille
+        notes.extend(stand.placed.notes)
+        if stand.floating:
+            held = (f"; {'each' if stand.posts == stand.floating else stand.posts} stands on a post 2.4 mm across"
+                    if stand.posts else "")
+            loose = stand.floating - stand.posts
+            notes.append(f"{stand.floating} part{'s' if stand.floating > 1 else ''} of the model do{'es' if stand.floating == 1 else ''} "
+                         f"not reach the base{held}" + (f"; {loose} with other parts below {'them' if loose > 1 else 'it'} "
+                         f"float{'s' if loose == 1 else ''} in the file as separate pieces (print them apart, or give "
+                         f"a lower `iso_level` so they join)" if loose else "") + ".")
+    else:
+        out.mesh = _fused_none(path, model)
+    if per_mm:
+        notes.append(f"1 mm on the model = {format_length(per_mm)} of the sample.")
+    out.seconds = time.perf_counter() - start
+    return out
+
+
+def _fused(path, simplified, width_mm, depth_mm, base_mm, furniture, stand_model):
+    """(the Stand, its mesh as written): with posts under floating parts, or, when their union leaves
+    faces of no area that cannot be repaired, without them; InputError when neither is a sound solid."""
+    from ..mesh.budget import from_manifold
+    from ..mesh.repair import remove_slivers
+    from ..mesh.validate import check_as_written
+    import manifold3d as m3
+
+    problems: list[str] = []
+    for posts in (True, False):
+        stand = stand_model(simplified, width_mm, depth_mm, base_mm, furniture, with_posts=posts)
+        if stand.solid.status() != m3.Error.NoError:
+            problems = [str(stand.solid.status())]
+            continue
+        mesh = from_manifold(stand.solid)
+        check = check_as_written(mesh)
+        if not check.ok:
+            mesh = remove_slivers(mesh)
+            check = check_as_written(mesh)
+        if check.ok:
+            return stand, mesh
+        problems = check.problems
+        if not stand.posts:
+            break
+    raise InputError(f"{path}: the model could not be fused with its base into a sound solid ({'; '.join(problems)}); write "
+                     f"the bare model with `volume_stand` none, or try another `iso_level` or `size_mm`, and please report this stack.")
+
+
+def _fused_none(path, model: Mesh) -> Mesh:
+    """The bare model as written, repaired of faces of no area where needed."""
+    from ..mesh.repair import remove_slivers
+    from ..mesh.validate import check_as_written
+
+    return model if check_as_written(model).ok else remove_slivers(model)
+
+
+def _exact_size(mesh: Mesh, size_mm: float) -> Mesh:
+    """The mesh moved to the origin (lowest corner at 0) and scaled so its longest side is `size_mm`."""
+    lo, hi = mesh.vertices.min(axis=0), mesh.vertices.max(axis=0)
+    factor = size_mm / float((hi - lo).max())
+    return Mesh((mesh.vertices - lo) * factor, mesh.faces)
+
+
+def describe_volume(v: VolumeModel) -> str:
+    """What the model shows, its size and its scale, in sentences for the description file."""
+    from ..units import format_length
+
+    x, y, z = v.size_mm
+    nz, ny, nx = v.source_shape
+    parts = [f"A 3-D tactile model of {v.params.subject or v.name}: the surface of a {nx} × {ny} × {nz} voxel stack "
+             f"({v.format}) where its values pass {v.level:.4g} ({'Otsu' if v.level_from == 'Otsu' else 'the level given'})."]
+    parts.append(f"The model is {x:.1f} mm wide, {y:.1f} mm deep and {z:.1f} mm tall; z (the stack's slices) points up, and "
+                 f"seen from above it looks like the stack's maximum projection, its top row at the far edge.")
+    if v.voxel_m and v.sample_m_per_mm:
+        dz, dy, dx = v.voxel_m
+        parts.append(f"1 mm on the model is {format_length(v.sample_m_per_mm)} of the sample (voxels {format_length(dx)} × "
+                     f"{format_length(dy)} × {format_length(dz)}, z scaled as measured).")
+    else:
+        parts.append("The voxel size is not known: the voxels are shown as cubes, and the model has no scale.")
+    joined = ""
+    if v.parts > 1 and v.plate_mm:
+        loose = v.floating - v.posts
+        joined = (", all standing on the base" if not v.floating else
+                  f", standing on the base ({v.posts} of them on posts{f'; {loose} lie loose above other parts' if loose else ''})")
+    parts.append(f"It is {'one solid part' if v.parts == 1 else f'{v.parts} separate parts'}"
+                 + (f" with {v.genus} hole{'s' if v.genus != 1 else ''} through {'it' if v.parts == 1 else 'them'}" if v.genus else "")
+                 + joined + ".")
+    if v.voids_filled:
+        parts.append(f"{v.voids_filled} internal void{'s were' if v.voids_filled > 1 else ' was'} filled, since a finger cannot reach it.")
+    if v.thin_voxels:
+        parts.append(f"Walls thinner than {v.wall_wanted_mm:g} mm were thickened by {v.thickened_mm:.2f} mm on each side.")
+    if v.plate_mm:
+        parts.append(f"It stands on a base plate {v.plate_mm[0]:.0f} × {v.plate_mm[1]:.0f} mm with a braille caption"
+                     + (f", a scale bar of {v.scale_label}" if v.scale_label else "") + ", and the top right corner cut off.")
+    return " ".join(p for p in parts if p)
+
+
+
+@dataclass(frozen=True)
+class VolumeConversion:
+    """One stack converted: the model and the files written (recipe last)."""
+
+    model: VolumeModel
+    written: tuple[Path, ...]
+
+    @property
+    def names(self) -> list[str]:
+        return [p.name for p in self.written]
+
+    def summary(self) -> str:
+        v = self.model
+        x, y, z = v.size_mm
+        scale = f", 1 mm = {_length_words(v.sample_m_per_mm)}" if v.sample_m_per_mm else ", scale unknown"
+        surface = (f"simplified within {v.deviation_mm:.3f} mm of the full surface" if v.tolerance_mm
+                   else "the full surface, not simplified")
+        return (f"{v.name}: 3-D model {x:.1f} × {y:.1f} × {z:.1f} mm{scale}, {v.mesh.n_triangles:,} triangles "
+                f"({surface}), thinnest wall {v.wall_p1_mm:.2f} mm; "
+                f"wrote {', '.join(self.names)}")
+
+    def lines(self) -> list[str]:
+        """The summary and the notes, as `tamp-os convert` prints them."""
+        return [self.summary()] + [f"  note: {n}" for n in self.model.notes]
+
+
+def _length_words(metres: float) -> str:
+    from ..units import format_length
+
+    return format_length(metres)
+
+
+def convert_volume(source, params: LithoParams, out_dir, *, stem: str | None = None, printer_profile=None,
+                   formats=None) -> VolumeConversion:
+    """Make the 3-D model of `source` and write it into `out_dir`: NAME.stl (and 3MF, GLB ...), a
+    description and a recipe. Nothing is written unless the mesh is a sound solid as written."""
+    from ..export import check_export
+    from ..export.files import write_text
+    from ..formats import GRAPHIC_FORMATS, PIN_FORMATS
+    from ..printing.print_settings import settings_for
+    from ..version import __version__
+    from .outputs import dependency_versions, write_meshes
+    from .sizing import resolve_printer
+
+    printer = printer_profile or resolve_printer(params)
+    formats = list(formats or params.formats)
+    flat = [f for f in formats if f in GRAPHIC_FORMATS or f in PIN_FORMATS]
+    if flat:
+        raise ParameterError(f"`formats`: {', '.join(flat)} are 2-D graphics; a `volume` model is written as a mesh (stl, 3mf, "
+                             f"glb ...). Leave {', '.join(flat)} out, or convert without `volume`.", parameter="formats", value=flat)
+    model = make_volume(source, params, printer=printer)
+    folder = Path(out_dir)
+    folder.mkdir(parents=True, exist_ok=True)
+    stem = stem or Path(source).stem or "model"
+    description = describe_volume(model)
+    meta = {"title": f"Tactile 3-D model of {model.name}", "description": description, "designer": "TAMP-OS",
+            "application": f"TAMP-OS {__version__}", "print_settings": settings_for(printer, params.material)}
+    check_export(model.mesh, [folder / f"{stem}.{fmt}" for fmt in formats])
+    written = [p for p, _ in write_meshes(model.mesh, folder, stem, formats, meta).values()]
+    written.append(write_text(folder / f"{stem}.description.txt", description + "\n"))
+    recipe = {
+        "kind": "volume", "tamp_os": __version__, "dependencies": dependency_versions(),
+        "input": {"name": model.name, "path": model.path, "sha256": model.sha256},
+        "params": params.to_dict(), "printer_profile": printer.as_dict(), "files": [p.name for p in written],
+        "measured": {
+            "size_mm": [round(v, 4) for v in model.size_mm], "triangles": model.mesh.n_triangles,
+            "triangles_full_surface": model.triangles_full, "deviation_mm": round(model.deviation_mm, 4),
+            "thinnest_wall_mm": round(model.min_wall_mm, 4), "wall_1st_percentile_mm": round(model.wall_p1_mm, 4),
+            "level": model.level, "level_from": model.level_from, "parts": model.parts, "genus": model.genus,
+            "voids_filled": model.voids_filled, "specks_dropped": model.specks_dropped, "floating_parts_on_posts": model.floating,
+            "working_voxels_zyx": list(model.working_shape), "voxel_m_zyx": list(model.voxel_m) if model.voxel_m else None,
+            "sample_m_per_mm": model.sample_m_per_mm, "seconds": round(model.seconds, 2),
+        },
+    }
+    written.append(write_text(folder / f"{stem}.tamp.json", json.dumps(recipe, indent=2, ensure_ascii=False) + "\n"))
+    return VolumeConversion(model, tuple(written))

@@ -1,0 +1,189 @@
+"""A closed surface within a triangle budget, and what that cost: deviation and wall thickness.
+
+- `to_manifold` / `from_manifold` move a Mesh into manifold3d and back (manifold3d keeps every
+  result closed and 2-manifold);
+- `meet_budget` simplifies with manifold3d's `simplify(tolerance)` (edge collapses that move no
+  surface by more than the tolerance), raising the tolerance step by step up to `max_deviation_mm`
+  until the mesh has at most `max_triangles`;
+- `surface_deviation` measures, independently of the simplifier, the largest distance between two
+  surfaces at sampled points, both ways (point to nearest triangle, exactly);
+- `wall_thickness` casts a ray inward from sampled surface points (along the inward normal) and
+  returns the distance to the surface on the other side: the wall a finger or a nozzle meets there.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .solid import INDEX, Mesh
+
+TOLERANCE_STEPS = (0.01, 0.02, 0.035, 0.05, 0.07, 0.085, 0.1)  # mm, tried in turn (times max_deviation_mm / 0.1)
+
+
+@dataclass
+class Budget:
+    """What meeting the budget did."""
+
+    triangles_before: int
+    triangles: int
+    tolerance_mm: float  # the simplifier's tolerance used (0: not simplified)
+    met: bool
+    deviation_mm: float = 0.0  # measured between the full surface and the result (0: not simplified)
+
+
+def to_manifold(mesh: Mesh):
+    import manifold3d as m3
+
+    return m3.Manifold(m3.Mesh(vert_properties=np.ascontiguousarray(mesh.vertices, dtype=np.float32),
+                               tri_verts=np.ascontiguousarray(mesh.faces, dtype=np.uint32)))
+
+
+def from_manifold(solid) -> Mesh:
+    out = solid.to_mesh()
+    return Mesh(np.asarray(out.vert_properties, dtype=np.float64)[:, :3].copy(), np.asarray(out.tri_verts, dtype=INDEX).copy())
+
+
+def meet_budget(solid, max_triangles: int, max_deviation_mm: float, reference: Mesh | None = None):
+    """(the solid simplified to at most `max_triangles`, Budget), never further from `reference`
+    (the full surface) than `max_deviation_mm` as measured by `surface_deviation`.
+
+    Tolerances are tried from small to large; the first that meets the budget is kept if its measured
+    deviation is within the limit, else the largest that stayed within it (the budget then unmet).
+    """
+    before = int(solid.num_tri())
+    if before <= max_triangles:
+        return solid, Budget(before, before, 0.0, True)
+    reference = reference if reference is not None else from_manifold(solid)
+    best, used, deviation = solid, 0.0, 0.0
+    candidate = solid
+    for step in TOLERANCE_STEPS:
+        tolerance = step * max_deviation_mm / 0.1
+        candidate = candidate.simplify(tolerance)  # each step from the last: smaller each time, measured against the full surface
+        over = candidate.num_tri() > max_triangles
+        if over and step != TOLERANCE_STEPS[-1]:
+            continue
+        measured = surface_deviation(reference, from_manifold(candidate))
+        if measured <= max_deviation_mm:
+            best, used, deviation = candidate, tolerance, measured
+        break
+    if used == 0.0:  # no tolerance within the budget kept the surface close enough: the finest step that does
+        for step in TOLERANCE_STEPS[:3]:
+            candidate = solid.simplify(step * max_deviation_mm / 0.1)
+            measured = surface_deviation(reference, from_manifold(candidate))
+            if measured > max_deviation_mm:
+                break
+            best, used, deviation = candidate, step * max_deviation_mm / 0.1, measured
+    return best, Budget(before, int(best.num_tri()), used, int(best.num_tri()) <= max_triangles, deviation)
+
+
+def sample_surface(mesh: Mesh, count: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """(points, unit outward normals of their faces): `count` points spread by area."""
+    rng = np.random.default_rng(seed)
+    tri = mesh.vertices[mesh.faces]
+    cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    area = np.linalg.norm(cross, axis=1)
+    face = rng.choice(len(area), size=count, p=area / area.sum())
+    u, v = rng.random(count), rng.random(count)
+    flip = u + v > 1
+    u[flip], v[flip] = 1 - u[flip], 1 - v[flip]
+    t = tri[face]
+    points = t[:, 0] + u[:, None] * (t[:, 1] - t[:, 0]) + v[:, None] * (t[:, 2] - t[:, 0])
+    normals = cross[face] / np.where(area[face] == 0, 1.0, area[face])[:, None]
+    return points, normals
+
+
+def _point_triangle_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """Exact distance from each point p to its triangle (a, b, c), vectorised (Ericson's regions)."""
+    ab, ac, ap = b - a, c - a, p - a
+    d1, d2 = np.einsum("ij,ij->i", ab, ap), np.einsum("ij,ij->i", ac, ap)
+    bp, cp = p - b, p - c
+    d3, d4 = np.einsum("ij,ij->i", ab, bp), np.einsum("ij,ij->i", ac, bp)
+    d5, d6 = np.einsum("ij,ij->i", ab, cp), np.einsum("ij,ij->i", ac, cp)
+    va, vb, vc = d3 * d6 - d5 * d4, d5 * d2 - d1 * d6, d1 * d4 - d3 * d2
+    denom = va + vb + vc
+    denom = np.where(np.abs(denom) < 1e-30, 1e-30, denom)
+    v, w = vb / denom, vc / denom
+    closest = a + v[:, None] * ab + w[:, None] * ac  # inside the face
+    regions = [
+        ((d1 <= 0) & (d2 <= 0), lambda: a),
+        ((d3 >= 0) & (d4 <= d3), lambda: b),
+        ((d6 >= 0) & (d5 <= d6), lambda: c),
+    ]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        edge_ab = (vc <= 0) & (d1 >= 0) & (d3 <= 0)
+        t_ab = np.clip(d1 / (d1 - d3), 0, 1)
+        edge_ac = (vb <= 0) & (d2 >= 0) & (d6 <= 0)
+        t_ac = np.clip(d2 / (d2 - d6), 0, 1)
+        edge_bc = (va <= 0) & ((d4 - d3) >= 0) & ((d5 - d6) >= 0)
+        t_bc = np.clip((d4 - d3) / ((d4 - d3) + (d5 - d6)), 0, 1)
+    closest = np.where(edge_bc[:, None], b + np.nan_to_num(t_bc)[:, None] * (c - b), closest)
+    closest = np.where(edge_ac[:, None], a + np.nan_to_num(t_ac)[:, None] * ac, closest)
+    closest = np.where(edge_ab[:, None], a + np.nan_to_num(t_ab)[:, None] * ab, closest)
+    for where, corner in regions[::-1]:
+        closest = np.where(where[:, None], corner(), closest)
+    return np.linalg.norm(p - closest, axis=1)
+
+
+def distance_to_surface(points: np.ndarray, mesh: Mesh) -> np.ndarray:
+    """Exact distance from each point to `mesh` (the nearest point of any triangle).
+
+    An upper bound first (the nearest of the triangles whose centres are nearest), then every triangle
+    that could be nearer: each triangle lies within its bounding sphere (centre, radius r), so only
+    those with |p − centre| ≤ bound + r are measured, found by a k-d tree per class of radius (the
+    long thin triangles of a simplified mesh in classes of their own).
+    """
+    from scipy.spatial import cKDTree
+
+    tri = mesh.vertices[mesh.faces]
+    centre = tri.mean(axis=1)
+    radius = np.linalg.norm(tri - centre[:, None, :], axis=2).max(axis=1)
+    tree = cKDTree(centre)
+    k = min(8, len(tri))
+    _, idx = tree.query(points, k=k)
+    idx = idx.reshape(len(points), k)
+    best = np.full(len(points), np.inf)
+    for j in range(k):
+        f = tri[idx[:, j]]
+        np.minimum(best, _point_triangle_distance(points, f[:, 0], f[:, 1], f[:, 2]), out=best)
+    base = max(float(np.median(radius)), 1e-9)
+    classes = np.maximum(0, np.ceil(np.log2(np.maximum(radius / base, 1e-12)))).astype(int)
+    for c in np.unique(classes):
+        members = np.flatnonzero(classes == c)
+        reach = float(radius[members].max())
+        sub = cKDTree(centre[members])
+        for start in range(0, len(points), 5000):
+            chunk = points[start:start + 5000]
+            found = sub.query_ball_point(chunk, best[start:start + 5000] + reach)
+            counts = np.fromiter((len(x) for x in found), dtype=np.int64, count=len(found))
+            if not counts.sum():
+                continue
+            who = np.repeat(np.arange(len(chunk)), counts)
+            faces = members[np.concatenate([np.asarray(x, dtype=np.int64) for x in found if x])]
+            f = tri[faces]
+            d = _point_triangle_distance(chunk[who], f[:, 0], f[:, 1], f[:, 2])
+            here = best[start:start + 5000]
+            np.minimum.at(here, who, d)
+    return best
+
+
+def surface_deviation(reference: Mesh, other: Mesh, samples: int = 10_000) -> float:
+    """The largest distance, both ways, between sampled points of each surface and the other surface (mm)."""
+    ours, _ = sample_surface(other, samples, seed=1)
+    theirs, _ = sample_surface(reference, samples, seed=2)
+    there = np.concatenate([theirs, reference.vertices[:: max(1, len(reference.vertices) // samples)]])
+    return float(max(distance_to_surface(ours, reference).max(), distance_to_surface(there, other).max()))
+
+
+def wall_thickness(solid, points: np.ndarray, normals: np.ndarray, reach_mm: float) -> np.ndarray:
+    """The wall behind each surface point: the distance along the inward normal to the first surface
+    met (manifold3d's ray cast), or `reach_mm` when none is met within it."""
+    out = np.full(len(points), float(reach_mm))
+    start = points - normals * 1e-4
+    end = points - normals * reach_mm
+    for i in range(len(points)):
+        hits = solid.ray_cast(tuple(start[i]), tuple(end[i]))
+        if hits:
+            out[i] = 1e-4 + hits[0].distance * (reach_mm - 1e-4)
+    return out

@@ -1,0 +1,54 @@
+"""Slivers left by boolean operations, removed as a slicer would otherwise meet them.
+
+manifold3d works in double precision; written as float32 (STL, 3MF, GLB), two of its vertices a
+few nanometres apart become one position, and on a large flat wall it leaves triangles whose third
+corner lies on their longest edge. `remove_slivers` welds the positions as written, drops the
+faces that collapse, and flips the longest edge of each remaining zero-area triangle with its
+neighbour (on a flat wall that changes nothing a finger or a nozzle can feel).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .solid import INDEX, Mesh
+from .validate import MIN_FACE_AREA_MM2, merge_float32
+
+
+def _areas(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    tri = vertices[faces]
+    return 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+
+
+def remove_slivers(mesh: Mesh, passes: int = 6) -> Mesh:
+    """`mesh` welded as written (float32 positions) without faces of no area; see the module's notes."""
+    vertices, faces = merge_float32(mesh.vertices, mesh.faces)
+    faces = np.asarray(faces, dtype=np.int64)
+    collapsed = (faces[:, 0] == faces[:, 1]) | (faces[:, 1] == faces[:, 2]) | (faces[:, 2] == faces[:, 0])
+    faces = faces[~collapsed]
+    for _ in range(passes):
+        bad = np.flatnonzero(_areas(vertices, faces) <= MIN_FACE_AREA_MM2)
+        if bad.size == 0:
+            break
+        owner = {}
+        for i, (a, b, c) in enumerate(faces.tolist()):
+            owner[(a, b)] = i
+            owner[(b, c)] = i
+            owner[(c, a)] = i
+        touched: set[int] = set()
+        for i in bad.tolist():
+            if i in touched:
+                continue
+            tri = faces[i]
+            p = vertices[tri]
+            k = int(np.argmax([np.linalg.norm(p[(j + 1) % 3] - p[j]) for j in range(3)]))  # the longest edge: k -> k+1
+            a, b, c = int(tri[k]), int(tri[(k + 1) % 3]), int(tri[(k + 2) % 3])
+            j = owner.get((b, a))
+            if j is None or j in touched:
+                continue
+            other = faces[j]
+            d = int(next(v for v in other.tolist() if v not in (a, b)))
+            faces[i] = (c, a, d)
+            faces[j] = (c, d, b)
+            touched.update((i, j))
+    return Mesh(vertices, faces.astype(INDEX))

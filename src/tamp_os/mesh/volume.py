@@ -1,0 +1,216 @@
+"""A volume (a z-stack, a density map) as one watertight solid: the voxel steps before meshing.
+
+All in voxel space, with the voxel's size on the print in millimetres (`spacing_mm`, z y x):
+
+- `otsu_level` chooses the isosurface level from the content (Otsu's threshold of the values);
+- `solid_mask` thresholds, drops specks smaller than `speck_mm3`, and fills internal voids
+  (binary fill holes: a hollow object prints as a solid one, a void no finger can reach);
+- `thicken` grows walls thinner than `min_wall_mm` (a distance-transform dilation restricted to
+  the thin parts) and says where growing them joined parts that were apart;
+- `surface_field` turns the values into a signed field whose zero is the surface: the data's own
+  (interpolated, so the surface lies between voxels where the values say) where the mask kept it,
+  positive in filled voids, negative in dropped specks, and the thickening's distance where walls grew;
+- `isosurface` meshes that field by marching cubes (scikit-image), padded with empty voxels so the
+  surface is always closed.
+
+Orientation (once, here): column -> +x, row 0 (the top of the image) at the far edge (+y largest),
+slice index -> +z (up). Seen from above, the model looks like the stack's maximum projection.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .solid import INDEX, Mesh
+
+PAD_VOXELS = 2
+NUDGE = np.float32(0.01)
+
+
+@dataclass
+class MaskReport:
+    """What the voxel steps did, for the report."""
+
+    level: float
+    voxels: int = 0
+    specks_dropped: int = 0
+    voids_filled: int = 0
+    void_voxels: int = 0
+    components: int = 0
+    thin_voxels: int = 0
+    grown_mm: float = 0.0
+    joined: int = 0  # parts that thickening joined (were apart, now touch)
+    thin_regions_mm: list = field(default_factory=list)  # (x0, y0, z0, x1, y1, z1) boxes of thin parts, print mm
+    grow_field: np.ndarray | None = field(default=None, repr=False)  # grown_mm − distance to the thin parts (mm)
+
+
+def otsu_level(values: np.ndarray, sample: int = 4_000_000) -> float:
+    """Otsu's threshold of the finite values (every k-th voxel of a large volume)."""
+    from skimage.filters import threshold_otsu
+
+    flat = values.ravel()
+    step = max(1, flat.size // sample)
+    finite = flat[::step]
+    finite = finite[np.isfinite(finite)]
+    if finite.size == 0 or finite.min() == finite.max():
+        return float(finite.min()) if finite.size else 0.0
+    return float(threshold_otsu(finite))
+
+
+def _structure():
+    from scipy import ndimage
+
+    return ndimage.generate_binary_structure(3, 1)  # faces only: what a finger and a slicer see as joined
+
+
+def solid_mask(values: np.ndarray, level: float, spacing_mm, speck_mm3: float) -> tuple[np.ndarray, MaskReport]:
+    """The voxels above `level`, specks under `speck_mm3` dropped, internal voids filled."""
+    from scipy import ndimage
+
+    report = MaskReport(level=float(level))
+    mask = values > level
+    voxel_mm3 = float(np.prod(spacing_mm))
+    labels, n = ndimage.label(mask, structure=_structure())
+    if n:
+        sizes = np.bincount(labels.ravel())[1:]
+        small = np.flatnonzero(sizes * voxel_mm3 < speck_mm3) + 1
+        report.specks_dropped = int(small.size)
+        if small.size:
+            mask &= ~np.isin(labels, small)
+    del labels
+    filled = ndimage.binary_fill_holes(mask, structure=_structure())
+    voids = filled & ~mask
+    report.void_voxels = int(voids.sum())
+    if report.void_voxels:
+        report.voids_filled = int(ndimage.label(voids, structure=_structure())[1])
+    del voids
+    report.voxels = int(filled.sum())
+    report.components = int(ndimage.label(filled, structure=_structure())[1]) if report.voxels else 0
+    return filled, report
+
+
+def thicken(mask: np.ndarray, spacing_mm, min_wall_mm: float, report: MaskReport) -> np.ndarray:
+    """Walls thinner than `min_wall_mm` grown until they are that thick; the rest unchanged.
+
+    The thin parts are the voxels a ball of diameter `min_wall_mm` cannot reach from inside (the
+    mask minus its morphological opening, by distance transforms; a voxel's depth is counted from
+    the surface half a voxel outside its outer centres). Parts smaller than such a ball, and the edges
+    and corners of thick parts (all within a wall's thickness of the balls that fill them), are not
+    walls and stay. Each thin part grows, only near itself, by whole voxel
+    layers until its thinnest wall reaches `min_wall_mm`, so thick parts keep their size. Where
+    growing joins parts that were apart, `report.joined` counts them; `report.thin_regions_mm` lists
+    where the thin parts are.
+    """
+    from scipy import ndimage
+
+    spacing = np.asarray(spacing_mm, dtype=float)
+    vox, radius = float(spacing.max()), min_wall_mm / 2
+    if not mask.any() or radius <= 0:
+        return mask
+    inside = ndimage.distance_transform_edt(mask, sampling=spacing)
+    core = inside - 0.5 * vox >= radius - 0.25 * vox  # centres of wall-sized balls that fit inside
+    reach = ndimage.distance_transform_edt(~core, sampling=spacing) if core.any() else np.full(mask.shape, np.inf)
+    thin = mask & (reach > radius + 0.5 * vox)
+    del core
+    labels, n = ndimage.label(thin, structure=_structure())
+    if n:
+        # Edges and corners of thick parts (a wedge's tip, a box's corner) lie within a wall's thickness
+        # of the balls that fill the part, and parts smaller than such a ball are no walls: both stay.
+        sizes = np.bincount(labels.ravel())[1:] * float(np.prod(spacing))
+        farthest = np.asarray(ndimage.maximum(reach, labels, np.arange(1, n + 1)), dtype=float).reshape(-1)
+        corners = np.flatnonzero((sizes < np.pi / 6 * min_wall_mm ** 3) | (farthest <= min_wall_mm)) + 1
+        if corners.size:
+            thin &= ~np.isin(labels, corners)
+    del reach
+    report.thin_voxels = int(thin.sum())
+    if not report.thin_voxels:
+        return mask
+    labels, n = ndimage.label(thin, structure=_structure())
+    boxes = ndimage.find_objects(labels)
+    del labels
+    # The thinnest wall: twice the depth at the thin parts' ridges, less a voxel (never more than it is).
+    ridge = thin & (inside >= ndimage.maximum_filter(inside, size=3) - 1e-9)
+    depth = inside[ridge] if ridge.any() else inside[thin]
+    thinnest = max(2 * float(np.percentile(depth, 2)) - vox, 0.0)
+    del inside, ridge
+    layers = max(1, int(np.ceil((min_wall_mm - thinnest) / (2 * vox) - 1e-9)))
+    grow = layers * vox + 1e-6
+    report.grown_mm = grow
+    grow_field = np.float32(grow) - ndimage.distance_transform_edt(~thin, sampling=spacing).astype(np.float32)
+    report.grow_field = grow_field
+    before = report.components
+    out = mask | (grow_field >= 0)
+    after = int(ndimage.label(out, structure=_structure())[1])
+    report.joined = max(before - after, 0)
+    report.components = after
+    report.thin_regions_mm = [_box_mm(b, spacing, mask.shape) for b in boxes[:20]]
+    return out
+
+
+def _box_mm(box, spacing, shape) -> tuple[float, ...]:
+    """A (z, y, x) slice box as (x0, y0, z0, x1, y1, z1) in print mm, in the model's orientation."""
+    (z, y, x), (dz, dy, dx) = box, spacing
+    ny = shape[1]
+    return (x.start * dx, (ny - y.stop) * dy, z.start * dz, (x.stop - 1) * dx, (ny - 1 - y.start) * dy, (z.stop - 1) * dz)
+
+
+def surface_field(values: np.ndarray, level: float, filled: np.ndarray, report: MaskReport, spacing_mm) -> np.ndarray:
+    """A float32 field, positive inside, whose zero is the model's surface (see the module's notes).
+
+    Where the mask `filled` (from `solid_mask`, before thickening) follows the data, the field is
+    (values − level) scaled to −1…1, so marching cubes puts the surface where the values cross the
+    level, between voxels. Filled voids count as inside, dropped specks as outside, and where
+    `thicken` grew walls the field reaches to its distance.
+    """
+    lo, hi = float(values.min()), float(values.max())
+    scale = np.float32(max(hi - level, level - lo, 1e-30))
+    out = (values - np.float32(level)) / scale
+    above = out > 0
+    out[filled & ~above] = 0.5  # filled voids
+    out[~filled & above] = -0.5  # dropped specks
+    del above
+    if report.grow_field is not None:
+        grown = np.clip(report.grow_field / np.float32(max(spacing_mm)), -1, 1)
+        np.maximum(out, grown, out=out)
+    return out
+
+
+def isosurface(field_: np.ndarray, spacing_mm) -> Mesh:
+    """The zero surface of `field_` (positive inside) by marching cubes: closed, wound outward, in mm.
+
+    x = column, y = (rows − 1 − row) (row 0 at the far edge), z = slice.
+    """
+    from skimage.measure import marching_cubes
+
+    spacing = tuple(float(s) for s in spacing_mm)
+    padded = np.pad(field_, PAD_VOXELS, constant_values=-1.0)
+    # Values at a hair's breadth from the level put a vertex on a voxel corner and leave slivers of no
+    # area: nudged off it (by 1 % of the field's range, a hundredth of a voxel at most).
+    near = np.abs(padded) < NUDGE
+    padded[near] = np.where(padded[near] < 0, -NUDGE, NUDGE)
+    del near
+    verts, faces, _, _ = marching_cubes(padded, 0.0, spacing=spacing, allow_degenerate=False)
+    del padded
+    ny = field_.shape[1]
+    out = np.empty_like(verts, dtype=np.float64)
+    out[:, 0] = verts[:, 2] - PAD_VOXELS * spacing[2]
+    out[:, 1] = (ny - 1 + PAD_VOXELS) * spacing[1] - verts[:, 1]
+    out[:, 2] = verts[:, 0] - PAD_VOXELS * spacing[0]
+    faces = faces.astype(INDEX)
+    mesh = Mesh(out, faces)
+    if mesh.volume_mm3() < 0:  # the y flip mirrors: wind the other way
+        mesh = Mesh(out, faces[:, ::-1].copy())
+    return mesh
+
+
+def downsample_mask(mask: np.ndarray, factor: int) -> np.ndarray:
+    """The mask on a grid `factor` times coarser (a voxel is set when half its block is)."""
+    if factor <= 1:
+        return mask
+    shape = [-(-n // factor) * factor for n in mask.shape]
+    padded = np.zeros(shape, dtype=np.float32)
+    padded[: mask.shape[0], : mask.shape[1], : mask.shape[2]] = mask
+    blocks = padded.reshape(shape[0] // factor, factor, shape[1] // factor, factor, shape[2] // factor, factor)
+    return blocks.mean(axis=(1, 3, 5)) >= 0.5

@@ -110,7 +110,9 @@ def wide(runs: int) -> None:
     20 s and 1 GB. Measured on this shared 2-core machine, one run each: before the bound on the
     working grid (commit c519e8f, load average about 6) noise 384 s and 2,256 MB, FePt 152 s and
     2,145 MB; after it (load average 2.8) noise 30.6 s (22.3 s CPU, of which the adaptive mesh of
-    the 5001 x 3751 grid about 10 s) and 816 MB, FePt 7.7 s and 711 MB."""
+    the 5001 x 3751 grid about 10 s) and 816 MB, FePt 7.7 s and 711 MB; with the mesh outline from
+    the rectangle's sides and one pydelatin pass where the first leaves the peak out (load average
+    about 2) noise 13.2 s (11.9 s user + 2.1 s system) and 784 MB, FePt 6.8 s and 721 MB."""
     import numpy as np
     from PIL import Image
 

@@ -95,6 +95,23 @@ def fixture(fixtures_dir):
     return get
 
 
+def spy_atomic_writes(monkeypatch, *modules) -> list[str]:
+    """Record the name of every file written through export.files.write_atomic, as `modules` (which
+    imported it by name) and the files module itself call it: the list fills as files are written."""
+    from tamp_os.export import files
+
+    calls: list[str] = []
+    real = files.write_atomic
+
+    def spy(path, write):
+        calls.append(Path(path).name)
+        return real(path, write)
+
+    for module in (*modules, files):
+        monkeypatch.setattr(module, "write_atomic", spy)
+    return calls
+
+
 def node_validator() -> Path | None:
     script = ROOT / ".tools" / "node_modules" / "gltf-validator"
     return script if script.is_dir() and shutil.which("node") else None

@@ -318,17 +318,10 @@ def test_regions_are_the_pin_displays_layers(beads):
 
 
 def test_writes_go_through_the_atomic_writer(beads, tmp_path, monkeypatch):
-    from tamp_os.export import ebraille, files, tour
+    from conftest import spy_atomic_writes
+    from tamp_os.export import ebraille, tour
 
-    calls = []
-    real = files.write_atomic
-
-    def spy(path, write):
-        calls.append(Path(path).name)
-        return real(path, write)
-
-    for module in (ebraille, tour, files):
-        monkeypatch.setattr(module, "write_atomic", spy)
+    calls = spy_atomic_writes(monkeypatch, ebraille, tour)
     litho, _, _ = beads
     litho.save(tmp_path, formats=("ebraille", "tour"), stem="x")
     assert {"x.ebrl", "x.tour.html"} <= set(calls)

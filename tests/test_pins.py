@@ -389,18 +389,10 @@ def test_real_channel_print_keeps_the_rules_on_every_page(tmp_path):
 
 
 def test_writes_go_through_the_atomic_writer(beads_litho, tmp_path, monkeypatch):
-    from tamp_os.export import files
+    from conftest import spy_atomic_writes
     from tamp_os.export import pin_files
 
-    calls = []
-    real = files.write_atomic
-
-    def spy(path, write):
-        calls.append(Path(path).name)
-        return real(path, write)
-
-    monkeypatch.setattr(pin_files, "write_atomic", spy)
-    monkeypatch.setattr(files, "write_atomic", spy)
+    calls = spy_atomic_writes(monkeypatch, pin_files)
     _, litho = beads_litho
     sets = _sets(litho)
     for fmt, pin_set in sets.items():

@@ -468,6 +468,12 @@ def web_cases(tmp_path, elid_bomb):
     cases["voxels.mrc"][0].write_bytes(mrc_bytes(60000, 60000, 100))
     cases["bits.img"][0].write_bytes(jeol_img(60000, 60000, bytes(256)))
     cases["bomb.elid"][0].write_bytes(elid_bomb)
+    # The CZI subblocks' prices (tests/test_vendor_safe.py builds each hostile CZI)
+    from test_vendor_safe import HOSTILE as CZI_CASES
+
+    for case, needle in (("jpeg_sof_30000", "frame header says 30000×30000"), ("lzw_declared_40000", "40000×40000 LZW stream"),
+                         ("data_size_2_to_40", "damaged or truncated")):
+        cases[f"{case}.czi"] = (CZI_CASES[case][0](tmp_path / f"{case}.czi"), needle)
     return cases
 
 

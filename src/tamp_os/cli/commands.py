@@ -663,10 +663,9 @@ def cmd_presets(args) -> int:
     layer = printer.layer_mm
     picture, suggestion = None, None
     if args.image:
-        from ..read.image import read_image
+        from ..lithograph.pipeline import read_source
 
-        picture = read_image(args.image, page=params.page, channel=params.channel, max_megapixels=params.max_megapixels,
-                             max_decoded_gb=params.max_decoded_gb, max_memory_gb=params.max_memory_gb)
+        picture = read_source(args.image, params)  # the plane, level and limits the conversion would read
         width = layout_for(params, printer, picture.file.width, picture.file.height).width_mm
         suggestion = suggest_by_touch(picture.values, picture.alpha, width_mm=width, nozzle_mm=printer.nozzle_mm)
     print(f"printer {printer.name}: nozzle {printer.nozzle_mm:g} mm, layer {layer:g} mm, mesher {params.mesher}")

@@ -61,6 +61,9 @@ def adaptive_top(heights: np.ndarray, width_mm: float, depth_mm: float, max_erro
     return insert_point(vertices, faces, peak)
 
 
+ERROR_CHECK_POINTS = 1_000_000  # grid points measured at once around an inserted peak (about 50 MB)
+
+
 def error_at_grid_points(vertices: np.ndarray, faces: np.ndarray, heights: np.ndarray, width_mm: float,
                          depth_mm: float) -> float:
     """The largest |surface − height| (mm) at the grid points inside `faces`, whose vertices are in mm
@@ -70,21 +73,24 @@ def error_at_grid_points(vertices: np.ndarray, faces: np.ndarray, heights: np.nd
     for tri in vertices[faces]:
         col = tri[:, 0] * ((cols - 1) / width_mm)
         row = (rows - 1) - tri[:, 1] * ((rows - 1) / depth_mm)
-        c0, c1 = max(int(np.floor(col.min())), 0), min(int(np.ceil(col.max())), cols - 1)
-        r0, r1 = max(int(np.floor(row.min())), 0), min(int(np.ceil(row.max())), rows - 1)
-        cc, rr = np.meshgrid(np.arange(c0, c1 + 1, dtype=np.float64), np.arange(r0, r1 + 1, dtype=np.float64))
         area = (col[1] - col[0]) * (row[2] - row[0]) - (row[1] - row[0]) * (col[2] - col[0])
         if area == 0:
             continue
-        w1 = ((cc - col[0]) * (row[2] - row[0]) - (rr - row[0]) * (col[2] - col[0])) / area
-        w2 = ((col[1] - col[0]) * (rr - row[0]) - (row[1] - row[0]) * (cc - col[0])) / area
-        w0 = 1 - w1 - w2
-        inside = (w0 >= -1e-9) & (w1 >= -1e-9) & (w2 >= -1e-9)
-        if not inside.any():
-            continue
-        z = w0 * tri[0, 2] + w1 * tri[1, 2] + w2 * tri[2, 2]
-        found = heights[rr[inside].astype(np.int64), cc[inside].astype(np.int64)]
-        worst = max(worst, float(np.abs(z[inside] - found).max()))
+        c0, c1 = max(int(np.floor(col.min())), 0), min(int(np.ceil(col.max())), cols - 1)
+        r0, r1 = max(int(np.floor(row.min())), 0), min(int(np.ceil(row.max())), rows - 1)
+        # a flat plate's triangle can span much of the grid: its rows in bands of about 1 M points
+        band = max(1, ERROR_CHECK_POINTS // (c1 - c0 + 1))
+        for start in range(r0, r1 + 1, band):
+            cc, rr = np.meshgrid(np.arange(c0, c1 + 1, dtype=np.float64),
+                                 np.arange(start, min(start + band, r1 + 1), dtype=np.float64))
+            w1 = ((cc - col[0]) * (row[2] - row[0]) - (rr - row[0]) * (col[2] - col[0])) / area
+            w2 = ((col[1] - col[0]) * (rr - row[0]) - (row[1] - row[0]) * (cc - col[0])) / area
+            w0 = 1 - w1 - w2
+            inside = (w0 >= -1e-9) & (w1 >= -1e-9) & (w2 >= -1e-9)
+            if inside.any():
+                z = w0[inside] * tri[0, 2] + w1[inside] * tri[1, 2] + w2[inside] * tri[2, 2]
+                found = heights[rr[inside].astype(np.int64), cc[inside].astype(np.int64)]
+                worst = max(worst, float(np.abs(z - found).max()))
     return worst
 
 

@@ -103,6 +103,26 @@ def cli_code(*argv) -> str:
         """) + PEAK + "sys.exit(code)\n"
 
 
+def run_cli_child(*argv, timeout_s: float = 60) -> tuple[int, str, float, float, float]:
+    """The CLI in a child Python (no memory limit): (exit code, stderr, peak MB (see PEAK), seconds
+    spent in main(), wall seconds of the whole child, its start-up included)."""
+    code = textwrap.dedent(f"""
+        import sys, time
+        from tamp_os.cli.commands import main
+        t0 = time.perf_counter()
+        code = main({list(map(str, argv))!r})
+        print('SECONDS', time.perf_counter() - t0, file=sys.stderr)
+        """) + PEAK + "sys.exit(code)\n"
+    keep = ("PATH", "HOME", "LANG", "LC_ALL", "TMPDIR", "TAMP_STRICT")
+    env = {**{k: os.environ[k] for k in keep if k in os.environ}, "PYTHONPATH": SRC,
+           "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
+    started = time.monotonic()
+    proc = subprocess.run([PYTHON, "-c", code], env=env, capture_output=True, text=True, timeout=timeout_s, check=False)
+    wall = time.monotonic() - started
+    found = {line.split()[0]: float(line.split()[1]) for line in proc.stderr.splitlines() if line.startswith(("PEAK_MB ", "SECONDS "))}
+    return proc.returncode, proc.stderr, found.get("PEAK_MB", 0.0), found.get("SECONDS", 0.0), wall
+
+
 def one_error_line(err: str) -> str:
     lines = [line for line in err.splitlines() if line.startswith("error:")]
     assert len(lines) == 1, err

@@ -7,13 +7,12 @@ import json
 import os
 import shutil
 import struct
-import subprocess
-import sys
 import time
 
 import numpy as np
 import pytest
-from conftest import FIXTURES, ROOT, need_module
+from conftest import FIXTURES, need_module
+from test_reliability import run_cli_child
 
 PEAK_RSS_MB = 300
 WALL_S = 10.0
@@ -22,27 +21,12 @@ OUTSIDE = "refers to data outside this file"
 
 # --- helpers -------------------------------------------------------------------------------------
 
-def measured_cli(*argv, timeout=60):
-    """Run `tamp-os` in a child of a fresh Python, which reports the CLI's own peak RSS (RUSAGE_CHILDREN
-    of a process with that one child) and wall time: (exit code, stderr, peak MB, seconds)."""
-    probe = ("import json, resource, subprocess, sys, time; t = time.monotonic(); "
-             "r = subprocess.run([sys.executable, '-c', 'import sys; from tamp_os.cli.commands import main; sys.exit(main(sys.argv[1:]))', "
-             "*sys.argv[1:]], capture_output=True, text=True); "
-             "print(json.dumps([r.returncode, r.stderr, resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024, "
-             "time.monotonic() - t]))")
-    env = dict(os.environ, PYTHONPATH=str(ROOT / "src"))
-    done = subprocess.run([sys.executable, "-c", probe, *map(str, argv)], capture_output=True, text=True, env=env,
-                          timeout=timeout, cwd=ROOT, check=False)
-    assert done.returncode == 0, done.stderr
-    return tuple(json.loads(done.stdout.strip().splitlines()[-1]))
-
-
 def assert_refused(tmp_path, path, *needles, extra=()):
     """The CLI refuses `path` in one line naming it and each needle; exit 1, no traceback, nothing written;
     measured in a child process: peak RSS and wall time bounded. Returns (the error line, MB, s)."""
     out = tmp_path / "out"
     before = sorted(p.relative_to(tmp_path) for p in tmp_path.rglob("*"))
-    code, err, mb, seconds = measured_cli("convert", path, "-o", out, *extra)
+    code, err, mb, _, seconds = run_cli_child("convert", path, "-o", out, *extra)
     errors = [line for line in err.splitlines() if line.startswith("error:")]
     assert code == 1, err
     assert len(errors) == 1 and "Traceback" not in err, err

@@ -9,51 +9,17 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
 import struct
-import subprocess
-import sys
-import textwrap
 import time
 
 import numpy as np
 import pytest
 
-from conftest import ROOT, need_module, run_cli
+from conftest import need_module, run_cli
 from czi_builder import write_czi
+from test_reliability import REFUSAL_PEAK_MB, one_error_line, run_cli_child
 
-PEAK = textwrap.dedent("""
-    import sys as _s
-    with open('/proc/self/status') as _f:
-        _kb = next(int(_l.split()[1]) for _l in _f if _l.startswith('VmHWM:'))
-    print('PEAK_MB', _kb / 1024, file=_s.stderr)
-    """)
-REFUSAL_PEAK_MB = 300  # the interpreter and the imports; decoding any bomb below would take gigabytes
 REFUSAL_S = 2.0  # the refusal itself, measured inside the child (the child's start-up is not the product's)
-
-
-def run_cli_child(*argv) -> tuple[int, str, float, float]:
-    """The CLI in a child Python: (exit code, stderr, peak MB, seconds spent in main())."""
-    code = textwrap.dedent(f"""
-        import sys, time
-        from tamp_os.cli.commands import main
-        t0 = time.perf_counter()
-        code = main({list(map(str, argv))!r})
-        print('SECONDS', time.perf_counter() - t0, file=sys.stderr)
-        """) + PEAK + "sys.exit(code)\n"
-    keep = ("PATH", "HOME", "LANG", "LC_ALL", "TMPDIR")
-    env = {**{k: os.environ[k] for k in keep if k in os.environ}, "PYTHONPATH": str(ROOT / "src"),
-           "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
-    proc = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=50, check=False)
-    found = {line.split()[0]: float(line.split()[1]) for line in proc.stderr.splitlines() if line.startswith(("PEAK_MB ", "SECONDS "))}
-    return proc.returncode, proc.stderr, found.get("PEAK_MB", 0.0), found.get("SECONDS", 0.0)
-
-
-def one_error_line(err: str) -> str:
-    lines = [line for line in err.splitlines() if line.startswith("error:")]
-    assert len(lines) == 1, err
-    assert "Traceback" not in err, err
-    return lines[0]
 
 
 def planes(seed=1, shape=(2, 60, 80)) -> np.ndarray:
@@ -212,7 +178,7 @@ def test_hostile_czi_is_refused_from_its_headers(tmp_path, name, command):
     out = tmp_path / "out"
     argv = ["convert", path, "-o", out] if command == "convert" else ["info", path]
     started = time.perf_counter()
-    code, err, peak, seconds = run_cli_child(*argv)
+    code, err, peak, seconds, _ = run_cli_child(*argv, timeout_s=50)
     line = one_error_line(err)
     assert code == 1, err
     assert f"{name}.czi" in line and "Zeiss CZI" in line, line

@@ -21,6 +21,7 @@ from skimage.transform import resize
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
+sys.path.insert(0, str(ROOT / "tests" / "relief"))
 REAL = ROOT.parent / "shared" / "fixtures" / "real"
 
 from tamp_os.lithograph.pipeline import make_lithograph

@@ -18,7 +18,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
-from test_reliability import ADVERSARIAL_XML, MB, SIDECAR_CASES  # noqa: E402
+from cli_support import ADVERSARIAL_XML, MB, SIDECAR_CASES  # noqa: E402
 
 
 def first_cpu_s(fn) -> float:

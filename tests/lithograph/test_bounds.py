@@ -8,7 +8,7 @@ import pytest
 from PIL import Image
 
 from conftest import run_cli as run
-from test_reliability import cli_code, one_error_line, run_limited
+from cli_support import cli_code, one_error_line, run_limited
 
 
 def noise_png(path, shape=(120, 160), seed=0):

@@ -17,7 +17,7 @@ import pytest
 
 from conftest import need_module, run_cli
 from czi_builder import write_czi
-from test_reliability import REFUSAL_PEAK_MB, one_error_line, run_cli_child
+from cli_support import REFUSAL_PEAK_MB, one_error_line, run_cli_child
 
 REFUSAL_S = 2.0  # the refusal itself, measured inside the child (the child's start-up is not the product's)
 

@@ -13,7 +13,6 @@ from pathlib import Path
 
 import pytest
 
-sys.path.insert(0, str(Path(__file__).parent))
 from gui_support import audit, browser  # noqa: E402,F401
 from synthetic_content import dim_and_bright_beads  # noqa: E402
 

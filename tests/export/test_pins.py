@@ -24,7 +24,6 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-sys.path.insert(0, str(Path(__file__).parent))
 from synthetic_content import dark_line_network, dim_and_bright_beads  # noqa: E402
 
 from tamp_os.errors import ExportError

@@ -322,7 +322,7 @@ def test_overview_words_agree_with_each_panels_print_and_not_with_the_choice():
     """Each panel's word in the overview names what that panel's own print raised (its content
     kind; members counted within a tenth), and the overview is the same whichever panels a run
     prints (its words come from the pixels and the parameters, never from the prints made)."""
-    from test_content_word import _agrees
+    from content_support import agrees as _agrees
 
     from tamp_os.lithograph.figure import make_figure
 

@@ -17,6 +17,7 @@ from synthetic import tem_texture
 from synthetic_content import dark_line_network, dim_and_bright_beads, dot_lattice, faint_grains, line_diagram
 
 from tamp_os.lithograph.content_word import content_word, without_corner_labels
+from content_support import agrees
 
 
 def _u8(image: np.ndarray) -> np.ndarray:
@@ -128,25 +129,6 @@ def test_words_for_a_four_panel_4000_by_3000_figure_are_cheap():
     assert best <= 0.5, best
 
 
-def _agrees(word, report) -> bool:
-    """The word says what the print raised: its content kind (members counted within a tenth, or two),
-    or "picture" when the print is no content print (a shape, a flat plate). A lattice's members are
-    named as a lattice."""
-    kind = report.content_kind
-    if kind == "members":
-        if word.kind == "lattice":
-            return True
-        n = report.legibility.object_count
-        return word.kind == "members" and abs(word.count - n) <= max(2, 0.1 * n)
-    if kind == "lines":
-        return word.kind in ("lines", "line art")
-    if kind == "grains":
-        return word.kind == "grains"
-    if kind == "plateau":
-        return word.kind == "region" and word.count == int(report.legibility.object_count or 1)
-    return word.kind == "picture"
-
-
 AGREE = ["fept_spheres_sem.png", "test_tiff_Zeiss_SEM_1k.tif", "FEI-Helios-Ebeam-8bits.tif", "real/sem_fei_sio2_particles_35kx.tif",
          "real/sem_fei_sio2_particles_10kx.tif", "real/zeiss_sem_al2o3_grains.czi", "real/confocal_membranes_cells3d.tif",
          "real/velox_talos_haadf_particles.emd", "real/tvips_bin4.tif", "real/tia_talos_tem_search.emi", "real/jeol_dummy_bf.img"]
@@ -169,4 +151,4 @@ def test_the_word_agrees_with_the_print_of_the_same_pixels(name, width_mm):
     params = LithoParams(width_mm=width_mm)
     word = content_word(values, params=params)
     report = make_lithograph(values, params).report
-    assert _agrees(word, report), (name, word, report.relief_style, report.content_kind, report.legibility)
+    assert agrees(word, report), (name, word, report.relief_style, report.content_kind, report.legibility)

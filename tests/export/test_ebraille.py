@@ -16,7 +16,6 @@ from pathlib import Path
 
 import pytest
 
-sys.path.insert(0, str(Path(__file__).parent))
 from conftest import need  # noqa: E402
 from ebraille_check import check, check_bytes, read_zip, rules  # noqa: E402
 from synthetic_content import dim_and_bright_beads  # noqa: E402

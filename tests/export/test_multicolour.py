@@ -17,6 +17,7 @@ from tamp_os.lithograph.pipeline import make_lithograph
 from tamp_os.params import LithoParams
 from tamp_os.errors import ParameterError
 from conftest import need, examples
+from threemf_support import SLIC3R_REL, one_mesh_object, parts_by_material, read_3mf
 
 
 @pytest.fixture(scope="module")
@@ -26,44 +27,6 @@ def two_colour(tmp_path_factory):
     folder = tmp_path_factory.mktemp("two")
     litho.save(folder, stem="p")
     return litho, folder
-
-
-SLIC3R_REL = "http://schemas.slic3r.org/3mf/2017/06"
-
-
-def _read_3mf(path):
-    wrapper = lib3mf.get_wrapper()
-    model = wrapper.CreateModel()
-    reader = model.QueryReader("3mf")
-    reader.AddRelationToRead(SLIC3R_REL)  # lib3mf reads attachments only of relationships it is told about
-    reader.ReadFromFile(str(path))
-    assert reader.GetWarningCount() == 0, [reader.GetWarning(i) for i in range(reader.GetWarningCount())]
-    return wrapper, model
-
-
-def _one_mesh_object(model):
-    """The only build item, which must be a mesh object (not components)."""
-    items = model.GetBuildItems()
-    assert items.MoveNext()
-    resource = items.GetCurrent().GetObjectResource()
-    assert resource.IsMeshObject() and not items.MoveNext()
-    return model.GetMeshObjectByID(resource.GetResourceID())
-
-
-def _parts_by_material(obj) -> dict[int, tuple[trimesh.Trimesh, np.ndarray]]:
-    """material id -> (the triangles of that material as a trimesh, their triangle indices), read through lib3mf."""
-    vertices = np.array([v.Coordinates[:] for v in obj.GetVertices()], dtype=float)
-    faces = np.array([t.Indices[:] for t in obj.GetTriangleIndices()], dtype=np.int64)
-    group, default, has = obj.GetObjectLevelProperty()
-    assert has, "the object names a default material"
-    props = obj.GetAllTriangleProperties()
-    material = np.array([p.PropertyIDs[0] if p.ResourceID else default for p in props], dtype=np.int64)
-    assert all(p.ResourceID in (0, group) for p in props) and len(material) == len(faces)
-    out = {}
-    for mat in np.unique(material):
-        idx = np.flatnonzero(material == mat)
-        out[int(mat)] = (trimesh.Trimesh(vertices, faces[idx], process=True), idx)
-    return out
 
 
 def _volumes_config(path) -> ET.Element:
@@ -81,9 +44,9 @@ def _manifold(mesh: trimesh.Trimesh):
 @pytest.mark.timeout(120)
 def test_3mf_is_one_object_of_two_coloured_closed_parts(two_colour):
     litho, folder = two_colour
-    wrapper, model = _read_3mf(folder / "p.3mf")
+    wrapper, model = read_3mf(folder / "p.3mf")
     assert model.GetUnit() == lib3mf.ModelUnit.MilliMeter
-    obj = _one_mesh_object(model)
+    obj = one_mesh_object(model)
     assert model.GetMeshObjects().Count() == 1
     # Two materials of different colours; every triangle is one of them.
     groups = model.GetBaseMaterialGroups()
@@ -92,7 +55,7 @@ def test_3mf_is_one_object_of_two_coloured_closed_parts(two_colour):
     ids = group.GetAllPropertyIDs()
     assert len(ids) == 2
     assert len({wrapper.ColorToRGBA(group.GetDisplayColor(i)) for i in ids}) == 2
-    parts = _parts_by_material(obj)
+    parts = parts_by_material(obj)
     assert set(parts) == set(ids)
     for mat, (mesh, _) in parts.items():
         assert mesh.is_watertight and mesh.is_winding_consistent and mesh.volume > 0, group.GetName(mat)
@@ -102,9 +65,9 @@ def test_3mf_is_one_object_of_two_coloured_closed_parts(two_colour):
 @pytest.mark.timeout(120)
 def test_prusaslicer_volumes_match_the_materials(two_colour):
     litho, folder = two_colour
-    _, model = _read_3mf(folder / "p.3mf")
-    obj = _one_mesh_object(model)
-    parts = _parts_by_material(obj)
+    _, model = read_3mf(folder / "p.3mf")
+    obj = one_mesh_object(model)
+    parts = parts_by_material(obj)
     config = _volumes_config(folder / "p.3mf")
     (entry,) = config.findall("object")
     assert int(entry.get("id")) == obj.GetModelResourceID()
@@ -151,8 +114,8 @@ def test_bambu_studio_and_orcaslicer_take_it_as_a_prusaslicer_3mf(two_colour):
 @pytest.mark.timeout(120)
 def test_parts_do_not_overlap_and_make_the_one_colour_print(two_colour):
     litho, folder = two_colour
-    _, model = _read_3mf(folder / "p.3mf")
-    (_, (base, _)), (_, (raised, _)) = sorted(_parts_by_material(_one_mesh_object(model)).items())
+    _, model = read_3mf(folder / "p.3mf")
+    (_, (base, _)), (_, (raised, _)) = sorted(parts_by_material(one_mesh_object(model)).items())
     a, b = _manifold(base), _manifold(raised)
     both = a + b
     assert (a ^ b).volume() < 1e-3
@@ -209,8 +172,8 @@ def test_prusaslicer_loads_one_object_of_two_closed_parts(two_colour):
     # braille dot is one), not volumes, so the volumes are read from PrusaSlicer's own re-export below.
     (info,) = _info_blocks(_prusa("--info", str(folder / "p.3mf")))
     assert info["manifold"] == "yes"
-    _, model = _read_3mf(folder / "p.3mf")
-    parts = _parts_by_material(_one_mesh_object(model))
+    _, model = read_3mf(folder / "p.3mf")
+    parts = parts_by_material(one_mesh_object(model))
     assert float(info["volume"]) == pytest.approx(sum(m.volume for m, _ in parts.values()), rel=1e-4)
 
 
@@ -288,8 +251,8 @@ def test_one_part_is_one_volume_on_extruder_1(tmp_path):
     path = tmp_path / "one.3mf"
     with open(path, "wb") as fh:
         write_3mf_parts([Part("base", "plate", plate, (245, 245, 245))], fh, {"title": "one"})
-    _, model = _read_3mf(path)
-    parts = _parts_by_material(_one_mesh_object(model))
+    _, model = read_3mf(path)
+    parts = parts_by_material(one_mesh_object(model))
     ((mesh, idx),) = parts.values()
     assert mesh.is_watertight and mesh.volume == pytest.approx(1200, rel=1e-6)
     (volume,) = _volumes_config(path).find("object").findall("volume")

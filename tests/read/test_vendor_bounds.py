@@ -12,7 +12,7 @@ import time
 import numpy as np
 import pytest
 from conftest import FIXTURES, need_module
-from test_reliability import run_cli_child
+from cli_support import run_cli_child
 
 PEAK_RSS_MB = 300
 WALL_S = 10.0

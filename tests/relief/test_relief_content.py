@@ -259,7 +259,7 @@ def test_a_dense_sem_particle_field_has_nine_in_ten_particles_felt(fixture):
     2 px Gaussian, split by a distance watershed (benchmarks/content_truth.py), rows above the
     databar box; at least 90 % stand 0.5 mm over a 1.5 mm ring on the auto relief."""
     tifffile = need_module("tifffile")
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
     from content_metrics import members_felt
     from content_truth import _case, _members_by_threshold
 
@@ -310,7 +310,7 @@ def test_boundaries_under_a_print_pixel_wide_are_found_before_the_blur_and_raise
     """Grain boundaries whose dark core and bright rims cancel on the Medium grid (as the Al2O3
     SEM picture's): lost there, found on the fine grid, drawn as tactile lines that keep the
     grains apart."""
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
     from content_metrics import lines_over_enclosed
 
     truth = thin_boundary_grains()
@@ -344,7 +344,7 @@ def test_the_al2o3_grain_boundaries_become_a_raised_network_and_the_report_says_
     white top-hat, benchmarks/content_truth.py); lines too close to feel apart are merged and
     the note names a print width wider than this one."""
     czifile = need_module("czifile")
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
     import re
 
     from content_metrics import lines_over_enclosed

@@ -432,7 +432,7 @@ def test_real_airyscan_mitochondria_as_lines(fixture):
 @pytest.mark.timeout(400)
 def test_two_colour_key_braille_and_outlines_on_the_second_part(fixture, tmp_path):
     need(liblouis_available(), "liblouis (braille key)")
-    from test_multicolour import _one_mesh_object, _parts_by_material, _read_3mf
+    from threemf_support import one_mesh_object as _one_mesh_object, parts_by_material as _parts_by_material, read_3mf as _read_3mf
 
     from tamp_os.relief.key3d import SWATCH_H_MM
 

@@ -172,7 +172,7 @@ def test_sparse_strokes_are_raised_as_lines_at_every_width(width_mm):
     import sys
     from pathlib import Path
 
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
     from content_metrics import lines_over_enclosed
     from synthetic_content import sparse_strokes
 
@@ -190,7 +190,7 @@ def test_every_bead_of_a_sparse_field_is_felt_at_every_width(width_mm):
     import sys
     from pathlib import Path
 
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
     from content_metrics import members_felt, spurious
     from synthetic_content import sparse_beads
 

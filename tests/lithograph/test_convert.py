@@ -3,6 +3,7 @@ sweep, the web app and the demo use. Slicing tests need PrusaSlicer."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import re
 import shutil
@@ -50,13 +51,15 @@ def test_save_with_gcode_slices_and_records_it(tmp_path):
     _slicer()
     litho = make_lithograph(np.pad(np.ones((20, 20)), 10), gcode=True, preset="low", width_mm=30, scale_bar="off")
     before = litho.report
-    written = litho.save(tmp_path)
+    written, sliced = litho.save_sliced(tmp_path)
     gcode = tmp_path / "array.gcode"
     assert gcode in written and written[-1].name == "array.tamp.json"
     count, steps = _layers(gcode)
     assert count > 10 and np.allclose(steps, 0.12, atol=1e-6)
-    assert before.print is None, "the report a caller held is never changed"
-    assert litho.report.print is not None and litho.report.print.result.layers == count
+    assert before.print is None and litho.report is before, "the lithograph a caller holds is never changed"
+    assert sliced.report.print is not None and sliced.report.print.result.layers == count
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        litho.report = sliced.report
     recipe = json.loads(written[-1].read_text(encoding="utf-8"))
     assert recipe["print"]["layers"] == count and "array.gcode" in recipe["outputs"]
 

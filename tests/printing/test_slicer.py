@@ -27,8 +27,8 @@ def fept_low(tmp_path_factory, request):
     need((FIXTURES / "fept_spheres_sem.png").is_file(), "fixture fept_spheres_sem.png")
     folder = tmp_path_factory.mktemp("slice")
     litho = make_lithograph(FIXTURES / "fept_spheres_sem.png", preset="low", gcode=True)
-    litho.save(folder)  # gcode=True: saving slices too, and the report then holds the result
-    return litho, folder
+    _, sliced = litho.save_sliced(folder)  # gcode=True: saving slices too; the report returned holds the result
+    return sliced, folder
 
 
 def test_gcode_layers_and_figures(fept_low):

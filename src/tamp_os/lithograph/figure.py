@@ -199,9 +199,9 @@ def _whole(given, params, printer_profile, layout: PanelLayout, notes: list[str]
     new = [note for note in notes if note not in litho.report.warnings]
     for note in new:
         log.warning(note)
-    litho.report = dataclasses.replace(litho.report, panels=PanelFacts(split=False, reason=layout.reason),
-                                       warnings=litho.report.warnings + tuple(new))
-    return Figure(layout, [("", litho)], notes, params)
+    report = dataclasses.replace(litho.report, panels=PanelFacts(split=False, reason=layout.reason),
+                                 warnings=litho.report.warnings + tuple(new))
+    return Figure(layout, [("", dataclasses.replace(litho, report=report))], notes, params)
 
 
 def _has_channels(picture: Picture) -> bool:
@@ -307,12 +307,11 @@ def _panel_print(picture, panel: Panel, layout: PanelLayout, params: LithoParams
     lead = (f"Panel {panel.label} of {_number(len(layout.panels))} in the figure {picture.file.name}, {where} "
             f"(x {panel.x}–{panel.x + panel.w - 1}, y {panel.y}–{panel.y + panel.h - 1} of the figure's pixels); "
             f"its {letter}{said} is the first braille word of the caption.")
-    litho.description = lead + " " + describe(litho.report, litho.params, picture.file.name)
-    litho.recipe_params = record.replace(panel=panel.label)
-    litho.report = dataclasses.replace(litho.report, panels=PanelFacts(
+    report = dataclasses.replace(litho.report, panels=PanelFacts(
         split=True, panel=panel.label, box_px=tuple(panel.box_px), found_by=panel.found_by, letter_read=panel.letter_read,
         panels=tuple(layout.labels()), contents={panel.label: content} if content else {}))
-    return litho
+    return dataclasses.replace(litho, report=report, recipe_params=record.replace(panel=panel.label),
+                               description=lead + " " + describe(litho.report, litho.params, picture.file.name))
 
 
 def _overview(picture, layout: PanelLayout, params: LithoParams, record: LithoParams, printer_profile, notes: list[str],

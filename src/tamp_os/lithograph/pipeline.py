@@ -49,9 +49,10 @@ MIN_PRINT_SIDE_MM = 2.0
 DEFAULT_DETAIL_MM = 2.0  # about what a fingertip resolves as shape
 
 
-@dataclass
+@dataclass(frozen=True)
 class Lithograph:
-    """A finished lithograph in memory: nothing here has been written to disk."""
+    """A finished lithograph in memory: nothing here has been written to disk. Frozen: what
+    changes it (a figure's panel facts, slicing's result) makes a new one with `dataclasses.replace`."""
 
     mesh: Mesh  # the closed solid, in mm
     heightmap: np.ndarray  # (rows, cols) heights in mm, row 0 = top of the image = far edge of the print
@@ -80,13 +81,17 @@ class Lithograph:
         return metadata(self)
 
     def save(self, target, formats=None, stem: str | None = None) -> list[Path]:
-        """Write the mesh in each format, a description and a recipe (see `outputs.save`), and
-        slice it when `gcode` is set; then `report.print` holds what slicing found."""
+        """Write the mesh in each format, a description and a recipe (see `outputs.save_outputs`),
+        and slice it when `gcode` is set; returns the paths written. What slicing found is in the
+        Lithograph that `save_sliced` returns (this one does not change)."""
+        return self.save_sliced(target, formats, stem)[0]
+
+    def save_sliced(self, target, formats=None, stem: str | None = None) -> tuple[list[Path], Lithograph]:
+        """As `save`; also returns this lithograph with the slicing result in `report.print`
+        (itself when nothing was sliced)."""
         from .outputs import save_outputs
 
-        written, done = save_outputs(self, target, formats, stem)
-        self.report = done.report  # a new report (with the slicing result) replaces the old one
-        return written
+        return save_outputs(self, target, formats, stem)
 
     def __repr__(self) -> str:
         r = self.report

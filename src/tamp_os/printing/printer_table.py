@@ -150,7 +150,7 @@ RESIN_PRINTERS: tuple[PrinterModel, ...] = (
                  "https://www.prusa3d.com/product/original-prusa-sl1s-speed-3d-printer/",
                  prusa_presets=("Original Prusa SL1S SPEED",), technology="MSLA", xy_mm=0.05),
     PrinterModel("Formlabs", "Formlabs Form 4", ("form 4", "form4", "formlabs form 4"), (200, 125, 210), (0.025, 0.2),
-                 "https://formlabs.com/3d-printers/form-4/tech-specs/ (not read here: the build volume 200 × 125 × 210 mm, "
+                 f"https://formlabs.com/3d-printers/form-4/tech-specs/ ({NOT_CHECKED} there: the build volume 200 × 125 × 210 mm, "
                  "50 µm pixels and 25–200 µm layers are as the VT Discovery Lab's printer page quotes the vendor, "
                  "github.com/VT-DISCO-LAB/Getting-Started-in-the-Discovery-Lab/wiki/SLA-Printing-%7C-Formlabs-Form-4; "
                  "its other page says 25–300 µm: the thickest layer is uncertain)",

@@ -181,8 +181,8 @@ def _resin_profile(model, layer_mm: float, feature_mm: float) -> PrinterProfile:
     from .printer_table import sla_preset
 
     spot = "laser spot" if model.technology == "SLA" else "pixels"
-    outputs = (f"--gcode slices it with PrusaSlicer's {sla_preset(model)!r} to a .sl1s file" if sla_preset(model)
-               else "print the STL or 3MF from the vendor's own slicer")
+    outputs = (f"slicing writes a .sl1s print file with PrusaSlicer's {sla_preset(model)!r}" if sla_preset(model)
+               else "no slicer here: print the STL or 3MF from the vendor's own slicer")
     return PrinterProfile(model.model, feature_mm, layer_mm, model.width_mm(),
                           f"{model.vendor}, {model.technology} resin, build {model.bed_mm[0]:g} × {model.bed_mm[1]:g} mm, "
                           f"{spot} {model.xy_mm:g} mm, feature {feature_mm:g} mm ({outputs})", None,

@@ -116,7 +116,9 @@ class LithoParams:
     mesher: str = _f("adaptive", "adaptive: fewest triangles within `max_error_mm`; grid: every pixel a vertex", choices=MESHERS)
     max_error_mm: float | None = _f(None, "largest height error of the adaptive mesh (default: half the layer height; 0 = exact grid)", "mm", 0.0, 5.0)
     gcode: bool = _f(False, "also slice with PrusaSlicer to NAME.gcode and report print time, grams and cost")
-    material: str = _f("PLA", "filament for slicing and estimates", choices=("PLA", "PETG", "ABS"))
+    material: str = _f("PLA", "filament or resin for slicing and estimates: PLA, PETG, ABS, rPLA and rPETG (recycled), resin or "
+                       "plant-resin (PLA, the default, on a resin printer means resin)",
+                       choices=("PLA", "PETG", "ABS", "rPLA", "rPETG", "resin", "plant-resin"))
     filament_price_per_kg: float = _f(25.0, "filament price per kg, in your currency", "", 0.0, 1000.0, lo_open=True)
     slice_timeout_s: float = _f(600.0, "stop PrusaSlicer after this long", "s", 0.0, 86400.0, lo_open=True)
     formats: tuple[str, ...] = _f(("stl",), "output formats (pdf and svg: a 2-D tactile graphic for swell paper or an embosser)", choices=FORMATS)

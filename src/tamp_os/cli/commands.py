@@ -134,7 +134,8 @@ def _add_slicing(sub) -> None:
     estimate.add_argument("meshes", nargs="+", metavar="MESH")
     for p in (slicer, estimate):
         p.add_argument("--printer", default="standard", help="printer profile (default standard)")
-        p.add_argument("--material", default="PLA", help="PLA, PETG or ABS (default PLA)")
+        p.add_argument("--material", default="PLA", help="PLA, PETG, ABS, rPLA, rPETG (recycled), resin or plant-resin "
+                       "(default PLA; on a resin printer, resin)")
         p.add_argument("--filament-price", type=float, default=None, metavar="PER_KG", help="price per kg (default 25)")
     slicer.add_argument("--timeout", type=float, default=600.0, metavar="S", help="stop PrusaSlicer after S seconds (default 600)")
 
@@ -637,19 +638,36 @@ def cmd_slice(args) -> int:
 def cmd_estimate(args) -> int:
     from ..export.meshfile import read_mesh_file
     from ..printing.printers import get_printer
-    from ..printing.slicer import estimate, material
+    from ..printing.slicer import FILAMENTS, RESINS, estimate, material, material_for
 
-    printer, mat = get_printer(args.printer), material(args.material, args.filament_price)
+    printer = get_printer(args.printer)
+    mat = material_for(printer, args.material, args.filament_price)
+    others = [material(m, args.filament_price) for m in (RESINS if printer.is_resin else FILAMENTS) if m != mat.name]
 
     def estimate_one(mesh_path):
         mesh = read_mesh_file(mesh_path)
         if not mesh.is_watertight:
             print(f"warning: {mesh_path}: not a closed solid; the volume and estimate may be wrong.", file=sys.stderr)
-        e = estimate(float(mesh.volume), mesh.vertices, mesh.faces, printer, mat)
-        return [f"{Path(mesh_path).name}: about {e['filament_g']:.1f} g of {e['material']} ({e['filament_cm3']:.2f} cm³), "
-                f"costing about {e['cost']:.2f} at {e['price_per_kg']:g} per kg. Assumes {e['assumptions']}."]
+        found = [estimate(float(mesh.volume), mesh.vertices, mesh.faces, printer, m) for m in (mat, *others)]
+        e = found[0]
+        lines = [f"{Path(mesh_path).name}: about {_amount_words(e)}, costing about {e['cost']:.2f} at {e['price_per_kg']:g} "
+                 f"per kg{_co2e_text(e)}. Assumes {e['assumptions']}."]
+        lines += [f"  {o['material']}: about {_amount_words(o)}, costing about {o['cost']:.2f}{_co2e_text(o)}" for o in found[1:]]
+        lines += [f"  CO₂e factor of {o['material']}: {o['co2e_source']}" for o in found]
+        return lines
 
     return _run_each(args.meshes, estimate_one, args.debug)
+
+
+def _amount_words(e: dict) -> str:
+    """'12.3 g of PLA (9.92 cm³)' or '8.4 mL of resin (9.2 g)' from an estimate."""
+    if "resin_ml" in e:
+        return f"{e['resin_ml']:.2f} mL of {e['material']} ({e['filament_g']:.1f} g)"
+    return f"{e['filament_g']:.1f} g of {e['material']} ({e['filament_cm3']:.2f} cm³)"
+
+
+def _co2e_text(e: dict) -> str:
+    return "" if e["co2e_kg"] is None else f", about {e['co2e_kg']:.3f} kg CO₂e"
 
 
 def cmd_presets(args) -> int:
@@ -668,7 +686,11 @@ def cmd_presets(args) -> int:
         picture = read_source(args.image, params)  # the plane, level and limits the conversion would read
         width = layout_for(params, printer, picture.file.width, picture.file.height).width_mm
         suggestion = suggest_by_touch(picture.values, picture.alpha, width_mm=width, nozzle_mm=printer.nozzle_mm)
-    print(f"printer {printer.name}: nozzle {printer.nozzle_mm:g} mm, layer {layer:g} mm, mesher {params.mesher}")
+    if printer.is_resin:
+        print(f"printer {printer.name}: resin, feature {printer.nozzle_mm:g} mm (4 pixels, at least 0.2 mm: the grid follows it "
+              f"as it follows a nozzle), layer {layer:g} mm, mesher {params.mesher}")
+    else:
+        print(f"printer {printer.name}: nozzle {printer.nozzle_mm:g} mm, layer {layer:g} mm, mesher {params.mesher}")
     print(f"height levels: {height_levels(params.relief_mm, layer)} (relief {params.relief_mm:g} mm ÷ layer {layer:g} mm)")
     for row in preset_rows(params, picture=picture):
         sizes = size_words(row["bytes"])
@@ -684,7 +706,7 @@ def cmd_presets(args) -> int:
 
 
 def cmd_printers(args) -> int:
-    from ..printing.printer_table import installed_preset, printers_of, vendor_name
+    from ..printing.printer_table import installed_preset, printers_of, sla_preset, vendor_name
     from ..printing.printers import all_printers
     from ..printing.prusa_presets import system_printers
 
@@ -692,11 +714,23 @@ def cmd_printers(args) -> int:
     for p in all_printers().values():
         print(f"{p.name}: nozzle {p.nozzle_mm:g} mm, layer {p.layer_mm:g} mm, width {p.width_mm:g} mm, {p.description}")
     table = printers_of(args.vendor)
-    print(f"Today's printers ({len(table)}; --printer takes the name or a short form such as mk4 or 'a1 mini'; "
-          "the 3MF carries their print settings):")
-    for model in table:
+    nozzle = [m for m in table if not m.is_resin]
+    resin = [m for m in table if m.is_resin]
+    if nozzle:
+        print(f"Today's nozzle (FDM) printers ({len(nozzle)}; --printer takes the name or a short form such as mk4 or 'a1 mini'; "
+              "the 3MF carries their print settings):")
+    for model in nozzle:
         preset = installed_preset(model)
         print(model.line() + (f"; G-code from PrusaSlicer's {preset!r}" if preset else "; no G-code here, print from the 3MF"))
+        print(f"  source: {model.source}")
+    if resin:
+        print(f"Today's resin (MSLA and SLA) printers ({len(resin)}; --printer takes the name or a short form such as sl1s or "
+              "'form 4'; print the STL or 3MF flat on the platform, no supports):")
+    for model in resin:
+        preset = sla_preset(model)
+        print(model.line() + (f"; --gcode writes a .sl1s with PrusaSlicer's {preset!r}" if preset
+                              else "; no slicer here, print from the vendor's slicer"))
+        print(f"  short names: {', '.join(model.short_names)}")
         print(f"  source: {model.source}")
     wanted = vendor_name(args.vendor).replace(" ", "").lower() if args.vendor else None
     found = [p for p in system_printers() if not wanted or p.vendor.lower() == wanted]

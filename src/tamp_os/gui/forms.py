@@ -67,11 +67,11 @@ PAGE_SIZE_CHOICES = ("plate", "a4", "letter")
 
 def printer_choices() -> dict:
     """The printers the form offers: the profiles (built-in and the user's), then today's printers of
-    the printer table, each as a PrinterProfile (name -> profile)."""
-    from ..printing.printer_table import PRINTERS
+    the printer table (nozzle and resin), each as a PrinterProfile (name -> profile)."""
+    from ..printing.printer_table import ALL_PRINTERS
     from ..printing.printers import all_printers, table_profile
 
-    return {**all_printers(), **{p.model: table_profile(p.model) for p in PRINTERS}}
+    return {**all_printers(), **{p.model: table_profile(p.model) for p in ALL_PRINTERS}}
 
 
 def braille_table_choices() -> list[tuple[str, str]]:

@@ -212,6 +212,7 @@ FILE_PURPOSES = (
     (".raised.stl", "two-colour print, second colour: braille, scale bar and frame (load with .base.stl)"),
     (".3mf", "for your slicer (PrusaSlicer, OrcaSlicer, Bambu Studio): the print with its print settings"),
     (".stl", "for any slicer: the solid to print"),
+    (".sl1s", "for the resin printer it was sliced for (Original Prusa SL1S): copy it to the printer's USB stick"),
     (".gcode", "for the printer it was sliced for: send it to the printer (if it says 'for estimates only', slice the 3MF instead)"),
     (".pages.pdf", "for swell paper or a braille embosser: every page of the figure, the overview first, then each panel"),
     (".pdf", "for swell paper or a braille embosser: the flat tactile graphic, to print on paper"),

@@ -37,13 +37,18 @@ PARALLEL_WRITE_TRIANGLES = 100_000
 def metadata(litho) -> dict:
     """Title, description, designer and application, for formats that carry them (3MF, GLB), and the
     print settings the 3MF carries for the slicer (export/print_settings.py)."""
-    from ..printing.print_settings import settings_for
+    from ..printing.print_settings import resin_sentence, settings_for
+    from ..printing.slicer import material
 
-    settings = settings_for(litho.printer, litho.params.material)
+    if litho.printer.is_resin:  # no FDM slicer settings in the 3MF: the description says how to print it
+        settings, how = None, resin_sentence(litho.printer, litho.params.relief_mm)
+    else:
+        settings = settings_for(litho.printer, material(litho.params.material).filament_type or litho.params.material)
+        how = settings.sentence(in_3mf="3mf" in litho.params.formats)
     return {
         "title": f"Tactile lithograph of {litho.picture.file.name}",
         "description": " ".join([litho.description or describe(litho.report, litho.params, litho.picture.file.name),
-                                 *multipart_sentences(litho), settings.sentence(in_3mf="3mf" in litho.params.formats)]),
+                                 *multipart_sentences(litho), how]),
         "designer": "TAMP-OS",
         "application": f"TAMP-OS {__version__}",
         "print_settings": settings,
@@ -384,7 +389,7 @@ def slice_outputs(litho, written: list[Path]) -> tuple[list[Path], SliceResult]:
     """Slice a saved lithograph with PrusaSlicer: its STL (written first when `written` has none)
     becomes NAME.gcode beside it. Returns the paths now written (recipe last, not yet rewritten)
     and what slicing found; save_outputs makes the new report and recipe from them."""
-    from ..printing.slicer import material, slice_mesh
+    from ..printing.slicer import material_for, slice_mesh
 
     recipe = next(p for p in written if p.name.endswith(RECIPE_SUFFIX))
     others = [p for p in written if p != recipe]
@@ -393,6 +398,7 @@ def slice_outputs(litho, written: list[Path]) -> tuple[list[Path], SliceResult]:
         stl = save_mesh(litho.mesh, recipe.parent / (recipe.name[: -len(RECIPE_SUFFIX)] + ".stl"), metadata(litho))
         others.append(stl)
     params = litho.params
-    result = slice_mesh(stl, litho.printer, material(params.material, params.filament_price_per_kg), timeout_s=params.slice_timeout_s)
+    result = slice_mesh(stl, litho.printer, material_for(litho.printer, params.material, params.filament_price_per_kg),
+                        timeout_s=params.slice_timeout_s)
     others.append(Path(result.gcode))
     return others + [recipe], result

@@ -139,3 +139,11 @@ def settings_for(profile, material: str = "PLA") -> PrintSettings:
     return PrintSettings(layer_mm=profile.layer_mm, nozzle_mm=profile.nozzle_mm, printer=profile.name,
                          bed_mm=tuple(bed) if bed else None, bambu_model=getattr(profile, "bambu_model", None),
                          prusa_options=options)
+
+
+def resin_sentence(profile, relief_mm: float) -> str:
+    """How to print the relief on a resin printer: its layer, flat on the platform, no supports."""
+    levels = int(relief_mm / profile.layer_mm + 1e-9)
+    return (f"Print it on a resin printer with {profile.layer_mm:g} mm layers ({levels} height levels in the relief), "
+            "flat on the build platform with its base down, without supports, pad or hollowing; wash and cure it as the "
+            "resin's maker says before it is handled.")

@@ -3,6 +3,11 @@
 A preset fixes the output grid from the nozzle: Low = one pixel per 2 nozzle widths, Medium =
 one per nozzle width (the default), High = one per half nozzle width. Unlike the reference we do
 not round to powers of two or cap at 512 px; adaptive meshing keeps large grids printable.
+
+A resin printer has no nozzle: its profile's `nozzle_mm` holds its feature width instead (4 of its
+pixels or laser spots, at least 0.2 mm: printer_table.feature_mm), and the same rule applies to it, so
+its grid follows its XY resolution down to 0.1 mm a grid point at High, where a finger stops telling
+the difference.
 """
 
 from __future__ import annotations
@@ -27,13 +32,23 @@ class PrinterProfile:
     prusa_preset: str | None = None  # a PrusaSlicer system printer preset: slice with its bed and firmware
     bed_mm: tuple[float, float] | None = None  # the bed (width, depth), when known: print width and tiles fit it
     bambu_model: str | None = None  # Bambu Studio's printer_model, for the 3MF's project settings
+    technology: str = "FDM"  # FDM, or a resin printer's MSLA / SLA (then nozzle_mm is its feature width)
+    layers_mm: tuple[float, float] | None = None  # the thinnest and thickest layer it makes, when known
+
+    @property
+    def is_resin(self) -> bool:
+        return self.technology != "FDM"
 
     def with_overrides(self, nozzle_mm: float | None = None, layer_mm: float | None = None) -> "PrinterProfile":
         """This profile with the user's nozzle and layer, where given: the numbers a print uses."""
         return dataclasses.replace(self, nozzle_mm=nozzle_mm or self.nozzle_mm, layer_mm=layer_mm or self.layer_mm)
 
     def as_dict(self) -> dict:
-        return dataclasses.asdict(self)
+        """The profile's fields; the resin ones only for a resin printer (a nozzle printer's recipe stays as it was)."""
+        data = dataclasses.asdict(self)
+        if not self.is_resin:
+            del data["technology"], data["layers_mm"]
+        return data
 
     @classmethod
     def from_dict(cls, data: dict) -> "PrinterProfile":
@@ -98,6 +113,8 @@ def _profile_from_table(name: str, table, where) -> PrinterProfile:
             prusa_preset=str(table["prusa_preset"]) if table.get("prusa_preset") else None,
             bed_mm=_bed(table.get("bed_mm")),
             bambu_model=str(table["bambu_model"]) if table.get("bambu_model") else None,
+            technology=_technology(table.get("technology", "FDM")),
+            layers_mm=_layers(table.get("layers_mm")),
         )
     except (KeyError, TypeError, ValueError) as exc:
         raise ParameterError(
@@ -109,6 +126,24 @@ def _profile_from_table(name: str, table, where) -> PrinterProfile:
             f"got {profile.nozzle_mm}, {profile.layer_mm}, {profile.width_mm}."
         )
     return profile
+
+
+def _technology(value) -> str:
+    """FDM, MSLA or SLA from a profile table or recipe (ValueError otherwise: reported by the caller)."""
+    text = str(value).upper()
+    if text not in ("FDM", "MSLA", "SLA"):
+        raise ValueError(f"technology must be FDM, MSLA or SLA; got {value!r}")
+    return text
+
+
+def _layers(value) -> tuple[float, float] | None:
+    """layers_mm from a profile table or recipe: [thinnest, thickest] in mm, or absent."""
+    if value is None:
+        return None
+    low, high = (float(v) for v in value)
+    if not 0.005 <= low <= high <= 1.0:
+        raise ValueError(f"layers_mm must be two layer heights of 0.005–1.0 mm, thinnest first; got {value!r}")
+    return low, high
 
 
 def _bed(value) -> tuple[float, float] | None:
@@ -127,16 +162,32 @@ def table_profile(name: str) -> PrinterProfile | None:
     Its layer is the one the reliefs are designed for (0.12 mm) where the printer's usual range holds
     it; its print width fits the bed; its PrusaSlicer preset is set only when the installed
     PrusaSlicer has one (then G-code is for that printer)."""
-    from .printer_table import design_layer_mm, find_printer, installed_preset
+    from .printer_table import design_layer_mm, feature_mm, find_printer, installed_preset
 
     model = find_printer(name)
     if model is None:
         return None
+    if model.is_resin:
+        return _resin_profile(model, design_layer_mm(model), feature_mm(model))
     preset = installed_preset(model)
     where = f"PrusaSlicer system preset {preset!r}" if preset else "no PrusaSlicer preset installed here: G-code for estimates only"
     return PrinterProfile(model.model, model.nozzle_mm, design_layer_mm(model), model.width_mm(),
                           f"{model.vendor}, bed {model.bed_mm[0]:g} × {model.bed_mm[1]:g} mm ({where})", preset,
                           (float(model.bed_mm[0]), float(model.bed_mm[1])), model.bambu_model)
+
+
+def _resin_profile(model, layer_mm: float, feature_mm: float) -> PrinterProfile:
+    """A resin printer of the table as a profile: its feature width in `nozzle_mm`, its build area as the bed."""
+    from .printer_table import sla_preset
+
+    spot = "laser spot" if model.technology == "SLA" else "pixels"
+    outputs = (f"slicing writes a .sl1s print file with PrusaSlicer's {sla_preset(model)!r}" if sla_preset(model)
+               else "no slicer here: print the STL or 3MF from the vendor's own slicer")
+    return PrinterProfile(model.model, feature_mm, layer_mm, model.width_mm(),
+                          f"{model.vendor}, {model.technology} resin, build {model.bed_mm[0]:g} × {model.bed_mm[1]:g} mm, "
+                          f"{spot} {model.xy_mm:g} mm, feature {feature_mm:g} mm ({outputs})", None,
+                          (float(model.bed_mm[0]), float(model.bed_mm[1])), None, model.technology,
+                          (float(model.layers_mm[0]), float(model.layers_mm[1])))
 
 
 def all_printers() -> dict[str, PrinterProfile]:

@@ -199,3 +199,85 @@ def system_printer_profile(name: str) -> tuple:
     width = min(100.0, max(10.0, min(printer.bed_mm) - 20.0))
     return (printer.name, printer.nozzle_mm, layer, width, f"PrusaSlicer system preset ({printer.vendor})", printer.name,
             printer.bed_mm)
+
+
+@functools.lru_cache(maxsize=1)
+def sla_printers() -> dict[str, tuple[str, Path]]:
+    """Concrete SLA printer presets of the installed bundles: {lower-case name: (name, bundle)}."""
+    found = {}
+    for path in bundles().values():
+        sections = read_bundle(path)
+        for key in sections:
+            kind, _, name = key.partition(":")
+            if kind == "printer" and not name.startswith("*") and resolve(sections, "printer", name).get("printer_technology") == "SLA":
+                found[name.lower()] = (name, path)
+    return found
+
+
+def _compatible(options: dict[str, str], model: str, layer_mm: float | None = None) -> bool:
+    """Whether a sla_print / sla_material preset's conditions admit this printer model (and layer)."""
+    printers = options.get("compatible_printers_condition", "")
+    prints = options.get("compatible_prints_condition", "")
+    layer_ok = layer_mm is None or not prints or f"layer_height == {layer_mm:g}" in prints
+    return f'printer_model=="{model}"' in printers.replace(" ", "") and layer_ok
+
+
+@dataclass(frozen=True)
+class SlaConfig:
+    """An SLA printer preset resolved with the print preset of the wanted layer and a material of it."""
+
+    printer: str
+    print_preset: str
+    material_preset: str
+    options: dict[str, str]
+
+    def write(self, path: Path) -> Path:
+        lines = [f"# {self.printer}, print {self.print_preset}, material {self.material_preset}"]
+        lines += [f"{key} = {value}" for key, value in sorted(self.options.items())]
+        path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+        return path
+
+
+def sla_layers_mm(name: str) -> tuple[float, ...]:
+    """The layer heights the SLA printer preset `name`'s own print presets make, thinnest first."""
+    printer, path = sla_printers()[name.lower()]
+    sections = read_bundle(path)
+    model = _unquote(resolve(sections, "printer", printer).get("printer_model"))
+    layers = set()
+    for key in sections:
+        kind, _, print_name = key.partition(":")
+        if kind == "sla_print" and not print_name.startswith("*"):
+            options = resolve(sections, "sla_print", print_name)
+            if _compatible(options, model):
+                layers.add(float(options["layer_height"]))
+    return tuple(sorted(layers))
+
+
+def sla_config(name: str, layer_mm: float) -> SlaConfig:
+    """The SLA printer preset `name` with its print preset of `layer_mm` and the material its default
+    material names at that layer, printed flat on the platform: no supports, no pad (a plate has a flat base)."""
+    if name.lower() not in sla_printers():
+        raise ParameterError(f"`printer`: {name!r} is not a PrusaSlicer SLA printer preset installed here.")
+    printer, path = sla_printers()[name.lower()]
+    sections = read_bundle(path)
+    printer_options = resolve(sections, "printer", printer)
+    model = _unquote(printer_options.get("printer_model"))
+    prints = [key.partition(":")[2] for key in sections if key.startswith("sla_print:") and not key.startswith("sla_print:*")]
+    fitting = [n for n in prints if _compatible(resolve(sections, "sla_print", n), model)
+               and abs(float(resolve(sections, "sla_print", n)["layer_height"]) - layer_mm) < 1e-9]
+    if not fitting:
+        made = ", ".join(f"{v:g}" for v in sla_layers_mm(name))
+        raise ParameterError(f"`layer_mm`: PrusaSlicer's {printer} presets print layers of {made} mm; got {layer_mm:g} mm. "
+                             f"Choose one of them.")
+    default = _unquote(printer_options.get("default_sla_material_profile"))
+    base = default.split(" @")[0]
+    materials = [key.partition(":")[2] for key in sections if key.startswith("sla_material:") and not key.startswith("sla_material:*")]
+    usable = [n for n in materials if _compatible(resolve(sections, "sla_material", n), model, layer_mm)]
+    if not usable:
+        raise ParameterError(f"PrusaSlicer's bundle has no {printer} material for {layer_mm:g} mm layers.")
+    material = next((n for n in usable if n.split(" @")[0] == base), usable[0])
+    options = {**resolve(sections, "sla_material", material), **resolve(sections, "sla_print", fitting[0]), **printer_options}
+    options = {k: v for k, v in options.items() if k not in NOT_OPTIONS}
+    options.update(supports_enable="0", pad_enable="0", printer_settings_id=printer, sla_print_settings_id=fitting[0],
+                   sla_material_settings_id=material)
+    return SlaConfig(printer, fitting[0], material, options)

@@ -20,6 +20,8 @@ import re
 import shutil
 import subprocess
 import tempfile
+import dataclasses
+import zipfile
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
@@ -47,26 +49,74 @@ class SlicerError(TampError):
     """PrusaSlicer failed or ran too long; the mesh is kept."""
 
 
+# Cradle-to-gate greenhouse-gas factors (kg CO₂e per kg of material) and where each comes from. They are
+# approximate: a print's footprint also has the printer's electricity, failed prints and waste, left out here.
+_INGEO = ("Vink & Davies 2015, Industrial Biotechnology 11(3):167-180, NatureWorks' 2014 Ingeo PLA eco-profile, "
+          "cradle to gate with the plants' CO2 uptake (value not re-read here)")
+_RPET = ("denkstatt for ALPLA 2017 (ISO 14044): virgin PET 2.15, recycled PET 0.45 kg CO2e/kg, "
+         "https://www.plasticsnewseurope.com/article/20170809/PNE/170809890/")
+_RESIN = ("uncertain: no published factor for printing resin was found; a (meth)acrylate polymer's, "
+          "PlasticsEurope's PMMA eco-profile (2015), is the stand-in, its value not re-read here")
+
+
 @dataclass(frozen=True)
 class Material:
     name: str
-    density_g_cm3: float
+    density_g_cm3: float  # g/cm³, which is g/mL
     price_per_kg: float
+    kind: str = "filament"  # filament (a nozzle printer) or resin
+    co2e_kg_per_kg: float | None = None  # cradle-to-gate greenhouse gases, approximate
+    co2e_source: str = "no factor found"
+    filament_type: str = ""  # PrusaSlicer's filament_type for its presets: PLA for recycled PLA
+
+    @property
+    def is_resin(self) -> bool:
+        return self.kind == "resin"
+
+    def co2e_kg(self, grams: float) -> float | None:
+        """Approximate kg CO₂e of `grams` of this material, or None without a factor."""
+        return None if self.co2e_kg_per_kg is None else grams / 1000 * self.co2e_kg_per_kg
 
 
-MATERIALS = {m.name: m for m in (Material("PLA", 1.24, 25.0), Material("PETG", 1.27, 25.0), Material("ABS", 1.04, 25.0))}
+MATERIALS = {m.name.upper(): m for m in (
+    Material("PLA", 1.24, 25.0, co2e_kg_per_kg=0.62, co2e_source=_INGEO),
+    Material("PETG", 1.27, 25.0, co2e_kg_per_kg=2.15, co2e_source=f"virgin PET's as PETG's stand-in: {_RPET}"),
+    Material("ABS", 1.04, 25.0),
+    Material("rPLA", 1.24, 25.0, co2e_kg_per_kg=0.13, filament_type="PLA",
+             co2e_source=f"assumed: PLA's 0.62 less the 79 % that recycling saves for PET (no recycled-PLA study found); {_INGEO}"),
+    Material("rPETG", 1.27, 25.0, co2e_kg_per_kg=0.45, filament_type="PETG", co2e_source=f"recycled PET's as a stand-in: {_RPET}"),
+    Material("resin", 1.1, 25.0, kind="resin", co2e_kg_per_kg=4.0, co2e_source=_RESIN),
+    Material("plant-resin", 1.1, 25.0, kind="resin", co2e_kg_per_kg=2.0,
+             co2e_source="assumed: half the standard resin's for a resin about half plant-based (Voet et al. 2018, "
+                         "ACS Omega 3:1403, made SLA resins 34-67 % bio-based); no study of such a resin's footprint found; uncertain"),
+)}
+FILAMENTS = tuple(m.name for m in MATERIALS.values() if not m.is_resin)
+RESINS = tuple(m.name for m in MATERIALS.values() if m.is_resin)
 
 
 def material(name: str, price_per_kg: float | None = None) -> Material:
     key = name.upper()
     if key not in MATERIALS:
-        raise ParameterError(f"`material`: must be one of {', '.join(MATERIALS)}; got {name!r}.")
+        raise ParameterError(f"`material`: must be one of {', '.join(m.name for m in MATERIALS.values())}; got {name!r}.")
     base = MATERIALS[key]
     if price_per_kg is None:
         return base
     if not 0 < price_per_kg < 1000:
         raise ParameterError(f"filament price: must be above 0 and below 1000 per kg; got {price_per_kg}.")
-    return Material(base.name, base.density_g_cm3, price_per_kg)
+    return dataclasses.replace(base, price_per_kg=price_per_kg)
+
+
+def material_for(printer: PrinterProfile, name: str, price_per_kg: float | None = None) -> Material:
+    """The material a printer prints: PLA (the default) on a resin printer means standard resin; a
+    filament on a resin printer, or a resin on a nozzle printer, is refused with what to choose."""
+    if printer.is_resin and name.upper() == "PLA":
+        name = "resin"
+    chosen = material(name, price_per_kg)
+    if chosen.is_resin != printer.is_resin:
+        fits = RESINS if printer.is_resin else FILAMENTS
+        what = "a resin printer" if printer.is_resin else "a nozzle printer"
+        raise ParameterError(f"`material`: the {printer.name} is {what}; choose one of {', '.join(fits)}; got {name!r}.")
+    return chosen
 
 
 @dataclass
@@ -92,8 +142,97 @@ class SliceResult:
         return (
             f"{_duration(self.print_time_s)} to print, {self.filament_g:.1f} g of {self.material} "
             f"({self.filament_mm / 1000:.2f} m of filament), costing {self.cost:.2f} at {self.price_per_kg:g} per kg"
+            + _co2e_words(self.material, self.filament_g)
             + (f" ({self.note})" if self.for_estimates_only else f", sliced for {self.printer}")
         )
+
+
+def _co2e_words(material_name: str, grams: float) -> str:
+    """', about 0.01 kg CO₂e' for a material with a factor (its source is in the materials table and the docs)."""
+    kg = MATERIALS[material_name.upper()].co2e_kg(grams)
+    return "" if kg is None else f", about {kg:.3f} kg CO₂e"
+
+
+@dataclass
+class ResinSliceResult:
+    """What PrusaSlicer's SLA export wrote: its archive's print time and resin volume, and what they cost."""
+
+    print_file: str
+    print_time_s: float
+    resin_ml: float
+    resin_g: float
+    cost: float
+    layer_mm: float
+    layers: int
+    material: str
+    price_per_kg: float
+    printer: str
+    for_estimates_only: bool = False
+    note: str = ""
+
+    @property
+    def gcode(self) -> str:
+        """The print file (an .sl1s archive): the name the report's printing facts use for any print file."""
+        return self.print_file
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+    def sentence(self) -> str:
+        return (f"{_duration(self.print_time_s)} to print, {self.resin_ml:.1f} mL of {self.material} ({self.resin_g:.1f} g), "
+                f"costing {self.cost:.2f} at {self.price_per_kg:g} per kg{_co2e_words(self.material, self.resin_g)}, "
+                f"sliced for {self.printer}")
+
+
+def read_sla_archive(path, mat: Material) -> ResinSliceResult:
+    """Print time, resin volume and layers from an .sl1/.sl1s archive's config.ini, as PrusaSlicer wrote them."""
+    try:
+        with zipfile.ZipFile(path) as archive:
+            text = archive.read("config.ini").decode("utf-8", errors="replace")
+    except (OSError, KeyError, zipfile.BadZipFile) as exc:
+        raise SlicerError(f"{path}: not an SLA print archive with a config.ini ({exc}).") from None
+    values = dict(line.split(" = ", 1) for line in text.splitlines() if " = " in line)
+    try:
+        ml = float(values["usedMaterial"])
+        grams = ml * mat.density_g_cm3
+        return ResinSliceResult(
+            print_file=str(path), print_time_s=float(values["printTime"]), resin_ml=ml, resin_g=round(grams, 3),
+            cost=round(grams / 1000 * mat.price_per_kg, 3), layer_mm=float(values["layerHeight"]),
+            layers=int(values["numFast"]) + int(values["numSlow"]), material=mat.name, price_per_kg=mat.price_per_kg,
+            printer=values.get("printerModel", ""))
+    except (KeyError, ValueError) as exc:
+        raise SlicerError(f"{path}: its config.ini lacks {exc}; is this PrusaSlicer's SLA output?") from None
+
+
+def slice_sla(mesh_path, printer: PrinterProfile, mat: Material, *, timeout_s: float = 600.0) -> ResinSliceResult:
+    """Slice `mesh_path` with PrusaSlicer's SLA export for the printer's system preset, beside the mesh
+    (same name, the preset's .sl1s or .sl1), and read the time and resin volume from the archive."""
+    from .printer_table import find_printer, sla_preset
+    from .prusa_presets import sla_config
+
+    mesh_path = Path(mesh_path)
+    model = find_printer(printer.name)
+    preset = sla_preset(model) if model else None
+    if preset is None:
+        raise SlicerError(f"{mesh_path}: no PrusaSlicer preset for the {printer.name} here; print the STL or 3MF from its "
+                          "vendor's slicer (the description gives the settings).")
+    config = sla_config(preset, printer.layer_mm)
+    suffix = Path(config.options.get("output_filename_format", ".sl1")).suffix or ".sl1"
+    exe = prusa_slicer()
+    target = mesh_path.with_suffix(suffix)
+    partial = target.with_name(f".{target.stem}.part{suffix}")
+    with tempfile.TemporaryDirectory(prefix="tamp-slice-") as tmp:
+        ini = config.write(Path(tmp) / "config.ini")
+        try:
+            done = _run([exe, "--export-sla", "--load", str(ini), "--output", str(partial), str(mesh_path)], timeout_s, str(mesh_path))
+            if done.returncode != 0 or not partial.is_file():
+                raise SlicerError(f"{mesh_path}: PrusaSlicer failed ({_last_error(done)}); the mesh is kept.")
+            result = read_sla_archive(partial, mat)
+            os.replace(partial, target)
+        finally:
+            partial.unlink(missing_ok=True)
+    result.print_file, result.printer = str(target), preset
+    return result
 
 
 def _duration(seconds: float) -> str:
@@ -139,7 +278,7 @@ def _preset_config(folder: Path, printer: PrinterProfile, mat: Material, layer_m
     """config.ini from the system preset, and our print settings to give on the command line (they win)."""
     from .prusa_presets import preset_config
 
-    resolved = preset_config(printer.prusa_preset, mat.name)
+    resolved = preset_config(printer.prusa_preset, mat.filament_type or mat.name)
     nozzle = resolved.printer.nozzle_mm
     if nozzle_mm and abs(nozzle_mm - nozzle) > 1e-6:
         raise ParameterError(
@@ -158,8 +297,11 @@ def _run(args: list[str], timeout_s: float, what: str) -> subprocess.CompletedPr
 
 
 def slice_mesh(mesh_path, printer: PrinterProfile, mat: Material, *, timeout_s: float = 600.0,
-               layer_mm: float | None = None, nozzle_mm: float | None = None) -> SliceResult:
-    """Slice `mesh_path` to G-code beside it (same name, .gcode) and read back the figures."""
+               layer_mm: float | None = None, nozzle_mm: float | None = None) -> SliceResult | ResinSliceResult:
+    """Slice `mesh_path` to G-code beside it (same name, .gcode) and read back the figures; a resin
+    printer's mesh to its SLA archive (slice_sla)."""
+    if printer.is_resin:
+        return slice_sla(mesh_path, printer.with_overrides(layer_mm=layer_mm), mat, timeout_s=timeout_s)
     mesh_path = Path(mesh_path)
     exe = prusa_slicer()
     gcode = mesh_path.with_suffix(".gcode")
@@ -240,8 +382,11 @@ def estimate(volume_mm3: float, vertices: np.ndarray, faces: np.ndarray, printer
 
     Assumptions (stated in the result): walls of PERIMETERS lines 1.125 × nozzle wide on the
     sides, TOP_LAYERS / BOTTOM_LAYERS solid layers under every up- and down-facing surface,
-    INFILL of the rest. Within about 25 % of PrusaSlicer's figure on our examples.
+    INFILL of the rest. Within about 25 % of PrusaSlicer's figure on our examples. A resin
+    prints solid: its volume is the mesh's (resin_estimate).
     """
+    if mat.is_resin:
+        return resin_estimate(volume_mm3, mat)
     layer = layer_mm or printer.layer_mm
     nozzle = nozzle_mm or printer.nozzle_mm
     tri = vertices[faces]
@@ -263,8 +408,28 @@ def estimate(volume_mm3: float, vertices: np.ndarray, faces: np.ndarray, printer
         "cost": round(grams / 1000 * mat.price_per_kg, 3),
         "material": mat.name,
         "price_per_kg": mat.price_per_kg,
+        "co2e_kg": mat.co2e_kg(grams),
+        "co2e_source": mat.co2e_source,
         "assumptions": (
             f"{PERIMETERS} perimeters of {1.125 * nozzle:.2f} mm, {TOP_LAYERS} top and {BOTTOM_LAYERS} bottom solid layers "
             f"of {layer:g} mm, {INFILL:.0%} gyroid infill, {mat.name} at {mat.density_g_cm3:g} g/cm³ and {mat.price_per_kg:g} per kg"
         ),
+    }
+
+
+def resin_estimate(volume_mm3: float, mat: Material) -> dict:
+    """Resin for a solid print of the mesh: its volume, printed flat on the platform without supports or hollowing."""
+    ml = volume_mm3 / 1000
+    grams = ml * mat.density_g_cm3
+    return {
+        "resin_ml": round(ml, 3),
+        "filament_g": round(grams, 2),
+        "cost": round(grams / 1000 * mat.price_per_kg, 3),
+        "material": mat.name,
+        "price_per_kg": mat.price_per_kg,
+        "co2e_kg": mat.co2e_kg(grams),
+        "co2e_source": mat.co2e_source,
+        "assumptions": (f"a solid print of the mesh's volume, flat on the platform with no supports, pad or hollowing "
+                        f"(resin left in the vat and on the part is not counted), {mat.name} at {mat.density_g_cm3:g} g/mL "
+                        f"and {mat.price_per_kg:g} per kg"),
     }

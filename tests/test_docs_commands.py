@@ -26,7 +26,8 @@ PLACEHOLDERS = {
     "DIR": "again/",
     "OUT/NAME.tamp.json": "first/cell.tamp.json",
 }
-# A command named on its own (`tamp-os check`) refers to the command: its help must work.
+# A command named on its own (`tamp-os check`), or with an option only (`tamp-os estimate
+# --material`), refers to the command: its help must work.
 # `gui` starts a server that runs until stopped: only its help is run here (tests/gui start it).
 HELP_ONLY = {"gui"}
 
@@ -53,7 +54,7 @@ def expand(command: str) -> list[list[str]]:
     subcommands = next(a for a in build_parser()._actions if a.dest == "command").choices
     if words[0] == "COMMAND":
         return [[name, *words[1:]] for name in subcommands]
-    if len(words) == 1 or words[0] in HELP_ONLY:
+    if words[0] in HELP_ONLY or all(w.startswith("--") for w in words[1:]):
         return [[words[0], "--help"]]
     for i, word in enumerate(words):
         if "|" in word:

@@ -113,7 +113,7 @@ def test_fept_sliced_for_the_sl1s_reports_what_the_archive_says(tmp_path, slicer
     import trimesh
 
     litho = make_lithograph(FEPT, printer="sl1s", preset="medium", gcode=True)
-    written = litho.save(tmp_path)
+    written, litho = litho.save_sliced(tmp_path)
     archive = tmp_path / "fept_spheres_sem.sl1s"
     assert archive in written and zipfile.is_zipfile(archive)
     with zipfile.ZipFile(archive) as z:

@@ -22,10 +22,10 @@ from ..errors import ParameterError, Text
 from ..params import LithoParams
 from .pipeline import Lithograph, make_lithograph, read_source
 from .sizing import layout_for, resolve_printer
-from ..printing.printers import PrinterProfile, height_levels
+from ..printing.printers import PrinterProfile
 from ..read.model import Picture
 from .content_word import ContentWord, content_word
-from .report import PanelFacts, Report, describe
+from .report import PanelFacts, Report, describe, plate_report
 
 log = logging.getLogger(__name__)
 
@@ -368,35 +368,20 @@ def overview_description(name: str, layout: PanelLayout, printed: list[str], not
 
 def _overview_report(picture, plan, machine, params, built, description, facts: PanelFacts) -> Report:
     from ..clean.band import Band
-    from .pipeline import tactile_report
 
-    mesh = built.mesh
-    return Report(
-        input=picture.file.name,
-        print_mm=[round(float(v), 3) for v in mesh.bounds_mm[1]],
-        relief_mm=[round(plan.width_mm, 3), round(plan.depth_mm, 3)],
-        grid=[plan.cols, plan.rows],
-        mm_per_px=round(plan.mm_per_px, 4),
+    return plate_report(
+        picture=picture, mesh=built.mesh, plan=plan, machine=machine, params=params, placed=built.placed,
         blur_px=0.0,
-        printer=machine.name,
-        nozzle_mm=machine.nozzle_mm,
-        layer_mm=machine.layer_mm,
-        height_levels=height_levels(params.relief_mm, machine.layer_mm),
-        mesher=params.mesher,
         max_error_mm=0.0,
-        triangles=mesh.n_triangles,
-        vertices=len(mesh.vertices),
         uniform=False,
         pixel_size_m=None,
         pixel_size_source=None,
         scale="no physical scale: the overview shows the layout, not the sample",
-        tactile=tactile_report(built.placed),
         crop=Band(),
         annotations=(),
         warnings=tuple(built.notes),
         timings_s={},
         relief_style="overview",
         relief_reason=description,
-        source_px=(picture.file.width, picture.file.height),
         panels=facts,
     )

@@ -20,7 +20,7 @@ from ..errors import ParameterError, Text
 from ..mesh.adaptive import adaptive_solid
 from ..mesh.solid import Mesh, grid_solid
 from ..params import LithoParams, field_table
-from ..printing.printers import PrinterProfile, height_levels
+from ..printing.printers import PrinterProfile
 from ..read.image import read_array, read_image
 from ..read.model import Picture
 from ..relief.legibility import Legibility, assess
@@ -29,7 +29,7 @@ from ..relief.preprocess import Prepared, prepare
 from ..relief.channel_auto import route as channel_route
 from ..relief.styles import ReliefResult, StyleOptions, make_relief
 from ..relief.touch import MOSTLY_NOISE, noise_share
-from .report import Plate, Report
+from .report import Report, plate_report
 from .sizing import layout_for, resolve_printer
 from ..tactile.furniture import Furniture, Placed, add_furniture
 from ..tactile.parts import two_colour_parts
@@ -379,26 +379,14 @@ def _report(picture, cleaned, prepared, layout, params, machine, mesh, placed, m
             relief: ReliefResult, legibility: Legibility, relief_layout: ReliefLayout | None) -> Report:
     scale = cleaned.pixel_size
     source_px_per_print_mm = prepared.fitted_width_px / layout.width_mm
-    return Report(
-        input=picture.file.name,
-        print_mm=[round(float(v), 3) for v in mesh.bounds_mm[1]],
-        relief_mm=[round(layout.width_mm, 3), round(layout.depth_mm, 3)],
-        grid=[layout.cols, layout.rows],
-        mm_per_px=round(layout.mm_per_px, 4),
+    return plate_report(
+        picture=picture, mesh=mesh, plan=layout, machine=machine, params=params, placed=placed,
         blur_px=round(layout.blur_px, 3),
-        printer=machine.name,
-        nozzle_mm=machine.nozzle_mm,
-        layer_mm=machine.layer_mm,
-        height_levels=height_levels(params.relief_mm, machine.layer_mm),
-        mesher=params.mesher,
         max_error_mm=max_error if params.mesher == "adaptive" else 0.0,
-        triangles=mesh.n_triangles,
-        vertices=len(mesh.vertices),
         uniform=prepared.uniform,
         pixel_size_m=scale.metres,
         pixel_size_source=scale.provenance,
         scale=scale_sentence(scale.metres, source_px_per_print_mm) if scale.metres else "no physical scale is known",
-        tactile=tactile_report(placed),
         crop=cleaned.band,
         annotations=tuple(cleaned.annotations_with_text),
         warnings=tuple(_warnings(picture, cleaned, prepared, layout, params, later)),
@@ -409,27 +397,7 @@ def _report(picture, cleaned, prepared, layout, params, machine, mesh, placed, m
         lattice_pitch_mm=round(relief.lattice_pitch_mm, 3) if relief.lattice_pitch_mm else None,
         legibility=legibility,
         instrument=cleaned.instrument,
-        source_px=(picture.file.width, picture.file.height),
         layout=relief_layout,
     )
 
 
-def tactile_report(placed: Placed | None) -> Plate | None:
-    if placed is None:
-        return None
-    return Plate(
-        plate_mm=[round(v, 3) for v in placed.plate_mm],
-        relief_origin_mm=[round(v, 3) for v in placed.relief_origin_mm],
-        caption_braille=placed.caption_braille,
-        caption_box_mm=placed.caption_box,
-        scale_bar_box_mm=placed.scale_bar_box,
-        scale_bar_label=placed.scale_label,
-        scale_bar_label_braille=placed.scale_label_braille,
-        scale_label_box_mm=placed.scale_label_box,
-        frame_box_mm=placed.frame_box,
-        braille_dots=placed.dots,
-        scale_label_beside=placed.scale_label_beside,
-        orientation="cut corner at the top right" if placed.corner_cut_mm else None,
-        scale_bar_m=placed.scale_bar_m,
-        scale_bar_mm=placed.scale_bar_mm,
-    )

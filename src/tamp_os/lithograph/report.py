@@ -15,11 +15,13 @@ from ..clean.instrument import Instrument
 from ..facts import Facts
 from .layout_words import ReliefLayout
 from ..params import LithoParams
+from ..printing.printers import height_levels
 from .content_word import ContentWord
 from ..relief.legibility import Legibility
 
 if TYPE_CHECKING:
     from ..printing.slicer import SliceResult
+    from ..tactile.furniture import Placed
 
 
 @dataclass(frozen=True)
@@ -507,3 +509,47 @@ def _what_is_raised(report: Report, params: LithoParams) -> str:
         return (f"The {raised} parts of the image are raised, up to {up} above the base, simplified to shapes a "
                 f"fingertip can follow; finer detail is kept only as a low texture.")
     return f"The {raised} parts of the image are raised, up to {up} above the base."
+
+
+def plate_report(*, picture, mesh, plan, machine, params: LithoParams, placed: Placed | None, **facts) -> Report:
+    """The one place a Report is made: what every plate shares (its size, grid, printer, mesh and
+    tactile furniture) from the plate itself, and the rest (`facts`: scale, relief, warnings …) as
+    the caller found it. `plan` is the relief's Layout (its width, depth, grid and pitch)."""
+    return Report(
+        input=picture.file.name,
+        print_mm=[round(float(v), 3) for v in mesh.bounds_mm[1]],
+        relief_mm=[round(plan.width_mm, 3), round(plan.depth_mm, 3)],
+        grid=[plan.cols, plan.rows],
+        mm_per_px=round(plan.mm_per_px, 4),
+        printer=machine.name,
+        nozzle_mm=machine.nozzle_mm,
+        layer_mm=machine.layer_mm,
+        height_levels=height_levels(params.relief_mm, machine.layer_mm),
+        mesher=params.mesher,
+        triangles=mesh.n_triangles,
+        vertices=len(mesh.vertices),
+        tactile=tactile_report(placed),
+        source_px=(picture.file.width, picture.file.height),
+        **facts,
+    )
+
+
+def tactile_report(placed: Placed | None) -> Plate | None:
+    if placed is None:
+        return None
+    return Plate(
+        plate_mm=[round(v, 3) for v in placed.plate_mm],
+        relief_origin_mm=[round(v, 3) for v in placed.relief_origin_mm],
+        caption_braille=placed.caption_braille,
+        caption_box_mm=placed.caption_box,
+        scale_bar_box_mm=placed.scale_bar_box,
+        scale_bar_label=placed.scale_label,
+        scale_bar_label_braille=placed.scale_label_braille,
+        scale_label_box_mm=placed.scale_label_box,
+        frame_box_mm=placed.frame_box,
+        braille_dots=placed.dots,
+        scale_label_beside=placed.scale_label_beside,
+        orientation="cut corner at the top right" if placed.corner_cut_mm else None,
+        scale_bar_m=placed.scale_bar_m,
+        scale_bar_mm=placed.scale_bar_mm,
+    )

@@ -166,6 +166,9 @@ def test_results_describe_each_image_in_words(server, page, tmp_path):
     medium = page.locator("#preset-medium-facts").inner_text()
     assert "cells.png: grid 250 × 188" in medium and "fibres.png: grid 250 × 125" in medium, medium
     assert page.locator(".upload img").count() == 2
+    # A thumbnail decodes after the page shows; wait for both to finish loading (a broken one ends complete
+    # with width 0, so the assertion after the wait still fails on it).
+    page.wait_for_function("[...document.querySelectorAll('.upload img')].every(i => i.complete)", timeout=30000)
     assert all(page.evaluate(f"document.querySelectorAll('.upload img')[{i}].naturalWidth") > 0 for i in range(2))
     assert page.locator(".card.selected #preset-medium").count() == 1
     assert "score" not in page.locator("main").inner_text()

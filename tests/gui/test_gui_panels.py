@@ -226,6 +226,7 @@ def test_choose_a_figures_panels_by_keyboard_and_get_only_those(server, browser,
         assert shows.startswith("Shows: ") and len(shows) > len("Shows: ")
     thumbs = fieldsets.locator("img")
     assert thumbs.count() == 4
+    page.wait_for_function("[...document.querySelectorAll('fieldset.panel-choices img')].every(i => i.complete)", timeout=30000)
     for k in range(4):  # inside the label, which says it: empty alt, so it is heard once; and it loaded
         assert thumbs.nth(k).get_attribute("alt") == ""
         assert 20 < page.evaluate(f"document.querySelectorAll('fieldset.panel-choices img')[{k}].naturalWidth") <= 120

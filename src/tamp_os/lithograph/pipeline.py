@@ -23,6 +23,7 @@ from ..params import LithoParams, field_table
 from ..printing.printers import PrinterProfile
 from ..read.image import read_array, read_image
 from ..read.model import Picture
+from ..relief.agreement import agreement
 from ..relief.legibility import Legibility, assess
 from ..relief.layout import Layout
 from ..relief.preprocess import Prepared, prepare
@@ -178,8 +179,10 @@ def make_lithograph(source, params: LithoParams | None = None, *, printer_profil
         tactile = _tactile(mesh, layout, params, furniture, machine.bed_mm,
                            _key_in_colour(heights, channel_extras.overlay_mm if channel_extras else None, layout, params, max_error))
     later = flattening + list(tactile.placed.notes if tactile.placed else []) + list(relief.notes) + list(tactile.tiles.notes if tactile.tiles else [])
+    with clock("agreement"):
+        agrees = _agreement(prepared, heights, layout, params, cleaned, relief) if not key else ()
     legibility = dataclasses.replace(legibility, levels_mm=tuple(round(v, 3) for v in relief.levels_mm),
-                                     verdicts=tuple(relief.checks) + tuple(legibility.verdicts))  # what the print shows of the picture first
+                                     verdicts=tuple(relief.checks) + agrees + tuple(legibility.verdicts))  # what the print shows of the picture first
     report = _report(picture, cleaned, prepared, layout, params, machine, tactile.mesh, tactile.placed, max_error, timings, later,
                      relief, legibility,
                      find_layout(heights, layout.mm_per_px, params.base_mm, params.relief_mm) if not prepared.uniform else None)
@@ -188,6 +191,16 @@ def make_lithograph(source, params: LithoParams | None = None, *, printer_profil
     return Lithograph(mesh=tactile.mesh, heightmap=heights, params=params, printer=machine, layout=layout, picture=picture,
                       report=report, furniture=furniture, mask=cleaned.source_mask(), parts=tactile.parts, tiles=tactile.tiles,
                       channel_regions=channel_extras.regions if channel_extras else None, objects=relief.objects)
+
+
+def _agreement(prepared: Prepared, heights: np.ndarray, layout: Layout, params: LithoParams, cleaned, relief: ReliefResult) -> tuple:
+    """The print compared with the picture (relief/agreement.py): sentences when what is raised is
+    the picture's gaps, or when structure the picture shows is flat on the plate."""
+    if prepared.uniform or prepared.image.shape != heights.shape:
+        return ()
+    signal = cleaned.instrument.signal if cleaned.instrument is not None else None
+    return agreement(prepared.image, heights, mm_per_px=layout.mm_per_px, base_mm=params.base_mm, inverted=prepared.invert,
+                     signal=signal, polarity=relief.content_kind not in ("lines", "lattice"), style=relief.style).sentences
 
 
 @dataclass

@@ -510,8 +510,10 @@ def _dense_field_beats(blobs: BlobScale | None, members: Members, pitch_mm: floa
 
 def _members_explain(members: Members, lines: Lines, pitch_mm: float) -> bool:
     """A dense population looks like a network of the gaps between members: the members explain
-    the picture when they cover more than the lines do and most cells hold one member."""
-    return members.count >= NETWORK_CELLS and members.cover > 1.5 * lines.cover
+    the picture when they cover more than the lines do and they are a population. Speckle inside
+    the cells of a membrane network (the Nikon widefield stack: 55 pieces holding 43 % of the
+    detail, sizes spread 2.4-fold) is no population: the membranes are the content."""
+    return members.count >= NETWORK_CELLS and members.cover > 1.5 * lines.cover and _is_population(members, pitch_mm)
 
 
 def _large_edge_objects(found: ObjectMap, pitch_mm: float) -> np.ndarray | None:

@@ -1,0 +1,182 @@
+"""Does the print agree with the picture? Two checks a style's own check cannot make, because they
+compare the finished heights with the picture as it is displayed (issue 32, "know when the print
+is wrong"):
+
+- polarity: what is raised should be what the picture shows as specimen. Which side is specimen
+  comes from the modality first (SE, BSE and HAADF STEM: bright is matter) and, when nothing says,
+  from the content: the specimen carries the picture's structure (shading, texture, edges), the gaps
+  between it are smooth. A print whose raised parts are the picture's smooth side while its
+  structured side stays at the base has raised the gaps.
+- flat structure: structure the picture shows at fingertip scale (0.5–3 mm on the print, well
+  above the picture's noise) over an area a hand finds, where the print is flat.
+
+Both measure on the relief grid in print millimetres, so the same picture at 50 or 200 mm is
+judged at what a fingertip meets. Each finding says what may be wrong and the one option that
+changes it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import ndimage
+
+from ..errors import Text
+from .scales import gaussian_mm
+
+RAISED_SHARE = 0.5  # a point in the top half of the relief's span is raised
+GROUND_SHARE = 0.15  # one within the lowest 15 % stays at the base
+MIN_PHASE_AREA = 0.05  # both sides must cover this share of the picture to be compared
+BRIGHT_SIGNALS = ("SE", "BSE", "STEM")  # electron signals where bright is usually matter
+DARKER_BY = 0.15  # the raised side's median brightness this far (0..1) under the ground's: it is the dark side
+STRUCTURE_RATIO = 2.0  # the base side carries this many times the raised side's structure: it is the specimen
+FINGER_BAND_MM = (0.5, 3.0)  # structure a fingertip follows: finer than 3 mm, coarser than the nozzle's texture
+FINGERTIP_MM = 2.0  # what a fingertip covers at once: relief this near a point is found there
+FLAT_MM = 0.15  # local relief (standard deviation) under this is flat to a finger
+VISIBLE_NOISE = 5.0  # structure this many times the band's noise is visible in the picture
+VISIBLE_MIN = 0.04  # and at least this much of the 0..1 range
+FLAT_AREA_SHARE = 0.15  # structure flattened over this share of the picture is worth saying
+MAX_POINTS = 1_000_000  # the check's grid at most (block means of the relief grid beyond)
+
+
+@dataclass(frozen=True)
+class Agreement:
+    """What the comparison measured (shares of the relief's area; brightness 0..1 as displayed)."""
+
+    raised_brightness: float | None = None
+    ground_brightness: float | None = None
+    raised_structure: float | None = None
+    ground_structure: float | None = None
+    flat_structure_share: float = 0.0
+    sentences: tuple[Text, ...] = ()
+
+
+def agreement(picture01: np.ndarray, heights_mm: np.ndarray, *, mm_per_px: float, base_mm: float,
+              inverted: bool, signal: str | None, polarity: bool = True, style: str = "content") -> Agreement:
+    """Compare the heights with the picture on the same grid.
+
+    Parameters
+    ----------
+    picture01 : (rows, cols) the picture as the relief saw it, 0..1 (inverted when `inverted`).
+    heights_mm : (rows, cols) heights in mm, base included, on the same grid.
+    mm_per_px : the grid's pitch on the print.
+    base_mm : the base's thickness.
+    inverted : the picture was inverted before the relief (its displayed brightness is 1 - picture01).
+    signal : the electron signal ("SE", "BSE", "STEM") when the file records it, else None.
+    polarity : False where the relief decides its own polarity on purpose (raised lines, which may
+        be the picture's dark or bright strokes; lattices of columns).
+    style : the relief style that made the heights; it decides which option the advice names.
+    """
+    shown = 1.0 - picture01 if inverted else picture01
+    # Fingertip-scale measures need no finer grid than about a megapixel: a large plate is judged
+    # on block means, which bounds the check's memory and time (a 1000 mm plate at High is 4.7 Mpx).
+    factor = max(1, math.ceil(math.sqrt(shown.size / MAX_POINTS)))
+    shown = _block_mean(shown.astype(np.float32, copy=False), factor)
+    h = _block_mean(heights_mm.astype(np.float32, copy=False), factor) - base_mm
+    mm_per_px *= factor
+    span = float(h.max()) if h.size else 0.0
+    if span < 0.5 or min(h.shape) < 8:
+        return Agreement()
+    structure = _structure(shown, mm_per_px)
+    out: list[Text] = []
+    facts = {}
+    if polarity:
+        facts, said = _polarity(shown, h / span, structure, mm_per_px, inverted, signal)
+        out += said
+    share, said = _flat_structure(shown, h, structure, mm_per_px, style)
+    out += said
+    return Agreement(**facts, flat_structure_share=share, sentences=tuple(out))
+
+
+def _block_mean(a: np.ndarray, factor: int) -> np.ndarray:
+    if factor == 1:
+        return a
+    rows, cols = (a.shape[0] // factor) * factor, (a.shape[1] // factor) * factor
+    return a[:rows, :cols].reshape(rows // factor, factor, cols // factor, factor).mean(axis=(1, 3), dtype=np.float32)
+
+
+def _structure(shown: np.ndarray, pitch_mm: float) -> np.ndarray:
+    """Local strength of the picture's fingertip-scale structure: the band between FINGER_BAND_MM,
+    its root mean square over a fingertip's area."""
+    lo, hi = FINGER_BAND_MM
+    band = gaussian_mm(shown, lo / 2, pitch_mm) - gaussian_mm(shown, hi / 2, pitch_mm)
+    return np.sqrt(gaussian_mm(band * band, hi / 2, pitch_mm))
+
+
+def _band_noise(shown: np.ndarray, pitch_mm: float) -> float:
+    """The picture's noise as it survives the band: white noise of sigma s, low-passed by a
+    Gaussian of sigma g pixels, keeps s / (2 sqrt(pi) g) (the higher cut removes little more)."""
+    from .touch import noise_sigma
+
+    g = max(FINGER_BAND_MM[0] / 2 / pitch_mm, 0.5)
+    return noise_sigma(shown) / (2 * math.sqrt(math.pi) * g)
+
+
+def _polarity(shown, rel, structure, pitch_mm, inverted, signal) -> tuple[dict, list[Text]]:
+    raised, ground = rel >= RAISED_SHARE, rel <= GROUND_SHARE
+    if raised.mean() < MIN_PHASE_AREA or ground.mean() < MIN_PHASE_AREA:
+        return {}, []
+    # inside each side, away from the edge where the two meet (an edge is structure of both)
+    edge = max(1, round(1.0 / pitch_mm))
+    inner_r, inner_g = ndimage.binary_erosion(raised, iterations=edge), ndimage.binary_erosion(ground, iterations=edge)
+    if inner_r.sum() < 20 or inner_g.sum() < 20:
+        inner_r, inner_g = raised, ground
+    b_r, b_g = float(np.median(shown[raised])), float(np.median(shown[ground]))
+    s_r, s_g = float(np.median(structure[inner_r])), float(np.median(structure[inner_g]))
+    facts = dict(raised_brightness=round(b_r, 3), ground_brightness=round(b_g, 3), raised_structure=round(s_r, 4),
+                 ground_structure=round(s_g, 4))
+    option = "`invert` off" if inverted else "`invert`"
+    if b_r < b_g - DARKER_BY and signal in BRIGHT_SIGNALS:
+        what = {"SE": "secondary-electron", "BSE": "backscattered-electron", "STEM": "HAADF STEM"}[signal]
+        return facts, [Text(f"What is raised is the picture's dark side (median brightness {b_r:.0%} against {b_g:.0%} at the "
+                            f"base), but in a {what} image bright is usually the specimen: the print may raise the gaps "
+                            f"around it; {option} raises the bright side.")]
+    noise = _band_noise(shown, pitch_mm)
+    if s_g > STRUCTURE_RATIO * max(s_r, noise) and s_g > VISIBLE_NOISE * noise and abs(b_r - b_g) > DARKER_BY:
+        side = "dark" if b_r < b_g else "bright"
+        return facts, [Text(f"What is raised is the picture's smooth {side} side, and what stays at the base carries its "
+                            f"structure (shading and edges {s_g / max(s_r, 1e-6):.1f}× stronger): the print may raise the "
+                            f"gaps, not the specimen; {option} raises the other side.")]
+    return facts, []
+
+
+def _flat_structure(shown, h, structure, pitch_mm, style: str) -> tuple[float, list[Text]]:
+    lo, hi = FINGER_BAND_MM
+    band = gaussian_mm(h, lo / 2, pitch_mm) - gaussian_mm(h, hi / 2, pitch_mm)
+    relief = np.sqrt(gaussian_mm(band * band, hi / 2, pitch_mm))
+    # A line's or an edge's structure spreads over its blur in the picture while the print draws it
+    # sharp: what the print carries within a fingertip's reach of a point counts for that point.
+    reach = 2 * max(1, round(FINGERTIP_MM / 2 / pitch_mm)) + 1
+    relief = ndimage.maximum_filter(relief, size=reach)
+    visible = structure > max(VISIBLE_MIN, VISIBLE_NOISE * _band_noise(shown, pitch_mm))
+    flat = relief < FLAT_MM
+    lost = visible & flat
+    share = float(lost.mean())
+    if share < FLAT_AREA_SHARE:
+        return round(share, 3), []
+    where = _where(lost)
+    # The structure style already follows the picture everywhere: there the detail it kept as low
+    # texture is what is missing (the moth's scales come out at `detail_mm` 0.5).
+    advice = ("a smaller `detail_mm` (0.5 mm) draws it as shape" if style == "structure"
+              else "`relief_style` structure raises the picture's shape everywhere")
+    return round(share, 3), [Text(f"{share:.0%} of the picture ({where}) shows structure at fingertip scale that the print "
+                                  f"leaves flat (under {FLAT_MM:g} mm of relief within a fingertip's reach): a finger will "
+                                  f"not find it; {advice}.")]
+
+
+def _where(mask: np.ndarray) -> str:
+    """Where a region lies, in the words a reader uses for a plate (far edge = top of the picture)."""
+    rows, cols = mask.shape
+    ys, xs = np.nonzero(mask)
+    if mask.mean() > 0.6:
+        return "most of it"
+    y, x = ys.mean() / rows, xs.mean() / cols
+    vertical = "top" if y < 0.38 else "bottom" if y > 0.62 else ""
+    horizontal = "left" if x < 0.38 else "right" if x > 0.62 else ""
+    if vertical and horizontal:
+        return f"mostly its {vertical} {horizontal}"
+    if vertical or horizontal:
+        return f"mostly its {vertical or horizontal} side"
+    return "mostly its middle"

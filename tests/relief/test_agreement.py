@@ -1,0 +1,116 @@
+"""Issue 32, "know when the print is wrong": the print compared with the picture it came from.
+
+Synthetic pictures with known truth: a field of shaded bright particles (the specimen) on a smooth
+dark ground. A print that raises the particles agrees; one that raises the ground (an inverted
+print) is caught, by the modality when the file says SE/BSE and by where the structure lies when
+nothing says; structure the picture shows and the print leaves flat is caught too.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from tamp_os.lithograph.pipeline import make_lithograph
+from tamp_os.relief.agreement import agreement
+
+PITCH_MM = 0.25  # 400 px across = a 100 mm print
+BASE_MM = 1.0
+
+
+def particle_field(rows=300, cols=400, seed=1):
+    """Bright domes (radius 14-22 px = 3.5-5.5 mm on the print) with a speckled, shaded top on a
+    smooth dark ground; returns (picture 0..1, particle mask)."""
+    rng = np.random.default_rng(seed)
+    yy, xx = np.mgrid[0:rows, 0:cols].astype(np.float32)
+    img = np.full((rows, cols), 0.15, np.float32)
+    mask = np.zeros((rows, cols), bool)
+    for cy in range(40, rows - 30, 70):
+        for cx in range(40, cols - 30, 70):
+            r = rng.uniform(14, 22)
+            d2 = ((yy - cy) ** 2 + (xx - cx) ** 2) / r**2
+            inside = d2 <= 1
+            # shading across the dome (lit from the left) and a coarse surface grain a finger can follow
+            grain = 0.18 * np.sin(xx / 2.5 + rng.uniform(0, 6)) * np.sin(yy / 2.5)
+            img[inside] = (0.55 + 0.3 * np.sqrt(1 - d2[inside]) - 0.15 * (xx[inside] - cx) / r + grain[inside])
+            mask |= inside
+    img += rng.normal(0, 0.005, img.shape).astype(np.float32)
+    return np.clip(img, 0, 1), mask
+
+
+def heights_raising(mask):
+    return np.where(mask, BASE_MM + 3.0, BASE_MM).astype(np.float32)
+
+
+@pytest.mark.timeout(60)
+def test_a_print_that_raises_the_particles_agrees_with_the_picture():
+    picture, mask = particle_field()
+    found = agreement(picture, heights_raising(mask), mm_per_px=PITCH_MM, base_mm=BASE_MM, inverted=False, signal="SE")
+    assert found.sentences == ()
+    assert found.raised_brightness > found.ground_brightness + 0.3
+
+
+@pytest.mark.timeout(60)
+def test_raising_the_dark_gaps_of_a_backscatter_image_is_called_an_inversion():
+    picture, mask = particle_field()
+    found = agreement(picture, heights_raising(~mask), mm_per_px=PITCH_MM, base_mm=BASE_MM, inverted=False, signal="BSE")
+    assert len(found.sentences) == 1
+    said = found.sentences[0]
+    assert "dark side" in said and "backscattered-electron" in said and "invert" in said, said
+    # the option named is the one that flips it, in each front end's words
+    assert "`invert`" in said.template
+
+
+@pytest.mark.timeout(60)
+def test_without_a_modality_the_structure_says_which_side_is_specimen():
+    picture, mask = particle_field()
+    found = agreement(picture, heights_raising(~mask), mm_per_px=PITCH_MM, base_mm=BASE_MM, inverted=False, signal=None)
+    assert len(found.sentences) == 1 and "smooth dark side" in found.sentences[0], found
+    assert found.ground_structure > 2 * found.raised_structure
+    # printed the right way round, nothing is said
+    right = agreement(picture, heights_raising(mask), mm_per_px=PITCH_MM, base_mm=BASE_MM, inverted=False, signal=None)
+    assert right.sentences == ()
+
+
+@pytest.mark.timeout(60)
+def test_an_inverted_picture_is_judged_as_displayed():
+    """The relief sees 1 - picture when it inverts; the check undoes that before it compares, so
+    the advice is to turn invert off."""
+    picture, mask = particle_field()
+    found = agreement(1 - picture, heights_raising(~mask), mm_per_px=PITCH_MM, base_mm=BASE_MM, inverted=True, signal="SE")
+    assert len(found.sentences) == 1 and "`invert` off" in found.sentences[0].template
+
+
+@pytest.mark.timeout(60)
+def test_structure_left_flat_on_the_plate_is_said_with_where_it_lies():
+    picture, mask = particle_field()
+    heights = heights_raising(mask)
+    heights[:, : heights.shape[1] // 2] = BASE_MM  # the left half's particles never printed
+    found = agreement(picture, heights, mm_per_px=PITCH_MM, base_mm=BASE_MM, inverted=False, signal=None, polarity=False)
+    assert 0.15 <= found.flat_structure_share <= 0.5, found
+    assert len(found.sentences) == 1 and "left side" in found.sentences[0] and "relief_style" in found.sentences[0].template
+    # the structure style is advised a finer detail instead of itself
+    by_structure = agreement(picture, heights, mm_per_px=PITCH_MM, base_mm=BASE_MM, inverted=False, signal=None,
+                             polarity=False, style="structure")
+    assert "`detail_mm`" in by_structure.sentences[0].template and "relief_style" not in by_structure.sentences[0].template
+    # the whole field printed: nothing flat
+    whole = agreement(picture, heights_raising(mask), mm_per_px=PITCH_MM, base_mm=BASE_MM, inverted=False, signal=None, polarity=False)
+    assert whole.flat_structure_share < 0.05 and whole.sentences == ()
+
+
+@pytest.mark.timeout(120)
+def test_the_report_warns_when_a_user_inverts_a_particle_field():
+    """End to end: the default print of the field raises the particles and says nothing; the
+    structure style (which follows brightness, unlike the content style, which finds the particles
+    either way) with `invert` raises the ground, and the report's verdicts say so."""
+    picture, mask = particle_field()
+    right = make_lithograph(picture, width_mm=100, scale_bar="off")
+    wrong = make_lithograph(picture, width_mm=100, scale_bar="off", invert=True, relief_style="structure")
+    rows, cols = right.heightmap.shape
+    on_grid = mask[np.linspace(0, mask.shape[0] - 1, rows).round().astype(int)][:, np.linspace(0, mask.shape[1] - 1, cols).round().astype(int)]
+    assert np.median(right.heightmap[on_grid]) > np.median(right.heightmap[~on_grid]) + 1.0
+    assert np.median(wrong.heightmap[on_grid]) < np.median(wrong.heightmap[~on_grid])
+    said_right = " ".join(right.report.legibility.verdicts)
+    said_wrong = " ".join(wrong.report.legibility.verdicts)
+    assert "may raise the gaps" not in said_right, said_right
+    assert "may raise the gaps" in said_wrong and "invert" in said_wrong, said_wrong

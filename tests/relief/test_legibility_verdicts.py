@@ -48,6 +48,15 @@ def test_fine_share_verdicts_at_and_above_the_warning():
     assert _verdicts(fine_share=0.1, period_mm=3.0)[0].startswith("Most of the relief")  # a period only matters when rough
 
 
+def test_a_channel_print_is_not_advised_options_that_do_not_reach_its_textures():
+    """The channels' ridges and dots are drawn at a set spacing; the relief style and detail_mm
+    would not change them (and the style would drop the key): the verdict says what they are."""
+    rough, narrow = _verdicts(fine_share=0.3, narrow_share=0.1, narrow_area_mm2=1694, style="channels")[0:3:2]
+    assert rough == ("30% of this relief's height variation is finer than a fingertip resolves (about 1 mm): it is the "
+                     "channels' textures (ridges, dots), drawn so on purpose and named in the key.")
+    assert "detail_mm" not in narrow and "channels' textures" in narrow, narrow
+
+
 def test_the_advice_names_parameters_in_each_front_ends_words():
     from tamp_os.relief.legibility import verdicts
 

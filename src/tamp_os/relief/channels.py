@@ -41,7 +41,7 @@ MIN_FEATURE_MM = 0.5
 # what is labelled: they are not here, so the shape decides.
 SIGNALS: tuple[tuple[str, str, str], ...] = (
     (r"dapi|hoechst|h33342|draq5|sytox|propidium|\bpi\b|\bdna\b|nucle|\bnuc\b|haemat|hemat|\bh2b\b", "domes", "nuclei"),
-    (r"tubulin|microtub|\beb[13]\b", "ridges", "microtubules"),
+    (r"tubulin|microtub|\bmts?\b|\beb[13]\b", "ridges", "microtubules"),
     (r"phalloid|lifeact|actin", "ridges", "actin"),
     (r"collagen|\bshg\b", "ridges", "collagen"),
     (r"vimentin|keratin|filament|fibr", "ridges", "filaments"),
@@ -134,10 +134,13 @@ def _by_name(name: str) -> str | None:
 
 
 def marker_in_title(title: str, channels: list[ChannelImage]) -> dict[str, tuple[str, str]]:
-    """{channel name: (encoding, role)} for the one channel whose own name, wavelength and colour
-    say nothing, when the file's title (its name, "dapi_tubulin") names exactly one marker that
-    no channel's name already does: "fluo_dapi_tubulin" with channels DAPI and EGFP makes EGFP
-    microtubules. Anything less certain (two such channels, two unused markers) gives {}."""
+    """{channel name: (encoding, role)} for the channels whose own name, wavelength and colour say
+    nothing, when the file's title (its name, "dapi_tubulin") names as many markers as there are
+    such channels, none of them a marker a channel's name already says: "fluo_dapi_tubulin" with
+    channels DAPI and EGFP makes EGFP microtubules; "cell_dna_mt_actin" with three unnamed
+    channels gives them nuclei, microtubules and actin, in the file's channel order (the order a
+    name lists its channels in, as ImageJ and Fiji users name their exports). Anything less
+    certain (more markers than channels, or fewer) gives {}."""
     import re as _re
 
     named = {signal_role(c.name)[1] for c in channels if signal_role(c.name)}
@@ -150,7 +153,7 @@ def marker_in_title(title: str, channels: list[ChannelImage]) -> dict[str, tuple
         role = signal_role(token) if token else None
         if role and role[1] not in named and role not in found:
             found.append(role)
-    return {unknown[0].name: found[0]} if len(unknown) == 1 and len(found) == 1 else {}
+    return {c.name: role for c, role in zip(unknown, found)} if unknown and len(found) == len(unknown) else {}
 
 
 _LIGHT_IN_NAME = re.compile(r"\b(?:led|laser|ex|exc)[\s_-]*(\d{3})(?:\s*nm)?\b|\b(\d{3})\s*nm\b", re.IGNORECASE)
@@ -166,10 +169,12 @@ def _wavelengths(c: ChannelImage) -> tuple[float | None, float | None]:
 
 
 def _by_wavelength(ex: float | None, em: float | None) -> str | None:
-    # DAPI / Hoechst: excited near 350-405 nm, emitting 440-470 nm
-    if (ex is not None and ex <= 410) or (em is not None and 430 <= em <= 470):
-        return "domes"
-    return None
+    # DAPI / Hoechst: excited near 350-405 nm, emitting 440-470 nm. The emission decides when the
+    # file gives it: a 405 nm excitation is also what some files record for every channel (the
+    # Nikon PBMC ND2 gives it for FITC and TRITC too), and a green or red emission is no DAPI.
+    if em is not None:
+        return "domes" if 430 <= em <= 470 else None
+    return "domes" if ex is not None and ex <= 410 else None
 
 
 @dataclass(frozen=True)
@@ -429,7 +434,7 @@ def choose(channels: list[ChannelImage], assigned: dict[str, str], mm_per_px: fl
         if ch.encoding in used:
             free = [e for e in shape_ranking(shapes[ch.name]) if e not in used]
             if free:
-                out[i] = ChannelChoice(ch.name, free[0], "distinct")
+                out[i] = ChannelChoice(ch.name, free[0], "distinct", ch.role)  # what it shows stays in the key
         used.add(out[i].encoding)
     return out, notes
 

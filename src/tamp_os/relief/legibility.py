@@ -225,6 +225,11 @@ def verdicts(f: dict, nozzle_mm: float, style: str | None = None) -> tuple[str, 
             f"{share:.0%} of this relief's height variation is finer than a fingertip resolves (about 1 mm): it is the "
             f"edges of the drawn content (raised lines, members' outlines), kept on purpose; a wider print spreads it out."
         )
+    elif share > FINE_SHARE_WARN and style == "channels":
+        # the channels' textures (ridges, dots) are drawn at a set spacing on purpose; detail_mm and the
+        # relief style do not reach them, so there is nothing to advise
+        out.append(f"{share:.0%} of this relief's height variation is finer than a fingertip resolves (about 1 mm): it is "
+                   f"the channels' textures (ridges, dots), drawn so on purpose and named in the key.")
     elif share > FINE_SHARE_WARN:
         out.append(Text(
             f"{share:.0%} of this relief's height variation is finer than a fingertip resolves (about 1 mm), so it is "
@@ -247,6 +252,9 @@ def verdicts(f: dict, nozzle_mm: float, style: str | None = None) -> tuple[str, 
         out.append(f"{f['narrow_area_mm2']:.0f} mm² ({f['narrow_share']:.0%} of the picture) is raised detail narrower than two "
                    f"nozzle widths ({2 * nozzle_mm:g} mm): the drawn content's small domes and lines, kept on purpose; a wider "
                    f"print makes them wider.")
+    elif f["narrow_share"] > 0.05 and style == "channels":
+        out.append(f"{f['narrow_area_mm2']:.0f} mm² ({f['narrow_share']:.0%} of the picture) is raised detail narrower than two "
+                   f"nozzle widths ({2 * nozzle_mm:g} mm): the edges of the channels' textures; a wider print makes them wider.")
     elif f["narrow_share"] > 0.05:
         out.append(Text(
             f"{f['narrow_area_mm2']:.0f} mm² ({f['narrow_share']:.0%} of the picture) is ridges or grooves narrower than two "

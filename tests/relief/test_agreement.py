@@ -114,3 +114,35 @@ def test_the_report_warns_when_a_user_inverts_a_particle_field():
     said_wrong = " ".join(wrong.report.legibility.verdicts)
     assert "may raise the gaps" not in said_right, said_right
     assert "may raise the gaps" in said_wrong and "invert" in said_wrong, said_wrong
+
+
+@pytest.mark.timeout(300)
+def test_real_widefield_membranes_print_as_raised_outlines(fixture):
+    """nikon_widefield_zstack_11z.nd2 (README: "membrane-labelled cells: a polygonal outline
+    network"): the print of its projection raises the bright outlines at least 0.5 mm over the cells
+    they enclose, and does not raise a cell's speckled interior as the tallest plateau."""
+    from scipy import ndimage
+    from skimage import filters
+    from skimage.transform import resize
+
+    litho = make_lithograph(fixture("real/nikon_widefield_zstack_11z.nd2"), width_mm=100)
+    assert litho.report.content_kind == "lines", litho.report.relief_style
+    from tamp_os.read.image import read_image
+
+    values = np.asarray(read_image(fixture("real/nikon_widefield_zstack_11z.nd2")).values, np.float32)
+    smooth = filters.gaussian(values, 1.0, preserve_range=True)
+    outline = smooth > filters.threshold_otsu(smooth)  # the bright membranes (about a quarter of the picture)
+    h = litho.heightmap
+    on_grid = resize(outline.astype(float), h.shape, order=0) > 0.5
+    assert 0.1 < outline.mean() < 0.45
+    from skimage.morphology import skeletonize
+
+    middle = ndimage.binary_dilation(skeletonize(on_grid))  # the outlines' middles, where a raised line runs
+    assert np.median(h[middle]) - np.median(h[~on_grid]) >= 0.5, (np.median(h[middle]), np.median(h[~on_grid]))
+    # every cell interior (the regions the outlines enclose) stays low: none stands as a plateau
+    # (cells: enclosed regions over 2 % of the picture; a sliver between two close lines is filled on purpose)
+    cells, n = ndimage.label(ndimage.binary_erosion(~on_grid, iterations=3))
+    sizes = np.bincount(cells.ravel())[1:]
+    big = np.flatnonzero(sizes > 0.02 * h.size) + 1
+    interiors = ndimage.median(h, cells, index=big)
+    assert len(big) >= 5 and max(interiors) < np.median(h[middle]) - 0.5, interiors

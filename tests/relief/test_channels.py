@@ -425,7 +425,8 @@ def test_real_airyscan_mitochondria_as_lines(fixture):
     need(liblouis_available(), "liblouis (braille key)")
     litho = make_lithograph(fixture("real/zeiss_airyscan_2ch_t3.czi"), width_mm=80)
     enc = {e.label: e.encoding for e in litho.report.key}
-    assert enc == {"diffuse (ChA-T1)": "plateau", "lines (ChA-T2)": "ridges"}  # GFP-mito: never domes
+    # the document name "mCherryEB3_GFPMito" says the roles; GFP-mito: never domes
+    assert enc == {"microtubules (ChA-T1)": "plateau", "mitochondria (ChA-T2)": "ridges"}
     assert check_solid(litho.mesh).ok
 
 

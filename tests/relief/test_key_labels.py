@@ -22,6 +22,8 @@ def test_label_forms_fullest_first_dye_last_no_acquisition_words():
     assert all("BP" not in f for f in forms)
     assert [len(f) for f in forms] == sorted((len(f) for f in forms), reverse=True)
     assert label_forms("nuclei", "DAPI")[-1] == "DAPI" and len(set(label_forms("nuclei", "DAPI"))) == 3
+    # a role the dye or the file name says is worth more than a channel's code name: it comes before it
+    assert label_forms("microtubules", "ChA-T1", role_known=True)[-2:] == ("microtubules", "ChA-T1")
 
 
 @pytest.mark.parametrize("short, compact", [("Alexa Fluor 647", "AF647"), ("Alexa 488", "AF488"), ("alexa-594", "AF594"),

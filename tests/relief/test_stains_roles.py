@@ -255,6 +255,34 @@ def test_a_marker_in_the_file_name_names_the_one_channel_nothing_else_names():
     assert marker_in_title("dna_actin", chans("channel 0", "channel 1", "channel 2")) == {}  # two markers, three channels
 
 
+def test_a_protein_named_with_its_marker_names_the_channel_excited_where_the_protein_is():
+    from tamp_os.relief.channels import ChannelImage, marker_in_title, proteins_with_markers
+
+    assert proteins_with_markers("FoLu_mCherryEB3_GFPMito_2_Airyscan Processing") == [
+        ((535.0, 600.0), ("ridges", "microtubules")), ((465.0, 520.0), ("ridges", "mitochondria"))]
+    assert [r for _, r in proteins_with_markers("EB3-mCherry")] == [("ridges", "microtubules")]
+    assert [r for _, r in proteins_with_markers("H2B-GFP")] == [("domes", "nuclei")]
+    assert proteins_with_markers("snap-03 gfp") == [] and proteins_with_markers("mCherry") == []
+    img = np.zeros((4, 4))
+    chans = [ChannelImage("ChA-T1", img, 561.0, 579.0), ChannelImage("ChA-T2", img, 488.0, 523.0)]
+    assert marker_in_title("airyscan FoLu_mCherryEB3_GFPMito", chans) == {
+        "ChA-T1": ("ridges", "microtubules"), "ChA-T2": ("ridges", "mitochondria")}
+    # two channels excited in the protein's band: the name does not say which
+    both_green = [ChannelImage("a", img, 488.0, None), ChannelImage("b", img, 491.0, None)]
+    assert marker_in_title("GFP-Mito", both_green) == {}
+
+
+@pytest.mark.timeout(300)
+def test_real_airyscan_key_says_what_its_document_name_says(fixture):
+    """zeiss_airyscan_2ch_t3.czi: channels ChA-T1 (ex 561) and ChA-T2 (ex 488), document name
+    "FoLu_mCherryEB3_GFPMito..." (README): the key says EB3's microtubules and the mitochondria,
+    each its own texture."""
+    _liblouis()
+    key = make_lithograph(fixture("real/zeiss_airyscan_2ch_t3.czi"), width_mm=100).report.key
+    assert [e.label for e in key] == ["microtubules (ChA-T1)", "mitochondria (ChA-T2)"], key
+    assert key[0].encoding != key[1].encoding and key[1].encoding == "ridges"  # tubular mitochondria: ridges
+
+
 def test_a_green_emission_is_no_nuclear_stain_whatever_the_excitation_recorded():
     """nikon_pbmc_4ch.nd2 records excitation 405 nm for every channel (its README row): the
     emission, when given, decides; the excitation only when it is all there is."""

@@ -156,7 +156,7 @@ def make_lithograph(source, params: LithoParams | None = None, *, printer_profil
 
             relief, layout, key, channel_extras = channel_path(_channel_source(source, picture),
                                                 lambda: _relief(prepared, layout, params, machine, _content_hints(cleaned)),
-                                                layout, params, route, cleaned)
+                                                layout, params, route, cleaned, _document_name(picture))
             if key:
                 picture = without_channel_note(picture)
         heights = relief.heights_mm
@@ -259,6 +259,13 @@ class _Clock:
 
     def __exit__(self, *exc):
         self.timings[self.stage] = time.perf_counter() - self.start
+
+
+def _document_name(picture: Picture) -> str:
+    """The name the microscope's software gave the picture (a CZI's document name, which often
+    says what each channel shows: "mCherryEB3_GFPMito"), or ""."""
+    vendor = picture.file.metadata.get("vendor") if picture.file is not None else None
+    return str(vendor.get("czi_document_name") or "") if isinstance(vendor, dict) else ""
 
 
 def _channel_source(source, picture: Picture):

@@ -126,7 +126,8 @@ def _entry(choice, labels: dict[str, str]) -> KeyEntry:
     # the role from the one table of signal names (relief/channels.py SIGNALS), the wavelength or the
     # colour convention; a shape says only what the shape is
     role = choice.role or (_SHAPE_WORD if choice.why in ("shape", "distinct") else _ROLE)[choice.encoding]
-    return KeyEntry(f"{role} ({choice.name})", choice.encoding, key_forms=label_forms(role, choice.name), key_role=role)
+    return KeyEntry(f"{role} ({choice.name})", choice.encoding, key_forms=label_forms(role, choice.name, bool(choice.role)),
+                    key_role=role)
 
 
 def _as_cleaned(raw: list, cleaned) -> tuple[list, list]:
@@ -156,7 +157,7 @@ def _as_cleaned(raw: list, cleaned) -> tuple[list, list]:
     return out, notes
 
 
-def run(source, layout, params, route=None, cleaned=None) -> ChannelStage | None:
+def run(source, layout, params, route=None, cleaned=None, title: str = "") -> ChannelStage | None:
     """The channel relief, or None when the picture has a single plain channel (the usual path then)."""
     raw, cleaning_notes = _as_cleaned(raw_channels(source, params), cleaned)
     names = [r[0] for r in raw]
@@ -192,7 +193,7 @@ def run(source, layout, params, route=None, cleaned=None) -> ChannelStage | None
         return None  # one channel with signal: nothing for a key to tell apart
     rel = channel_relief(chans, mm_per_px=mm, base_mm=params.base_mm, relief_mm=params.relief_mm, assigned=assigned,
                          section=route.section if route is not None else "",
-                         title=Path(source).stem if isinstance(source, (str, Path)) else "")
+                         title=" ".join(t for t in (Path(source).stem if isinstance(source, (str, Path)) else "", title) if t))
     rel.notes[:0] = cleaning_notes
     key = tuple(_entry(ch, labels) for ch in rel.choices)
     return ChannelStage(rel, key, "fluorescence")
@@ -203,7 +204,7 @@ def describe_key(key) -> str:
     return "; ".join(f"{e.encoding}: {e.label}" for e in key)
 
 
-def channel_path(source, relief, layout, params, route=None, cleaned=None):
+def channel_path(source, relief, layout, params, route=None, cleaned=None, title: str = ""):
     """(relief, layout, key, key overlay) of the channel print, or the plain relief when the picture is not one.
 
     The key overlay is a heightmap (mm above the base, like the relief's) of what a two-colour
@@ -211,7 +212,8 @@ def channel_path(source, relief, layout, params, route=None, cleaned=None):
 
     `relief` is the luminance relief, or a function that makes it (only called when needed).
     `route` (relief/channel_auto.py) says why the picture is printed channel by channel; None with
-    `channels` given explicitly keeps the old opt-in behaviour.
+    `channels` given explicitly keeps the old opt-in behaviour. `title`: the file's own name for
+    its picture (a CZI's document name), whose marker words may name channels (marker_in_title).
     """
     import dataclasses
 
@@ -225,7 +227,7 @@ def channel_path(source, relief, layout, params, route=None, cleaned=None):
         return plain if plain is not None else relief()
 
     asked = bool(params.channels) and str(params.channels).strip().lower() not in OFF
-    stage = run(source, layout, params, route, cleaned) if route is not None or asked else None
+    stage = run(source, layout, params, route, cleaned, title) if route is not None or asked else None
     if stage is None:
         out = luminance()
         if asked:  # asked for, not possible

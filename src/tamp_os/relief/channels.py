@@ -133,6 +133,46 @@ def _by_name(name: str) -> str | None:
     return found[0] if found else None
 
 
+# Fluorescent proteins name no structure, but a name that pairs one with a marker ("mCherryEB3",
+# "GFP-Mito") says which channel shows the marker: the one excited where the protein is (peak
+# excitation: GFP 488, YFP 514, mCherry 587, tdTomato 554, CFP 433, BFP 402 nm; bands with room for
+# the laser lines used on them: 488, 514, 561, 405).
+FLUORESCENT_PROTEINS = (
+    (r"e?gfp|mneongreen|emerald|venus|e?yfp|citrine|mclover", 465.0, 520.0),
+    (r"mcherry|mscarlet|tdtomato|dsred|t?rfp|mkate2?|mruby\d?|mapple", 535.0, 600.0),
+    (r"e?cfp|cerulean|mturquoise2?", 420.0, 460.0),
+    (r"e?bfp2?|tagbfp", 370.0, 415.0),
+)
+_FP = re.compile("|".join(f"(?:{rx})" for rx, _, _ in FLUORESCENT_PROTEINS))
+
+
+def _protein_band(word: str) -> tuple[float, float] | None:
+    for rx, lo, hi in FLUORESCENT_PROTEINS:
+        if re.fullmatch(rx, word):
+            return lo, hi
+    return None
+
+
+def proteins_with_markers(title: str) -> list[tuple[tuple[float, float], tuple[str, str]]]:
+    """[(excitation band nm, (encoding, role))] for each protein–marker pair the title names:
+    "mCherryEB3", "EB3-mCherry", "GFP_Mito" (one word, or two words side by side)."""
+    words = [w for w in re.split(r"[^a-z0-9]+", title.lower()) if w]
+    out = []
+    for k, w in enumerate(words):
+        for m in _FP.finditer(w):
+            band = _protein_band(m.group(0))
+            if band is None:
+                continue
+            rest = w[m.end():] or w[: m.start()]
+            # the protein a word of its own: a neighbour is the marker ("GFP_Mito", "H2B-GFP")
+            near = [rest] if rest else [words[j] for j in (k + 1, k - 1) if 0 <= j < len(words)]
+            role = next((signal_role(n) for n in near if signal_role(n)), None)
+            if role is not None:
+                out.append((band, role))
+            break
+    return out
+
+
 def marker_in_title(title: str, channels: list[ChannelImage]) -> dict[str, tuple[str, str]]:
     """{channel name: (encoding, role)} for the channels whose own name, wavelength and colour say
     nothing, when the file's title (its name, "dapi_tubulin") names as many markers as there are
@@ -148,6 +188,13 @@ def marker_in_title(title: str, channels: list[ChannelImage]) -> dict[str, tuple
         named.add("nuclei")  # a DAPI-like wavelength already says which channel the nuclei are
     unknown = [c for c in channels if signal_role(c.name) is None and _by_wavelength(*_wavelengths(c)) is None
                and c.name not in ("red", "green", "blue")]
+    paired = {}
+    for (lo, hi), role in proteins_with_markers(title):
+        excited = [c for c in unknown if (_wavelengths(c)[0] or 0) and lo <= _wavelengths(c)[0] <= hi]
+        if len(excited) == 1 and role[1] not in named:
+            paired[excited[0].name] = role
+    if paired:
+        return paired
     found = []
     for token in _re.split(r"[^a-z0-9]+", title.lower()):
         role = signal_role(token) if token else None
@@ -428,8 +475,9 @@ def choose(channels: list[ChannelImage], assigned: dict[str, str], mm_per_px: fl
            and shapes[c.name].blob_diam_mm < 0.4 * max(dome_diams) else c for c in out]
     # two channels with the same encoding would feel alike: the ones chosen by shape give way to
     # those chosen by name or wavelength, and take their next-best encoding
+    # (between two channels a name or wavelength placed, the one whose shape fits the encoding better keeps it)
     used = set()
-    for i in sorted(range(len(out)), key=lambda i: out[i].why == "shape"):
+    for i in sorted(range(len(out)), key=lambda i: (out[i].why == "shape", shape_ranking(shapes[out[i].name]).index(out[i].encoding))):
         ch = out[i]
         if ch.encoding in used:
             free = [e for e in shape_ranking(shapes[ch.name]) if e not in used]

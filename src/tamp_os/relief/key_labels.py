@@ -41,13 +41,16 @@ def compact_dye(short: str) -> str:
     return re.sub(r"^alexa(?:\s*fluor)?[\s-]*(\d{3})$", r"AF\1", short.strip(), flags=re.IGNORECASE)
 
 
-def label_forms(role: str, name: str) -> tuple[str, ...]:
+def label_forms(role: str, name: str, role_known: bool = False) -> tuple[str, ...]:
     """The forms a key line may write for "role (name)", fullest first, without repeats; the dye
     alone (compact_dye) is last. Acquisition words are never written: "spots (FITC)" is the
-    fullest for "FITC BP"."""
+    fullest for "FITC BP". `role_known`: the role says what the channel shows (a dye's, a
+    wavelength's or the file name's "microtubules", not a shape's "spots"); then the role alone
+    comes before the dye alone, since "microtubules" tells a reader more than "ChA-T1"."""
     short = short_channel_name(name)
     out: list[str] = []
-    for f in (f"{role} ({short})", f"{role} {short}", f"{role} {compact_dye(short)}", compact_dye(short)):
+    alone = (role, compact_dye(short)) if role_known else (compact_dye(short),)
+    for f in (f"{role} ({short})", f"{role} {short}", f"{role} {compact_dye(short)}", *alone):
         if f not in out:
             out.append(f)
     return tuple(out)

@@ -1,0 +1,162 @@
+"""Issue 32: every real development file (../shared/fixtures/real, 28) printed at the defaults,
+each row judged against what its fixture README row says a finger should find.
+
+Per file: its class and the class's target (written once, here, from the README row), what `auto`
+chose, the measure against the target, whether the target is met, and what the print's own checks
+said (the agreement check of relief/agreement.py: raised gaps, structure left flat). Measures:
+
+- members / lattice: members felt (benchmarks/content_metrics.py) on the truth of
+  benchmarks/content_truth.py, made by the relief stage at Medium (the pipeline's relief on the
+  same prepared picture); target ≥ 90 % (members), ≥ 95 % of columns (lattice);
+- lines: median height on the true lines minus the areas they enclose; target ≥ +0.5 mm;
+- stains (H&E): nuclei's median height over the stroma's on the print (benchmarks/bench_channels.py
+  he_heights); target ≥ 0.5 mm;
+- channels: the key's roles against the README's (the role words before the brackets); target all;
+- the rest (a blank or uniform image, a volume's projection, one object): what auto chose against
+  the README's kind.
+
+Rows marked "held out" were not looked at while tuning this round's rules (the agreement check
+was calibrated on the others, then run on these once).
+
+    PYTHONPATH=src:benchmarks:tests python benchmarks/bench_real.py
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path[:0] = [str(ROOT / "benchmarks"), str(ROOT / "tests"), str(ROOT / "tests" / "relief")]
+REAL = ROOT.parent / "shared" / "fixtures" / "real"
+
+
+@dataclass(frozen=True)
+class Row:
+    """What the README says of a file: its class, and for channels the roles in channel order."""
+
+    kind: str  # members, lattice, lines, stain, channels, shape, flat
+    says: str  # the README's words, short
+    roles: tuple[str, ...] = ()  # channels: the role each channel should carry in the key ("" = any)
+    held_out: bool = False
+
+
+TRUTH: dict[str, Row] = {
+    "aperio_cmu1_he_skin.svs": Row("stain", "H&E skin: nuclei raised over stroma"),
+    "aperio_tcga_cr7395_j2k_no_mpp.svs": Row("stain", "H&E (JPEG 2000 tiles): nuclei raised over stroma"),
+    "confocal_beads_zstack_41z.tif": Row("members", "4 beads"),
+    "confocal_membranes_cells3d.tif": Row("lines", "membrane outlines raised"),
+    "fluo_cell_dna_mt_actin_3ch.tif": Row("channels", "nucleus, microtubules, actin: three textures", ("nuclei", "microtubules", "actin")),
+    "fluo_widefield_dapi_tubulin_2ch.tif": Row("channels", "DAPI nuclei, tubulin sheet", ("nuclei", "microtubules")),
+    "histo_he_carcinoma_dense_nuclei.png": Row("stain", "tissue-filled H&E: nuclei raised densely"),
+    "histo_he_stroma_collagen_vessel.png": Row("stain", "eosin-rich: few raised nuclei on a textured field", held_out=True),
+    "jeol_dummy_bf.img": Row("shape", "a dummy bright-field frame: no specimen to find"),
+    "leica_beads_xz_2ch.lif": Row("channels", "beads in two channels (axial section)", ("", ""), held_out=True),
+    "mrc_emdb3001_microed.map": Row("shape", "a density map's projection"),
+    "mrc_emdb3197_subtomo.map": Row("shape", "a subtomogram's projection"),
+    "nikon_pbmc_4ch.nd2": Row("channels", "PBMCs: DAPI nuclei, dim FITC/TRITC, brightfield left out", ("nuclei", "", "")),
+    "nikon_widefield_zstack_11z.nd2": Row("lines", "membrane outline network"),
+    "phenom_elid2v4.elid": Row("flat", "a blank image: a flat plate, said so"),
+    "sem_fei_sio2_particles_10kx.tif": Row("members", "SiO2 particle field"),
+    "sem_fei_sio2_particles_35kx.tif": Row("members", "SiO2 particles"),
+    "sem_moth_head_scales_proboscis.tif": Row("shape", "eye dome, raised spiral, scaly field"),
+    "stem_ddpc_zno_dumbbells.tif": Row("lattice", "≈1700 spots, an even field of bumps", held_out=True),
+    "stem_haadf_pto_sro_superlattice.hspy": Row("lattice", "≈600 columns, a step at the interface"),
+    "stem_haadf_sio2_spheres.hspy": Row("members", "SiO2 spheres"),
+    "tia_talos_tem_search.emi": Row("members", "one needle"),
+    "tia_talos_tem_search_1.ser": Row("members", "one needle (the same image, SER)"),
+    "tvips_bin4.tif": Row("shape", "a TEM frame"),
+    "velox_talos_haadf_particles.emd": Row("members", "HAADF particles"),
+    "zeiss_airyscan_2ch_t3.czi": Row("channels", "mCherry-EB3 (microtubule ends), GFP-mito", ("microtubules", "mitochondria")),
+    "zeiss_dapi_gfp_2ch.czi": Row("channels", "DAPI nuclei, GFP", ("nuclei", "")),
+    "zeiss_sem_al2o3_grains.czi": Row("lines", "grain boundaries raised"),
+}
+BASE_MM, RELIEF_MM, LAYER_MM = 1.0, 3.0, 0.12  # the defaults at Medium, as bench_legibility's content table
+TARGET = {"members": 0.90, "lattice": 0.95, "lines": 0.5, "stain": 0.5}
+
+
+def _truth_measures() -> dict[str, tuple[str, float, bool]]:
+    """{file name: (measure in words, value, met)} for the files with truth masks (content_truth)."""
+    from content_metrics import lines_over_enclosed, members_felt
+    from content_truth import real_cases
+
+    from tamp_os.relief.styles import make_relief
+
+    out = {}
+    for case in real_cases():
+        name = case.name.split(" (")[0]
+        if case.truth is None:
+            out[name] = (f"skipped: {case.skipped}", float("nan"), False)
+            continue
+        r = make_relief(case.image01, style="auto", mm_per_px=case.mm_per_px, base_mm=BASE_MM, relief_mm=RELIEF_MM,
+                        layer_mm=LAYER_MM, fine=case.fine)
+        t = case.truth
+        if t.lines is not None:
+            v = lines_over_enclosed(r.heights_mm, t.lines, case.mm_per_px)
+            out[name] = (f"lines {v:+.2f} mm over enclosed", v, v >= TARGET["lines"])
+        else:
+            v = members_felt(r.heights_mm, t.members, case.mm_per_px)
+            kind = "lattice" if t.pitch_px is not None else "members"
+            what = "columns" if kind == "lattice" else "members"
+            out[name] = (f"{v:.0%} of {int(t.members.max())} {what} felt", v, v >= TARGET[kind])
+    return out
+
+
+def rows() -> list[tuple]:
+    from bench_channels import he_heights
+
+    from tamp_os.lithograph.pipeline import make_lithograph
+
+    measures = _truth_measures()
+    out = []
+    for name, row in TRUTH.items():
+        path = REAL / name
+        t = time.perf_counter()
+        litho = make_lithograph(path)
+        seconds = time.perf_counter() - t
+        r = litho.report
+        chose = r.relief_style + (f" ({r.content_kind})" if r.content_kind else "")
+        verdicts = [str(v) for v in (r.legibility.verdicts if r.legibility else ())]
+        said = [v for v in verdicts if "may raise the gaps" in v or "leaves flat" in v]
+        check = "; ".join(s.split(":")[0] for s in said) or "agrees"
+        if row.kind == "stain":
+            m = he_heights(path)
+            measure, met = f"nuclei {m['over']:+.2f} mm over stroma", m["over"] >= TARGET["stain"]
+        elif row.kind == "channels":
+            got = [e.label.split(" (")[0] for e in r.key]
+            right = sum(want == "" or (k < len(got) and got[k] == want) for k, want in enumerate(row.roles))
+            measure, met = f"roles {right}/{len(row.roles)}: {', '.join(e.label for e in r.key)}", right == len(row.roles) and len(got) == len(row.roles)
+        elif name in measures or name.replace("_1.ser", ".emi") in measures:
+            measure, _, met = measures.get(name) or measures[name.replace("_1.ser", ".emi")]
+        elif row.kind == "flat":
+            flat = float(np.ptp(litho.heightmap)) < 0.05
+            measure, met = ("a flat plate" if flat else f"relief {np.ptp(litho.heightmap):.1f} mm"), flat
+        else:  # shape: no truth mask; the row says what auto chose, judged by eye in docs/relief-styles.md
+            measure, met = "no truth mask (judged by eye)", None
+        out.append((name + (" (held out)" if row.held_out else ""), row.kind, row.says, chose, measure,
+                    "–" if met is None else ("yes" if met else "no"), check, f"{seconds:.2f}"))
+    return out
+
+
+def main() -> None:
+    import logging
+
+    warnings.filterwarnings("ignore")
+    logging.getLogger("tamp_os").setLevel(logging.ERROR)  # the pipeline's notes; the table says what matters
+    table = rows()
+    print("| file | class | README says | auto chose | measure | meets target | print's checks | s |")
+    print("|---|---|---|---|---|---|---|---|")
+    for row in table:
+        print("| " + " | ".join(row) + " |")
+    judged = [r for r in table if r[5] != "–"]
+    for label, part in (("tuned on", [r for r in judged if "held out" not in r[0]]), ("held out", [r for r in judged if "held out" in r[0]])):
+        print(f"\n{label}: {sum(r[5] == 'yes' for r in part)} of {len(part)} rows meet their class's target")
+
+
+if __name__ == "__main__":
+    main()

@@ -747,3 +747,23 @@ def ndi_dilate(mask, px):
     from scipy import ndimage as ndi
 
     return ndi.binary_dilation(mask, iterations=px)
+
+
+@pytest.mark.timeout(300)
+def test_the_description_gives_the_pictures_own_size_beside_the_key():
+    """Issue 33 (6): a square three-channel picture on a plate grown for its braille key is
+    described as a square picture; the key's depth is the plate's, not the picture's."""
+    need(liblouis_available(), "liblouis (braille key)")
+    from tamp_os.lithograph.report import describe
+
+    nuclei, fil, spots = _synthetic_channels()
+    rgb = (np.stack([fil, spots, nuclei], axis=-1) * 230).astype(np.uint8)
+    litho = make_lithograph(rgb, width_mm=80)
+    r = litho.report
+    assert r.key and r.key_depth_mm > 5, r.key_depth_mm
+    assert r.relief_mm[1] == pytest.approx(80 + r.key_depth_mm, abs=0.5)
+    said = describe(r, litho.params, "cells.png")
+    assert "the picture on it is 80 by 80 mm" in said, said
+    assert r.as_dict()["key_depth_mm"] == r.key_depth_mm
+    plain = make_lithograph(nuclei, width_mm=80).report
+    assert "key_depth_mm" not in plain.as_dict() and "the picture on it is 80 by 80 mm" in describe(plain, litho.params, "n.png")

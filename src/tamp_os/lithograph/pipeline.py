@@ -146,6 +146,7 @@ def make_lithograph(source, params: LithoParams | None = None, *, printer_profil
     _check_grid(layout, params.mesher)
     with clock("preprocess"):
         prepared = _prepare(cleaned, layout, params)
+    picture_depth_mm = layout.depth_mm  # before a key grows the plate
     with clock("relief"):
         # several channels, or a stained slide, as textures with a braille key (issue 22), else the usual relief
         route = channel_route(source, picture, params)
@@ -184,7 +185,7 @@ def make_lithograph(source, params: LithoParams | None = None, *, printer_profil
     legibility = dataclasses.replace(legibility, levels_mm=tuple(round(v, 3) for v in relief.levels_mm),
                                      verdicts=tuple(relief.checks) + agrees + tuple(legibility.verdicts))  # what the print shows of the picture first
     report = _report(picture, cleaned, prepared, layout, params, machine, tactile.mesh, tactile.placed, max_error, timings, later,
-                     relief, legibility,
+                     relief, legibility, layout.depth_mm - picture_depth_mm,
                      find_layout(heights, layout.mm_per_px, params.base_mm, params.relief_mm) if not prepared.uniform else None)
     if key:
         report = dataclasses.replace(report, key=key)
@@ -396,7 +397,7 @@ def _warnings(picture: Picture, cleaned: Cleaned, prepared: Prepared, layout: La
 
 
 def _report(picture, cleaned, prepared, layout, params, machine, mesh, placed, max_error, timings, later,
-            relief: ReliefResult, legibility: Legibility, relief_layout: ReliefLayout | None) -> Report:
+            relief: ReliefResult, legibility: Legibility, key_depth_mm: float, relief_layout: ReliefLayout | None) -> Report:
     scale = cleaned.pixel_size
     source_px_per_print_mm = prepared.fitted_width_px / layout.width_mm
     return plate_report(
@@ -418,6 +419,7 @@ def _report(picture, cleaned, prepared, layout, params, machine, mesh, placed, m
         legibility=legibility,
         instrument=cleaned.instrument,
         layout=relief_layout,
+        key_depth_mm=round(key_depth_mm, 3),
     )
 
 

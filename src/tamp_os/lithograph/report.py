@@ -129,6 +129,7 @@ class Report:
     relief_reason: str = ""  # why that style, or what it did, in one sentence
     content_kind: str = ""  # the content style: "members", "lattice", "lines", "grains", "plateau" or "shape" (what it raised)
     lattice_pitch_mm: float | None = None  # content_kind "lattice": the columns' spacing on the print
+    key_depth_mm: float = 0.0  # the depth the braille key added below the picture (in relief_mm's depth)
     legibility: Legibility | None = None  # figures and verdicts
     instrument: Instrument | None = None  # magnification, kv, detector, signal, source when the file records them
     source_px: tuple[int, int] = (0, 0)  # the source image's width and height (where annotations were)
@@ -162,6 +163,8 @@ class Report:
             del d["content_kind"]
         if self.lattice_pitch_mm is None:
             del d["lattice_pitch_mm"]
+        if not self.key_depth_mm:  # only prints with a key say it (other reports keep their keys)
+            del d["key_depth_mm"]
         if self.print is None:
             del d["print"]
         else:
@@ -351,6 +354,7 @@ def describe(report: Report, params: LithoParams, source_name: str) -> str:
     orientation, and the technical figures last."""
     w, d, h = report.print_mm
     rw, rd = report.relief_mm
+    rd -= report.key_depth_mm  # the picture alone: the key below it is described on its own
     t = report.tactile
     parts = [_what_it_shows(report, params, source_name), _what_is_raised(report, params)]
     layout = _layout_sentence(report)

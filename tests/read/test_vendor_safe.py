@@ -19,7 +19,11 @@ from conftest import need_module, run_cli
 from czi_builder import write_czi
 from cli_support import REFUSAL_PEAK_MB, one_error_line, run_cli_child
 
-REFUSAL_S = 2.0  # the refusal itself, measured inside the child (the child's start-up is not the product's)
+# The refusal itself, measured inside the child (its start-up is not the product's). Not a speed
+# test (benchmarks/bench_guards.py times refusals: well under a second): a bound loose enough for a
+# loaded 2-core CI machine (2.2 s was seen there) that still tells refusing from the headers from
+# decoding the 40,000 declared blocks; the peak-memory bound says the same by memory.
+REFUSAL_S = 10.0
 
 
 def planes(seed=1, shape=(2, 60, 80)) -> np.ndarray:

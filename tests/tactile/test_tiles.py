@@ -148,3 +148,26 @@ def test_description_and_files(tiled):
 def test_a_plate_that_fits_is_not_tiled():
     litho = make_lithograph(np.random.default_rng(1).random((40, 60)), width_mm=60, bed_mm="120")
     assert litho.tiles is None
+
+
+@pytest.mark.timeout(300)
+def test_fept_tiled_for_a_resin_bed_writes_every_tile_sound(tmp_path, fixture, capsys):
+    """FePt at 200 mm on the SL1S (127 × 80 mm): the cuts through its fine relief left faces of no
+    area in one tile once written as float32, and the run refused to write. Every tile is written,
+    and each reads back closed, merged by position as a slicer reads it."""
+    from conftest import run_cli
+    from tamp_os.mesh.validate import check_as_written, merge_float32
+    from tamp_os.mesh.solid import Mesh
+
+    code, out, err = run_cli(capsys, "convert", fixture("fept_spheres_sem.png"), "-o", tmp_path, "--printer", "sl1s",
+                             "--width-mm", "200", "--formats", "stl")
+    assert code == 0, err
+    stls = sorted(tmp_path.glob("*.tile-*.stl"))
+    assert len(stls) >= 4, out
+    for path in stls:
+        read = trimesh.load(path, process=False)
+        vertices, faces = merge_float32(np.asarray(read.vertices), np.asarray(read.faces))
+        check = check_as_written(Mesh(vertices.astype(np.float64), faces.astype(np.int32)))
+        assert check.ok, (path.name, check.problems)
+        w, d = sorted(read.extents[:2])
+        assert w <= 80 + 1e-6 and d <= 127 + 1e-6, (path.name, read.extents)

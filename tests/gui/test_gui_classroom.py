@@ -98,6 +98,34 @@ def test_settings_offer_todays_printers_braille_codes_page_size_two_colours_and_
             assert "Metadata/Slic3r_PE_model.config" in model.namelist()  # two parts
 
 
+def _update(client, job, **fields):
+    token = form_token(client, f"/jobs/{job}")
+    return client.post(f"/jobs/{job}/generate", data={"token": token, "preset": "medium", "action": "update", **fields})
+
+
+def _ticked(page: str) -> set[str]:
+    return set(re.findall(r'id="format-(\w+)" name="formats" value="\w+" checked', page))
+
+
+@pytest.mark.timeout(120)
+def test_a_printer_brings_the_outputs_that_suit_it_unless_the_user_chose_others(server):
+    """Issues 33.2 and 38: the 3MF for a printer whose slicer reads its settings, the STL for a resin
+    printer and for a generic profile, said beside the printer; formats the user chose stay."""
+    with httpx.Client(base_url=server, timeout=60) as client:
+        job = _upload(client, [("x.png", png_bytes((30, 40), 7))]).headers["location"].rsplit("/", 1)[1]
+        page = client.get(f"/jobs/{job}").text
+        assert _ticked(page) == {"stl"} and "A generic profile: the STL suits any slicer" in page
+        page = _update(client, job, printer="Original Prusa MK4", formats=["stl"]).text
+        assert _ticked(page) == {"3mf"}, _ticked(page)
+        assert "Print from the 3MF: PrusaSlicer opens it with its print settings (0.12 mm layers" in page
+        page = _update(client, job, printer="Original Prusa SL1S SPEED", formats=["3mf"]).text
+        assert _ticked(page) == {"stl"} and "A resin printer: print the STL (or 3MF) flat on the platform" in page
+        assert "0.05 mm layers" in page
+        # the user's own choice (STL and PDF) is kept across a change of printer
+        page = _update(client, job, printer="Bambu Lab A1", formats=["stl", "pdf"]).text
+        assert _ticked(page) == {"stl", "pdf"} and "In Bambu Studio, choose the 0.12 mm process by hand." in page
+
+
 @pytest.mark.timeout(180)
 def test_focus_stays_on_update_and_the_page_passes_axe(server, browser):
     page = browser.new_context().new_page()
@@ -118,5 +146,9 @@ def test_focus_stays_on_update_and_the_page_passes_axe(server, browser):
     assert page.evaluate("document.activeElement.id") == "update"  # not the page body
     assert page.locator("#printer").input_value() == "Bambu Lab A1 mini"
     assert "25 height levels" in page.locator("#preset-medium-facts").inner_text()  # the A1 mini's 0.12 mm design layer
+    # issue 33.2: its slicer reads the 3MF's settings, so the 3MF is the output ticked; the printer says why
+    assert page.locator("#format-3mf").is_checked() and not page.locator("#format-stl").is_checked()
+    described = page.locator("#printer").get_attribute("aria-describedby")
+    assert "printer-outputs" in described and "Print from the 3MF" in page.locator("#printer-outputs").inner_text()
     audit(page, "settings with the classroom controls")
     page.context.close()

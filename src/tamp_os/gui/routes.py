@@ -9,7 +9,7 @@ from fastapi import FastAPI, Request
 from fastapi.responses import FileResponse, JSONResponse, RedirectResponse, Response
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
-from ..errors import TampError
+from ..errors import ParameterError, TampError
 from ..formats import GRAPHIC_FORMATS
 from ..params import FORMATS, LithoParams
 from ..printing.printers import PRESETS
@@ -116,8 +116,11 @@ def add_job_routes(app: FastAPI, web) -> None:
         if by_field:
             return settings_page(web, request, job, 400, form_values(job.params, form), by_field)
         if form.get("action") == "update":
+            params = _formats_follow_printer(job.params, params)
             job.params = params  # the page comes back with focus on the control that was used
-            return settings_page(web, request, job, values=form_values(params, form), focus="update")
+            values = form_values(params, form)
+            values["formats"] = list(params.formats)
+            return settings_page(web, request, job, values=values, focus="update")
         web.store.start(job, params)
         return RedirectResponse(f"{web.base}/jobs/{job.id}", status_code=303)
 
@@ -139,6 +142,25 @@ def add_job_routes(app: FastAPI, web) -> None:
 
 
 CHOICE_FIELDS = ("braille_table", "page_size")  # chosen from a list (forms.py checks the value)
+
+
+def _suited(params: LithoParams):
+    from ..printing.printers import get_printer
+    from ..printing.suited import suited_outputs
+
+    try:
+        layer_mm = get_printer(params.printer).layer_mm
+    except ParameterError:  # the form says what is wrong with the printer; no advice on its outputs
+        return suited_outputs("standard", params.layer_mm or 0.12)
+    return suited_outputs(params.printer, layer_mm)
+
+
+def _formats_follow_printer(before: LithoParams, after: LithoParams) -> LithoParams:
+    """A new printer brings its own default outputs (the 3MF for a slicer that reads its settings),
+    unless the user chose other outputs than the old printer's defaults: those stay."""
+    if after.printer == before.printer or set(after.formats) != set(_suited(before).formats):
+        return after
+    return after.replace(formats=_suited(after).formats)
 
 
 def form_values(params: LithoParams, form=None) -> dict:
@@ -165,7 +187,7 @@ def settings_page(web, request, job: WebJob, status: int = 200, values=None, err
         request, "settings.html", status=status, job=job, step=2, values=values or form_values(job.params), errors=errors,
         summary=list(errors.items()), cards=detail_cards(job, job.params), printers=printer_choices(), presets=list(PRESETS),
         formats=FORMATS, graphic_formats=GRAPHIC_FORMATS, fields=FIELDS, styles=STYLE_CHOICES, customize_open=bool(set(errors) & set(FIELDS)) or request.query_params.get("customize") == "open",
-        braille_tables=braille_table_choices(), page_sizes=PAGE_SIZES, focus=focus,
+        braille_tables=braille_table_choices(), page_sizes=PAGE_SIZES, focus=focus, printer_outputs=_suited(job.params).words,
         multi_channel=any(u.channels > 1 for u in job.uploads), z_stack=any(u.z_slices > 1 for u in job.uploads),
         time_series=any(u.time_points > 1 for u in job.uploads), scenes=any(u.scenes > 1 for u in job.uploads),
     )

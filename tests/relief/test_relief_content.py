@@ -467,3 +467,30 @@ def test_members_are_domes_not_pins():
     # its half-width, 1.5 points, and half a point for the outline the distance counts: 0.8 mm
     assert 0 < sliver_mm <= PIN_ASPECT * (1.5 + 0.5) * pitch + 1e-6 and sliver_mm < relief / 1.5
     assert float(domes[labels == 2].max()) == pytest.approx(1.0)
+
+
+@pytest.mark.timeout(120)
+def test_a_polished_alloy_prints_its_grains_on_a_specimen_plateau_despite_its_inclusions():
+    """Issue 32, class 3: weak channelling contrast (20 grey levels) inside a specimen on a dark
+    mount, with carbides and twin lines spanning the range: not one blank raised square, but the
+    specimen above the mount with its grains at distinct heights, each grain mostly one height."""
+    from synthetic_content import polished_alloy
+    from tamp_os.lithograph.pipeline import make_lithograph
+
+    t = polished_alloy()
+    litho = make_lithograph(t.image, width_mm=100, scale_bar="off")
+    h = litho.heightmap
+    rows, cols = h.shape
+    grains = t.grains[np.linspace(0, t.grains.shape[0] - 1, rows).round().astype(int)][:, np.linspace(0, t.grains.shape[1] - 1, cols).round().astype(int)]
+    specimen = grains > 0
+    assert litho.report.content_kind == "grains", litho.report.relief_reason
+    assert np.median(h[~specimen]) <= litho.params.base_mm + 0.05  # the mount at the base
+    heights, counts = np.unique(np.round(h[ndimage.binary_erosion(specimen, iterations=3)], 1), return_counts=True)
+    distinct = heights[counts > 0.1 * counts.sum()]
+    assert len(distinct) >= 2 and np.ptp(distinct) >= 0.9, (heights, counts)  # grains a step apart, not one plateau
+    shares = []
+    for k in range(1, int(grains.max()) + 1):
+        v = np.round(h[grains == k], 1)
+        if v.size >= 30:
+            shares.append(np.unique(v, return_counts=True)[1].max() / v.size)
+    assert np.mean(shares) >= 0.7, np.mean(shares)  # a grain is mostly one height: noise does not crack it

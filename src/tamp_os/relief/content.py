@@ -864,8 +864,8 @@ def _weak_contrast(work, x, pitch_mm, relief_mm, width_mm, min_area_mm2, polarit
             profile = np.where(specimen, rank[classes], 0.0).astype(np.float32)
             step_mm = relief_mm / used.size
             reason = (f"content: weak contrast (the specimen spans {spread:.2f} of the range; {where}): after local equalisation "
-                      f"its grains fall into {used.size} grey levels, raised as plateaus {step_mm:.1f} mm apart above the mount; "
-                      f"{polarity.reason}{extra}")
+                      f"its grains fall into {used.size} grey levels, raised as plateaus {step_mm:.1f} mm apart above the mount, "
+                      f"the brighter grains higher{extra}")  # the specimen's grey levels decide, not a ground's polarity
             return ContentMade(profile, "grains", None, reason, (), None, int(used.size))
     shape = np.where(specimen, shape, 0.0).astype(np.float32)
     reason = (f"content: no population and no line network; contrast equalised locally ({where}) and its "

@@ -494,3 +494,26 @@ def test_a_polished_alloy_prints_its_grains_on_a_specimen_plateau_despite_its_in
         if v.size >= 30:
             shares.append(np.unique(v, return_counts=True)[1].max() / v.size)
     assert np.mean(shares) >= 0.7, np.mean(shares)  # a grain is mostly one height: noise does not crack it
+
+
+@pytest.mark.timeout(120)
+def test_a_band_of_close_lines_is_said_only_when_it_fills_a_share_worth_acting_on(monkeypatch):
+    """Issue 33.9: "the space between them (0% of the picture) was filled" is no warning; a fill of a
+    clear share still is, with the width that would part the lines."""
+    from types import SimpleNamespace
+
+    import tamp_os.relief.content as content
+
+    lines = np.zeros((100, 100), bool)
+    lines[50, :] = True
+    monkeypatch.setattr(content, "draw_lines", lambda found, pitch: lines.astype(np.float32))
+
+    def notes(merged_share):
+        merged = np.zeros((100, 100), bool)
+        merged.flat[: int(merged_share * merged.size)] = True
+        found = SimpleNamespace(merged=merged, separate_at=1.8, cell_count=2, length_mm=40.0, strength=9.0, skeleton=lines)
+        return content._as_lines(found, 0.4, 3.0, 100.0, content.Polarity(True, 0.1, "dark ground"), "", "lines").notes
+
+    assert notes(0.004) == ()
+    said = notes(0.06)
+    assert len(said) == 1 and "(6% of the picture) was filled" in said[0] and "about 180 mm" in said[0]

@@ -102,6 +102,7 @@ ELECTRON_EMPTY_SHARE = 0.8  # with an electron signal, only a bright ground this
 # the 1st-99th: a polished alloy's carbides and twin lines (2 % of it, dark and bright) span the
 # range while its grains differ by 10-20 grey levels.
 WEAK_SPREAD = 0.3
+MERGED_SAID_SHARE = 0.01  # the space filled between close lines is said from this share of the picture
 GRAIN_LEVELS = 3  # weak-contrast grains become at most this many plateaus
 GRAIN_STEP_MM = 0.5  # and the plateaus stand at least this far apart (a step fingers tell apart)
 # Grains are structure above the noise: inside the specimen (1.5 mm in from its edge, so its own
@@ -760,8 +761,8 @@ def _as_lines(lines: Lines, pitch_mm, relief_mm, width_mm, polarity, extra, kind
     height = min(LINE_HEIGHT_MM, relief_mm)
     profile = draw_lines(lines, pitch_mm) * (height / relief_mm if relief_mm > 0 else 0.0)
     notes = []
-    if lines.merged.any():
-        share = float(lines.merged.mean())
+    share = float(lines.merged.mean())
+    if share >= MERGED_SAID_SHARE:  # a few filled pixels change nothing a reader must act on
         notes.append(
             f"content: some lines run closer than {MIN_GAP_MM:g} mm, which a finger cannot separate; the space between them "
             f"({share:.0%} of the picture) was filled so they read as one band; at a print width of about "

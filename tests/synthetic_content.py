@@ -133,6 +133,36 @@ def polished_alloy(rows: int = 400, cols: int = 400, seed: int = 7) -> Truth:
     return Truth("polished_alloy", np.clip(image, 0, 1).astype(np.float32), grains=np.where(specimen, cells + 1, 0).astype(np.int32))
 
 
+def packed_cells(rows: int = 450, cols: int = 600, seed: int = 3, overlap: float = 0.75, tries: int = 3000,
+                 fibres: int = 8) -> Truth:
+    """Issue 32, class 1: bright biconcave cells packed edge to edge (a backscatter SEM of cells on a
+    filter, no modality recorded), of one even brightness, so the picture's most common brightness is
+    the cells' own and the dark gaps between them split into more pieces than the cells do. Discs of
+    radius 21-27 px (4.6-6 mm on a 100 mm print), centres at least `overlap` × the sum of two radii
+    apart; a dimple in each; `fibres` thin bright fibres over everything. Members: the discs (overlaps
+    go to the first)."""
+    rng = np.random.default_rng(seed)
+    yy, xx = _grid(rows, cols)
+    image = 0.12 + 0.03 * rng.standard_normal((rows, cols))
+    labels = np.zeros((rows, cols), np.int32)
+    centres: list[tuple[float, float, float]] = []
+    for _ in range(tries):
+        cy, cx, r = rng.uniform(0, rows), rng.uniform(0, cols), rng.uniform(21, 27)
+        if any((cy - a) ** 2 + (cx - b) ** 2 < (overlap * (r + c)) ** 2 for a, b, c in centres):
+            continue
+        centres.append((cy, cx, r))
+        d = np.sqrt((yy - cy) ** 2 + (xx - cx) ** 2) / r
+        inside = d <= 1
+        image = np.where(inside, 0.78 + 0.06 * np.exp(-((d - 0.7) / 0.22) ** 2) - 0.08 * np.exp(-(d / 0.35) ** 2), image)
+        labels[inside & (labels == 0)] = len(centres)
+    for _ in range(fibres):  # thin fibres across
+        y0, angle = rng.uniform(0, rows), rng.uniform(0, np.pi)
+        dist = np.abs((yy - y0) * np.cos(angle) - (xx - cols / 2) * np.sin(angle))
+        image = np.maximum(image, 0.8 * np.exp(-((dist / 1.2) ** 2)))
+    image = image + 0.02 * rng.standard_normal((rows, cols))
+    return Truth("packed_cells", np.clip(image, 0, 1).astype(np.float32), members=labels)
+
+
 def line_diagram(rows: int = 192, cols: int = 256, seed: int = 7) -> Truth:
     """A diagram: black strokes 2 px wide on white (a box, a circle, a connecting line) with
     three short text labels in black beside them."""

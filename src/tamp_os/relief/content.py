@@ -345,6 +345,19 @@ def make_content(work: np.ndarray, *, pitch_mm: float, relief_mm: float, width_m
         if polarity.bright != (x is work):
             x, members = 1.0 - x, finder.members(polarity.bright)
             lines = finder.lines(polarity.bright)
+    elif hints.signal is None and not _is_population(members, pitch_mm):
+        # The ground's brightness said one side, but nothing stands out there while the other side
+        # holds round members of one size (dark cells on a glass whose noise hid that it is empty):
+        # those are the content. Only a population by shape turns it over, never one that merely
+        # splits into more pieces (gaps between packed cells are uneven and angular).
+        other = finder.members(not polarity.bright)
+        if _is_round_population(other, pitch_mm):
+            side = "dark" if polarity.bright else "bright"
+            polarity = Polarity(not polarity.bright, polarity.ground,
+                                f"the ground looked {'bright' if polarity.bright else 'dark'} ({polarity.ground:.2f} of the range), but "
+                                f"nothing stands out there, while the {side} side holds {other.count} round members of one size, "
+                                f"so the {side} parts are raised")
+            x, members, lines = 1.0 - x, other, finder.lines(polarity.bright)
     network = _is_network(lines) and not _members_explain(members, lines, pitch_mm)
     if not network:
         # A network of the other polarity (dark lines between bright grains whose own brightness
@@ -357,6 +370,17 @@ def make_content(work: np.ndarray, *, pitch_mm: float, relief_mm: float, width_m
                                 f"raised and the regions they enclose sit at the base")
     if network:
         return _as_lines(lines, pitch_mm, relief_mm, width_mm, polarity, lattice + meta, "lines")
+    packed = _packed_bright_field(work, pitch_mm) if polarity.empty and not _is_population(members, pitch_mm) else None
+    if packed is not None:
+        # The "empty bright ground" is a packed field of bright round members (cells on a filter,
+        # sintered spheres): they are raised, the dark gaps between them, which split into more
+        # pieces, sit at the base.
+        labels, wider = packed
+        polarity = Polarity(True, polarity.ground, f"the bright side is no empty ground but {int(labels.max())} round members of one "
+                                                  f"size packed edge to edge ({wider:.1f} times as wide as the dark gaps between "
+                                                  f"them), so the members are raised and the gaps sit at the base")
+        return _as_members(labels, pitch_mm, relief_mm, polarity, lattice + meta, picture=finder.picture(True),
+                           what=f"{int(labels.max())} packed members, parted where their outlines meet")
     if _is_population(members, pitch_mm) and not _dense_field_beats(finder.blobs(polarity.bright), members, pitch_mm):
         blobs = finder.blobs(polarity.bright)
         return _as_members(members.labels, pitch_mm, relief_mm, polarity, lattice + meta, picture=finder.picture(polarity.bright),
@@ -510,6 +534,64 @@ def _dense_field_beats(blobs: BlobScale | None, members: Members, pitch_mm: floa
         return False
     same_size = float(np.median(members.diameters_mm(pitch_mm))) <= 2.0 * blobs.diameter_mm
     return same_size and blobs.count >= DENSE_OVER_MEMBERS * members.count and members.energy < POPULATION_ENERGY
+
+
+ROUND_POPULATION = dict(count=5, roundness=0.85, spread=2.0, energy=0.5)  # a population by its shape alone
+
+
+def _is_round_population(members: Members, pitch_mm: float) -> bool:
+    """Round members of one size holding most of the picture's detail (ROUND_POPULATION): beads,
+    cells, particles, whichever side of the ground they lie on."""
+    r = ROUND_POPULATION
+    if members.count < r["count"] or members.energy < r["energy"] or members.spread(pitch_mm) > r["spread"]:
+        return False
+    return float(np.median(roundness(members.labels, members.count)[1:])) >= r["roundness"]
+
+
+PACKED_COVER = (0.45, 0.92)  # the bright phase of a packed field covers most of the picture, not all of it
+PACKED_MIN_MEMBERS = 12
+PACKED_MIN_DIAMETER_MM = 2.0  # members a fingertip finds one by one
+PACKED_OVER_GAPS = 1.5  # the members are this many times wider than the gaps between them (median)
+PACKED_ROUNDNESS = 0.6  # median minor / major axis of the parted members
+PACKED_SPREAD = 3.5  # 90th over 10th percentile of their widths
+PACKED_EVENER = 0.5  # and at most half the gaps' spread
+
+
+def _packed_bright_field(work: np.ndarray, pitch_mm: float) -> tuple[np.ndarray, float] | None:
+    """(labels, the members' median width over the gaps') when the picture's bright phase is a
+    packed field of round members of one size, else None. The bright phase (Otsu at fingertip
+    scale) is parted by a watershed of its distance to the dark phase; it is a packed field when
+    its pieces are round and even (PACKED_ROUNDNESS, PACKED_SPREAD), clearly wider than the dark
+    pieces between them (PACKED_OVER_GAPS) and far more even in size (PACKED_EVENER). An empty ground (glass, paper,
+    vacuum) parts into pieces of every size and shape; dark cells packed on glass make the glass's
+    pieces the narrow, uneven ones, so the rule does not turn them over."""
+    from skimage.feature import peak_local_max
+
+    smooth = ndimage.gaussian_filter(work.astype(np.float32), max(0.5, 0.5 / pitch_mm), mode="nearest")
+    phase = smooth > filters.threshold_otsu(smooth)
+    if not PACKED_COVER[0] <= float(phase.mean()) <= PACKED_COVER[1]:
+        return None
+    gaps, n_gaps = ndimage.label(~phase)
+    if n_gaps < PACKED_MIN_MEMBERS:
+        return None
+    gap_members = Members(gaps.astype(np.int32), n_gaps, np.ones(n_gaps), 0.0)
+    dist = ndimage.distance_transform_edt(phase)
+    radius_px = PACKED_MIN_DIAMETER_MM / 2 / pitch_mm
+    peaks = peak_local_max(dist, min_distance=max(2, round(radius_px)), threshold_abs=radius_px, exclude_border=False)
+    if len(peaks) < PACKED_MIN_MEMBERS:
+        return None
+    markers = np.zeros(work.shape, np.int32)
+    markers[tuple(peaks.T)] = np.arange(1, len(peaks) + 1)
+    labels = segmentation.watershed(-dist, markers, mask=phase).astype(np.int32)
+    members = Members(labels, int(labels.max()), np.ones(int(labels.max())), 0.0)
+    round_ = float(np.median(roundness(labels, members.count)[1:]))
+    wider = float(np.median(members.diameters_mm(pitch_mm)) / max(float(np.median(gap_members.diameters_mm(pitch_mm))), 1e-9))
+    # Parted by a watershed, packed discs come out less round and less even than found members do
+    # (PACKED_ROUNDNESS, PACKED_SPREAD); the gaps decide, by being far less even still.
+    spread = members.spread(pitch_mm)
+    if round_ < PACKED_ROUNDNESS or spread > PACKED_SPREAD or spread > PACKED_EVENER * gap_members.spread(pitch_mm) or wider < PACKED_OVER_GAPS:
+        return None
+    return labels, wider
 
 
 def _members_explain(members: Members, lines: Lines, pitch_mm: float) -> bool:

@@ -381,3 +381,34 @@ def test_real_widefield_tubulin_sheet_is_a_ridged_area_with_its_gaps_at_the_base
     assert np.median(h[gaps]) < 0.1 and float(raised[gaps].mean()) < 0.05
     bright = e > filters.threshold_otsu(e)
     assert float(raised[bright].mean()) > 0.95
+
+
+@pytest.mark.timeout(300)
+@pytest.mark.parametrize("stem", ["cells_lyso_mito_nuclei", "mito-lysosomes-dapi"])
+def test_an_rgb_composite_named_by_its_markers_keys_each_colour_by_its_shape(tmp_path, stem):
+    """Issue 32, class 4: a composite with lysosomes red, mitochondria green and nuclei blue, named by
+    its markers in either order: blue keeps the nuclei, the other markers go to the colours whose
+    shapes fit them (spots: lysosomes, lines: mitochondria), and the key says so."""
+    _liblouis()
+    from PIL import Image
+    from test_channels import _synthetic_channels
+
+    nuclei, fil, spots = _synthetic_channels(600, 600)
+    path = tmp_path / f"{stem}.png"
+    Image.fromarray((np.stack([spots, fil, nuclei], -1) * 220).astype(np.uint8)).save(path)
+    key = make_lithograph(path, width_mm=100).report.key
+    assert [(e.encoding, e.label) for e in key] == [("dots", "lysosomes (red)"), ("ridges", "mitochondria (green)"),
+                                                    ("domes", "nuclei (blue)")], key
+
+
+def test_markers_by_shape_gives_nothing_it_is_not_sure_of():
+    from tamp_os.relief.channels import ChannelImage, markers_by_shape, measure_shape
+    from test_channels import _synthetic_channels
+
+    nuclei, fil, spots = _synthetic_channels()
+    chans = [ChannelImage("red", spots), ChannelImage("green", fil), ChannelImage("blue", nuclei)]
+    shapes = {c.name: measure_shape(c.image, 0.3) for c in chans}
+    assert markers_by_shape("lyso_mito", chans, shapes) == {"red": ("dots", "lysosomes"), "green": ("ridges", "mitochondria")}
+    assert markers_by_shape("lyso_mito_actin", chans, shapes) == {}  # three markers for two colours
+    assert markers_by_shape("mito", chans, shapes) == {}  # one marker for two colours
+    assert markers_by_shape("snap-03", chans, shapes) == {}

@@ -203,6 +203,32 @@ def marker_in_title(title: str, channels: list[ChannelImage]) -> dict[str, tuple
     return {c.name: role for c, role in zip(unknown, found)} if unknown and len(found) == len(unknown) else {}
 
 
+def markers_by_shape(title: str, channels: list[ChannelImage], shapes: dict) -> dict[str, tuple[str, str]]:
+    """{channel: (encoding, role)} for an RGB fluorescence composite whose name lists its markers
+    ("cells_lyso_mito_nuclei.png"): blue keeps the nuclei (the usual colours); the other markers go
+    to the red and green channels by how well each channel's measured shape fits the marker's
+    texture (shape_ranking), when the name lists exactly as many as there are such channels and one
+    assignment fits strictly best. Anything less certain gives {}."""
+    from itertools import permutations
+
+    free = [c for c in channels if c.name in ("red", "green")]
+    found: list[tuple[str, str]] = []
+    for token in re.split(r"[^a-z0-9]+", title.lower()):
+        role = signal_role(token) if token else None
+        if role and role[1] != "nuclei" and role not in found:
+            found.append(role)
+    if not free or len(found) != len(free):
+        return {}
+
+    def misfit(order) -> int:
+        return sum(shape_ranking(shapes[c.name]).index(enc) for c, (enc, _) in zip(free, order))
+
+    ranked = sorted(permutations(found), key=misfit)
+    if len(ranked) > 1 and misfit(ranked[0]) == misfit(ranked[1]):
+        return {}
+    return {c.name: role for c, role in zip(free, ranked[0])}
+
+
 _LIGHT_IN_NAME = re.compile(r"\b(?:led|laser|ex|exc)[\s_-]*(\d{3})(?:\s*nm)?\b|\b(\d{3})\s*nm\b", re.IGNORECASE)
 
 
@@ -452,6 +478,8 @@ def choose(channels: list[ChannelImage], assigned: dict[str, str], mm_per_px: fl
     out = []
     rgb = sorted(c.name for c in channels) == ["blue", "green", "red"]
     titled = marker_in_title(title, channels) if title else {}
+    if rgb and title and not titled:
+        titled = markers_by_shape(title, kept, shapes)
     for c in kept:
         named = signal_role(c.name)
         if named is not None:

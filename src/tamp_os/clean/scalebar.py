@@ -261,6 +261,7 @@ def read_bar(ink: np.ndarray, bar: Bar) -> float | None:
     return metres / bar.length_px if metres else None
 
 
+MIN_BOX_ASPECT = 1.5  # a label box holding a scale bar is at least this many times as wide as tall
 MAX_OCR_CALLS = 12  # each call is 0.1–0.3 s; a picture with many strokes must not stall a conversion
 
 
@@ -278,6 +279,8 @@ def scale_from_bars(regions: list[np.ndarray], boxes: list[np.ndarray], strips: 
         ink = ink_of(region)
         candidates += [(ink, bar) for bar in find_bars(ink)]
     for box in boxes:
+        if box.shape[1] < MIN_BOX_ASPECT * box.shape[0]:
+            continue  # a square label box holds a panel letter or a symbol: a bar with its label is wide
         ink = ink_of(box)
         # A bar fills much of a small label box; in a wide databar box it is one field of several.
         inside = find_bars(ink, min(box.shape[1] // 3, max(20, 2 * box.shape[0])))

@@ -172,3 +172,29 @@ def test_batch_says_which_inputs_became_a_flat_plate(tmp_path, capsys):
     ramp_lines = [line for line in out if "ramp.png" in line]
     assert blank and "flat plate" in blank[0], out
     assert ramp_lines and "flat plate" not in ramp_lines[0], out
+
+
+@pytest.mark.timeout(300)
+@pytest.mark.parametrize("name", ["real/zeiss_dapi_gfp_2ch.czi", "real/nikon_pbmc_4ch.nd2"])
+def test_info_says_what_convert_does_with_the_channels(fixture, capsys, name):
+    """Issue 33.1: info on a multi-channel file names the channels convert prints and how (its key),
+    not "using channel 0"; the same as the key convert's print carries."""
+    from conftest import need
+    from tamp_os.lithograph.pipeline import make_lithograph
+    from tamp_os.tactile.braille import liblouis_available
+
+    need(liblouis_available(), "liblouis (braille key)")
+    assert main(["info", str(fixture(name))]) == 0
+    out = capsys.readouterr().out
+    assert "using channel 0" not in out, out
+    key = make_lithograph(fixture(name)).report.key
+    line = next(row for row in out.splitlines() if row.startswith("convert: prints"))
+    assert f"prints {len(key)} channels as textures" in line and "--channels off" in line, line
+    for entry in key:
+        assert entry.label in line, (entry.label, line)
+    assert main(["info", str(fixture(name)), "--json"]) == 0
+    facts = json.loads(capsys.readouterr().out)
+    assert [k["label"] for k in facts["convert_channels"]["key"]] == [e.label for e in key]
+    # one channel asked for: info says what the reader does with it, and convert prints that channel
+    assert main(["info", str(fixture(name)), "--channel", "1"]) == 0
+    assert "convert: prints" not in capsys.readouterr().out

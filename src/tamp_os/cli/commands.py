@@ -879,6 +879,11 @@ def cmd_info(args) -> int:
         "notes": s.notes + list(scale.warnings),
         "instrument": cleaned.instrument.as_dict() if cleaned.instrument else None,
     }
+    plan = _channel_plan(args, scene)
+    if plan is not None:  # convert prints the channels, not the channel the reader names
+        facts["notes"] = [n for n in facts["notes"] if "using channel 0" not in str(n)]
+        facts["convert_channels"] = {"why": plan.why, "key": [{"label": e.label, "encoding": e.encoding} for e in plan.key],
+                                     "notes": [str(n) for n in plan.notes]}
     if args.json:
         print(json.dumps(facts, indent=2, ensure_ascii=False))
         return EXIT_OK
@@ -899,9 +904,29 @@ def cmd_info(args) -> int:
     print(f"annotations to remove: {'; '.join(a.describe() for a in found) if found else 'none found'}")
     if cleaned.instrument:
         print(f"instrument: {instrument_words(cleaned.instrument)}")
+    if plan is not None:
+        shown = "; ".join(f"{e.label} as {_ENCODING_WORDS.get(e.encoding, e.encoding)}" for e in plan.key)
+        print(f"convert: prints {len(plan.key)} channels as textures with a braille key, because {plan.why}: {shown}. "
+              f"--channel N prints one channel; --channels off prints the brightness.")
+        for note in plan.notes:
+            print(f"convert: {cli_words(note)}")
     for note in facts["notes"]:
         print(f"note: {cli_words(note)}")
     return EXIT_OK
+
+
+_ENCODING_WORDS = {"domes": "domes", "ridges": "ridges", "dots": "dots", "plateau": "a plateau"}
+
+
+def _channel_plan(args, scene):
+    """What convert makes of the channels with the same options (lithograph.plan_channels), or None."""
+    from ..lithograph.pipeline import plan_channels
+    from ..params import LithoParams
+
+    if str(args.channel).strip().lower() != "luminance":
+        return None  # one channel asked for: convert prints that one, as the reader says
+    params = LithoParams(page=args.page, z_slice=args.slice, time=args.time, scene=scene, pixel_size=args.pixel_size)
+    return plan_channels(args.image, params)
 
 
 if __name__ == "__main__":

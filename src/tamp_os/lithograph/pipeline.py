@@ -262,6 +262,35 @@ class _Clock:
         self.timings[self.stage] = time.perf_counter() - self.start
 
 
+@dataclass(frozen=True)
+class ChannelPlan:
+    """What `convert` will make of a picture's channels, for `info` to say before it is made."""
+
+    why: str  # the rule that sent it down the channel path ("the file has 4 channels")
+    key: tuple  # KeyEntry per printed channel: its label ("nuclei (DAPI)") and encoding
+    notes: tuple  # the choice's own notes (channels left out, roles from the file's name)
+
+
+def plan_channels(source, params: LithoParams | None = None) -> ChannelPlan | None:
+    """The channel print `make_lithograph(source, params)` would make (its key), or None when it
+    prints the brightness: the same reading, cleaning, layout and choice, without the relief's
+    heights, mesh or furniture."""
+    from ..relief.channel_stage import run as channel_stage
+
+    params = params or LithoParams()
+    picture = read_source(source, params)
+    route = channel_route(source, picture, params)
+    if route is None and not params.channels:
+        return None
+    cleaned = clean_picture(picture, pixel_size_m=params.pixel_size_m, remove_annotations=not params.keep_annotations)
+    layout = layout_for(params, resolve_printer(params, None), cleaned.values.shape[1], cleaned.values.shape[0])
+    stage = channel_stage(_channel_source(source, picture), layout, params, route, cleaned, _document_name(picture))
+    if stage is None:
+        return None
+    why = route.why if route is not None else "`channels` assigns them"
+    return ChannelPlan(why, stage.key, tuple(stage.relief.notes))
+
+
 def _document_name(picture: Picture) -> str:
     """The name the microscope's software gave the picture (a CZI's document name, which often
     says what each channel shows: "mCherryEB3_GFPMito"), or ""."""

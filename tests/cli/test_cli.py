@@ -198,3 +198,16 @@ def test_info_says_what_convert_does_with_the_channels(fixture, capsys, name):
     # one channel asked for: info says what the reader does with it, and convert prints that channel
     assert main(["info", str(fixture(name)), "--channel", "1"]) == 0
     assert "convert: prints" not in capsys.readouterr().out
+
+
+@pytest.mark.timeout(120)
+def test_an_option_that_does_not_fit_the_file_fails_the_file_in_info_as_in_convert(fixture, tmp_path, capsys):
+    """Issue 33.8: one exit-code rule everywhere (docs/command-line.md): a channel the file does not
+    have fails that input (1) in info and convert alike; a malformed value is a usage error (2)."""
+    czi = str(fixture("real/zeiss_dapi_gfp_2ch.czi"))
+    assert main(["info", czi, "--channel", "7"]) == 1
+    info_err = capsys.readouterr().err
+    assert main(["convert", czi, "--channel", "7", "-o", str(tmp_path)]) == 1
+    convert_err = capsys.readouterr().err
+    assert "--channel must be 0–1 (DAPI, GFP); got 7" in info_err and info_err == convert_err
+    assert main(["info", czi, "--pixel-size", "not-a-length"]) == 2

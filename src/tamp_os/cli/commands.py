@@ -837,6 +837,7 @@ def _file_axes_lines(s) -> list[str]:
 
 def cmd_info(args) -> int:
     from ..clean.stage import clean_picture
+    from ..errors import TampError
     from ..lithograph.report import instrument_words
     from ..params import parse_field
     from ..read.image import read_image
@@ -844,10 +845,16 @@ def cmd_info(args) -> int:
 
     pixel_size_m = parse_length_m(args.pixel_size, "pixel_size") if args.pixel_size else None
     scene = parse_field("scene", args.scene) if args.scene is not None else None  # a number, or a series name
-    picture = read_image(args.image, page=args.page, z_slice=args.slice, channel=args.channel, time=args.time,
-                         scene=scene)  # the same size guard as convert
+    try:  # what does not fit this file fails the file (exit 1), as in convert; a malformed option is usage (2)
+        picture = read_image(args.image, page=args.page, z_slice=args.slice, channel=args.channel, time=args.time,
+                             scene=scene)  # the same size guard as convert
+        cleaned = clean_picture(picture, pixel_size_m=pixel_size_m, remove_annotations=True)
+    except TampError as exc:
+        if args.debug:
+            raise
+        print(f"error: {cli_words(exc)}", file=sys.stderr)
+        return EXIT_FAILED
     s = picture.file
-    cleaned = clean_picture(picture, pixel_size_m=pixel_size_m, remove_annotations=True)
     scale, crop, found = cleaned.pixel_size, cleaned.band.as_dict(), cleaned.annotations_with_text
     meta_found = sorted(k for k in s.metadata if not k.startswith("_"))
     facts = {

@@ -195,6 +195,19 @@ def _add_info(sub) -> None:
                                                     "series name (default: the first)")
 
 
+def _volume_sections(argv: list[str]) -> list[str]:
+    """'--volume sections:5' (the issue's and the docs' spelling) -> '--sections 5'."""
+    out, i = [], 0
+    while i < len(argv):
+        if argv[i] == "--volume" and i + 1 < len(argv) and argv[i + 1].lower().startswith("sections:"):
+            out += ["--sections", argv[i + 1].split(":", 1)[1]]
+            i += 2
+        else:
+            out.append(argv[i])
+            i += 1
+    return out
+
+
 def _values_may_start_with_a_dash(argv: list[str], parser: argparse.ArgumentParser) -> list[str]:
     """'--pixel-size -5um' -> '--pixel-size=-5um'. argparse takes a value starting with '-' for an
     option and says only 'expected one argument'; joined, the value reaches the parameter check,
@@ -215,7 +228,7 @@ def _values_may_start_with_a_dash(argv: list[str], parser: argparse.ArgumentPars
 
 def main(argv=None) -> int:
     parser = build_parser()
-    argv = _values_may_start_with_a_dash(list(sys.argv[1:] if argv is None else argv), parser)
+    argv = _values_may_start_with_a_dash(_volume_sections(list(sys.argv[1:] if argv is None else argv)), parser)
     try:
         args = parser.parse_args(argv)
     except SystemExit as exc:
@@ -357,8 +370,15 @@ def cmd_convert(args) -> int:
 
     def convert_job(job_and_stem):
         (image, job_params, printer), stem = job_and_stem
+        if job_params.volume and job_params.sections:
+            from ..errors import ParameterError
+
+            raise ParameterError("`volume` makes one 3-D model and `sections` a series of plates; give one of them.",
+                                 parameter="sections", value=job_params.sections)
         if job_params.volume:  # a z-stack as a 3-D model (lithograph/volume.py)
             return _convert_volume(image, job_params, Path(args.output), stem, printer)
+        if job_params.sections:  # a z-stack as a series of plates (lithograph/sections.py)
+            return _convert_sections(image, job_params, Path(args.output), stem, printer, args.verbose)
         with _WorkingLine(Path(image).name):  # its line is cleared before the warnings and results are printed
             conversion = convert(image, job_params, Path(args.output), stem=stem, printer_profile=printer)
         lines = [line for each in conversion.prints for line in _say(each, verbose=args.verbose)]
@@ -391,6 +411,16 @@ def _convert_volume(image, params, out: Path, stem: str, printer) -> list[str]:
     for warning in done.model.warnings:
         print(f"warning: {cli_words(warning)}", file=sys.stderr)
     return [cli_words(line) for line in done.lines()]
+
+
+def _convert_sections(image, params, out: Path, stem: str, printer, verbose: bool) -> list[str]:
+    """`convert --volume sections:K`: each plate's lines, then one line for the series."""
+    from ..lithograph.sections import convert_sections, sections_note
+
+    with _WorkingLine(Path(image).name):
+        sections = convert_sections(image, params, out, stem=stem, printer_profile=printer)
+    lines = [line for s in sections for each in s.conversion.prints for line in _say(each, verbose=verbose)]
+    return lines + [f"  note: {sections_note(sections)}"]
 
 
 def _say(conversion, verbose: bool = False) -> list[str]:

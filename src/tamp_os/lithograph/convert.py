@@ -121,6 +121,12 @@ def convert(source, params: LithoParams | None, out_dir, *, stem: str | None = N
         raise ParameterError("`volume`: 3-D models of z-stacks are made by `tamp-os convert` (lithograph.volume.convert_volume); "
                              "batch, sweep and the web app do not make them yet. Leave `volume` out for a relief.",
                              parameter="volume", value=True)
+    if params is not None and params.sections:  # lithograph/sections.py makes the series, one convert per slice
+        from ..errors import ParameterError
+
+        raise ParameterError("`sections`: a series of sections is made by `tamp-os convert` (lithograph.sections.convert_sections); "
+                             "batch, sweep and the web app do not make them yet. Leave `sections` out for one relief.",
+                             parameter="sections", value=params.sections)
     figure = make_figure(source, params or LithoParams(), printer_profile=printer_profile)
     out = Path(out_dir)
     base = stem or figure.prints[0][1].name

@@ -9,6 +9,7 @@ nothing but a backticked parameter name is ever replaced.
 
 from __future__ import annotations
 
+import re
 from typing import Any, Callable
 
 Namer = Callable[[str], "str | None"]  # a parameter's name -> a front end's word for it (None: keep it)
@@ -26,10 +27,20 @@ def _known_names() -> set[str]:
     return _PARAMETER_NAMES
 
 
-def render(template: str, namer: Namer | None = None) -> str:
+OPTIONAL = re.compile("⟦(.*?)⟧", re.S)  # a clause of advice a front end without its controls leaves out
+
+
+def render(template: str, namer: Namer | None = None, offers: Callable[[str], bool] | None = None) -> str:
     """Fill a message template: each `name` of a parameter becomes namer(name) (or the name itself).
 
-    Backticks around anything else (a user's own text) are kept as they were."""
+    Backticks around anything else (a user's own text) are kept as they were. A clause between ⟦ and
+    ⟧ is advice that names controls: kept (without the brackets), unless `offers` says the front end
+    has no control for one of the parameters it names; then the clause is left out."""
+    if "⟦" in template:
+        def clause(m: re.Match) -> str:
+            return "" if offers is not None and not all(offers(n) for n in names_in(m.group(1))) else m.group(1)
+
+        template = OPTIONAL.sub(clause, template)
     if "`" not in template:
         return template
     pieces = template.split("`")
@@ -60,8 +71,8 @@ class Text(str):
         self.template = str(template)
         return self
 
-    def words(self, namer: Namer | None = None) -> str:
-        return render(self.template, namer)
+    def words(self, namer: Namer | None = None, offers: Callable[[str], bool] | None = None) -> str:
+        return render(self.template, namer, offers)
 
     def __reduce__(self):  # pickles (batch workers) and copies keep the template
         return (Text, (self.template,))
@@ -70,13 +81,14 @@ class Text(str):
         return self
 
 
-def words(message: Any, namer: Namer | None = None) -> str:
-    """Any message (an error, a Text, a plain string) in a front end's words."""
+def words(message: Any, namer: Namer | None = None, offers: Callable[[str], bool] | None = None) -> str:
+    """Any message (an error, a Text, a plain string) in a front end's words; `offers`: whether the
+    front end has a control for a parameter (advice naming one it lacks is left out)."""
     if isinstance(message, TampError):
         return message.words(namer)
     if isinstance(message, Text):
-        return message.words(namer)
-    return render(str(message), namer)
+        return message.words(namer, offers)
+    return render(str(message), namer, offers)
 
 
 class TampError(Exception):

@@ -173,5 +173,5 @@ def web_words(message) -> str:
     if isinstance(message, TampError) and message.hint and not all(offers(n) for n in message.hint_names()):
         text = message.words(label_of, hint=False)
     else:
-        text = words(message, label_of)
+        text = words(message, label_of, offers)
     return text[:1].upper() + text[1:]

@@ -473,8 +473,8 @@ def choose(channels: list[ChannelImage], assigned: dict[str, str], mm_per_px: fl
         dropped = [c.name for c in channels if c not in kept]
         kept = [c for c in channels if c in kept]
         notes.append(Text(f"The picture has {len(channels)} channels; the {max_channels} with most structure are printed "
-                          f"({', '.join(c.name for c in kept)}); left out: {some_names(dropped)}. "
-                          f"Choose others with `channels`."))
+                          f"({', '.join(c.name for c in kept)}); left out: {some_names(dropped)}."
+                          f"⟦ Choose others with `channels`.⟧"))
     out = []
     rgb = sorted(c.name for c in channels) == ["blue", "green", "red"]
     titled = marker_in_title(title, channels) if title else {}
@@ -599,7 +599,7 @@ def channel_relief(channels: list[ChannelImage], *, mm_per_px: float, base_mm: f
     for ch in choices:
         if ch.why == "file name":
             chose_notes.append(Text(f"The channel {ch.name!r} names no marker of its own; the file's name does "
-                                    f"({ch.role}), so it is printed as {ch.role}: {ch.encoding}. Say otherwise with `channels`."))
+                                    f"({ch.role}), so it is printed as {ch.role}: {ch.encoding}.⟦ Say otherwise with `channels`.⟧"))
     notes += chose_notes
     by_name = {c.name: c for c in channels}
     heights = np.zeros(channels[0].image.shape)

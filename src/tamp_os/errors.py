@@ -65,8 +65,9 @@ class Text(str):
     template: str
 
     def __new__(cls, template: str):
-        if isinstance(template, Text):
+        if isinstance(template, Text) and type(template) is cls:
             return template
+        template = getattr(template, "template", template)
         self = super().__new__(cls, render(str(template)))
         self.template = str(template)
         return self
@@ -74,11 +75,20 @@ class Text(str):
     def words(self, namer: Namer | None = None, offers: Callable[[str], bool] | None = None) -> str:
         return render(self.template, namer, offers)
 
-    def __reduce__(self):  # pickles (batch workers) and copies keep the template
-        return (Text, (self.template,))
+    def __reduce__(self):  # pickles (batch workers) and copies keep the template (and the kind)
+        return (type(self), (self.template,))
 
     def __deepcopy__(self, memo):
         return self
+
+
+class Decision(Text):
+    """A choice the tool made for the user, said for the record (the description, the report and
+    the verbose output): not a warning, which is for what the user must act on (issue 33.9)."""
+
+
+def is_decision(message: Any) -> bool:
+    return isinstance(message, Decision)
 
 
 def words(message: Any, namer: Namer | None = None, offers: Callable[[str], bool] | None = None) -> str:

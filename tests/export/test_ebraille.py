@@ -251,11 +251,12 @@ def _pairs(litho):
     return files, pairs
 
 
-# Two places where liblouis 3.24's UEB grade 2 back-translation reads correct braille wrongly; the
+# Places where liblouis 3.24's UEB grade 2 back-translation reads correct braille wrongly; the
 # forward braille is right (grade 1 reads both back exactly), so the comparison allows just these.
 BACK_TRANSLATION_DEFECTS = (
     ("\u2019", "'"),  # UEB has one apostrophe cell; liblouis reads it back as the right single quote
     (")be ", "); "),  # a semicolon after a closing parenthesis (⠐⠜⠆) is read as the groupsign 'be'
+    (")'be ", ")'; "),  # and after a closing parenthesis and quote, the same
 )
 
 

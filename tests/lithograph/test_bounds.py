@@ -275,9 +275,11 @@ def channel_tiff(path, names, *, ome=False, seed=0):
 @pytest.mark.timeout(300)
 def test_a_hundred_channels_take_bounded_time_and_the_warning_counts_the_rest(tmp_path, capsys):
     path = channel_tiff(tmp_path / "many.ome.tif", [f"ch{c}" for c in range(100)], ome=True)
-    code, out, err = run(capsys, "convert", path, "-o", tmp_path / "out", "--formats", "stl")
+    code, out, err = run(capsys, "convert", path, "-o", tmp_path / "out", "--formats", "stl", "--verbose")
     assert code == 0, err
-    note = next(line for line in err.splitlines() if "The picture has 100 channels" in line)
+    # which channels were printed is the tool's decision (issue 33.9): said with --verbose, not as a warning
+    assert "The picture has 100 channels" not in err
+    note = next(line for line in out.splitlines() if "The picture has 100 channels" in line)
     assert "and 92 more" in note and "ch96" not in note, note  # a handful of names, then a count
     assert len(note) < 300, note
 

@@ -188,8 +188,12 @@ def test_z_stack_projection_and_slice_from_the_cli(tmp_path, capsys):
     stack[1, 5:25, 5:35] = 1000
     path = tmp_path / "stack.ome.tif"
     tifffile.imwrite(path, stack, ome=True, photometric="minisblack", metadata={"axes": "ZYX"})
-    assert main(["convert", str(path), "-o", str(tmp_path / "o"), "--preset", "low"]) == 0
-    assert "maximum-intensity projection" in capsys.readouterr().err
+    assert main(["convert", str(path), "-o", str(tmp_path / "o"), "--preset", "low", "--verbose"]) == 0
+    said = capsys.readouterr()
+    # a decision, not a warning (issue 33.9): said with --verbose and kept in the report
+    assert "note: z-stack of 3 slices: maximum-intensity projection" in said.out and "maximum-intensity" not in said.err
+    described = (tmp_path / "o" / "stack.ome.description.txt").read_text()
+    assert "How it was made: z-stack of 3 slices: maximum-intensity projection" in described
     assert main(["convert", str(path), "-o", str(tmp_path / "o2"), "--slice", "0"]) == 0
     assert "uniform" in capsys.readouterr().err
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..errors import Text
+from ..errors import Decision, Text
 from ..units import format_length, unit_factor_m
 from ..read.xmltext import parse_xml
 from .vendor import number, sidecar_keys, sidecar_text, tescan_main
@@ -256,7 +256,7 @@ def read_pixel_size(
             ))
         metres, provenance = pixel_size_m, USER_GIVEN
     if metres is None and ("dpi_not_physical" in metadata or 282 in tiff_tags):
-        warnings.append("the file's dpi/resolution tag is not a physical pixel size and was ignored.")
+        warnings.append(Decision("the file's dpi/resolution tag is not a physical pixel size and was ignored."))
     return PixelSize(metres, provenance, tuple(warnings))
 
 

@@ -428,10 +428,16 @@ def _say(conversion, verbose: bool = False) -> list[str]:
     the details) returned."""
     from ..lithograph.report import detail_lines
 
+    from ..errors import is_decision
+
     which = f"{conversion.label}: " if conversion.label else ""  # a figure's print: which panel warns
+    # Warnings are for what the user must act on; the tool's own decisions are in the description and
+    # the report, and here with --verbose (issue 33.9).
     for warning in conversion.report.warnings:
-        print(f"warning: {which}{cli_words(warning)}", file=sys.stderr)
-    lines = [conversion.summary()] + [f"  note: {cli_words(n)}" for n in conversion.notes()]
+        if not is_decision(warning):
+            print(f"warning: {which}{cli_words(warning)}", file=sys.stderr)
+    decided = [f"  note: {cli_words(w)}" for w in conversion.report.warnings if is_decision(w)] if verbose else []
+    lines = [conversion.summary()] + [f"  note: {cli_words(n)}" for n in conversion.notes()] + decided
     printing = conversion.report.print
     if printing:  # the why of "for estimates only" on its own line, so that each line stays short
         note = printing.result.note if printing.result.for_estimates_only else None

@@ -387,6 +387,11 @@ def describe(report: Report, params: LithoParams, source_name: str) -> str:
         parts.append("What a finger will find: " + " ".join(touch_notes(report)))
     if report.instrument:
         parts.append(_instrument_sentence(report.instrument))
+    from ..errors import is_decision
+
+    decided = [str(w) for w in report.warnings if is_decision(w)]
+    if decided:  # the tool's own choices, for the record (the command line says them only when asked to be verbose)
+        parts.append("How it was made: " + " ".join(decided))
     return " ".join(parts)
 
 

@@ -1,4 +1,4 @@
-"""A z-stack as a section series (issue 36, `--volume sections:K`): K evenly spaced slices, each its
+"""A z-stack as a section series (issue 36: `sections` K): K evenly spaced slices, each its
 own relief plate, labelled in braille with its place in the series ("2 of 5, z = 12 µm").
 
 Each plate is an ordinary print of one slice (`z_slice`), so every rule of a relief holds for it

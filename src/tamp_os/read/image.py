@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError, MissingDependencyError, ParameterError, Text
+from ..errors import Decision, InputError, MissingDependencyError, ParameterError
 from .cost import (MAX_MEMORY_GB, Cost, check_memory, pillow_copies_bytes, tiff_chunk_bytes, tiff_jpeg_bytes,
                         working_bytes)
 from .model import (DEFAULT_TARGET_PX, Decoded, Limits, Picture, Plane, alpha_scale, channel_choice, check_bytes, check_size,
@@ -339,7 +339,7 @@ def _pick_z(path, array, axes, z_slice, notes):
     if z_slice is None:
         array = array.max(axis=axes.index("Z"))
         if n > 1:
-            notes.append(Text(f"z-stack of {n} slices: maximum-intensity projection (choose one slice with `z_slice`)."))
+            notes.append(Decision(f"z-stack of {n} slices: maximum-intensity projection (choose one slice with `z_slice`)."))
     else:
         if not 0 <= z_slice < n:
             raise ParameterError(f"{path}: `z_slice` must be 0–{n - 1} (slices in this stack); got {z_slice}.")

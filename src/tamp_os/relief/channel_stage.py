@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import ParameterError, Text
+from ..errors import Decision, ParameterError, Text
 from .channels import (
     STAIN_LABEL,
     ChannelImage,
@@ -251,17 +251,17 @@ def channel_path(source, relief, layout, params, route=None, cleaned=None, title
         how = ("The stains were separated by colour deconvolution" if stage.kind == "stain"
                else "The picture was printed channel by channel")
         # (⟦…⟧: advice a front end without those controls leaves out, errors.render)
-        notes += (Text(f"{how}, each a texture named in the key, because {route.why}⟦; `channel` prints a single "
+        notes += (Decision(f"{how}, each a texture named in the key, because {route.why}⟦; `channel` prints a single "
                        f"channel⟧⟦, and `channels` off prints the brightness as before⟧."),)
     short = [e for e in strip.entries if e.braille_label and e.braille_label != e.label]
     if short:
-        notes += (Text("The key writes shorter labels in braille, to fit its lines: "
+        notes += (Decision("The key writes shorter labels in braille, to fit its lines: "
                        + "; ".join(f"{e.braille_label!r} for {e.label!r}" for e in short) + "."),)
     cut = [e.label for e in strip.entries if e.braille != to_braille(e.braille_label, params.braille_table, what="key_labels")]
     if cut:
         notes += (Text(f"The key's braille for {', '.join(map(repr, cut))} is cut to two lines⟦; give a shorter label "
                        f"with `key_labels`⟧."),)
-    notes += (Text(f"The plate grew by {grown.depth_mm - layout.depth_mm:.1f} mm along its depth to hold the "
+    notes += (Decision(f"The plate grew by {grown.depth_mm - layout.depth_mm:.1f} mm along its depth to hold the "
                    f"braille key below the picture."),)
     out = ReliefResult(heights, "channels", reason, None, (), notes)
     overlay = np.vstack([np.zeros_like(rel.heights_mm), strip.overlay_mm[1:, :cols]])

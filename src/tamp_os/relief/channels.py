@@ -18,7 +18,7 @@ import numpy as np
 from scipy import ndimage as ndi
 from skimage import color, filters, morphology
 
-from ..errors import ParameterError, Text
+from ..errors import Decision, ParameterError, Text
 from .textures3d import MAX_TEXTURES, pattern, ridge_angle_unlike, spec_for
 
 log = logging.getLogger(__name__)
@@ -472,7 +472,7 @@ def choose(channels: list[ChannelImage], assigned: dict[str, str], mm_per_px: fl
         kept = sorted(channels, key=lambda c: -shapes[c.name].structure)[:max_channels]
         dropped = [c.name for c in channels if c not in kept]
         kept = [c for c in channels if c in kept]
-        notes.append(Text(f"The picture has {len(channels)} channels; the {max_channels} with most structure are printed "
+        notes.append(Decision(f"The picture has {len(channels)} channels; the {max_channels} with most structure are printed "
                           f"({', '.join(c.name for c in kept)}); left out: {some_names(dropped)}."
                           f"⟦ Choose others with `channels`.⟧"))
     out = []
@@ -598,7 +598,7 @@ def channel_relief(channels: list[ChannelImage], *, mm_per_px: float, base_mm: f
     choices, chose_notes = choose(channels, assigned or {}, mm_per_px, max_channels, found, stretch, title)
     for ch in choices:
         if ch.why == "file name":
-            chose_notes.append(Text(f"The channel {ch.name!r} names no marker of its own; the file's name does "
+            chose_notes.append(Decision(f"The channel {ch.name!r} names no marker of its own; the file's name does "
                                     f"({ch.role}), so it is printed as {ch.role}: {ch.encoding}.⟦ Say otherwise with `channels`.⟧"))
     notes += chose_notes
     by_name = {c.name: c for c in channels}
@@ -730,7 +730,7 @@ def stain_relief(channels: list[ChannelImage], *, mm_per_px: float, base_mm: flo
         masks["DAB"] = dab
         choices.append(ChannelChoice("DAB", "plateau", "stain"))
     else:
-        notes.append(Text("No DAB stain found (an H&E slide): haematoxylin and eosin are printed."))
+        notes.append(Decision("No DAB stain found (an H&E slide): haematoxylin and eosin are printed."))
     # nuclei: domes over everything else, rising fully within DOME_RISE_MM of their edge
     dist = ndi.distance_transform_edt(nuclei)
     dome = np.sqrt(np.clip(dist / max(DOME_RISE_MM / mm_per_px, 1.0), 0, 1))

@@ -33,6 +33,7 @@ import scipy.fft
 from scipy import ndimage
 from skimage import exposure, filters, morphology, segmentation
 
+from ..errors import Decision
 from .lines import (
     FINE_PITCH_MM,
     LINE_HEIGHT_MM,
@@ -633,13 +634,13 @@ def _as_members(labels: np.ndarray, pitch_mm, relief_mm, polarity, extra, what, 
         grown = segmentation.expand_labels(labels, distance=max(1.0, (MIN_FELT_MM - float(diam[small].min())) / 2 / pitch_mm))
         keep_small = np.concatenate([[False], small])
         labels = np.where((labels == 0) & keep_small[grown], grown, labels)
-        notes.append(f"content: {int(small.sum())} members narrower than {MIN_FELT_MM:g} mm were drawn {MIN_FELT_MM:g} mm wide, so a finger finds them.")
+        notes.append(Decision(f"content: {int(small.sum())} members narrower than {MIN_FELT_MM:g} mm were drawn {MIN_FELT_MM:g} mm wide, so a finger finds them."))
     elif small.any():
-        notes.append(f"content: {int(small.sum())} of {count} members are narrower than {MIN_FELT_MM:g} mm; with so many they read as a texture of small domes.")
+        notes.append(Decision(f"content: {int(small.sum())} of {count} members are narrower than {MIN_FELT_MM:g} mm; with so many they read as a texture of small domes."))
     before = int(labels.max())
     labels = _with_interior(labels)
     if int(labels.max()) < before:
-        notes.append(f"content: {before - int(labels.max())} members too thin to carry a dome were left flat.")
+        notes.append(Decision(f"content: {before - int(labels.max())} members too thin to carry a dome were left flat."))
     # No pins: a member's dome stands at most PIN_ASPECT times its inscribed radius (a member a grid
     # point or two wide, raised the full relief, is 0.4-0.8 mm wide and 3 mm tall: it prints badly
     # and a finger finds a prick, not a dome).
@@ -655,8 +656,8 @@ def _as_members(labels: np.ndarray, pitch_mm, relief_mm, polarity, extra, what, 
         scale = float(np.percentile(texture, 95))
         if scale > 0:
             domes = np.maximum(domes, np.clip(texture / scale, 0.0, 1.0)).astype(np.float32)
-            notes.append(f"content: a dense field ({count} members over {cover:.0%} of the picture): the members not parted "
-                         f"from their neighbours rise by their local contrast, as a texture of small domes.")
+            notes.append(Decision(f"content: a dense field ({count} members over {cover:.0%} of the picture): the members not "
+                                  f"parted from their neighbours rise by their local contrast, as a texture of small domes."))
     reason = f"content: {what}; each raised as a dome by the same lift, touching ones apart by a groove; {polarity.reason}{extra}"
     split = 0 if picture is None else int(neckless_pairs(labels, local_tophat(picture.astype(np.float32), pitch_mm))[0].size)
     return ContentMade(domes, "members", labels, reason, tuple(notes), split_pairs=split)
@@ -816,9 +817,10 @@ def _as_lattice(shape: tuple[int, int], x: np.ndarray, x_pitch_mm: float, pitch_
         what += f"; a brighter layer of {int(upper.sum())} columns stands on a plateau {step_mm:.1f} mm high"
     notes = []
     if fine_spacing_mm < MIN_PITCH_MM or len(peaks) < len(fine_peaks):
-        notes.append(f"content: the lattice's columns are {fine_spacing_mm:.1f} mm apart on the print, under the {MIN_PITCH_MM:g} mm "
-                     f"a fingertip tells apart (braille dots' spacing): it is felt as a fine, even grain; at a print width of about "
-                     f"{_round_up(resolve_mm)} mm every column is {MIN_PITCH_MM:g} mm from the next.")
+        notes.append(Decision(f"content: the lattice's columns are {fine_spacing_mm:.1f} mm apart on the print, under the "
+                              f"{MIN_PITCH_MM:g} mm a fingertip tells apart (braille dots' spacing): it is felt as a fine, even "
+                              f"grain; at a print width of about {_round_up(resolve_mm)} mm every column is {MIN_PITCH_MM:g} mm "
+                              f"from the next."))
     reason = (f"content: {what}, on a flat ground (its spectrum peaks at {period.pitch_mm:.1f} mm, {period.share:.0%} of the detail); "
               f"{polarity.reason}{extra}")
     return ContentMade(relief01, "lattice", labels, reason, tuple(notes), lattice=found)
@@ -845,11 +847,11 @@ def _as_lines(lines: Lines, pitch_mm, relief_mm, width_mm, polarity, extra, kind
     notes = []
     share = float(lines.merged.mean())
     if share >= MERGED_SAID_SHARE:  # a few filled pixels change nothing a reader must act on
-        notes.append(
+        notes.append(Decision(
             f"content: some lines run closer than {MIN_GAP_MM:g} mm, which a finger cannot separate; the space between them "
             f"({share:.0%} of the picture) was filled so they read as one band; at a print width of about "
             f"{width_mm * lines.separate_at:.0f} mm nine in ten of the regions they enclose would be felt apart."
-        )
+        ))
     what = what or f"a network of lines enclosing {lines.cell_count} regions ({lines.length_mm:.0f} mm of line, ridge strength {lines.strength:.0f} × noise)"
     reason = (f"content: {what}, raised as lines {LINE_WIDTH_MM:g} mm wide and {height:.1f} mm high on a flat ground; "
               f"{polarity.reason}{extra}")

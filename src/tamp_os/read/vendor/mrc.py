@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ...errors import InputError
+from ...errors import Decision, InputError
 from .model import Channel, Stack
 
 KIND = "mrc"
@@ -86,7 +86,7 @@ def open_mrc(path, scene: int | None, limits=None) -> Stack:
         raise
     notes = []
     if order != (1, 2, 3):
-        notes.append(f"MRC axis order (mapc, mapr, maps) = {order}: the volume was reordered to X, Y, Z.")
+        notes.append(Decision(f"MRC axis order (mapc, mapr, maps) = {order}: the volume was reordered to X, Y, Z."))
     angles = tuple(float(a) for a in (h.cellb.alpha, h.cellb.beta, h.cellb.gamma))
     if any(abs(a - 90) > 0.01 for a in angles if a):
         notes.append(f"the unit cell is not orthogonal (angles {', '.join(f'{a:g}' for a in angles)}°); the print shows the voxel grid unskewed.")

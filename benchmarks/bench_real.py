@@ -5,7 +5,8 @@ Per file: its class and the class's target (written once, here, from the README 
 chose, the measure against the target, whether the target is met, and what the print's own checks
 said (the agreement check of relief/agreement.py: raised gaps, structure left flat). Measures:
 
-- members / lattice: members felt (benchmarks/content_metrics.py) on the truth of
+- members / lattice: members felt (benchmarks/content_metrics.py), and how many the relief made
+  (more than the truth: split; fewer: merged), on the truth of
   benchmarks/content_truth.py, made by the relief stage at Medium (the pipeline's relief on the
   same prepared picture); target ≥ 90 % (members), ≥ 95 % of columns (lattice);
 - lines: median height on the true lines minus the areas they enclose; target ≥ +0.5 mm;
@@ -106,7 +107,8 @@ def _truth_measures() -> dict[str, tuple[str, float, bool]]:
             v = members_felt(r.heights_mm, t.members, case.mm_per_px)
             kind = "lattice" if t.pitch_px is not None else "members"
             what = "columns" if kind == "lattice" else "members"
-            out[name] = (f"{v:.0%} of {int(t.members.max())} {what} felt", v, v >= TARGET[kind])
+            made = f", {int(r.objects.max())} made" if r.objects is not None and r.objects.max() else ""  # split or merged
+            out[name] = (f"{v:.0%} of {int(t.members.max())} {what} felt{made}", v, v >= TARGET[kind])
     return out
 
 

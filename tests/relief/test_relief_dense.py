@@ -7,7 +7,7 @@ and prepared as the pipeline prepares them at Medium (250 px across 100 mm, blur
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 from scipy import ndimage
 
@@ -82,6 +82,7 @@ def felt_share(heights, labels, mm_per_px, ring_mm=1.5):
 @pytest.mark.timeout(300)
 @settings(max_examples=examples(4), deadline=None)
 @given(seed=st.integers(0, 2**16), radius_px=st.floats(10.5, 13.0))
+@example(seed=432, radius_px=12.5)  # the population path parts half of them; its reason names the other side's dense field
 def test_a_dense_particle_field_is_found_and_nine_in_ten_members_are_felt(seed, radius_px):
     """Particles 2.1-2.6 mm across on the print, hundreds of them touching: the blobs are a dense
     field, auto takes the content style, and >= 90 % of them stand 0.5 mm over the ring around them.
@@ -95,7 +96,10 @@ def test_a_dense_particle_field_is_found_and_nine_in_ten_members_are_felt(seed, 
     # (Where the local-contrast segmentation parts enough of them, the population path takes it first.)
     assert made.style == "content" and made.object_count > 0
     assert felt_share(made.heights_mm, labels, mm) >= 0.9
-    if "dense field" in made.reason:  # the check counts the domes a finger finds: of the order of the particles drawn
+    # Drawn as a dense field, the check counts the domes a finger finds: of the order of the particles
+    # drawn. (Not when the population path parted them: its reason may say "dense field" of the other
+    # side's blobs only to explain the polarity, as hypothesis found for seed 432.)
+    if "content: a dense field of small members" in made.reason:
         assert 0.5 * labels.max() <= made.object_count <= 1.5 * labels.max()
 
 

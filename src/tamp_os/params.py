@@ -148,6 +148,8 @@ class LithoParams:
             )
         self.pixel_size_m, self.scale_bar_m, self.bed_size_mm, self.z_step_m  # noqa: B018  each parsed (and so checked) here, once
         self.braille_spec()  # checks the dot sizes against each other
+        if self.volume and self.sections:
+            raise ParameterError("`volume` makes one 3-D model and `sections` a series of plates; give one of them.")
         if self.bed_mm is not None:
             if self.multicolour:
                 raise ParameterError("`multicolour` and `bed_mm`: tiled two-colour prints are not made yet; choose one of them.")

@@ -370,11 +370,6 @@ def cmd_convert(args) -> int:
 
     def convert_job(job_and_stem):
         (image, job_params, printer), stem = job_and_stem
-        if job_params.volume and job_params.sections:
-            from ..errors import ParameterError
-
-            raise ParameterError("`volume` makes one 3-D model and `sections` a series of plates; give one of them.",
-                                 parameter="sections", value=job_params.sections)
         if job_params.volume:  # a z-stack as a 3-D model (lithograph/volume.py)
             return _convert_volume(image, job_params, Path(args.output), stem, printer)
         if job_params.sections:  # a z-stack as a series of plates (lithograph/sections.py)

@@ -318,7 +318,9 @@ def _model(path, picture, params, printer, read, voxel_m, rel, factors, budget_v
                          f"float{'s' if loose == 1 else ''} in the file as separate pieces (print them apart, or give "
                          f"a lower `iso_level` so they join)" if loose else "") + ".")
     else:
-        out.mesh = _fused_none(path, model)
+        from ..mesh.repair import as_written
+
+        out.mesh = as_written(model)  # the bare model, repaired of faces of no area where needed
     if per_mm:
         notes.append(f"1 mm on the model = {format_length(per_mm)} of the sample.")
     out.seconds = time.perf_counter() - start
@@ -351,14 +353,6 @@ def _fused(path, simplified, width_mm, depth_mm, base_mm, furniture, stand_model
             break
     raise InputError(f"{path}: the model could not be fused with its base into a sound solid ({'; '.join(problems)}); write "
                      f"the bare model with `volume_stand` none, or try another `iso_level` or `size_mm`, and please report this stack.")
-
-
-def _fused_none(path, model: Mesh) -> Mesh:
-    """The bare model as written, repaired of faces of no area where needed."""
-    from ..mesh.repair import remove_slivers
-    from ..mesh.validate import check_as_written
-
-    return model if check_as_written(model).ok else remove_slivers(model)
 
 
 def _exact_size(mesh: Mesh, size_mm: float) -> Mesh:

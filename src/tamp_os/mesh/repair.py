@@ -12,12 +12,18 @@ from __future__ import annotations
 import numpy as np
 
 from .solid import INDEX, Mesh
-from .validate import MIN_FACE_AREA_MM2, merge_float32
+from .validate import MIN_FACE_AREA_MM2, check_as_written, merge_float32
 
 
 def _areas(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     tri = vertices[faces]
     return 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+
+
+def as_written(mesh: Mesh) -> Mesh:
+    """`mesh` as a slicer will read it: unchanged when it is sound written as float32, else with its
+    faces of no area removed (a boolean's cut through a fine relief, a volume's bare model)."""
+    return mesh if check_as_written(mesh).ok else remove_slivers(mesh)
 
 
 def remove_slivers(mesh: Mesh, passes: int = 6) -> Mesh:

@@ -80,12 +80,13 @@ def agreement(picture01: np.ndarray, heights_mm: np.ndarray, *, mm_per_px: float
     if span < 0.5 or min(h.shape) < 8:
         return Agreement()
     structure = _structure(shown, mm_per_px)
+    noise = _band_noise(shown, mm_per_px)
     out: list[Text] = []
     facts = {}
     if polarity:
-        facts, said = _polarity(shown, h / span, structure, mm_per_px, inverted, signal)
+        facts, said = _polarity(shown, h / span, structure, noise, mm_per_px, inverted, signal)
         out += said
-    share, said = _flat_structure(shown, h, structure, mm_per_px, style)
+    share, said = _flat_structure(h, structure, noise, mm_per_px, style)
     out += said
     return Agreement(**facts, flat_structure_share=share, sentences=tuple(out))
 
@@ -97,11 +98,11 @@ def _block_mean(a: np.ndarray, factor: int) -> np.ndarray:
     return a[:rows, :cols].reshape(rows // factor, factor, cols // factor, factor).mean(axis=(1, 3), dtype=np.float32)
 
 
-def _structure(shown: np.ndarray, pitch_mm: float) -> np.ndarray:
-    """Local strength of the picture's fingertip-scale structure: the band between FINGER_BAND_MM,
-    its root mean square over a fingertip's area."""
+def _structure(values: np.ndarray, pitch_mm: float) -> np.ndarray:
+    """Local strength of fingertip-scale structure (of the picture, or of the heights in mm): the
+    band between FINGER_BAND_MM, its root mean square over a fingertip's area."""
     lo, hi = FINGER_BAND_MM
-    band = gaussian_mm(shown, lo / 2, pitch_mm) - gaussian_mm(shown, hi / 2, pitch_mm)
+    band = gaussian_mm(values, lo / 2, pitch_mm) - gaussian_mm(values, hi / 2, pitch_mm)
     return np.sqrt(gaussian_mm(band * band, hi / 2, pitch_mm))
 
 
@@ -114,7 +115,7 @@ def _band_noise(shown: np.ndarray, pitch_mm: float) -> float:
     return noise_sigma(shown) / (2 * math.sqrt(math.pi) * g)
 
 
-def _polarity(shown, rel, structure, pitch_mm, inverted, signal) -> tuple[dict, list[Text]]:
+def _polarity(shown, rel, structure, noise, pitch_mm, inverted, signal) -> tuple[dict, list[Text]]:
     raised, ground = rel >= RAISED_SHARE, rel <= GROUND_SHARE
     if raised.mean() < MIN_PHASE_AREA or ground.mean() < MIN_PHASE_AREA:
         return {}, []
@@ -133,7 +134,6 @@ def _polarity(shown, rel, structure, pitch_mm, inverted, signal) -> tuple[dict, 
         return facts, [Text(f"What is raised is the picture's dark side (median brightness {b_r:.0%} against {b_g:.0%} at the "
                             f"base), but in a {what} image bright is usually the specimen: the print may raise the gaps "
                             f"around it; {option} raises the bright side.")]
-    noise = _band_noise(shown, pitch_mm)
     if s_g > STRUCTURE_RATIO * max(s_r, noise) and s_g > VISIBLE_NOISE * noise and abs(b_r - b_g) > DARKER_BY:
         side = "dark" if b_r < b_g else "bright"
         return facts, [Text(f"What is raised is the picture's smooth {side} side, and what stays at the base carries its "
@@ -142,15 +142,13 @@ def _polarity(shown, rel, structure, pitch_mm, inverted, signal) -> tuple[dict, 
     return facts, []
 
 
-def _flat_structure(shown, h, structure, pitch_mm, style: str) -> tuple[float, list[Text]]:
-    lo, hi = FINGER_BAND_MM
-    band = gaussian_mm(h, lo / 2, pitch_mm) - gaussian_mm(h, hi / 2, pitch_mm)
-    relief = np.sqrt(gaussian_mm(band * band, hi / 2, pitch_mm))
+def _flat_structure(h, structure, noise, pitch_mm, style: str) -> tuple[float, list[Text]]:
+    relief = _structure(h, pitch_mm)
     # A line's or an edge's structure spreads over its blur in the picture while the print draws it
     # sharp: what the print carries within a fingertip's reach of a point counts for that point.
     reach = 2 * max(1, round(FINGERTIP_MM / 2 / pitch_mm)) + 1
     relief = ndimage.maximum_filter(relief, size=reach)
-    visible = structure > max(VISIBLE_MIN, VISIBLE_NOISE * _band_noise(shown, pitch_mm))
+    visible = structure > max(VISIBLE_MIN, VISIBLE_NOISE * noise)
     flat = relief < FLAT_MM
     lost = visible & flat
     share = float(lost.mean())

@@ -181,8 +181,6 @@ def marker_in_title(title: str, channels: list[ChannelImage]) -> dict[str, tuple
     channels gives them nuclei, microtubules and actin, in the file's channel order (the order a
     name lists its channels in, as ImageJ and Fiji users name their exports). Anything less
     certain (more markers than channels, or fewer) gives {}."""
-    import re as _re
-
     named = {signal_role(c.name)[1] for c in channels if signal_role(c.name)}
     if any(_by_wavelength(*_wavelengths(c)) for c in channels if not signal_role(c.name)):
         named.add("nuclei")  # a DAPI-like wavelength already says which channel the nuclei are
@@ -195,12 +193,18 @@ def marker_in_title(title: str, channels: list[ChannelImage]) -> dict[str, tuple
             paired[excited[0].name] = role
     if paired:
         return paired
-    found = []
-    for token in _re.split(r"[^a-z0-9]+", title.lower()):
-        role = signal_role(token) if token else None
-        if role and role[1] not in named and role not in found:
-            found.append(role)
+    found = _markers_named(title, skip=named)
     return {c.name: role for c, role in zip(unknown, found)} if unknown and len(found) == len(unknown) else {}
+
+
+def _markers_named(title: str, skip: set[str]) -> list[tuple[str, str]]:
+    """(encoding, role) of each marker the title's words name, in their order, once each, leaving out the roles in `skip`."""
+    found: list[tuple[str, str]] = []
+    for token in re.split(r"[^a-z0-9]+", title.lower()):
+        role = signal_role(token) if token else None
+        if role and role[1] not in skip and role not in found:
+            found.append(role)
+    return found
 
 
 def markers_by_shape(title: str, channels: list[ChannelImage], shapes: dict) -> dict[str, tuple[str, str]]:
@@ -212,11 +216,7 @@ def markers_by_shape(title: str, channels: list[ChannelImage], shapes: dict) -> 
     from itertools import permutations
 
     free = [c for c in channels if c.name in ("red", "green")]
-    found: list[tuple[str, str]] = []
-    for token in re.split(r"[^a-z0-9]+", title.lower()):
-        role = signal_role(token) if token else None
-        if role and role[1] != "nuclei" and role not in found:
-            found.append(role)
+    found = _markers_named(title, skip={"nuclei"})
     if not free or len(found) != len(free):
         return {}
 

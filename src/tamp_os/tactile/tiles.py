@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..mesh.repair import as_written
 from ..mesh.solid import Mesh
 from ..units import MIN_BED_MM, parse_bed_mm  # noqa: F401  (re-exported)
 from .braille import BrailleSpec, block_size_mm, dot_centres
@@ -278,19 +279,11 @@ def make_tiles(mesh: Mesh, bed_mm: tuple[float, float], base_mm: float, spec: Br
             label = tile_label(r + 1, c + 1)
             box, on_margin = _label_spot(raised, cell, block_size_mm([label], spec))
             piece = piece + _label_solid(mesh, box, on_margin, label, base_mm, spec)
-            tiles.append(Tile(r + 1, c + 1, cell, _as_written(to_mesh(piece)), label, box, on_margin))
+            # a cut through a fine relief can leave faces of no area once written as float32
+            tiles.append(Tile(r + 1, c + 1, cell, as_written(to_mesh(piece)), label, box, on_margin))
     notes = [f"tiles: the label of tile {t.row}-{t.col} stands on a small pad over the picture (no bare margin in that tile)."
              for t in tiles if not t.label_on_margin]
     return Tiling(rows, cols, bed_mm, tiles, joints, rotated, notes)
-
-
-def _as_written(piece: Mesh) -> Mesh:
-    """A tile as a slicer will read it: a cut through a fine relief can leave faces of no area once
-    written as float32 (mesh/repair.py); they are removed where the check finds any."""
-    from ..mesh.repair import remove_slivers
-    from ..mesh.validate import check_as_written
-
-    return piece if check_as_written(piece).ok else remove_slivers(piece)
 
 
 def _bounds(section) -> Box:

@@ -18,6 +18,7 @@ from .errors import ParameterError, register_parameter_names, render
 from .formats import GRAPHIC_FORMATS, NAMES as FORMATS  # noqa: F401  (GRAPHIC_FORMATS: re-exported)
 from .printing.printers import PRESETS
 from .standards import DEFAULT_TABLE, BrailleSpec
+from .texts import parse_boxes, parse_grid
 from .units import PIXEL_SIZE_RANGE_M, format_length, parse_bed_mm, parse_length_m
 FITS = ("pad", "crop", "stretch")
 MESHERS = ("adaptive", "grid")
@@ -54,6 +55,8 @@ class LithoParams:
     tamp_os.errors.ParameterError: relief_mm: must be > 0.0 and ≤ 50.0 mm; got -1 mm.
     """
 
+
+    # --- printer and size ---
     preset: str = _f("medium", "grid density from the nozzle: low, medium or high", choices=tuple(PRESETS))
     printer: str = _f("standard", "printer profile (standard, fine, large, one of yours, or a PrusaSlicer system printer: see the printers command)")
     nozzle_mm: float | None = _f(None, "nozzle diameter (default: from the printer)", "mm", 0.05, 2.0)
@@ -62,6 +65,8 @@ class LithoParams:
     depth_mm: float | None = _f(None, "print depth, top to bottom of the image (default: from the aspect ratio)", "mm", 5.0, 1000.0)
     fit: str | None = _f(None, "when width and height both disagree with the image: pad, crop or stretch", choices=FITS)
     resolution_px: int | None = _f(None, "grid points across the width (default: from the preset)", "px", 2, 16384)
+
+    # --- heights and contrast ---
     base_mm: float = _f(1.0, "solid base under the relief", "mm", 0.0, 50.0, lo_open=True)
     relief_mm: float = _f(3.0, "height of the relief above the base", "mm", 0.0, 50.0, lo_open=True)
     blur_px: float | None = _f(None, "Gaussian blur sigma in output pixels (default: from the preset)", "px", 0.0, 100.0)
@@ -71,6 +76,8 @@ class LithoParams:
     stretch_low_pct: float = _f(2.0, "lower percentile of the contrast stretch", "%", 0.0, 100.0)
     stretch_high_pct: float = _f(98.0, "upper percentile of the contrast stretch", "%", 0.0, 100.0)
     quantize: bool = _f(False, "round heights to whole layers")
+
+    # --- relief style ---
     relief_style: str = _f(
         "auto",
         "how the picture becomes heights: structure (shapes a finger can find, fine detail as low texture), "
@@ -84,22 +91,32 @@ class LithoParams:
     )
     texture_mm: float = _f(0.3, "height of the fine texture kept on the shapes (0 = none)", "mm", 0.0, 2.0)
     level_count: int = _f(3, "plateaus of the levels style", "", 2, 5)
+
+    # --- channels ---
     channel: str = _f("luminance", "luminance, or a channel: a number from 0 or red/green/blue/alpha")
     channels: str | None = _f(None, "how a picture of several channels prints: auto (the default: a multi-channel file, an RGB "
                               "fluorescence composite or a stained H&E/IHC slide prints each channel or stain as its own texture "
                               "with a braille key), off (brightness as one picture, as before), or NAME=ENCODING pairs "
                               "such as DAPI=domes,GFP=ridges (encodings: domes, ridges, dots, plateau)")
     key_labels: str | None = _f(None, "labels of the channel key, as NAME=LABEL pairs such as DAPI=nuclei,GFP=actin (default: from the channel names)")
+
+    # --- what is read ---
     page: int | None = _f(None, "TIFF page or series to read (default: the first, or the data page beside a preview)", "", 0, 100000)
     z_slice: int | None = _f(None, "z-stack slice to use (default: maximum-intensity projection)", "", 0, 100000)
     time: int | None = _f(None, "time point of a time series to use, from 0 (default: the first)", "", 0, 1000000)
     scene: int | str | None = _f(None, "scene, series, image or position of a multi-scene file (CZI, LIF, ND2, EMD, ...): a number from 0, or a LIF series name (default: the first)", "", 0, 100000)
     pixel_size: str | float | None = _f(None, "physical pixel size, overriding the file's: a length such as 4.2nm, 0.5um, 3 micron, 0.01mm, or a number in metres (4.2e-9)")
+
+    # --- annotations ---
     keep_annotations: bool = _f(False, "keep burned-in scale bars, labels and data bands (default: remove them)")
     save_masks: bool = _f(False, "write NAME.annotations.png showing what was removed")
+
+    # --- limits on what is read ---
     max_megapixels: float = _f(100.0, "refuse larger images (decompression-bomb guard; 100 Mpx fits `max_memory_gb`)", "Mpx", 0.0, 1e6, lo_open=True)
     max_decoded_gb: float = _f(2.0, "refuse images whose decoded pixels would take more memory (checked before decoding)", "GB", 0.0, 1024.0, lo_open=True)
     max_memory_gb: float = _f(4.0, "refuse images whose conversion would need more memory in all: pixels, tiles, copies, working arrays (checked before decoding)", "GB", 0.0, 4096.0, lo_open=True)
+
+    # --- tactile furniture ---
     caption: str | None = _f(None, "braille caption along the bottom margin (text, or Unicode braille as is)")
     subject: str | None = _f(None, "what the picture shows, for the description read aloud (e.g. 'FePt nanoparticles on carbon')")
     braille_table: str = _f(DEFAULT_TABLE, "liblouis table for braille (en-ueb-g1.ctb for grade 1, or any other)")
@@ -111,21 +128,33 @@ class LithoParams:
     dot_spacing_mm: float = _f(2.5, "braille dot spacing within a cell", "mm", *BrailleSpec.RANGES["dot_spacing_mm"])
     cell_spacing_mm: float = _f(6.0, "braille cell to cell spacing", "mm", *BrailleSpec.RANGES["cell_spacing_mm"])
     line_spacing_mm: float = _f(10.0, "braille line to line spacing", "mm", *BrailleSpec.RANGES["line_spacing_mm"])
+
+    # --- parts and tiles ---
     multicolour: bool = _f(False, "two-colour print: the braille, scale bar and frame as a second part (a 3MF with two coloured parts; with STL, NAME.base.stl and NAME.raised.stl)")
     bed_mm: str | float | None = _f(None, "printer bed size in mm, e.g. 120 or 120x200 (a number: a square bed): a larger plate is split into tiles that fit, with pegs and sockets, written as NAME.tile-R-C.*")
+
+    # --- mesh ---
     mesher: str = _f("adaptive", "adaptive: fewest triangles within `max_error_mm`; grid: every pixel a vertex", choices=MESHERS)
     max_error_mm: float | None = _f(None, "largest height error of the adaptive mesh (default: half the layer height; 0 = exact grid)", "mm", 0.0, 5.0)
+
+    # --- slicing and estimates ---
     gcode: bool = _f(False, "also slice with PrusaSlicer to NAME.gcode and report print time, grams and cost")
     material: str = _f("PLA", "filament or resin for slicing and estimates: PLA, PETG, ABS, rPLA and rPETG (recycled), resin or "
                        "plant-resin (PLA, the default, on a resin printer means resin)",
                        choices=("PLA", "PETG", "ABS", "rPLA", "rPETG", "resin", "plant-resin"))
     filament_price_per_kg: float = _f(25.0, "filament price per kg, in your currency", "", 0.0, 1000.0, lo_open=True)
     slice_timeout_s: float = _f(600.0, "stop PrusaSlicer after this long", "s", 0.0, 86400.0, lo_open=True)
+
+    # --- outputs ---
     formats: tuple[str, ...] = _f(("stl",), "output formats (pdf and svg: a 2-D tactile graphic for swell paper or an embosser)", choices=FORMATS)
+
+    # --- figures and paper pages ---
     panels: str = _f("auto", "multi-panel figures: auto (find the panels; print each on its own plus an overview), off (print the figure whole), or a grid of rows x columns such as 2x3")
     panel: str | None = _f(None, "print only these panels of a figure, by letter or number, e.g. b,c")
     panel_boxes: str | None = _f(None, "the panels' boxes in source pixels, label=x,y,w,h;… (the recipe records them, so a rebuild is identical)")
     page_size: str = _f("plate", "page of the pdf and svg graphics: plate (its own size), a4 or letter (centred)", choices=("plate", "a4", "letter"))
+
+    # --- volumes ---
     volume: bool = _f(False, "make a 3-D model of a z-stack or density map (a watertight solid on a base with the braille caption, scale bar and cut corner) instead of a relief")
     size_mm: float | None = _f(None, "longest side of a `volume` model (default: the printer's print width, 100 mm)", "mm", 5.0, 1000.0)
     z_step: str | float | None = _f(None, "z step of a `volume` stack, overriding the file's: a length such as 0.5um, or a number in metres")
@@ -154,12 +183,8 @@ class LithoParams:
             if self.multicolour:
                 raise ParameterError("`multicolour` and `bed_mm`: tiled two-colour prints are not made yet; choose one of them.")
         if self.panels not in ("auto", "off"):
-            from .clean.panels import parse_grid
-
             parse_grid(self.panels)
         if self.panel_boxes is not None:
-            from .clean.panels import parse_boxes
-
             parse_boxes(self.panel_boxes)
         if not self.formats:
             raise ParameterError(f"`formats`: choose at least one of {', '.join(FORMATS)}.")
@@ -183,6 +208,17 @@ class LithoParams:
     def bed_size_mm(self) -> tuple[float, float] | None:
         """`bed_mm` as (width, depth) in mm, or None (no tiling)."""
         return None if self.bed_mm is None else parse_bed_mm(self.bed_mm)
+
+    def section(self, title: str) -> dict[str, Any]:
+        """One stage's parameters (a title of SECTIONS) and their values, as keyword arguments.
+
+        >>> LithoParams(relief_mm=2.0).section("mesh")
+        {'mesher': 'adaptive', 'max_error_mm': None}
+        """
+        names = dict(SECTIONS).get(title)
+        if names is None:
+            raise ParameterError(f"no section {title!r}; the sections are {', '.join(t for t, _ in SECTIONS)}.")
+        return {name: getattr(self, name) for name in names}
 
     def braille_spec(self) -> BrailleSpec:
         return BrailleSpec(self.dot_diameter_mm, self.dot_height_mm, self.dot_spacing_mm, self.cell_spacing_mm, self.line_spacing_mm)
@@ -213,6 +249,26 @@ class LithoParams:
         changes = _renamed(changes)
         _check_known(changes)
         return dataclasses.replace(self, **changes)
+
+
+# The parameters by stage, in field order: the command line's help groups its options so, and
+# `LithoParams.section` gives one stage's values (a test keeps every field in exactly one section).
+SECTIONS: tuple[tuple[str, tuple[str, ...]], ...] = (
+    ('printer and size', ('preset', 'printer', 'nozzle_mm', 'layer_mm', 'width_mm', 'depth_mm', 'fit', 'resolution_px')),
+    ('heights and contrast', ('base_mm', 'relief_mm', 'blur_px', 'blur_mm', 'invert', 'flip_x', 'stretch_low_pct', 'stretch_high_pct', 'quantize')),
+    ('relief style', ('relief_style', 'detail_mm', 'texture_mm', 'level_count')),
+    ('channels', ('channel', 'channels', 'key_labels')),
+    ('what is read', ('page', 'z_slice', 'time', 'scene', 'pixel_size')),
+    ('annotations', ('keep_annotations', 'save_masks')),
+    ('limits on what is read', ('max_megapixels', 'max_decoded_gb', 'max_memory_gb')),
+    ('tactile furniture', ('caption', 'subject', 'braille_table', 'scale_bar', 'orientation_corner', 'frame_mm', 'dot_diameter_mm', 'dot_height_mm', 'dot_spacing_mm', 'cell_spacing_mm', 'line_spacing_mm')),
+    ('parts and tiles', ('multicolour', 'bed_mm')),
+    ('mesh', ('mesher', 'max_error_mm')),
+    ('slicing and estimates', ('gcode', 'material', 'filament_price_per_kg', 'slice_timeout_s')),
+    ('outputs', ('formats',)),
+    ('figures and paper pages', ('panels', 'panel', 'panel_boxes', 'page_size')),
+    ('volumes', ('volume', 'size_mm', 'z_step', 'iso_level', 'max_triangles', 'min_wall_mm', 'sections', 'volume_stand')),
+)
 
 
 def _length_m(value, name: str, range_m, words: tuple[str, ...] = ()) -> float | None:

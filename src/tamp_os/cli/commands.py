@@ -22,11 +22,13 @@ OLD_OPTION_NAMES = {"depth_mm": "--height-mm"}
 
 def _param_options(parser: argparse.ArgumentParser) -> None:
     """One option per LithoParams field, named after it (width_mm -> --width-mm)."""
-    from ..params import LithoParams, describe_range
+    from ..params import SECTIONS, LithoParams, describe_range
 
-    group = parser.add_argument_group("lithograph parameters")
+    # One help group per stage (params.SECTIONS), so `--help` reads as the pipeline does.
+    group_of = {name: parser.add_argument_group(f"parameters: {title}") for title, names in SECTIONS for name in names}
     flags_by_name = _flags()
     for f in dataclasses.fields(LithoParams):
+        group = group_of[f.name]
         m = f.metadata
         flag = flags_by_name[f.name]
         help_text = f"{cli_words(m['help'])} ({describe_range(f)}; default {f.default if f.default is not None else 'derived'})"

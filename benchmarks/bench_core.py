@@ -43,7 +43,7 @@ def ours(cols, out: Path, mesher="grid", clean=False, style="reference"):
         scale_bar="off", orientation_corner="none",  # the loop makes neither
     )
     made = time.perf_counter()
-    written = write_meshes(litho.mesh, out, f"ours_{cols}_{mesher}_{style}", ["stl", "3mf", "glb"], metadata(litho))
+    written = write_meshes(litho.mesh, out, f"ours_{cols}_{mesher}_{style}", formats=["stl", "3mf", "glb"], meta=metadata(litho))
     saved = time.perf_counter()
     t = litho.report.timings_s
     return {

@@ -37,14 +37,14 @@ def cases(tmp: Path):
 
     for name, text in sorted(ADVERSARIAL_XML.items()):
         yield f"OME-XML {name}: channel names", 1.0, lambda text=text: file_channel_names({"ome_metadata": text})
-        yield f"OME-XML {name}: pixel size", 1.0, lambda text=text: read_pixel_size({"ome_metadata": text}, {}, None, 100)
+        yield f"OME-XML {name}: pixel size", 1.0, lambda text=text: read_pixel_size({"ome_metadata": text}, {}, None, width_px=100)
     image = tmp / "sem.tif"
     image.write_bytes(b"")
     for name, text in sorted(SIDECAR_CASES.items()):
         def sidecar(text=text):
             (tmp / "sem.txt").write_text(text[:MB])
             (tmp / "sem.hdr").write_text("[MAIN]\n" + text[:MB - 7])
-            read_pixel_size({}, {}, str(image), 100)
+            read_pixel_size({}, {}, str(image), width_px=100)
         yield f"sidecar {name}", 1.0, sidecar
 
     def lengths():

@@ -96,7 +96,7 @@ def bench(path: Path, out: Path) -> None:
     print("| display | page | raised pins | regions kept / found | lines kept connected | members kept separate | 1 pin = |")
     print("|---|---|---|---|---|---|---|")
     for fmt, pin_set in sets.items():
-        save_pins(pin_set, fmt, out, stem, f"Tactile lithograph of {path.name}")
+        save_pins(pin_set, fmt, out, stem=stem, title=f"Tactile lithograph of {path.name}")
         line_layers = [layer for layer in pin_set.source.layers if layer.kind == "lines"]
         for page in pin_set.pages[:-1]:
             kept = sum(c.get("kept", 0) for c in page.counts.values())

@@ -81,3 +81,47 @@ def test_ruff_finds_nothing():
     done = subprocess.run([ruff, "check", "--no-cache", "src", "tests", "benchmarks", "scripts"], cwd=ROOT,
                           capture_output=True, text=True, timeout=110)
     assert done.returncode == 0, done.stdout[-4000:]
+
+
+MAX_POSITIONAL = 3  # beyond these, a public function's parameters are keyword-only (as scikit-image's are)
+MAX_FUNCTION_LINES = 60
+
+
+def public_functions(tree):
+    """(function, is a method) for the module's public functions and its public classes' methods."""
+    for node in tree.body:
+        if isinstance(node, ast.FunctionDef) and not node.name.startswith("_"):
+            yield node, False
+        if isinstance(node, ast.ClassDef) and not node.name.startswith("_"):
+            yield from ((f, True) for f in node.body if isinstance(f, ast.FunctionDef) and not f.name.startswith("_"))
+
+
+def test_public_functions_take_options_by_keyword():
+    crowded = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        for f, is_method in public_functions(ast.parse(path.read_text(encoding="utf-8"))):
+            names = [a.arg for a in f.args.posonlyargs + f.args.args]
+            if is_method and names[:1] in (["self"], ["cls"]):
+                names = names[1:]
+            if len(names) > MAX_POSITIONAL:
+                crowded.append(f"{module_name(path)}.{f.name}({', '.join(names)})")
+    assert not crowded, "keyword-only (a `*`) beyond the first three parameters:\n" + "\n".join(crowded)
+
+
+def code_lines(node) -> int:
+    """A function's lines without its docstring (a numpydoc docstring is documentation, not length)."""
+    body = node.body
+    if body and isinstance(body[0], ast.Expr) and isinstance(getattr(body[0], "value", None), ast.Constant) and isinstance(body[0].value.value, str):
+        return node.end_lineno - node.lineno + 1 - (body[0].end_lineno - body[0].lineno + 1)
+    return node.end_lineno - node.lineno + 1
+
+
+def test_functions_are_short():
+    long = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                lines = code_lines(node)
+                if lines > MAX_FUNCTION_LINES:
+                    long.append(f"{module_name(path)}.{node.name}: {lines} lines")
+    assert not long, f"functions over {MAX_FUNCTION_LINES} lines (docstrings aside):\n" + "\n".join(long)

@@ -277,7 +277,7 @@ def _length_m(value, name: str, range_m, words: tuple[str, ...] = ()) -> float |
     if value is None:
         return None
     if isinstance(value, str):
-        return parse_length_m(value, name, range_m, words)
+        return parse_length_m(value, name, range_m, words=words)
     lo, hi = range_m or (0.0, math.inf)
     allowed = f"a length from {format_length(lo)} to {format_length(hi)}" if range_m else "a length greater than 0"
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or not (lo <= value <= hi) or value <= 0:

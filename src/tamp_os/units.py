@@ -39,7 +39,7 @@ MAX_LENGTH_TEXT = 64  # characters of a length such as '4.2 nm'
 
 
 def parse_length_m(text: str, name: str = "pixel_size", range_m: tuple[float, float] | None = None,
-                   words: tuple[str, ...] = ()) -> float:
+                   *, words: tuple[str, ...] = ()) -> float:
     """'4.2nm' -> 4.2e-9. Raises ParameterError naming `name` when it cannot be read.
 
     range_m : the allowed (lowest, highest) value in metres; PIXEL_SIZE_RANGE_M for `pixel_size`.

@@ -166,11 +166,11 @@ def test_ome_without_unit_means_micrometres_and_imagej_picometres(tmp_path):
     tifffile.imwrite(ome, data, ome=True, metadata={"PhysicalSizeX": 0.25})
     f = read_image(ome).file
     assert "PhysicalSizeXUnit" not in f.metadata["ome_metadata"]
-    assert read_pixel_size(f.metadata, f.tiff_tags, f.path, f.width).metres == pytest.approx(0.25e-6)
+    assert read_pixel_size(f.metadata, f.tiff_tags, f.path, width_px=f.width).metres == pytest.approx(0.25e-6)
     ij = tmp_path / "ij.tif"
     tifffile.imwrite(ij, data, imagej=True, resolution=(0.5, 0.5), metadata={"unit": "pm"})
     f = read_image(ij).file
-    assert read_pixel_size(f.metadata, f.tiff_tags, f.path, f.width).metres == pytest.approx(2e-12)
+    assert read_pixel_size(f.metadata, f.tiff_tags, f.path, width_px=f.width).metres == pytest.approx(2e-12)
 
 
 @pytest.mark.timeout(30)
@@ -180,7 +180,7 @@ def test_cm_lengths_in_imagej_files(tmp_path):
     ij = tmp_path / "cm.tif"
     tifffile.imwrite(ij, np.zeros((8, 8), np.uint8), imagej=True, resolution=(100, 100), metadata={"unit": "cm"})
     f = read_image(ij).file
-    assert read_pixel_size(f.metadata, f.tiff_tags, f.path, f.width).metres == pytest.approx(1e-4)
+    assert read_pixel_size(f.metadata, f.tiff_tags, f.path, width_px=f.width).metres == pytest.approx(1e-4)
 
 
 @pytest.mark.timeout(30)

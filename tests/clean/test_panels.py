@@ -493,7 +493,7 @@ def test_a_colour_figure_is_read_once_and_prints_as_when_read_again(tmp_path, mo
     tifffile.imwrite(tif, figure.image.astype(np.uint16) * 257, photometric="rgb")
     for path in (png, tif):
         picture = read_module.read_image(path, keep_colour=True)
-        kept = figure_colour(path, picture, LithoParams(), picture.colour)
+        kept = figure_colour(path, picture, LithoParams(), pixels=picture.colour)
         again = figure_colour(path, picture, LithoParams())
         assert kept is not None and again is not None
         assert kept.dtype == again.dtype and np.array_equal(kept, again), path.name
@@ -615,7 +615,7 @@ def test_web_app_prints_a_figures_panels_and_shows_the_overview(tmp_path):
     bad, errors = params_from_form(Form(panels="two by two"))
     assert bad is None and "Panels of a figure" in errors.by_field["panels"]
     figure = grid_white_boxes([synthetic_texture(150, 200, s) for s in range(2)], cols=2, gutter=14, letters="")
-    made = run_library(save(figure, tmp_path), params, tmp_path, "fig")
+    made = run_library(save(figure, tmp_path), params, tmp_path, stem="fig")
     names = {p.name for p in made.all_written}
     assert "fig.panel-2.stl" in names and "fig.overview.stl" in names and "fig.panel-1.stl" not in names
     assert made.litho.description.startswith("Overview of the figure")
@@ -631,13 +631,13 @@ def test_batch_converts_a_figure_and_a_rerun_skips_it(tmp_path):
     figure = grid_white_boxes([synthetic_texture(150, 200, s) for s in range(2)], cols=2, gutter=14, letters="")
     path = save(figure, tmp_path)
     params = LithoParams(width_mm=50).to_json()
-    first = convert_one(str(path), str(tmp_path / "out"), params, "grid_white")
+    first = convert_one(str(path), str(tmp_path / "out"), params, stem="grid_white")
     assert first["status"] == "converted"
     assert {"grid_white.panel-1.stl", "grid_white.panel-2.stl", "grid_white.overview.stl", "grid_white.tamp.json"} <= set(first["outputs"])
     recipe = json.loads((tmp_path / "out" / "grid_white.tamp.json").read_text())
     assert recipe["panels"]["boxes"] == "1=14,14,200,150;2=228,14,200,150"
     assert "grid_white.panel-2.stl" in recipe["outputs"]
-    again = convert_one(str(path), str(tmp_path / "out"), params, "grid_white")
+    again = convert_one(str(path), str(tmp_path / "out"), params, stem="grid_white")
     assert again["status"] == "skipped (up to date)"
 
 

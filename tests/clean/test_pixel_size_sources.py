@@ -27,7 +27,7 @@ def _file_pixel_size(path, pixel_size_m=None):
     from tamp_os.read.image import read_image
 
     f = read_image(path).file
-    return read_pixel_size(f.metadata, f.tiff_tags, f.path, f.width, pixel_size_m)
+    return read_pixel_size(f.metadata, f.tiff_tags, f.path, width_px=f.width, pixel_size_m=pixel_size_m)
 
 
 @pytest.mark.timeout(20)
@@ -75,7 +75,7 @@ def test_the_users_pixel_size_wins_and_a_different_one_is_said(fixture):
 def _size(metadata=None, tags=None, path=None, width=100, user=None):
     from tamp_os.clean.scale import read_pixel_size
 
-    return read_pixel_size(metadata or {}, tags or {}, path, width, user)
+    return read_pixel_size(metadata or {}, tags or {}, path, width_px=width, pixel_size_m=user)
 
 
 def test_the_user_value_alone_and_no_source_at_all():

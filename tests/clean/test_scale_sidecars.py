@@ -15,7 +15,7 @@ def _scale_with_sidecar(tmp_path, text):
     image = tmp_path / "sem.tif"
     image.write_bytes(b"")
     (tmp_path / "sem.txt").write_text(text)
-    return read_pixel_size({}, {}, str(image), 100)
+    return read_pixel_size({}, {}, str(image), width_px=100)
 
 
 @pytest.mark.parametrize("value, warning", [
@@ -60,6 +60,6 @@ def test_a_bad_sidecar_falls_through_to_the_next_source(tmp_path):
     image = tmp_path / "sem.tif"
     image.write_bytes(b"")
     (tmp_path / "sem.txt").write_text("PixelSize=0\n")
-    found = read_pixel_size({"imagej_metadata": {"unit": "micron"}}, {282: (4, 1)}, str(image), 100)
+    found = read_pixel_size({"imagej_metadata": {"unit": "micron"}}, {282: (4, 1)}, str(image), width_px=100)
     assert found.metres == pytest.approx(0.25e-6) and "ImageJ" in found.provenance
     assert any("Hitachi" in w for w in found.warnings)

@@ -224,7 +224,7 @@ def test_ome_xml_parsing_is_linear(case):
 
     text = ADVERSARIAL_XML[case]
     assert len(text) >= MB * 0.9 or case == "entity_bomb"
-    read_pixel_size({"ome_metadata": text}, {}, None, 100)  # returns (the time is in benchmarks/bench_guards.py)
+    read_pixel_size({"ome_metadata": text}, {}, None, width_px=100)  # returns (the time is in benchmarks/bench_guards.py)
     names = file_channel_names({"ome_metadata": text})
     assert names == {"long_comment": ["DAPI"], "many_attributes": ["GFP"]}.get(case, [])
 
@@ -262,7 +262,7 @@ def test_line_sidecars_are_read_in_linear_time(tmp_path, case):
     image.write_bytes(b"")
     (tmp_path / "sem.txt").write_text(SIDECAR_CASES[case][:MB])
     (tmp_path / "sem.hdr").write_text("[MAIN]\n" + SIDECAR_CASES[case][:MB - 7])
-    found = read_pixel_size({}, {}, str(image), 100)
+    found = read_pixel_size({}, {}, str(image), width_px=100)
     assert found.metres is None
 
 
@@ -273,7 +273,7 @@ def test_a_sidecar_larger_than_a_sidecar_can_be_is_ignored_with_a_warning(tmp_pa
     image = tmp_path / "h.tif"
     image.write_bytes(b"")
     (tmp_path / "h.txt").write_text("PixelSize=2.5\n" + "x" * 2 * MB)
-    found = read_pixel_size({}, {}, str(image), 100)
+    found = read_pixel_size({}, {}, str(image), width_px=100)
     assert found.metres is None and any("too large for a microscope sidecar" in w for w in found.warnings)
 
 

@@ -227,7 +227,7 @@ def test_prusaslicer_prints_each_part_with_its_own_extruder(tmp_path):
 def test_slic3r_config_ranges_cover_every_triangle_once(counts, names, object_id):
     from tamp_os.export.threemf import slic3r_model_config, xml_text
 
-    config = ET.fromstring(slic3r_model_config(object_id, xml_text(names[0]), names[: len(counts)], counts))
+    config = ET.fromstring(slic3r_model_config(object_id, xml_text(names[0]), names[: len(counts)], face_counts=counts))
     (entry,) = config.findall("object")
     assert entry.get("id") == str(object_id)
     assert all(m.get("type") in ("object", "volume") for m in config.iter("metadata"))

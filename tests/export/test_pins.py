@@ -376,7 +376,7 @@ def test_real_channel_print_keeps_the_rules_on_every_page(tmp_path):
     litho = make_lithograph(FIXTURES / "real" / "zeiss_dapi_gfp_2ch.czi", preset="low")
     sets = pin_sets(litho, ["dotpad", "graphiti"])
     for fmt, pin_set in sets.items():
-        save_pins(pin_set, fmt, tmp_path, "cells", "t")
+        save_pins(pin_set, fmt, tmp_path, stem="cells", title="t")
     for decoded, page in zip(read_dtms(tmp_path / "cells.dtms"), sets["dotpad"].pages):
         _check_rules(decoded["pins"], page.regions, page.name != "key")
     g = read_graphiti(tmp_path / "cells.graphiti")
@@ -395,7 +395,7 @@ def test_writes_go_through_the_atomic_writer(beads_litho, tmp_path, monkeypatch)
     _, litho = beads_litho
     sets = _sets(litho)
     for fmt, pin_set in sets.items():
-        save_pins(pin_set, fmt, tmp_path, "x", "t")
+        save_pins(pin_set, fmt, tmp_path, stem="x", title="t")
     assert {"x.dtms", "x.graphiti", "x.monarch.svg", "x.monarch-2.svg", "x.dotpad-simulator.png"} <= set(calls)
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]  # no temporary left behind
 

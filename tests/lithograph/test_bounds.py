@@ -134,8 +134,8 @@ def test_the_working_grid_is_bounded_and_leaves_plates_up_to_500_mm_alone():
     for width_mm, mm_per_px in ((100, 0.4), (100, 0.2), (100, 0.8), (500, 0.2)):
         cols = round(width_mm / mm_per_px) + 1
         shape = (round((cols - 1) * 0.75) + 1, cols)
-        assert WorkGrid.plan(shape, mm_per_px, 0.4) == WorkGrid.plan(shape, mm_per_px, 0.4, WORK_MAX_POINTS)
-    big = WorkGrid.plan((3751, 5001), 0.2, 0.4, WORK_MAX_POINTS)
+        assert WorkGrid.plan(shape, mm_per_px, 0.4) == WorkGrid.plan(shape, mm_per_px, 0.4, max_points=WORK_MAX_POINTS)
+    big = WorkGrid.plan((3751, 5001), 0.2, 0.4, max_points=WORK_MAX_POINTS)
     assert big.work_shape == (939, 1251) and abs(big.pitch_mm - 0.8) < 1e-9
     assert np.prod(big.work_shape) <= WORK_MAX_POINTS
 
@@ -340,6 +340,6 @@ def test_the_web_app_prints_a_file_whose_channel_names_are_hostile(tmp_path):
     from tamp_os.params import LithoParams
 
     path = channel_tiff(tmp_path / "names.tif", ["\u202eIPAD\u202c\x1b[2J\x00", "x" * 100_000])
-    made = run_library(path, LithoParams(), tmp_path / "web", "names")
+    made = run_library(path, LithoParams(), tmp_path / "web", stem="names")
     described = made.litho.metadata()["description"]
     assert "\x1b" not in described and "\u202e" not in described and "x" * 41 not in described

@@ -86,7 +86,7 @@ def test_sweep_takes_an_array(tmp_path):
     from tamp_os.lithograph.sweep import run_sweep
 
     yy, xx = np.mgrid[0:48, 0:64]
-    result = run_sweep(np.hypot(xx - 20, yy - 30), LithoParams(preset="low"), {"relief_mm": [1.5, 2.5]}, tmp_path,
+    result = run_sweep(np.hypot(xx - 20, yy - 30), LithoParams(preset="low"), {"relief_mm": [1.5, 2.5]}, out_dir=tmp_path,
                        render=False, name="ring")
     assert [c.names[0] for c in result.conversions] == ["ring_relief_1.5.stl", "ring_relief_2.5.stl"]
     tops = [c.report.print_mm[2] for c in result.conversions]

@@ -35,13 +35,13 @@ def test_four_bumps_across_the_middle_the_largest_at_the_right():
 
 def test_one_shape_and_its_place_from_the_far_edge():
     h = _discs([(170, 15)], [10])  # near the far (top) edge, at the right
-    sentence = layout_sentence(find_layout(h, 0.5, 1.0, 3.0))
+    sentence = layout_sentence(find_layout(h, 0.5, 1.0, relief_mm=3.0))
     assert sentence == "One round raised shape stands up at the top right."
 
 
 def test_specks_smaller_than_a_fingertip_are_not_counted():
     h = _discs([(20, 20), (100, 50)], [1, 12])  # a 1-px-radius speck (0.8 mm²) and a disc
-    assert len(find_layout(h, 0.5, 1.0, 3.0).pieces) == 1
+    assert len(find_layout(h, 0.5, 1.0, relief_mm=3.0).pieces) == 1
 
 
 @pytest.mark.parametrize("x, y, word", [(0.1, 0.1, "top left"), (0.5, 0.1, "top"), (0.5, 0.5, "centre"),
@@ -64,7 +64,7 @@ def test_layout_sentence_grammar_for_any_count(count, seed):
     rng = np.random.default_rng(seed)
     xs = rng.choice(np.arange(12, 190, 26), size=count, replace=False)
     h = _discs([(int(x), int(rng.integers(15, 85))) for x in xs], [8] * count)
-    layout = find_layout(h, 0.5, 1.0, 3.0)
+    layout = find_layout(h, 0.5, 1.0, relief_mm=3.0)
     sentence = layout_sentence(layout)
     n = len(layout.pieces)
     assert n == count

@@ -45,7 +45,7 @@ heightmaps = st.tuples(st.integers(2, 40), st.integers(2, 40)).flatmap(
 @settings(max_examples=examples(60), deadline=None)
 @given(heightmaps, st.floats(5.0, 200.0), st.floats(5.0, 200.0), st.floats(0.01, 1.0))
 def test_adaptive_solid_properties_and_error_bound(heights, width, depth, max_error):
-    mesh = adaptive_solid(heights, width, depth, max_error)
+    mesh = adaptive_solid(heights, width, depth, max_error_mm=max_error)
     check = check_solid(mesh)
     assert check.ok, check.problems
     lo, hi = mesh.bounds_mm
@@ -74,7 +74,7 @@ def test_adaptive_volume_within_error_times_area_on_blurred_reliefs(spec, width,
     rows, cols, seed, sigma = spec
     noise = np.random.default_rng(seed).random((rows, cols))
     heights = 1.0 + 3.0 * ndimage.gaussian_filter(noise, sigma, mode="nearest")
-    mesh = adaptive_solid(heights, width, depth, max_error)
+    mesh = adaptive_solid(heights, width, depth, max_error_mm=max_error)
     assert check_solid(mesh).ok
     grid_volume = grid_volume_mm3(heights, width, depth)
     assert abs(mesh.volume_mm3() - grid_volume) <= max_error * width * depth
@@ -144,7 +144,7 @@ def test_a_peak_the_first_pass_leaves_out_is_inserted_without_a_second_pass():
 
     adaptive._delatin_top = counted
     try:
-        mesh = adaptive_solid(heights, width, depth, 0.06)
+        mesh = adaptive_solid(heights, width, depth, max_error_mm=0.06)
     finally:
         adaptive._delatin_top = original
     assert passes == [0.06]  # one pass at the full bound
@@ -162,5 +162,5 @@ def test_the_check_around_an_inserted_peak_measures_the_grid_points_inside():
     # one triangle over the whole left half at z = 0: the only point off it is outside; then a
     # triangle that covers (5, 5) at z = 0 misses it by 1 mm
     vertices = np.array([[0.0, 0.0, 0.0], [4.0, 0.0, 0.0], [0.0, 10.0, 0.0], [10.0, 10.0, 0.0], [10.0, 0.0, 0.0]])
-    assert error_at_grid_points(vertices, np.array([[0, 1, 2]]), heights, 10.0, 10.0) == 0.0
-    assert error_at_grid_points(vertices, np.array([[0, 4, 3]]), heights, 10.0, 10.0) == pytest.approx(1.0)
+    assert error_at_grid_points(vertices, np.array([[0, 1, 2]]), heights, width_mm=10.0, depth_mm=10.0) == 0.0
+    assert error_at_grid_points(vertices, np.array([[0, 4, 3]]), heights, width_mm=10.0, depth_mm=10.0) == pytest.approx(1.0)

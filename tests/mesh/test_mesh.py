@@ -66,8 +66,8 @@ def test_the_adaptive_outline_is_the_edges_used_once_in_the_same_order(rows, col
     from tamp_os.mesh.solid import rectangle_boundary_edges
 
     heights = np.random.default_rng(seed).random((rows, cols)) * 3
-    verts, faces = adaptive_top(heights, 7.0 * cols, 5.0 * rows, error_mm)
-    assert np.array_equal(rectangle_boundary_edges(verts, faces, 7.0 * cols, 5.0 * rows), boundary_edges(faces))
+    verts, faces = adaptive_top(heights, 7.0 * cols, 5.0 * rows, max_error_mm=error_mm)
+    assert np.array_equal(rectangle_boundary_edges(verts, faces, 7.0 * cols, depth_mm=5.0 * rows), boundary_edges(faces))
 
 
 def test_grid_outline_matches_the_edges_used_once():

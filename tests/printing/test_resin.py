@@ -163,10 +163,10 @@ def test_resin_estimate_is_the_solid_s_volume_and_the_footprint_scales_with_mass
 
     box = trimesh.creation.box((40, 30, 3))
     printer = get_printer("form 4")
-    e = estimate(float(box.volume), box.vertices, box.faces, printer, material("resin"))
+    e = estimate(float(box.volume), box.vertices, box.faces, printer=printer, mat=material("resin"))
     assert e["resin_ml"] == pytest.approx(3.6) and e["filament_g"] == pytest.approx(3.6 * material("resin").density_g_cm3, rel=1e-3)
     assert e["co2e_kg"] == pytest.approx(e["filament_g"] / 1000 * material("resin").co2e_kg_per_kg)
-    fdm = estimate(float(box.volume), box.vertices, box.faces, get_printer("mk4"), material("PLA"))
+    fdm = estimate(float(box.volume), box.vertices, box.faces, printer=get_printer("mk4"), mat=material("PLA"))
     assert fdm["filament_cm3"] < 3.6  # a nozzle printer's infill is not solid
 
 

@@ -52,7 +52,7 @@ def test_gcode_layers_and_figures(fept_low):
 
 def test_estimate_is_within_25_percent_of_the_slicer(fept_low):
     litho, _ = fept_low
-    e = estimate(litho.mesh.volume_mm3(), litho.mesh.vertices, litho.mesh.faces, get_printer("standard"), material("PLA"))
+    e = estimate(litho.mesh.volume_mm3(), litho.mesh.vertices, litho.mesh.faces, printer=get_printer("standard"), mat=material("PLA"))
     assert e["filament_g"] == pytest.approx(litho.report["print"]["filament_g"], rel=0.25)
     assert "15% gyroid infill" in e["assumptions"]
 

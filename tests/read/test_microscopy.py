@@ -20,12 +20,12 @@ from tamp_os.units import parse_length_m
 
 def scale_of(path, override=None):
     f = read_image(path).file
-    return read_pixel_size(f.metadata, f.tiff_tags, f.path, f.width, override)
+    return read_pixel_size(f.metadata, f.tiff_tags, f.path, width_px=f.width, pixel_size_m=override)
 
 
 def band_of(path):
     f = read_image(path).file
-    return band_from_metadata(f.metadata, f.tiff_tags, f.path, f.height)
+    return band_from_metadata(f.metadata, f.tiff_tags, f.path, height_px=f.height)
 
 
 def test_zeiss_pixel_size_and_data_zone(fixture):

@@ -12,7 +12,7 @@ def test_the_memory_limit_hint_says_the_option_as_it_is_typed():
     cost = Cost()
     cost.add("decoded pixels", 2.5e9)
     with pytest.raises(InputError) as info:
-        check_memory("x.tif", "1000×1000 image", cost, 1.0)
+        check_memory("x.tif", "1000×1000 image", cost, max_memory_gb=1.0)
     words = cli_words(info.value)
     assert "--max-memory-gb 3." in words and "= 3" not in words, words  # it said "--max-memory-gb = 3"
     assert "2.5 GB" in words and "1 GB" in words

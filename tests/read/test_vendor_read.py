@@ -485,11 +485,11 @@ def test_web_upload_of_a_czi_is_priced_and_described(real, tmp_path):
 
     path = real("zeiss_airyscan_2ch_t3.czi", "czifile")
     assert decoded_bytes(path) is None  # the reader prices its planes itself
-    upload = inspect_upload(path, path.name, tmp_path, 0, max_decoded_mb=150)
+    upload = inspect_upload(path, path.name, tmp_path, index=0, max_decoded_mb=150)
     assert (upload.width, upload.height) == (480, 480)
     assert "3 time points" in upload.contents and "ChA-T1" in upload.contents
     with pytest.raises(InputError, match="larger images|limit"):
-        inspect_upload(path, path.name, tmp_path, 1, max_decoded_mb=0.1)
+        inspect_upload(path, path.name, tmp_path, index=1, max_decoded_mb=0.1)
 
 
 @pytest.mark.timeout(60)

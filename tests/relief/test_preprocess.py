@@ -74,7 +74,7 @@ def _plain_stretch(values, low_pct=2.0, high_pct=98.0):
 
 def _assert_plain_stretch(values):
     """`stretch` gives exactly the plain 2-98 % stretch of `values` (range and image)."""
-    image, (low, high), _ = stretch(values, None, 2.0, 98.0)
+    image, (low, high), _ = stretch(values, None, 2.0, high_pct=98.0)
     expected, expected_range = _plain_stretch(values)
     assert (low, high) == pytest.approx(expected_range)
     np.testing.assert_allclose(image, expected, atol=1e-5)
@@ -92,7 +92,7 @@ def test_sparse_strokes_keep_their_contrast_and_the_papers_noise_stays_light(ink
     if with_unknown:  # unknown pixels take the masked path of the stretch
         values[:20, :30] = np.nan
     assert np.percentile(truth.image, 2) > 0.8  # the case is the one described: the percentile is paper
-    image, (low, high), uniform = stretch(values, None, 2.0, 98.0)
+    image, (low, high), uniform = stretch(values, None, 2.0, high_pct=98.0)
     paper = ~ndimage.binary_dilation(truth.lines, iterations=2) & np.isfinite(values)
     assert not uniform
     assert np.median(image[truth.lines]) <= 0.05
@@ -104,7 +104,7 @@ def test_sparse_strokes_keep_their_contrast_and_the_papers_noise_stays_light(ink
 @pytest.mark.parametrize(("count", "cover_pct"), [(3, 0.3), (5, 0.6), (6, 1.0)])
 def test_sparse_beads_keep_their_contrast_and_the_ground_stays_dark(count, cover_pct):
     truth = sparse_beads(count=count, cover_pct=cover_pct)
-    image, _, _ = stretch(truth.image, None, 2.0, 98.0)
+    image, _, _ = stretch(truth.image, None, 2.0, high_pct=98.0)
     ground = ndimage.distance_transform_edt(truth.members == 0) > 3
     assert np.percentile(image[ground], 99.9) <= 0.2
     peaks = ndimage.maximum(image, truth.members, np.arange(1, count + 1))
@@ -145,7 +145,7 @@ def test_pictures_without_a_distinct_tail_keep_the_percentile_stretch(seed, sigm
     rng = np.random.default_rng(seed)
     field = ndimage.gaussian_filter(rng.standard_normal((120, 160)), sigma) if sigma > 0 else rng.standard_normal((120, 160))
     values = (offset + scale * field).astype(np.float32)
-    _, (low, high), _ = stretch(values, None, 2.0, 98.0)
+    _, (low, high), _ = stretch(values, None, 2.0, high_pct=98.0)
     assert (low, high) == pytest.approx(_plain_stretch(values)[1])
 
 
@@ -158,7 +158,7 @@ def test_one_pixel_strokes_in_a_large_picture_are_found_though_the_noise_is_meas
     values = (0.9 + 0.008 * rng.standard_normal((1024, 2048))).astype(np.float32)
     columns = np.arange(101, 2000, 200)  # ten strokes, all on odd columns: 0.4 % of the picture
     values[100:-100, columns] = 0.1
-    image, (low, _), _ = stretch(values, None, 2.0, 98.0)
+    image, (low, _), _ = stretch(values, None, 2.0, high_pct=98.0)
     assert low < 0.2
     assert image[100:-100, columns].max() <= 0.05
     assert np.percentile(np.delete(image, columns, axis=1), 0.1) >= 0.8

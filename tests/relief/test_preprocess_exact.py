@@ -19,7 +19,7 @@ pytestmark = pytest.mark.timeout(240)
 
 def test_the_stretch_maps_the_chosen_percentiles_of_the_source():
     values = np.arange(1000, dtype=np.float64).reshape(20, 50)
-    image, (low, high), uniform = stretch(values, None, 2.0, 98.0)
+    image, (low, high), uniform = stretch(values, None, 2.0, high_pct=98.0)
     assert not uniform
     assert low == pytest.approx(np.percentile(values, 2)) and high == pytest.approx(np.percentile(values, 98))
     assert image.min() == 0 and image.max() == 1

@@ -220,8 +220,8 @@ def test_the_check_says_when_domes_may_split_one_object_and_the_option_that_chan
     labels[10:30, 10:20], labels[10:30, 20:30], labels[10:30, 35:50] = 1, 2, 3
     heights = BASE + 2.0 * (labels > 0)
     made = ContentMade(np.zeros(labels.shape, np.float32), "members", labels, "", (), split_pairs=2)
-    said = check_sentences(heights, made, 0.4, BASE)
+    said = check_sentences(heights, made, 0.4, base_mm=BASE)
     assert said[0].startswith("Found 3 members, all raised at least 2.0 mm")
     assert "may have been split into several domes" in said[1] and "`relief_style` objects" in said[1]
     whole = ContentMade(np.zeros(labels.shape, np.float32), "members", labels, "", ())
-    assert len(check_sentences(heights, whole, 0.4, BASE)) == 1
+    assert len(check_sentences(heights, whole, 0.4, base_mm=BASE)) == 1

@@ -12,7 +12,7 @@ from conftest import examples
 def _dots_box(lines, spec, left, top):
     from tamp_os.tactile.braille import dot_centres
 
-    centres = np.array(dot_centres(lines, spec, left, top))
+    centres = np.array(dot_centres(lines, spec, left, top_mm=top))
     r = spec.dot_diameter_mm / 2
     return centres[:, 0].min() - r, centres[:, 1].min() - r, centres[:, 0].max() + r, centres[:, 1].max() + r
 

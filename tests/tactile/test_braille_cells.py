@@ -21,12 +21,12 @@ def test_dot_centres_follow_the_spacing_of_the_standard():
 
     spec = BrailleSpec(dot_diameter_mm=1.4, dot_spacing_mm=2.4, cell_spacing_mm=6.2, line_spacing_mm=10.5)
     r = 0.7
-    centres = dot_centres(["⣿⠁", "⠈"], spec, 3.0, 50.0)
+    centres = dot_centres(["⣿⠁", "⠈"], spec, 3.0, top_mm=50.0)
     first = [(3.0 + r + col * 2.4, 50.0 - r - row * 2.4) for col, row in
              ((0, 0), (0, 1), (0, 2), (1, 0), (1, 1), (1, 2), (0, 3), (1, 3))]
     expected = first + [(3.0 + r + 6.2, 50.0 - r)] + [(3.0 + r + 2.4, 50.0 - r - 10.5)]
     assert np.allclose(np.array(centres), np.array(expected), atol=1e-12, rtol=0)
-    assert dot_centres([], spec, 0.0, 0.0) == [] and dot_centres(["⠀⠀"], spec, 0.0, 0.0) == []
+    assert dot_centres([], spec, 0.0, top_mm=0.0) == [] and dot_centres(["⠀⠀"], spec, 0.0, top_mm=0.0) == []
 
 
 def test_block_size_of_one_cell_and_of_lines():

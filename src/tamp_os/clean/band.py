@@ -35,7 +35,7 @@ class Band(Facts):
         return slice(self.top_rows, height_px - self.bottom_rows)
 
 
-def band_from_metadata(metadata: dict, tiff_tags: dict, path: str | None, height_px: int) -> Band | None:
+def band_from_metadata(metadata: dict, tiff_tags: dict, path: str | None, *, height_px: int) -> Band | None:
     """The band the vendor's metadata records (FEI ResolutionY, TESCAN ImageStripSize), else None."""
     fei = metadata.get("fei_metadata")
     if fei:

@@ -230,7 +230,7 @@ def _plausible(value_m: float | None, provenance: str, warnings: list[str]) -> b
 
 
 def read_pixel_size(
-    metadata: dict, tiff_tags: dict, path: str | None, width_px: int, pixel_size_m: float | None = None
+    metadata: dict, tiff_tags: dict, path: str | None, *, width_px: int, pixel_size_m: float | None = None
 ) -> PixelSize:
     """The pixel size the microscope recorded, or `pixel_size_m` when the user gives one.
 

@@ -80,7 +80,7 @@ class Cleaned:
 def _band(picture: Picture, remove_annotations: bool) -> Band:
     """The vendor's band, always cropped; a detected one only when annotations are removed."""
     file, height = picture.file, picture.values.shape[0]
-    band = band_from_metadata(file.metadata, file.tiff_tags, file.path, height)
+    band = band_from_metadata(file.metadata, file.tiff_tags, file.path, height_px=height)
     if band is None and remove_annotations:
         top, bottom = detect_info_band(picture.values)
         band = Band(top, bottom, "detected data band" if top or bottom else "")
@@ -99,7 +99,7 @@ def clean_picture(picture: Picture, *, pixel_size_m: float | None, remove_annota
     remove_annotations : detect and remove data bands and burned-in annotations.
     """
     file = picture.file
-    size = read_pixel_size(file.metadata, file.tiff_tags, file.path, file.width, pixel_size_m)
+    size = read_pixel_size(file.metadata, file.tiff_tags, file.path, width_px=file.width, pixel_size_m=pixel_size_m)
     instrument = read_instrument(file.metadata, file.tiff_tags, file.path)
     band = _band(picture, remove_annotations)
     rows = band.rows(picture.values.shape[0])

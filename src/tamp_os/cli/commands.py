@@ -582,7 +582,7 @@ def cmd_sweep(args) -> int:
 
     params = _params_from_args(args)
     vary = parse_vary(_vary_in_field_names(args.vary))
-    result = run_sweep(Path(args.image), params, vary, Path(args.output), render=not args.no_render)
+    result = run_sweep(Path(args.image), params, vary, out_dir=Path(args.output), render=not args.no_render)
     for conversion in result.conversions:
         for line in _say(conversion):
             print(line)
@@ -681,7 +681,7 @@ def cmd_estimate(args) -> int:
         mesh = read_mesh_file(mesh_path)
         if not mesh.is_watertight:
             print(f"warning: {mesh_path}: not a closed solid; the volume and estimate may be wrong.", file=sys.stderr)
-        found = [estimate(float(mesh.volume), mesh.vertices, mesh.faces, printer, m) for m in (mat, *others)]
+        found = [estimate(float(mesh.volume), mesh.vertices, mesh.faces, printer=printer, mat=m) for m in (mat, *others)]
         e = found[0]
         lines = [f"{Path(mesh_path).name}: about {_amount_words(e)}, costing about {e['cost']:.2f} at {e['price_per_kg']:g} "
                  f"per kg{_co2e_text(e)}. Assumes {e['assumptions']}."]
@@ -717,7 +717,7 @@ def cmd_presets(args) -> int:
         from ..lithograph.pipeline import read_source
 
         picture = read_source(args.image, params)  # the plane, level and limits the conversion would read
-        width = layout_for(params, printer, picture.file.width, picture.file.height).width_mm
+        width = layout_for(params, printer, picture.file.width, image_h_px=picture.file.height).width_mm
         suggestion = suggest_by_touch(picture.values, picture.alpha, width_mm=width, nozzle_mm=printer.nozzle_mm)
     if printer.is_resin:
         print(f"printer {printer.name}: resin, feature {printer.nozzle_mm:g} mm (4 pixels, at least 0.2 mm: the grid follows it "
@@ -816,7 +816,7 @@ def cmd_braille_plate(args) -> int:
 
     heights = _numbers(args.heights, "--heights")
     diameters = _numbers(args.diameters, "--diameters")
-    mesh, rows, _ = braille_test_plate(args.text, args.braille_table, heights, diameters)
+    mesh, rows, _ = braille_test_plate(args.text, args.braille_table, heights, diameters_mm=diameters)
     out = Path(args.output)
     out.mkdir(parents=True, exist_ok=True)
     key = "; ".join(f"row {i + 1}: dots {h:g} mm high, {d:g} mm across" for i, (h, d) in enumerate(rows))

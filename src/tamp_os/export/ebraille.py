@@ -124,7 +124,7 @@ SECTIONS = (("s-title", "title"), ("s-graphic", "tactile graphic"), ("s-key", "k
             ("s-tour", "touch tour"), ("s-micrograph", "original micrograph"))
 
 
-def content_document(book: Book, graphic: Graphic2D, br: Brailler, lang: str) -> str:
+def content_document(book: Book, graphic: Graphic2D, br: Brailler, *, lang: str) -> str:
     tour = book.tour
     svg = labelled_svg(plain_svg(graphic, book.title), tour, label_of=lambda r: br(r.label), title=br(book.title), touch_attrs=False,
                        document_role=False)
@@ -168,7 +168,7 @@ def cell_type(texts) -> str:
     return "8" if any(ord(ch) >= 0x2840 for text in texts for ch in text if "\u2800" <= ch <= "\u28ff") else "6"
 
 
-def package_document(book: Book, lang: str, today: _dt.date, cells: str) -> str:
+def package_document(book: Book, lang: str, today: _dt.date, *, cells: str) -> str:
     identifier = f"urn:uuid:{uuid.uuid5(uuid.NAMESPACE_URL, 'tamp-os:' + book.identifier_seed)}"
     day = today.isoformat()
     source = f"urn:tamp-os:{book.identifier_seed}"
@@ -228,7 +228,7 @@ def micrograph_png(values: np.ndarray) -> bytes:
     return buffer.getvalue()
 
 
-def package_files(book: Book, graphic: Graphic2D, picture: np.ndarray, today: _dt.date | None = None,
+def package_files(book: Book, graphic: Graphic2D, picture: np.ndarray, *, today: _dt.date | None = None,
                   page_size: str | None = None) -> tuple[dict[str, bytes], dict[str, str]]:
     """Every file of the publication by its path, in zip order, and the braille made for it ({print: braille})."""
     from .tactile2d import write_pdf
@@ -236,14 +236,14 @@ def package_files(book: Book, graphic: Graphic2D, picture: np.ndarray, today: _d
     today = today or _dt.date.today()
     br = Brailler(book.braille_table)
     lang = language_tag(book.braille_table)
-    content = content_document(book, graphic, br, lang)
+    content = content_document(book, graphic, br, lang=lang)
     nav = navigation_document(book, br, lang)
     pdf = io.BytesIO()
-    write_pdf(graphic, pdf, page_size, {"title": book.title, "description": book.description})
+    write_pdf(graphic, pdf, page_size, metadata={"title": book.title, "description": book.description})
     files = {
         "mimetype": MIMETYPE.encode("ascii"),
         "META-INF/container.xml": CONTAINER.encode("utf-8"),
-        "package.opf": package_document(book, lang, today, cell_type(br.pairs.values())).encode("utf-8"),
+        "package.opf": package_document(book, lang, today, cells=cell_type(br.pairs.values())).encode("utf-8"),
         "index.html": nav.encode("utf-8"),
         "content.html": content.encode("utf-8"),
         "style.css": STYLE.encode("utf-8"),
@@ -265,9 +265,9 @@ def zip_bytes(files: dict[str, bytes]) -> bytes:
     return buffer.getvalue()
 
 
-def write_ebraille(path, book: Book, graphic: Graphic2D, picture: np.ndarray, today: _dt.date | None = None) -> Path:
+def write_ebraille(path, book: Book, graphic: Graphic2D, *, picture: np.ndarray, today: _dt.date | None = None) -> Path:
     """Write the publication to `path` (NAME.ebrl) atomically."""
-    files, _ = package_files(book, graphic, picture, today)
+    files, _ = package_files(book, graphic, picture, today=today)
     data = zip_bytes(files)
     return write_atomic(Path(path), lambda fh: fh.write(data))
 

@@ -166,7 +166,7 @@ def _rows_below(furniture: Furniture, inner_w: float) -> tuple[list[str], float 
 
 
 def layout_graphic(regions: np.ndarray, mm_per_px: float, furniture: Furniture | None = None,
-                   textures: dict[int, str] | None = None, key: list[tuple[str, str]] | None = None) -> Graphic2D:
+                   *, textures: dict[int, str] | None = None, key: list[tuple[str, str]] | None = None) -> Graphic2D:
     """Place the picture, scale bar, braille value and caption on a plate, as the 3-D plate does.
 
     Parameters

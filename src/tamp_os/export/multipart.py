@@ -25,7 +25,7 @@ def split_formats(formats: list[str]) -> tuple[list[str], list[str]]:
     return per_part, [f for f in formats if f not in per_part]
 
 
-def write_parts(parts, whole, folder: Path, stem: str, formats: list[str], meta: dict) -> list[Path]:
+def write_parts(parts, whole, folder: Path, *, stem: str, formats: list[str], meta: dict) -> list[Path]:
     """Write a two-colour print: see the module notes. `whole` is the fused Mesh."""
     from .threemf import write_3mf_parts
 
@@ -47,7 +47,7 @@ def tile_stem(stem: str, tile) -> str:
     return f"{stem}.tile-{tile.row}-{tile.col}"
 
 
-def write_tiles(tiling, folder: Path, stem: str, formats: list[str], meta: dict) -> list[Path]:
+def write_tiles(tiling, folder: Path, stem: str, *, formats: list[str], meta: dict) -> list[Path]:
     """Write every tile in every format, after checking them all."""
     for tile in tiling.tiles:
         check_export(tile.mesh, [folder / f"{tile_stem(stem, tile)}.{fmt}" for fmt in formats])

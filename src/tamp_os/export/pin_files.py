@@ -238,7 +238,7 @@ def pin_sets(litho, formats) -> dict:
     return {fmt: pin_pages(source, DEVICES[fmt]) for fmt in formats}
 
 
-def save_pins(pin_set: PinSet, fmt: str, folder: Path, stem: str, title: str) -> list[Path]:
+def save_pins(pin_set: PinSet, fmt: str, folder: Path, *, stem: str, title: str) -> list[Path]:
     """Write one pin format's files: its device file, (Graphiti) each page as PNG, and the simulator PNG."""
     folder = Path(folder)
     written = []

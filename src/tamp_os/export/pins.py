@@ -293,7 +293,7 @@ def _largest_piece(mask: np.ndarray) -> np.ndarray:
     return pieces == int(np.argmax(sizes))
 
 
-def render_picture_page(source: PinSource, device: PinDevice, window, s: float, name: str) -> PinPage:
+def render_picture_page(source: PinSource, device: PinDevice, window, *, s: float, name: str) -> PinPage:
     """The part `window` (r0, r1, c0, c1) of the picture at s pins per picture pixel, with the
     marker and, when the scale is known, a scale bar."""
     from skimage.measure import label as cc_label
@@ -531,7 +531,7 @@ def render_key_page(source: PinSource, device: PinDevice, bar_text: str | None) 
 # All pages
 
 
-def zoom_windows(shape: tuple[int, int], device: PinDevice, s: float, zoom: float = ZOOM) -> list[tuple[int, int, int, int]]:
+def zoom_windows(shape: tuple[int, int], device: PinDevice, s: float, *, zoom: float = ZOOM) -> list[tuple[int, int, int, int]]:
     """Windows (r0, r1, c0, c1) the display shows at ZOOM × s pins per pixel, tiling the picture:
     each the display's own shape (a wide strip gives slices along it, a 4:3 picture its quarters),
     evenly spaced so that together they cover it."""
@@ -555,7 +555,7 @@ def pin_pages(source: PinSource, device: PinDevice) -> PinSet:
     """Overview, zoom pages and key for `device`; ExportError when nothing fits usefully."""
     rows, cols = source.shape
     s = min(device.cols / cols, (device.rows - BAR_ROWS) / rows)
-    overview = render_picture_page(source, device, (0, rows, 0, cols), s, "overview")
+    overview = render_picture_page(source, device, (0, rows, 0, cols), s=s, name="overview")
     pages = [overview]
     raised = np.zeros(source.shape, bool)
     for layer in source.layers:
@@ -567,7 +567,7 @@ def pin_pages(source: PinSource, device: PinDevice) -> PinSet:
         windows = [windows[i] for i in chosen]
     for window in windows:
         name = f"zoom {len(pages)}, {_where(window, source.shape)}, twice the scale"
-        pages.append(render_picture_page(source, device, window, s * ZOOM, name))
+        pages.append(render_picture_page(source, device, window, s=s * ZOOM, name=name))
     bar = overview.scale_bar
     pages.append(render_key_page(source, device, f"scale bar {length_words(bar[3] * 1e6)}" if bar else None))
     pin_set = PinSet(device, pages, source)
@@ -592,15 +592,15 @@ def _typical_size_px(layer: Layer) -> float:
 ZOOMS_TRIED = (3, 4, 6, 8, 12, 16)
 
 
-def zoom_needed(source: PinSource, device: PinDevice, s: float, layer: Layer) -> int | None:
+def zoom_needed(source: PinSource, device: PinDevice, s: float, *, layer: Layer) -> int | None:
     """The least zoom (of ZOOMS_TRIED) at which the densest window keeps 90 % of the layer's
     members it holds, each on its own; None when even 16× does not."""
     raised = layer.data > 0
     one = PinSource(source.shape, [layer], source.um_per_px, source.title, source.caption, source.braille_table)
     for zoom in ZOOMS_TRIED:
-        windows = zoom_windows(source.shape, device, s, zoom)
+        windows = zoom_windows(source.shape, device, s, zoom=zoom)
         best = max(windows, key=lambda w: raised[w[0] : w[1], w[2] : w[3]].sum())
-        page = render_picture_page(one, device, best, s * zoom, "trial")
+        page = render_picture_page(one, device, best, s=s * zoom, name="trial")
         count = page.counts.get(layer.label, {})
         if count.get("found") and count.get("kept", 0) >= 0.9 * count["found"]:
             return zoom
@@ -620,7 +620,7 @@ def _partial_notes(pin_set: PinSet, s: float) -> list[str]:
         if found and kept < found / 2:
             zoomed = [p.counts.get(layer.label, {}) for p in pin_set.pages[1:-1]]
             z_found, z_kept = sum(c.get("found", 0) for c in zoomed), sum(c.get("kept", 0) for c in zoomed)
-            need = zoom_needed(pin_set.source, pin_set.device, s, layer)
+            need = zoom_needed(pin_set.source, pin_set.device, s, layer=layer)
             at = (f"would each be felt on their own at about {need}× (crop the picture to about 1/{need} of its width "
                   f"for the pin pages)") if need else "stay too close together even at 16×"
             notes.append(f"{pin_set.device.label}: the overview shows {kept} of the {found} {layer.label} and the zoom pages "
@@ -639,7 +639,7 @@ def _check_useful(pin_set: PinSet, s: float) -> None:
         return
     size_px = min(_typical_size_px(layer) for layer in source.layers)
     need = math.ceil(2 / max(size_px * s, 1e-9))  # two pins across the typical structure
-    tried = [zoom_needed(source, pin_set.device, s, layer) for layer in source.layers if layer.kind != "lines"]
+    tried = [zoom_needed(source, pin_set.device, s, layer=layer) for layer in source.layers if layer.kind != "lines"]
     if tried and all(tried):
         need = min(tried)
     pin_um = f" (a pin is {length_words(source.um_per_px / (s * ZOOM))} at the closest zoom)" if source.um_per_px else ""

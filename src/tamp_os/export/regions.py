@@ -123,7 +123,7 @@ def _pieces(layers, shape) -> list[_Piece]:
     return out
 
 
-def picture_regions(layers, shape: tuple[int, int], graphic: Graphic2D, um_per_px: float | None
+def picture_regions(layers, shape: tuple[int, int], graphic: Graphic2D, *, um_per_px: float | None
                     ) -> tuple[list[Region], int, tuple[float, float] | None]:
     """The picture's regions in reading order, how many smaller pieces were left out, and a point
     of the picture (page mm) that no region covers (None when they cover it all)."""
@@ -279,11 +279,11 @@ class Tour:
     plate_mm: tuple[float, float]
 
 
-def tour_of(graphic: Graphic2D, layers, shape, um_per_px: float | None, title: str, caption: str | None,
+def tour_of(graphic: Graphic2D, layers, shape, *, um_per_px: float | None, title: str, caption: str | None,
             key_labels: list[str]) -> Tour:
     """The touch tour of a 2-D graphic and the layers it shows."""
     furniture = furniture_regions(graphic, caption, key_labels)
-    picture, left_out, ground = picture_regions(layers, shape, graphic, um_per_px)
+    picture, left_out, ground = picture_regions(layers, shape, graphic, um_per_px=um_per_px)
     if ground is not None:  # touching the picture where nothing is raised names the picture
         furniture["picture"] = dataclasses.replace(furniture["picture"], touch=ground)
     order = [furniture[k] for k in ("corner", "picture") if k in furniture] + picture
@@ -306,10 +306,10 @@ def tour_from_lithograph(litho, graphic: Graphic2D) -> Tour:
     source = source_from_lithograph(litho)
     key_labels = [entry.label for entry in (litho.report.key or ())]
     caption = litho.params.caption
-    return tour_of(graphic, source.layers, source.shape, source.um_per_px, source.title, caption, key_labels)
+    return tour_of(graphic, source.layers, source.shape, um_per_px=source.um_per_px, title=source.title, caption=caption, key_labels=key_labels)
 
 
-def labelled_svg(base_svg: str, tour: Tour, label_of=None, title: str | None = None, touch_attrs: bool = True,
+def labelled_svg(base_svg: str, tour: Tour, label_of=None, *, title: str | None = None, touch_attrs: bool = True,
                  document_role: bool = True) -> str:
     """The tactile SVG (cairo's drawing) with a layer of labelled regions on top: each region a path
     with role="graphics-object", an id and aria-label (`label_of(region)`, print by default), drawn
@@ -347,5 +347,5 @@ def plain_svg(graphic: Graphic2D, title: str) -> str:
     from .tactile2d import write_svg
 
     buffer = io.BytesIO()
-    write_svg(graphic, buffer, None, {"title": title})
+    write_svg(graphic, buffer, None, metadata={"title": title})
     return buffer.getvalue().decode("utf-8")

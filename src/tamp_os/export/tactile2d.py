@@ -62,7 +62,7 @@ def _draw_picture(ctx, graphic: Graphic2D) -> None:
     origin, p = graphic.picture_origin_mm, graphic.mm_per_px
     ctx.new_path()
     for value in (v for v in np.unique(regions) if v > 0):
-        for line in tx.outlines_mm(regions, int(value), p, origin):
+        for line in tx.outlines_mm(regions, int(value), p, origin_mm=origin):
             ctx.move_to(*line[0])
             for point in line[1:]:
                 ctx.line_to(*point)
@@ -90,7 +90,7 @@ def _draw_braille(ctx, graphic: Graphic2D) -> None:
     for text in (graphic.caption, graphic.scale_bar.label if graphic.scale_bar else None) + tuple(k.label for k in graphic.key):
         if text is None:
             continue
-        for x, y in dot_centres(list(text.lines), graphic.spec, text.left_mm, text.top_mm):
+        for x, y in dot_centres(list(text.lines), graphic.spec, text.left_mm, top_mm=text.top_mm):
             ctx.new_path()
             ctx.arc(x, y, r, 0, 2 * math.pi)
             ctx.fill()
@@ -166,7 +166,7 @@ def _draw(surface, graphic: Graphic2D, offset_mm, page_h_mm: float, unit_scale: 
     surface.show_page()
 
 
-def write_pdf(graphic: Graphic2D, fh: BinaryIO, page_size: str | None = None, metadata: dict | None = None) -> None:
+def write_pdf(graphic: Graphic2D, fh: BinaryIO, page_size: str | None = None, *, metadata: dict | None = None) -> None:
     """The graphic as a one-page vector PDF at true size (page in points = mm × 72 / 25.4)."""
     cairo = _cairo()
     (pw, ph), offset = page_placement(graphic.plate_mm, page_size)
@@ -180,7 +180,7 @@ def write_pdf(graphic: Graphic2D, fh: BinaryIO, page_size: str | None = None, me
     surface.finish()
 
 
-def write_svg(graphic: Graphic2D, fh: BinaryIO, page_size: str | None = None, metadata: dict | None = None) -> None:
+def write_svg(graphic: Graphic2D, fh: BinaryIO, page_size: str | None = None, *, metadata: dict | None = None) -> None:
     """The graphic as SVG whose width and height are in mm and whose user unit is 1 mm."""
     cairo = _cairo()
     (pw, ph), offset = page_placement(graphic.plate_mm, page_size)
@@ -196,7 +196,7 @@ def write_svg(graphic: Graphic2D, fh: BinaryIO, page_size: str | None = None, me
     fh.write((text[:head_end] + "\n" + title + text[head_end + 1:]).encode("utf-8"))
 
 
-def write_pdf_pages(graphics: list[Graphic2D], fh: BinaryIO, page_size: str | None = None, title: str = "Tactile graphics") -> None:
+def write_pdf_pages(graphics: list[Graphic2D], fh: BinaryIO, page_size: str | None = None, *, title: str = "Tactile graphics") -> None:
     """Several graphics as one PDF, one page each at true size (a figure's overview and panels)."""
     cairo = _cairo()
     sizes = [page_placement(g.plate_mm, page_size) for g in graphics]
@@ -214,7 +214,7 @@ Writer = Callable[..., None]
 GRAPHIC_WRITERS: dict[str, Writer] = {"pdf": write_pdf, "svg": write_svg}
 
 
-def save_graphic(graphic: Graphic2D, path, page_size: str | None = None, metadata: dict | None = None) -> Path:
+def save_graphic(graphic: Graphic2D, path, page_size: str | None = None, *, metadata: dict | None = None) -> Path:
     """Write `graphic` to `path` as PDF or SVG (by extension), atomically.
 
     page_size: None or 'plate' for the graphic's own size, 'a4' or 'letter' to centre it on that page.
@@ -225,4 +225,4 @@ def save_graphic(graphic: Graphic2D, path, page_size: str | None = None, metadat
     if ext not in GRAPHIC_WRITERS:
         raise ParameterError(f"{path}: no tactile-graphic writer for '.{ext}'; choose .pdf or .svg.")
     page_placement(graphic.plate_mm, page_size)  # a page that is too small fails before any file is opened
-    return write_atomic(path, lambda fh: GRAPHIC_WRITERS[ext](graphic, fh, page_size, metadata))
+    return write_atomic(path, lambda fh: GRAPHIC_WRITERS[ext](graphic, fh, page_size, metadata=metadata))

@@ -56,7 +56,7 @@ def _to_mm(rows_px: np.ndarray, cols_px: np.ndarray, n_rows: int, mm_per_px: flo
     return np.column_stack([x, y])
 
 
-def outlines_mm(regions: np.ndarray, value: int, mm_per_px: float, origin_mm, tolerance_mm: float = 0.15) -> list[np.ndarray]:
+def outlines_mm(regions: np.ndarray, value: int, mm_per_px: float, *, origin_mm, tolerance_mm: float = 0.15) -> list[np.ndarray]:
     """Closed outlines of the pixels equal to `value`, as (N, 2) polylines in mm (first = last point)."""
     from skimage.measure import approximate_polygon, find_contours
 

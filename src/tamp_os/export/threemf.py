@@ -174,7 +174,7 @@ def _write_parts(parts, fh, metadata: dict) -> None:
     item = model.AddBuildItem(obj, wrapper.GetIdentityTransform())
     item.SetUUID(str(uuid.uuid5(seed, "item")))
     model.SetBuildUUID(str(uuid.uuid5(seed, "build")))
-    config = slic3r_model_config(obj.GetModelResourceID(), title, [p.label for p in parts], face_counts)
+    config = slic3r_model_config(obj.GetModelResourceID(), title, [p.label for p in parts], face_counts=face_counts)
     model.AddCustomContentType("config", CONFIG_CONTENT_TYPE)  # every package part needs a content type (OPC)
     model.AddAttachment(SLIC3R_MODEL_CONFIG, SLIC3R_RELATIONSHIP).ReadFromBuffer(list(config))
     _add_print_settings(model, metadata, content_type_added=True)
@@ -200,7 +200,7 @@ def _add_print_settings(model, metadata: dict, content_type_added: bool = False)
     return True
 
 
-def slic3r_model_config(object_id: int, name: str, part_names: list[str], face_counts: list[int]) -> bytes:
+def slic3r_model_config(object_id: int, name: str, part_names: list[str], *, face_counts: list[int]) -> bytes:
     """PrusaSlicer's Metadata/Slic3r_PE_model.config for one object split into volumes.
 
     Volume k covers triangles sum(face_counts[:k]) .. sum(face_counts[:k + 1]) - 1 (inclusive)

@@ -123,7 +123,7 @@ regions with the arrow keys, and press Enter for the details.</p>
 """
 
 
-def write_tour(path, tour: Tour, graphic: Graphic2D, lang: str = "en") -> Path:
+def write_tour(path, tour: Tour, graphic: Graphic2D, *, lang: str = "en") -> Path:
     text = tour_page(tour, graphic, lang)
     return write_atomic(Path(path), lambda fh: fh.write(text.encode("utf-8")))
 
@@ -131,7 +131,7 @@ def write_tour(path, tour: Tour, graphic: Graphic2D, lang: str = "en") -> Path:
 DOCUMENT_SUFFIXES = {"ebraille": ".ebrl", "tour": ".tour.html"}
 
 
-def save_documents(litho, graphic: Graphic2D, formats, folder: Path, stem: str, description: str) -> list[Path]:
+def save_documents(litho, graphic: Graphic2D, formats, *, folder: Path, stem: str, description: str) -> list[Path]:
     """Write the eBraille package and/or the touch tour of a lithograph whose 2-D graphic is `graphic`."""
     from .ebraille import book_from_lithograph, write_ebraille
     from .regions import tour_from_lithograph
@@ -141,7 +141,7 @@ def save_documents(litho, graphic: Graphic2D, formats, folder: Path, stem: str, 
     for fmt in formats:
         target = Path(folder) / f"{stem}{DOCUMENT_SUFFIXES[fmt]}"
         if fmt == "ebraille":
-            written.append(write_ebraille(target, book_from_lithograph(litho, tour, description), graphic, litho.picture.values))
+            written.append(write_ebraille(target, book_from_lithograph(litho, tour, description), graphic, picture=litho.picture.values))
         elif fmt == "tour":
             written.append(write_tour(target, tour, graphic))
     return written

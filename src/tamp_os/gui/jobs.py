@@ -194,7 +194,7 @@ class JobStore:
         return buf.getvalue()
 
 
-def run_library(path: Path, params: LithoParams, out: Path, stem: str):
+def run_library(path: Path, params: LithoParams, out: Path, *, stem: str):
     """The one place the web app calls the library: convert (make, save, slice) and a preview model."""
     from ..lithograph.convert import convert as convert_image
     from ..export import save_mesh
@@ -257,7 +257,7 @@ def convert(job: WebJob, upload: Upload) -> Result:
     try:
         from .workers import read_memory_gb, shared_pool  # one bad upload costs one message, never the server
 
-        made = shared_pool().run(upload.name, run_library, upload.path, params.replace(max_memory_gb=read_memory_gb()), job.out, stem)
+        made = shared_pool().run(upload.name, run_library, upload.path, params.replace(max_memory_gb=read_memory_gb()), job.out, stem=stem)
     except TampError as exc:
         return Result(upload.name, False, web_words(exc).replace(str(upload.path), upload.name))
     except Exception as exc:  # keep the server alive and say what happened

@@ -58,7 +58,7 @@ class Launched:
         return self.url if not self.error else f"not running: {self.error}"
 
 
-def launch(port: int | None = None, height: int = 900, proxy: bool | str | None = None, timeout_s: float = 20.0) -> Launched:
+def launch(port: int | None = None, height: int = 900, proxy: bool | str | None = None, *, timeout_s: float = 20.0) -> Launched:
     """Start the web app in the background (or reuse the one already running) and show it.
 
     Parameters

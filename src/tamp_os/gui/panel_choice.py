@@ -44,7 +44,7 @@ class PanelFound:
         return min(self.box_px[2], self.box_px[3]) >= MIN_PANEL_PX
 
 
-def find_panels(values: np.ndarray, thumbs: Path, index: int, colour=None) -> tuple[PanelFound, ...]:
+def find_panels(values: np.ndarray, thumbs: Path, index: int, *, colour=None) -> tuple[PanelFound, ...]:
     """The panels of a figure (none for a single picture), each with its thumbnail written to
     `thumbs` and what it shows in words (as the overview says it). The same detection make_figure
     runs with `panels` auto, so the labels shown are the labels the conversion knows. `colour`: a

@@ -72,7 +72,7 @@ async def store_uploads(web, job: WebJob, files) -> list[str]:
         def save_and_inspect(f=f, path=path, name=name, index=index):
             with path.open("wb") as out:
                 shutil.copyfileobj(f.file, out)
-            return inspect_upload(path, name, job.thumbs, index, web.limits.max_decoded_mb)
+            return inspect_upload(path, name, job.thumbs, index=index, max_decoded_mb=web.limits.max_decoded_mb)
 
         try:
             job.uploads.append(await anyio.to_thread.run_sync(save_and_inspect, limiter=web.decode_limiter))
@@ -114,7 +114,7 @@ def add_job_routes(app: FastAPI, web) -> None:
         by_field = {**choice_errors(job.uploads, mode), **(errors.by_field if params is None else {})}
         by_field.update({k: v for k, v in global_panel_error(mode, (form.get("panel") or "").strip()).items() if k not in by_field})
         if by_field:
-            return settings_page(web, request, job, 400, form_values(job.params, form), by_field)
+            return settings_page(web, request, job, status=400, values=form_values(job.params, form), errors=by_field)
         if form.get("action") == "update":
             params = _formats_follow_printer(job.params, params)
             job.params = params  # the page comes back with focus on the control that was used
@@ -178,7 +178,7 @@ def form_values(params: LithoParams, form=None) -> dict:
     return values
 
 
-def settings_page(web, request, job: WebJob, status: int = 200, values=None, errors=None, focus: str = ""):
+def settings_page(web, request, job: WebJob, *, status: int = 200, values=None, errors=None, focus: str = ""):
     from .cards import detail_cards
     from .forms import braille_table_choices, printer_choices
 

@@ -124,14 +124,14 @@ def plain_error(exc: TampError, path: Path, name: str) -> str:
     return text
 
 
-def inspect_upload(path: Path, name: str, thumbs: Path, index: int, max_decoded_mb: float) -> Upload:
+def inspect_upload(path: Path, name: str, thumbs: Path, *, index: int, max_decoded_mb: float) -> Upload:
     """Read an upload once (in a worker process, gui/workers.py): refuse non-images and oversized
     ones, suggest a level of detail from its contrast and detail, and write a small thumbnail."""
     from .workers import read_memory_gb, shared_pool
 
     check_size(path, max_decoded_mb)
     try:
-        seen = shared_pool().run(name, inspect_in_worker, path, thumbs, index, max_decoded_mb, read_memory_gb())
+        seen = shared_pool().run(name, inspect_in_worker, path, thumbs, index, max_decoded_mb=max_decoded_mb, max_memory_gb=read_memory_gb())
     except TampError as exc:
         raise InputError(plain_error(exc, path, name)) from None
     return Upload(name, path, seen.width, seen.height, seen.suggested, seen.reason, seen.thumb, contents=seen.contents,
@@ -156,7 +156,7 @@ class Inspected:
     panels: tuple = ()  # panel_choice.PanelFound of a figure
 
 
-def inspect_in_worker(path: Path, thumbs: Path, index: int, max_decoded_mb: float, max_memory_gb: float) -> Inspected:
+def inspect_in_worker(path: Path, thumbs: Path, index: int, *, max_decoded_mb: float, max_memory_gb: float) -> Inspected:
     """What an upload holds (size, suggested preset, thumbnail, channels and axes), read with the web app's own caps:
     the page read_image will read is priced by read_image itself (tiles, copies, working arrays)."""
     from ..printing.printers import BUILTIN_PRINTERS
@@ -175,7 +175,7 @@ def inspect_in_worker(path: Path, thumbs: Path, index: int, max_decoded_mb: floa
         from ..params import LithoParams
         from .panel_choice import find_panels
 
-        panels = find_panels(picture.values, thumbs, index, lambda: figure_colour(path, picture, LithoParams()))
+        panels = find_panels(picture.values, thumbs, index, colour=lambda: figure_colour(path, picture, LithoParams()))
     except Exception:  # the panels are a choice offered, not the upload: it stays, printed as auto decides
         log.warning("panel detection failed on %s", path.name, exc_info=True)
         panels = ()

@@ -88,12 +88,12 @@ class WorkerPool:
                 self._pool = None
         broken.shutdown(wait=False, cancel_futures=True)
 
-    def run(self, what: str, fn, *args):
-        """`fn(*args)` in a worker; its result, or its TampError re-raised. A worker out of memory or
+    def run(self, what: str, fn, *args, **kwargs):
+        """`fn(*args, **kwargs)` in a worker; its result, or its TampError re-raised. A worker out of memory or
         dead becomes one InputError naming `what` (the upload's name)."""
         pool = self._executor()
         try:
-            return pool.submit(fn, *args).result()
+            return pool.submit(fn, *args, **kwargs).result()
         except MemoryError:
             raise InputError(
                 f"{what}: converting this image needs more memory than this web app gives one image "

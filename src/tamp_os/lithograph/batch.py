@@ -81,7 +81,7 @@ class Outcome:
     touch: list[str] = field(default_factory=list)  # what a finger will find (legibility verdicts)
 
 
-def collect_inputs(items, recursive: bool = False, include: tuple[str, ...] | None = None, exclude_dir: Path | None = None):
+def collect_inputs(items, recursive: bool = False, include: tuple[str, ...] | None = None, *, exclude_dir: Path | None = None):
     """(file, path relative to its root) for each image named or found in the folders given."""
     patterns = tuple(p.lower() for p in (include or IMAGE_PATTERNS))
     found = []
@@ -126,7 +126,7 @@ def read_overrides(path: Path) -> dict[str, dict]:
     return overrides
 
 
-def convert_one(source: str, out_dir: str, params_json: str, stem: str) -> dict:
+def convert_one(source: str, out_dir: str, params_json: str, *, stem: str) -> dict:
     """Convert one input in a worker; never raises for a user-facing problem."""
     from .convert import convert
     from .outputs import RECIPE_SUFFIX, recipe_outputs_if_current
@@ -214,7 +214,7 @@ def run_batch(
     workers: int | None = None,
     on_done: Callable[[dict, int, int], None] | None = None,
 ) -> list[dict]:
-    """Run every job on `executor` (any object with submit(fn, *args) -> future), or on a local
+    """Run every job on `executor` (any object with submit(fn, *args, **kwargs) -> future), or on a local
     process pool of `workers` processes. Returns the outcomes in input order."""
     from .locks import prepare_folder, sweep_parts
 
@@ -234,7 +234,7 @@ def _run_locked(jobs: list[Job], out_dir: Path, executor, workers: int | None, o
     outcomes: list[dict | None] = [None] * len(jobs)
     try:
         for i, job in enumerate(jobs):
-            future = executor.submit(convert_one, str(job.source), str(job.out_dir), job.params.to_json(), job.stem)
+            future = executor.submit(convert_one, str(job.source), str(job.out_dir), job.params.to_json(), stem=job.stem)
             future.add_done_callback(lambda f, i=i: finished.put((i, f)))
         for count in range(1, len(jobs) + 1):
             i, future = finished.get()

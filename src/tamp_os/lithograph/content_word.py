@@ -113,7 +113,7 @@ def print_grid(values: np.ndarray, params=None, printer=None) -> PrintGrid | Non
             return None
         v = np.where(finite, v, np.float32(v[finite].min()))
     h, w = v.shape
-    plan = layout_for(params, machine, w, h)
+    plan = layout_for(params, machine, w, image_h_px=h)
     fine_cols = round(plan.width_mm / FINE_PITCH_MM) + 1
     if w > fine_cols:
         rows_px = max(2, round(h * fine_cols / w))
@@ -132,7 +132,7 @@ def print_grid(values: np.ndarray, params=None, printer=None) -> PrintGrid | Non
     if prepared.uniform or float(np.ptp(prepared.image)) <= 1e-6:
         return None
     image = prepared.image
-    grid = WorkGrid.plan(image.shape, plan.mm_per_px, machine.nozzle_mm, WORK_MAX_POINTS)
+    grid = WorkGrid.plan(image.shape, plan.mm_per_px, machine.nozzle_mm, max_points=WORK_MAX_POINTS)
     width_mm = (image.shape[1] - 1) * plan.mm_per_px
     return PrintGrid(grid.down(image), grid.pitch_mm, width_mm, machine.nozzle_mm, prepared.finer)
 

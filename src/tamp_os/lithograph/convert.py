@@ -132,9 +132,9 @@ def convert(source, params: LithoParams | None, out_dir, *, stem: str | None = N
     base = stem or figure.prints[0][1].name
     prints = []
     for suffix, litho in figure.prints:
-        written, litho = save_outputs(litho, out, formats, f"{base}{suffix}")
+        written, litho = save_outputs(litho, out, formats, stem=f"{base}{suffix}")
         prints.append(Print(litho, tuple(written), suffix))
-    figure_files = figure.finish(out, base, [p for each in prints for p in each.written], formats)
+    figure_files = figure.finish(out, base, [p for each in prints for p in each.written], formats=formats)
     last = prints[-1]
     warned = {w for each in prints for w in each.report.warnings}
     notes = tuple(n for n in figure.notes if n not in warned)  # a note a print already warns of is said once

@@ -60,7 +60,7 @@ class Figure:
     def lithographs(self) -> list[Lithograph]:
         return [litho for _, litho in self.prints]
 
-    def finish(self, folder: Path, stem: str, written: list[Path], formats=None) -> list[Path]:
+    def finish(self, folder: Path, stem: str, written: list[Path], *, formats=None) -> list[Path]:
         """After each print is saved: for a figure, NAME.pages.pdf (when PDF is asked for) and the
         figure's recipe NAME.tamp.json, listing every file and the parameters as given (so that a
         batch rerun sees the figure done, and a rebuild from this recipe remakes it all)."""
@@ -76,7 +76,7 @@ class Figure:
 
         panels = {"boxes": self.layout.record(), "reason": self.layout.reason, "notes": [str(n) for n in self.notes]}
         return write_recipe(self.prints[-1][1], folder / f"{stem}{RECIPE_SUFFIX}", files,
-                            {"params": self.params.to_dict(), "panels": panels, "relief": None})
+                            changes={"params": self.params.to_dict(), "panels": panels, "relief": None})
 
     def save_pages_pdf(self, folder: Path, stem: str) -> Path:
         """NAME.pages.pdf: the overview's page first, then each panel's, for swell paper or an embosser."""
@@ -88,7 +88,7 @@ class Figure:
         graphics = [tactile_graphic(litho) for litho in order]
         params = order[0].params
         title = f"Tactile graphics of the figure {order[0].picture.file.name}: overview, then panels {', '.join(s[7:] for s, _ in self.prints[:-1])}"
-        return write_atomic(folder / f"{stem}.pages.pdf", lambda fh: write_pdf_pages(graphics, fh, params.page_size, title))
+        return write_atomic(folder / f"{stem}.pages.pdf", lambda fh: write_pdf_pages(graphics, fh, params.page_size, title=title))
 
 
 def make_figure(source, params: LithoParams | None = None, *, printer_profile: PrinterProfile | None = None, **changes) -> Figure:
@@ -132,11 +132,11 @@ def make_figure(source, params: LithoParams | None = None, *, printer_profile: P
     record = params.replace(panel_boxes=layout.record())
     # A colour figure's panels carry their own colour pixels, so that each takes the channel path
     # (a fluorescence composite, a stained slide) as it would saved as a file of its own.
-    colour = figure_colour(source, picture, params, pixels)
+    colour = figure_colour(source, picture, params, pixels=pixels)
     del pixels
     # What each panel shows, for every panel of the layout (not only those printed now), so the
     # overview is the same file whichever panel's recipe rebuilds it.
-    contents = panel_contents(picture.values, layout, colour, params, printer_profile)
+    contents = panel_contents(picture.values, layout, colour, params=params, printer_profile=printer_profile)
     prints = [(f".panel-{p.label}", _panel_print(picture, p, layout, params, record, printer_profile, colour, contents[p.label]))
               for p in printable]
     # The overview names every panel large enough to print, whichever `panel` chose, so that it is
@@ -235,7 +235,7 @@ def crop_picture(picture: Picture, box: tuple[int, int, int, int], colour: np.nd
     return Picture(np.ascontiguousarray(picture.values[y:y + h, x:x + w]), alpha, file, own)
 
 
-def figure_colour(source, picture: Picture, params: LithoParams, pixels: np.ndarray | None = None) -> np.ndarray | None:
+def figure_colour(source, picture: Picture, params: LithoParams, *, pixels: np.ndarray | None = None) -> np.ndarray | None:
     """The figure's colour pixels (H, W, 3) at the file's own precision, for its panels; None for a
     grey figure (also one stored in colour: no pixel of its colour sample has chroma), for a file of
     several channels rather than colours, or for a Picture given without them. `pixels`: the colour
@@ -264,7 +264,7 @@ def figure_colour(source, picture: Picture, params: LithoParams, pixels: np.ndar
     return rgb.astype(dtype) if dtype.kind in "ui" else rgb  # integer samples come back exactly
 
 
-def panel_contents(values: np.ndarray, layout: PanelLayout, colour: np.ndarray | None, params: LithoParams | None = None,
+def panel_contents(values: np.ndarray, layout: PanelLayout, colour: np.ndarray | None, *, params: LithoParams | None = None,
                    printer_profile: PrinterProfile | None = None) -> dict[str, ContentWord]:
     """What each panel of the layout shows (relief/content_word.py), by label, in reading order:
     `values` the figure's brightness, `colour` its colour pixels (figure_colour) or None; `params`
@@ -322,17 +322,17 @@ def _overview(picture, layout: PanelLayout, params: LithoParams, record: LithoPa
 
     machine = resolve_printer(params, printer_profile)
     h, w = picture.values.shape
-    plan = layout_for(params, machine, w, h)
+    plan = layout_for(params, machine, w, image_h_px=h)
     caption = f"overview {params.caption}" if params.caption else "overview"
     over_params = params.replace(caption=caption, panels="off", panel=None, panel_boxes=None)
     furniture = dataclasses.replace(furniture_for(over_params.replace(scale_bar="off"), None))
     panels = [OverviewPanel(p.box_px, p.label, picture.values[p.y:p.y + p.h, p.x:p.x + p.w]) for p in layout.panels]
     max_error = params.max_error_mm if params.max_error_mm is not None else machine.layer_mm / 2
-    built = build_overview((w, h), panels, plan.cols, plan.rows, plan.width_mm, plan.depth_mm, params.base_mm, furniture,
-                           params.mesher, max_error)
+    built = build_overview((w, h), panels, plan.cols, rows=plan.rows, width_mm=plan.width_mm, depth_mm=plan.depth_mm, base_mm=params.base_mm, furniture=furniture,
+                           mesher=params.mesher, max_error_mm=max_error)
     notes += built.notes
     contents = contents or {}
-    description = overview_description(picture.file.name, layout, printed, built.notes, {k: c.words for k, c in contents.items()})
+    description = overview_description(picture.file.name, layout, printed, notes=built.notes, contents={k: c.words for k, c in contents.items()})
     facts = PanelFacts(split=True, reason=layout.reason, panels=tuple(layout.labels()), overview=True,
                        boxes_px=tuple(tuple(b) for b in layout.boxes()), printed=tuple(printed), letters_braille=dict(built.letters_braille),
                        contents=dict(contents))
@@ -342,7 +342,7 @@ def _overview(picture, layout: PanelLayout, params: LithoParams, record: LithoPa
     return litho
 
 
-def overview_description(name: str, layout: PanelLayout, printed: list[str], notes: list[str], contents: dict[str, str] | None = None) -> str:
+def overview_description(name: str, layout: PanelLayout, printed: list[str], *, notes: list[str], contents: dict[str, str] | None = None) -> str:
     """The overview in words: 'Four panels in two rows: a, top left, particles (about 12); b, top right, …'
     (`contents`: each label's words, relief/content_word.py)."""
     where = position_words(layout)

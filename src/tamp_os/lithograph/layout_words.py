@@ -65,7 +65,7 @@ def count_words(n: int, singular: str, plural: str | None = None) -> str:
     return f"{number} {noun}"
 
 
-def find_layout(heights_mm: np.ndarray, mm_per_px: float, base_mm: float, relief_mm: float) -> ReliefLayout:
+def find_layout(heights_mm: np.ndarray, mm_per_px: float, base_mm: float, *, relief_mm: float) -> ReliefLayout:
     """The raised pieces of `heights_mm` ((rows, cols), row 0 at the far edge), largest first."""
     from scipy import ndimage
 

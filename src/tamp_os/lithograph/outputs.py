@@ -64,7 +64,7 @@ def multipart_sentences(litho) -> list[str]:
     return out + ([describe_tiles(litho.tiles)] if getattr(litho, "tiles", None) else [])
 
 
-def save(litho, target, formats=None, stem: str | None = None) -> list[Path]:
+def save(litho, target, formats=None, *, stem: str | None = None) -> list[Path]:
     """Write the mesh in each format, the mask if asked, a description and a recipe.
 
     `target` is a folder (files are named `stem`, by default after the input) or a file name
@@ -91,20 +91,20 @@ def save(litho, target, formats=None, stem: str | None = None) -> list[Path]:
         written = _write_multipart(litho, folder, stem, meshes, meta)
     else:
         check_export(litho.mesh, [folder / f"{stem}.{fmt}" for fmt in meshes])
-        written = [path for path, _ in write_meshes(litho.mesh, folder, stem, meshes, meta).values()]
+        written = [path for path, _ in write_meshes(litho.mesh, folder, stem, formats=meshes, meta=meta).values()]
     if graphics:
         from ..export.tactile2d import save_graphic  # cairo's writer, imported only for PDF/SVG
 
-        written += [save_graphic(graphic, folder / f"{stem}.{fmt}", litho.params.page_size, meta) for fmt in graphics]
+        written += [save_graphic(graphic, folder / f"{stem}.{fmt}", litho.params.page_size, metadata=meta) for fmt in graphics]
     if pages:
         from ..export.pin_files import save_pins
 
         for fmt, pin_set in pages.items():
-            written += save_pins(pin_set, fmt, folder, stem, meta["title"])
+            written += save_pins(pin_set, fmt, folder, stem=stem, title=meta["title"])
     if documents:
         from ..export.tour import save_documents
 
-        written += save_documents(litho, graphic, documents, folder, stem, meta["description"])
+        written += save_documents(litho, graphic, documents, folder=folder, stem=stem, description=meta["description"])
     if litho.params.save_masks and litho.mask is not None:
         written.append(write_png(folder / f"{stem}.annotations.png", to_uint8(litho.mask, 0.0, 1.0)))
     written.append(write_text(folder / f"{stem}.description.txt", meta["description"] + "\n"))
@@ -116,8 +116,8 @@ def _write_multipart(litho, folder: Path, stem: str, formats: list[str], meta: d
     from ..export.multipart import write_parts, write_tiles
 
     if litho.tiles:
-        return write_tiles(litho.tiles, folder, stem, formats, meta)
-    return write_parts(litho.parts, litho.mesh, folder, stem, formats, meta)
+        return write_tiles(litho.tiles, folder, stem, formats=formats, meta=meta)
+    return write_parts(litho.parts, litho.mesh, folder, stem=stem, formats=formats, meta=meta)
 
 
 LONGEST_SUFFIX_BYTES = 48  # '.description.txt', '.annotations.png', part and tile names, + a temporary name's 15
@@ -188,7 +188,7 @@ def tactile_graphic(litho) -> Graphic2D:
     return layout_graphic(regions, litho.layout.width_mm / regions.shape[1], furniture)
 
 
-def write_meshes(mesh, folder: Path, stem: str, formats: list[str], meta: dict) -> dict[str, tuple[Path, float]]:
+def write_meshes(mesh, folder: Path, stem: str, *, formats: list[str], meta: dict) -> dict[str, tuple[Path, float]]:
     """Write `mesh` as folder/stem.FMT for each format: {format: (path, seconds)}."""
 
     def write(fmt):
@@ -260,7 +260,7 @@ def recipe_dict(litho, files: list[str]) -> dict:
     return recipe
 
 
-def write_recipe(litho, path: Path, files: list[str], changes: dict | None = None) -> Path:
+def write_recipe(litho, path: Path, files: list[str], *, changes: dict | None = None) -> Path:
     """The recipe of `litho` listing `files`, with `changes` made to its entries (a key given None
     is left out: a figure's own recipe, figure.py)."""
     recipe = recipe_dict(litho, files)
@@ -370,11 +370,11 @@ def recipe_outputs_if_current(recipe_path: Path, source: Path, params: LithoPara
     return outputs + [recipe_path.name]
 
 
-def save_outputs(litho, target, formats=None, stem: str | None = None) -> tuple[list[Path], object]:
+def save_outputs(litho, target, formats=None, *, stem: str | None = None) -> tuple[list[Path], object]:
     """Save a lithograph's files and, when its parameters ask for G-code, slice it and rewrite the
     recipe with the result. Returns the paths written (recipe last) and the lithograph whose report
     says so (a new report: the old one is not changed)."""
-    written = save(litho, target, formats, stem)
+    written = save(litho, target, formats, stem=stem)
     if not litho.params.gcode:
         return written, litho
     written, result = slice_outputs(litho, written)

@@ -92,7 +92,7 @@ class Lithograph:
         (itself when nothing was sliced)."""
         from .outputs import save_outputs
 
-        return save_outputs(self, target, formats, stem)
+        return save_outputs(self, target, formats, stem=stem)
 
     def __repr__(self) -> str:
         r = self.report
@@ -142,7 +142,7 @@ def make_lithograph(source, params: LithoParams | None = None, *, printer_profil
     machine = resolve_printer(params, printer_profile)
     with clock("annotations"):
         cleaned = clean_picture(picture, pixel_size_m=params.pixel_size_m, remove_annotations=not params.keep_annotations)
-    layout = layout_for(params, machine, cleaned.values.shape[1], cleaned.values.shape[0])
+    layout = layout_for(params, machine, cleaned.values.shape[1], image_h_px=cleaned.values.shape[0])
     _check_grid(layout, params.mesher)
     with clock("preprocess"):
         prepared = _prepare(cleaned, layout, params)
@@ -157,7 +157,7 @@ def make_lithograph(source, params: LithoParams | None = None, *, printer_profil
 
             relief, layout, key, channel_extras = channel_path(_channel_source(source, picture),
                                                 lambda: _relief(prepared, layout, params, machine, _content_hints(cleaned)),
-                                                layout, params, route, cleaned, _document_name(picture))
+                                                layout, params=params, route=route, cleaned=cleaned, title=_document_name(picture))
             if key:
                 picture = without_channel_note(picture)
         heights = relief.heights_mm
@@ -168,10 +168,7 @@ def make_lithograph(source, params: LithoParams | None = None, *, printer_profil
     max_error = params.max_error_mm if params.max_error_mm is not None else machine.layer_mm / 2
     flattening = _flattening_warning(max_error, params) if params.mesher == "adaptive" else []
     with clock("mesh"):
-        if params.mesher == "adaptive":
-            mesh = adaptive_solid(heights, layout.width_mm, layout.depth_mm, max_error)
-        else:
-            mesh = grid_solid(heights, layout.width_mm, layout.depth_mm)
+        mesh = _solid(heights, layout, params.mesher, max_error)
     with clock("scale bar wait"):  # a scale bar's label is read beside the relief and mesh work (clean/stage.py)
         metres = cleaned.pixel_size.metres
     sample_per_mm = metres * prepared.fitted_width_px / layout.width_mm if metres else None
@@ -186,7 +183,7 @@ def make_lithograph(source, params: LithoParams | None = None, *, printer_profil
                                      verdicts=tuple(relief.checks) + agrees + tuple(legibility.verdicts))  # what the print shows of the picture first
     report = _report(picture, cleaned, prepared, layout, params, machine, tactile.mesh, tactile.placed, max_error, timings, later,
                      relief, legibility, layout.depth_mm - picture_depth_mm,
-                     find_layout(heights, layout.mm_per_px, params.base_mm, params.relief_mm) if not prepared.uniform else None)
+                     find_layout(heights, layout.mm_per_px, params.base_mm, relief_mm=params.relief_mm) if not prepared.uniform else None)
     if key:
         report = dataclasses.replace(report, key=key)
     return Lithograph(mesh=tactile.mesh, heightmap=heights, params=params, printer=machine, layout=layout, picture=picture,
@@ -219,12 +216,14 @@ def _key_in_colour(heights, key_overlay, layout: Layout, params: LithoParams, ma
         return None
     from ..tactile.parts import key_overlay_meshes
 
-    def mesh_of(h):
-        if params.mesher == "adaptive":
-            return adaptive_solid(h, layout.width_mm, layout.depth_mm, max_error)
-        return grid_solid(h, layout.width_mm, layout.depth_mm)
+    return key_overlay_meshes(heights, key_overlay, params.base_mm, mesh_of=lambda h: _solid(h, layout, params.mesher, max_error))
 
-    return key_overlay_meshes(heights, key_overlay, params.base_mm, mesh_of)
+
+def _solid(heights: np.ndarray, layout: Layout, mesher: str, max_error_mm: float) -> Mesh:
+    """The closed solid of a heightmap: adaptive (fewest triangles within `max_error_mm`) or every grid point."""
+    if mesher == "adaptive":
+        return adaptive_solid(heights, layout.width_mm, layout.depth_mm, max_error_mm=max_error_mm)
+    return grid_solid(heights, layout.width_mm, layout.depth_mm)
 
 
 def _tactile(relief_mesh: Mesh, layout: Layout, params: LithoParams, furniture: Furniture,
@@ -233,15 +232,15 @@ def _tactile(relief_mesh: Mesh, layout: Layout, params: LithoParams, furniture: 
     bed_mm, or else for the printer's own bed (printer_table.py) when the plate is larger than it."""
     mesh, placed = relief_mesh, None
     if furniture.wanted or furniture.corner_cut:
-        mesh, placed = add_furniture(relief_mesh, layout.width_mm, layout.depth_mm, params.base_mm, furniture)
+        mesh, placed = add_furniture(relief_mesh, layout.width_mm, layout.depth_mm, base_mm=params.base_mm, furniture=furniture)
     plain, overlay = key_meshes if key_meshes else (relief_mesh, None)
-    parts = two_colour_parts(plain, layout.width_mm, layout.depth_mm, params.base_mm, furniture, overlay)[0] if params.multicolour else None
+    parts = two_colour_parts(plain, layout.width_mm, layout.depth_mm, base_mm=params.base_mm, furniture=furniture, overlay=overlay)[0] if params.multicolour else None
     tiles = None
     bed = params.bed_size_mm if params.bed_mm else (printer_bed_mm if not params.multicolour else None)
     if bed:
         (ox, oy), legs = (placed.relief_origin_mm, placed.corner_cut_mm) if placed else ((0.0, 0.0), 0.0)
         picture_box = (ox, oy, ox + layout.width_mm, oy + layout.depth_mm)
-        tiles = tiles_for(mesh, bed, params.base_mm, furniture.spec, picture_box, legs)
+        tiles = tiles_for(mesh, bed, params.base_mm, spec=furniture.spec, picture_box=picture_box, corner_legs_mm=legs)
     return _Tactile(mesh, placed, parts, tiles)
 
 
@@ -283,8 +282,8 @@ def plan_channels(source, params: LithoParams | None = None) -> ChannelPlan | No
     if route is None and not params.channels:
         return None
     cleaned = clean_picture(picture, pixel_size_m=params.pixel_size_m, remove_annotations=not params.keep_annotations)
-    layout = layout_for(params, resolve_printer(params, None), cleaned.values.shape[1], cleaned.values.shape[0])
-    stage = channel_stage(_channel_source(source, picture), layout, params, route, cleaned, _document_name(picture))
+    layout = layout_for(params, resolve_printer(params, None), cleaned.values.shape[1], image_h_px=cleaned.values.shape[0])
+    stage = channel_stage(_channel_source(source, picture), layout, params, route=route, cleaned=cleaned, title=_document_name(picture))
     if stage is None:
         return None
     why = route.why if route is not None else "`channels` assigns them"

@@ -9,14 +9,14 @@ from .sizing import layout_for, resolve_printer
 from ..printing.printers import ADAPTIVE_RATIO, PRESETS, estimate_file_bytes, grid_triangles, height_levels
 
 
-def preset_rows(params: LithoParams, width_px: int = 4, height_px: int = 3, picture=None) -> list[dict]:
+def preset_rows(params: LithoParams, width_px: int = 4, height_px: int = 3, *, picture=None) -> list[dict]:
     """One row per preset. With a picture, the mesh is made for real, so the counts are exact."""
     printer = resolve_printer(params)
     if picture is not None:
         width_px, height_px = picture.file.width, picture.file.height
     rows = []
     for preset in PRESETS:
-        layout = layout_for(params, printer, width_px, height_px, preset)
+        layout = layout_for(params, printer, width_px, image_h_px=height_px, preset=preset)
         exact = picture is not None
         if exact:
             mesh = make_lithograph(picture, params.replace(preset=preset)).mesh

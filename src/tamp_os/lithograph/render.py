@@ -98,7 +98,7 @@ def render_views(vertices: np.ndarray, faces: np.ndarray, view: View) -> tuple[n
     return full, close
 
 
-def alt_text(name: str, vertices: np.ndarray, view: View, closeup: bool) -> str:
+def alt_text(name: str, vertices: np.ndarray, view: View, *, closeup: bool) -> str:
     lo, hi = vertices.min(axis=0), vertices.max(axis=0)
     size = hi - lo
     what = f"Close-up, {view.closeup_zoom:g} times nearer, of the centre of" if closeup else "Rendered view of"
@@ -119,7 +119,7 @@ def render_file(path: Path, out_dir: Path, view: View) -> list[Path]:
         folder = out_dir / "renders" / kind
         folder.mkdir(parents=True, exist_ok=True)
         written.append(write_png(folder / f"{path.stem}.png", image))
-        written.append(write_text(folder / f"{path.stem}.alt.txt", alt_text(path.stem, vertices, view, kind == "closeup") + "\n"))
+        written.append(write_text(folder / f"{path.stem}.alt.txt", alt_text(path.stem, vertices, view, closeup=kind == "closeup") + "\n"))
     return written
 
 

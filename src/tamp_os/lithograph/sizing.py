@@ -54,7 +54,7 @@ def _check_sla_layer(printer: PrinterProfile, layer_mm: float) -> None:
                              f"{', '.join(f'{v:g}' for v in made)} mm; got {layer_mm:g} mm. Choose one of them for `gcode`.")
 
 
-def layout_for(params: LithoParams, printer: PrinterProfile, image_w_px: int, image_h_px: int, preset: str | None = None) -> Layout:
+def layout_for(params: LithoParams, printer: PrinterProfile, image_w_px: int, *, image_h_px: int, preset: str | None = None) -> Layout:
     """Print size and grid for an image of this size under these parameters (and preset)."""
     return plan_layout(
         image_w_px, image_h_px, width_mm=params.width_mm, depth_mm=params.depth_mm, default_width_mm=printer.width_mm,

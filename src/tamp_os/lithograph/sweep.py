@@ -96,7 +96,7 @@ class SweepResult:
         return files + [q for sheet in self.sheets for q in (sheet, sheet.with_suffix(".alt.txt"))]
 
 
-def run_sweep(source, params: LithoParams, vary: dict[str, list], out_dir: Path, render: bool = True,
+def run_sweep(source, params: LithoParams, vary: dict[str, list], *, out_dir: Path, render: bool = True,
               name: str | None = None) -> SweepResult:
     """Make every variant of an image file, an array or a read Picture, convert each (named
     NAME_VARIANT.ext, sliced when `gcode` is set) and write the contact sheet(s)."""

@@ -104,7 +104,7 @@ def _voxel_size(picture, params: LithoParams, notes: list[str], warnings: list[s
 
     f = picture.file
     vendor = (f.metadata or {}).get("vendor") or {}
-    size = read_pixel_size(f.metadata, f.tiff_tags, f.path, f.width, params.pixel_size_m)
+    size = read_pixel_size(f.metadata, f.tiff_tags, f.path, width_px=f.width, pixel_size_m=params.pixel_size_m)
     warnings.extend(size.warnings)
     xy = None
     if params.pixel_size_m is None and vendor.get("pixel_size_m"):
@@ -176,7 +176,7 @@ def make_volume(source, params: LithoParams | None = None, *, printer=None) -> V
     cost.add("one slice decoded", float(shape.ny) * shape.nx * (shape.dtype.itemsize + 4))
     reduced = math.prod(-(-n // f) for n, f in zip(source_shape, factors))
     cost.add("the working grid's voxel steps", float(reduced) * BYTES_PER_WORKING_VOXEL)
-    check_memory(path, f"{shape.nx}×{shape.ny}×{shape.nz} stack", cost, params.max_memory_gb)
+    check_memory(path, f"{shape.nx}×{shape.ny}×{shape.nz} stack", cost, max_memory_gb=params.max_memory_gb)
     try:
         read = read_volume(shape, factors, path)
     except MemoryError:
@@ -247,13 +247,13 @@ def _model(path, picture, params, printer, read, voxel_m, rel, factors, budget_v
     if SMOOTH_VOXELS:
         cropped = ndimage.gaussian_filter(cropped, SMOOTH_VOXELS, mode="nearest")
     wall = min_wall_for(params, printer.name, printer.description)
-    filled, report = mv.solid_mask(cropped, level, tuple(pitch), SPECK_MM3)
+    filled, report = mv.solid_mask(cropped, level, tuple(pitch), speck_mm3=SPECK_MM3)
     if not report.voxels:
         raise InputError(f"{path}: no part of the stack above `iso_level` {level:g} is larger than {SPECK_MM3:g} mm³ on the "
                          f"model; choose a lower `iso_level` (the stack's values run from {lo:g} to {hi:g}) or a larger `size_mm`.")
-    mv.thicken(filled, tuple(pitch), wall, report)
+    mv.thicken(filled, tuple(pitch), wall, report=report)
     working_shape = tuple(int(n_) for n_ in filled.shape)
-    surface = mv.surface_field(cropped, level, filled, report, tuple(pitch))
+    surface = mv.surface_field(cropped, level, filled, report=report, spacing_mm=tuple(pitch))
     del cropped, filled
     report.grow_field = None
     full = mv.isosurface(surface, tuple(pitch))
@@ -265,7 +265,7 @@ def _model(path, picture, params, printer, read, voxel_m, rel, factors, budget_v
     if solid.status() != m3.Error.NoError:
         raise InputError(f"{path}: the isosurface at `iso_level` {level:g} could not be made a closed solid "
                          f"({solid.status()}); try another `iso_level` or a smaller `size_mm`, and please report this stack.")
-    simplified, budget = mb.meet_budget(solid, params.max_triangles, MAX_DEVIATION_MM, full)
+    simplified, budget = mb.meet_budget(solid, params.max_triangles, MAX_DEVIATION_MM, reference=full)
     model = mb.from_manifold(simplified)
     deviation = budget.deviation_mm
     if not budget.met:
@@ -337,7 +337,7 @@ def _fused(path, simplified, width_mm, depth_mm, base_mm, furniture, stand_model
 
     problems: list[str] = []
     for posts in (True, False):
-        stand = stand_model(simplified, width_mm, depth_mm, base_mm, furniture, with_posts=posts)
+        stand = stand_model(simplified, width_mm, depth_mm, base_mm=base_mm, furniture=furniture, with_posts=posts)
         if stand.solid.status() != m3.Error.NoError:
             problems = [str(stand.solid.status())]
             continue
@@ -455,7 +455,7 @@ def convert_volume(source, params: LithoParams, out_dir, *, stem: str | None = N
     meta = {"title": f"Tactile 3-D model of {model.name}", "description": description, "designer": "TAMP-OS",
             "application": f"TAMP-OS {__version__}", "print_settings": settings_for(printer, params.material)}
     check_export(model.mesh, [folder / f"{stem}.{fmt}" for fmt in formats])
-    written = [p for p, _ in write_meshes(model.mesh, folder, stem, formats, meta).values()]
+    written = [p for p, _ in write_meshes(model.mesh, folder, stem, formats=formats, meta=meta).values()]
     written.append(write_text(folder / f"{stem}.description.txt", description + "\n"))
     recipe = {
         "kind": "volume", "tamp_os": __version__, "dependencies": dependency_versions(),

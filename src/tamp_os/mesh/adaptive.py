@@ -34,7 +34,7 @@ def _delatin_top(heights: np.ndarray, width_mm: float, depth_mm: float, max_erro
     return vertices, tin.triangles.astype(INDEX)
 
 
-def adaptive_top(heights: np.ndarray, width_mm: float, depth_mm: float, max_error_mm: float):
+def adaptive_top(heights: np.ndarray, width_mm: float, depth_mm: float, *, max_error_mm: float):
     """(vertices in mm, counter-clockwise faces) of an error-bounded top surface.
 
     The highest grid point is always a vertex, so the print reaches exactly base + relief.
@@ -55,7 +55,7 @@ def adaptive_top(heights: np.ndarray, width_mm: float, depth_mm: float, max_erro
     # then insert it. The check saves a second pass over the whole grid (4.5 s at 1000 mm, High).
     with_peak, with_peak_faces = insert_point(vertices, faces, peak)
     around = with_peak_faces[(with_peak_faces == len(vertices)).any(axis=1)]
-    if error_at_grid_points(with_peak, around, heights, width_mm, depth_mm) <= max_error_mm:
+    if error_at_grid_points(with_peak, around, heights, width_mm=width_mm, depth_mm=depth_mm) <= max_error_mm:
         return with_peak, with_peak_faces
     vertices, faces = _delatin_top(heights, width_mm, depth_mm, max_error_mm / 2)
     return insert_point(vertices, faces, peak)
@@ -64,7 +64,7 @@ def adaptive_top(heights: np.ndarray, width_mm: float, depth_mm: float, max_erro
 ERROR_CHECK_POINTS = 1_000_000  # grid points measured at once around an inserted peak (about 50 MB)
 
 
-def error_at_grid_points(vertices: np.ndarray, faces: np.ndarray, heights: np.ndarray, width_mm: float,
+def error_at_grid_points(vertices: np.ndarray, faces: np.ndarray, heights: np.ndarray, *, width_mm: float,
                          depth_mm: float) -> float:
     """The largest |surface − height| (mm) at the grid points inside `faces`, whose vertices are in mm
     as adaptive_top places them (x = column × pitch, y = (rows − 1 − row) × pitch)."""
@@ -132,9 +132,9 @@ def insert_point(vertices: np.ndarray, faces: np.ndarray, point: np.ndarray):
     return vertices, np.vstack([faces[keep], np.array(added, dtype=faces.dtype)])
 
 
-def adaptive_solid(heights: np.ndarray, width_mm: float, depth_mm: float, max_error_mm: float) -> Mesh:
+def adaptive_solid(heights: np.ndarray, width_mm: float, depth_mm: float, *, max_error_mm: float) -> Mesh:
     """The solid with an error-bounded top; max_error_mm = 0 gives the exact full grid."""
     if max_error_mm <= 0:
         return grid_solid(heights, width_mm, depth_mm)
-    vertices, faces = adaptive_top(heights, width_mm, depth_mm, max_error_mm)
-    return close_top(vertices, faces, rectangle_boundary_edges(vertices, faces, width_mm, depth_mm), width_mm, depth_mm)
+    vertices, faces = adaptive_top(heights, width_mm, depth_mm, max_error_mm=max_error_mm)
+    return close_top(vertices, faces, rectangle_boundary_edges(vertices, faces, width_mm, depth_mm=depth_mm), width_mm=width_mm, depth_mm=depth_mm)

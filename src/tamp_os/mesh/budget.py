@@ -45,7 +45,7 @@ def from_manifold(solid) -> Mesh:
     return Mesh(np.asarray(out.vert_properties, dtype=np.float64)[:, :3].copy(), np.asarray(out.tri_verts, dtype=INDEX).copy())
 
 
-def meet_budget(solid, max_triangles: int, max_deviation_mm: float, reference: Mesh | None = None):
+def meet_budget(solid, max_triangles: int, max_deviation_mm: float, *, reference: Mesh | None = None):
     """(the solid simplified to at most `max_triangles`, Budget), never further from `reference`
     (the full surface) than `max_deviation_mm` as measured by `surface_deviation`.
 
@@ -176,7 +176,7 @@ def surface_deviation(reference: Mesh, other: Mesh, samples: int = 10_000) -> fl
     return float(max(distance_to_surface(ours, reference).max(), distance_to_surface(there, other).max()))
 
 
-def wall_thickness(solid, points: np.ndarray, normals: np.ndarray, reach_mm: float) -> np.ndarray:
+def wall_thickness(solid, points: np.ndarray, normals: np.ndarray, *, reach_mm: float) -> np.ndarray:
     """The wall behind each surface point: the distance along the inward normal to the first surface
     met (manifold3d's ray cast), or `reach_mm` when none is met within it."""
     out = np.full(len(points), float(reach_mm))

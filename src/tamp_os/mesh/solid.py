@@ -61,7 +61,7 @@ class Mesh:
         return total / 6.0
 
 
-def grid_xy_mm(rows: int, cols: int, width_mm: float, depth_mm: float) -> tuple[np.ndarray, np.ndarray]:
+def grid_xy_mm(rows: int, cols: int, width_mm: float, *, depth_mm: float) -> tuple[np.ndarray, np.ndarray]:
     """x of each column and y of each row: row 0 (top of the image) at y = depth (far edge)."""
     x = np.linspace(0.0, width_mm, cols)
     y = np.linspace(depth_mm, 0.0, rows)
@@ -71,7 +71,7 @@ def grid_xy_mm(rows: int, cols: int, width_mm: float, depth_mm: float) -> tuple[
 def grid_top(heights: np.ndarray, width_mm: float, depth_mm: float):
     """Vertices and counter-clockwise faces of the full grid, and its boundary as directed edges."""
     rows, cols = heights.shape
-    x, y = grid_xy_mm(rows, cols, width_mm, depth_mm)
+    x, y = grid_xy_mm(rows, cols, width_mm, depth_mm=depth_mm)
     vertices = np.empty((rows * cols, 3), dtype=np.float64)
     vertices[:, 0] = np.tile(x, rows)
     vertices[:, 1] = np.repeat(y, cols)
@@ -99,7 +99,7 @@ def boundary_edges(faces: np.ndarray) -> np.ndarray:
     return edges[~np.isin(keys, reverse)]
 
 
-def rectangle_boundary_edges(vertices: np.ndarray, faces: np.ndarray, width_mm: float, depth_mm: float) -> np.ndarray:
+def rectangle_boundary_edges(vertices: np.ndarray, faces: np.ndarray, width_mm: float, *, depth_mm: float) -> np.ndarray:
     """`boundary_edges` of a triangulation that covers the whole rectangle [0, width] × [0, depth]
     (an adaptive top, whose sides sit exactly on the bounds): the edges with both ends on one side.
     No edge inside the rectangle joins two points of one side (it would run along that side, over
@@ -111,7 +111,7 @@ def rectangle_boundary_edges(vertices: np.ndarray, faces: np.ndarray, width_mm: 
     return edges[(side[edges[:, 0]] & side[edges[:, 1]]) != 0]
 
 
-def close_top(top_vertices: np.ndarray, top_faces: np.ndarray, boundary: np.ndarray, width_mm: float, depth_mm: float) -> Mesh:
+def close_top(top_vertices: np.ndarray, top_faces: np.ndarray, boundary: np.ndarray, *, width_mm: float, depth_mm: float) -> Mesh:
     """Add walls and a bottom under a top surface whose outline is `boundary` (directed, CCW)."""
     n_top = len(top_vertices)
     outline = np.unique(boundary[:, 0])
@@ -134,7 +134,7 @@ def close_top(top_vertices: np.ndarray, top_faces: np.ndarray, boundary: np.ndar
 def grid_solid(heights: np.ndarray, width_mm: float, depth_mm: float) -> Mesh:
     """The full-grid solid: one vertex per heightmap value."""
     vertices, faces, boundary = grid_top(heights, width_mm, depth_mm)
-    return close_top(vertices, faces, boundary, width_mm, depth_mm)
+    return close_top(vertices, faces, boundary, width_mm=width_mm, depth_mm=depth_mm)
 
 
 def grid_volume_mm3(heights: np.ndarray, width_mm: float, depth_mm: float) -> float:

@@ -65,7 +65,7 @@ def _structure():
     return ndimage.generate_binary_structure(3, 1)  # faces only: what a finger and a slicer see as joined
 
 
-def solid_mask(values: np.ndarray, level: float, spacing_mm, speck_mm3: float) -> tuple[np.ndarray, MaskReport]:
+def solid_mask(values: np.ndarray, level: float, spacing_mm, *, speck_mm3: float) -> tuple[np.ndarray, MaskReport]:
     """The voxels above `level`, specks under `speck_mm3` dropped, internal voids filled."""
     from scipy import ndimage
 
@@ -91,7 +91,7 @@ def solid_mask(values: np.ndarray, level: float, spacing_mm, speck_mm3: float) -
     return filled, report
 
 
-def thicken(mask: np.ndarray, spacing_mm, min_wall_mm: float, report: MaskReport) -> np.ndarray:
+def thicken(mask: np.ndarray, spacing_mm, min_wall_mm: float, *, report: MaskReport) -> np.ndarray:
     """Walls thinner than `min_wall_mm` grown until they are that thick; the rest unchanged.
 
     The thin parts are the voxels a ball of diameter `min_wall_mm` cannot reach from inside (the
@@ -156,7 +156,7 @@ def _box_mm(box, spacing, shape) -> tuple[float, ...]:
     return (x.start * dx, (ny - y.stop) * dy, z.start * dz, (x.stop - 1) * dx, (ny - 1 - y.start) * dy, (z.stop - 1) * dz)
 
 
-def surface_field(values: np.ndarray, level: float, filled: np.ndarray, report: MaskReport, spacing_mm) -> np.ndarray:
+def surface_field(values: np.ndarray, level: float, filled: np.ndarray, *, report: MaskReport, spacing_mm) -> np.ndarray:
     """A float32 field, positive inside, whose zero is the model's surface (see the module's notes).
 
     Where the mask `filled` (from `solid_mask`, before thickening) follows the data, the field is

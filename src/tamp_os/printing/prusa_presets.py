@@ -50,7 +50,7 @@ def bundles() -> dict[str, Path]:
     return found
 
 
-def resolve(sections: dict[str, dict[str, str]], kind: str, name: str, _seen: tuple = ()) -> dict[str, str]:
+def resolve(sections: dict[str, dict[str, str]], kind: str, name: str, *, _seen: tuple = ()) -> dict[str, str]:
     """The options of preset `kind:name` with everything it inherits (parents first, own values last)."""
     key = f"{kind}:{name}"
     if key not in sections or key in _seen:
@@ -58,7 +58,7 @@ def resolve(sections: dict[str, dict[str, str]], kind: str, name: str, _seen: tu
     own = sections[key]
     merged: dict[str, str] = {}
     for parent in filter(None, (p.strip() for p in own.get("inherits", "").split(";"))):
-        merged.update(resolve(sections, kind, parent, (*_seen, key)))
+        merged.update(resolve(sections, kind, parent, _seen=(*_seen, key)))
     merged.update(own)
     return merged
 

@@ -266,7 +266,7 @@ def print_args(layer: float, nozzle: float, mat: Material) -> list[str]:
     ]
 
 
-def config_args(printer: PrinterProfile, mat: Material, layer_mm: float | None = None, nozzle_mm: float | None = None) -> list[str]:
+def config_args(printer: PrinterProfile, mat: Material, layer_mm: float | None = None, *, nozzle_mm: float | None = None) -> list[str]:
     """The generic printer: our print settings on a 300 × 300 mm bed with a 1.75 mm filament."""
     layer = layer_mm or printer.layer_mm
     nozzle = nozzle_mm or printer.nozzle_mm
@@ -310,7 +310,7 @@ def slice_mesh(mesh_path, printer: PrinterProfile, mat: Material, *, timeout_s: 
             config, extra = _preset_config(Path(tmp), printer, mat, layer_mm, nozzle_mm)
         else:
             config, extra = Path(tmp) / "config.ini", []
-            saved = _run([exe, "--save", str(config), *config_args(printer, mat, layer_mm, nozzle_mm)], 60, str(mesh_path))
+            saved = _run([exe, "--save", str(config), *config_args(printer, mat, layer_mm, nozzle_mm=nozzle_mm)], 60, str(mesh_path))
             if saved.returncode != 0 or not config.is_file():
                 raise SlicerError(f"{mesh_path}: PrusaSlicer could not create its configuration ({_last_error(saved)}).")
         partial = gcode.with_name(f".{gcode.name}.part")
@@ -376,7 +376,7 @@ def mesh_info(mesh_path) -> dict:
     return info
 
 
-def estimate(volume_mm3: float, vertices: np.ndarray, faces: np.ndarray, printer: PrinterProfile, mat: Material,
+def estimate(volume_mm3: float, vertices: np.ndarray, faces: np.ndarray, *, printer: PrinterProfile, mat: Material,
              layer_mm: float | None = None, nozzle_mm: float | None = None) -> dict:
     """Mass and cost without slicing, from the solid and the same print settings.
 

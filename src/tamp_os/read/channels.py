@@ -47,7 +47,7 @@ def read_channels(path, *, scene: int | str | None = None, time: int | None = No
     limits = Limits(max_megapixels, max_decoded_gb)
     kind = detect(path) if path.exists() else None
     if kind:
-        planes = read_planes(path, kind, Request(scene, time, z_slice), limits, all_channels=True)
+        planes = read_planes(path, kind, Request(scene, time, z_slice), limits=limits, all_channels=True)
         channels = planes.stack.channel_list()
         return [ChannelPlane(channels[c].name, channels[c].wavelength_nm, _grey(a), channels[c].excitation_nm, channels[c].emission_nm)
                 for a, c in zip(planes.chosen.arrays, planes.chosen.channels)]

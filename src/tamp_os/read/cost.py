@@ -46,7 +46,7 @@ def working_bytes(height_px: int, width_px: int) -> float:
     return float(height_px) * float(width_px) * WORKING_BYTES_PER_PX
 
 
-def check_memory(path, size_words: str, cost: Cost, max_memory_gb: float) -> None:
+def check_memory(path, size_words: str, cost: Cost, *, max_memory_gb: float) -> None:
     """Refuse, before decoding, a read whose estimated peak exceeds `max_memory_gb`."""
     if cost.total > max_memory_gb * 1e9:
         raise InputError(
@@ -186,7 +186,7 @@ def chunk_bytes(shape, chunks, itemsize: int) -> float:
     return one * max(1, min(count, os.cpu_count() or 1))
 
 
-def check_chunk(path, what: str, shape, chunks, n_bytes: float, max_decoded_gb: float, todo: str, whole: str = "file") -> None:
+def check_chunk(path, what: str, shape, *, chunks, n_bytes: float, max_decoded_gb: float, todo: str, whole: str = "file") -> None:
     """Refuse, before decoding, a store whose chunks decode to more than `max_decoded_gb` at once."""
     if n_bytes > max_decoded_gb * 1e9:
         dims = "×".join(str(int(n)) for n in shape) or "scalar"
@@ -198,8 +198,8 @@ def check_chunk(path, what: str, shape, chunks, n_bytes: float, max_decoded_gb: 
         )
 
 
-def check_declared(path, what: str, declared_words: str, declared_bytes: float, file_bytes: int, max_decoded_gb: float,
-                   todo: str, *, capped: bool = True, holds: str = "") -> None:
+def check_declared(path, what: str, declared_words: str, *, declared_bytes: float, file_bytes: int, max_decoded_gb: float,
+                   todo: str, capped: bool = True, holds: str = "") -> None:
     """Refuse, before reading, a header that declares more bytes than the file holds or (when
     `capped`: the bytes are decoded whole) more than the decoded-bytes cap allows. `holds` says
     what `file_bytes` counts ("the file holds (1,280 bytes)" by default)."""

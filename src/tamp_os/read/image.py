@@ -88,7 +88,7 @@ def read_image(
     if path.is_dir() and vendor_kind(path):  # an OME-Zarr folder
         from .vendor.picture import read_vendor
 
-        return read_vendor(path, vendor_kind(path), page, channel, limits, z_slice, time, scene, target_px)
+        return read_vendor(path, vendor_kind(path), page, channel=channel, limits=limits, z_slice=z_slice, time=time, scene=scene, target_px=target_px)
     _refuse_special(path)
     try:
         with path.open("rb") as fh:  # only the head: the file is hashed by streaming, never held whole
@@ -103,7 +103,7 @@ def read_image(
     if kind:
         from .vendor.picture import read_vendor
 
-        return read_vendor(path, kind, page, channel, limits, z_slice, time, scene, target_px)
+        return read_vendor(path, kind, page, channel=channel, limits=limits, z_slice=z_slice, time=time, scene=scene, target_px=target_px)
     for name, value in (("time", time), ("scene", scene)):
         if value:
             raise ParameterError(f"{path}: `{name}` {value} asked for, but this file has no {name} axis; leave `{name}` out "
@@ -180,7 +180,7 @@ def _check_cost(path, plane_hw, shape, dtype, limits: Limits, chunk_bytes: float
     cost.add("tiles being decoded", chunk_bytes)
     cost.add("converted copies", copies_bytes)
     cost.add("float32 working arrays", working_bytes(*plane_hw))
-    check_memory(path, f"{int(plane_hw[1])}×{int(plane_hw[0])} image", cost, limits.max_memory_gb)
+    check_memory(path, f"{int(plane_hw[1])}×{int(plane_hw[0])} image", cost, max_memory_gb=limits.max_memory_gb)
 
 
 
@@ -237,12 +237,12 @@ def _read_tiff(path, page, limits: Limits, z_slice=None, channel="luminance", ta
             plane_hw = (shape[axes.index("Y")], shape[axes.index("X")])
             check_size(path, plane_hw, limits)
             chunk = max(tiff_chunk_bytes(chosen.keyframe), tiff_jpeg_bytes(path, chosen.keyframe))  # as the file declares
-            check_bytes(path, shape, chosen.dtype, limits, f"TIFF series ({axes})", chunk)
+            check_bytes(path, shape, chosen.dtype, limits=limits, what=f"TIFF series ({axes})", chunk_bytes=chunk)
             _check_cost(path, plane_hw, shape, chosen.dtype, limits, chunk)
             meta = {"tiff_series_axes": axes, "tiff_series": source.series, **_vendor_blocks(tif, source.tag_page), **level_meta}
             tags = {tag.code: tag.value for tag in tif.pages[0].tags}
             tags.update({tag.code: tag.value for tag in tif.pages[source.tag_page].tags} if source.tag_page else {})
-            plane = reduce_by_pages(path, chosen, axes, shape, source.page, z_slice, channel, meta)
+            plane = reduce_by_pages(path, chosen, axes, shape=shape, page=source.page, z_slice=z_slice, channel=channel, meta=meta)
             if plane is None:
                 plane = _reduce_axes(path, chosen.asarray(), axes, source.page, z_slice, channel, meta)
             if chosen.keyframe.photometric == tifffile.PHOTOMETRIC.SEPARATED and plane.array.ndim == 3:
@@ -328,7 +328,7 @@ def _reduce_axes(path, array, axes, page, z_slice, channel, meta) -> Plane:
 
 
 def _pick_channel(path, array, axes, channel, meta, notes):
-    index = channel_choice(path, array.shape[axes.index("C")], channel, meta, notes)
+    index = channel_choice(path, array.shape[axes.index("C")], channel, meta=meta, notes=notes)
     return np.take(array, index, axis=axes.index("C")), axes.replace("C", "")
 
 
@@ -376,7 +376,7 @@ def _read_dm(path, limits: Limits, file_bytes: int) -> Decoded:
         data = item["data"]
         plane = data[(0,) * (data.ndim - 2)] if data.ndim > 2 else data
         check_size(path, plane.shape, limits)
-        check_bytes(path, plane.shape, data.dtype, limits, "DigitalMicrograph plane")
+        check_bytes(path, plane.shape, data.dtype, limits=limits, what="DigitalMicrograph plane")
         _check_cost(path, plane.shape, plane.shape, data.dtype, limits)
         array = np.asarray(plane)
     except (InputError, ParameterError):
@@ -429,7 +429,7 @@ def _read_pillow(path, head, page, limits: Limits) -> Decoded:
         fmt = im.format or "image"
         hw = (im.size[1], im.size[0])
         check_size(path, hw, limits)
-        check_bytes(path, (*hw, *_pillow_samples(im.mode)), np.uint8, limits, f"{fmt} image")
+        check_bytes(path, (*hw, *_pillow_samples(im.mode)), np.uint8, limits=limits, what=f"{fmt} image")
         _check_cost(path, hw, (*hw, _mode_bytes(im.mode)), np.uint8, limits,
                     copies_bytes=pillow_copies_bytes(im.mode, hw[0] * hw[1]))
         frames = getattr(im, "n_frames", 1)

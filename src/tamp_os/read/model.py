@@ -122,7 +122,7 @@ class Limits:
     max_memory_gb: float = MAX_MEMORY_GB
 
 
-def check_bytes(path, shape, dtype, limits: Limits, what: str = "image", chunk_bytes: float = 0.0) -> None:
+def check_bytes(path, shape, dtype, *, limits: Limits, what: str = "image", chunk_bytes: float = 0.0) -> None:
     """Refuse, before decoding, an array of `shape` and `dtype` above the decoded-bytes limit.
 
     shape : every axis that will be decoded (planes, rows, columns, samples).
@@ -216,7 +216,7 @@ class Plane:
     channel_chosen: bool = False
 
 
-def channel_choice(path, n: int, channel, meta, notes) -> int:
+def channel_choice(path, n: int, channel, *, meta, notes) -> int:
     """The C index `channel` names among `n` (a number, an OME/ImageJ name, or luminance: 0 with a note)."""
     names = file_channel_names(meta)
     if channel.isdigit():

@@ -76,7 +76,7 @@ def tiff_z_step_m(meta) -> float | None:
 STREAM_BYTES = 64e6  # series larger than this are reduced page by page, never decoded whole
 
 
-def reduce_by_pages(path, series, axes, shape, page, z_slice, channel, meta):
+def reduce_by_pages(path, series, axes, *, shape, page, z_slice, channel, meta):
     """Like _reduce_axes, but decoding one page at a time (a running maximum over Z), for a series
     stored one plane per page with its other axes first; None when it is small or not laid out so."""
     from .model import channel_choice, Plane
@@ -92,7 +92,7 @@ def reduce_by_pages(path, series, axes, shape, page, z_slice, channel, meta):
     notes: list[str] = []
     fixed = {}
     if "C" in names:
-        fixed["C"] = channel_choice(path, dims[names.index("C")], channel, meta, notes)
+        fixed["C"] = channel_choice(path, dims[names.index("C")], channel, meta=meta, notes=notes)
     zs = [0]
     if "Z" in names:
         nz = dims[names.index("Z")]

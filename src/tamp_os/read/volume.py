@@ -75,7 +75,7 @@ def _tiff_stack(path: Path, channel, time, scene) -> StackShape:
         sizes = dict(zip(axes, shape))
         notes: list[str] = []
         meta = {"imagej_metadata": tif.imagej_metadata or {}, "ome_metadata": tif.ome_metadata or ""}
-        c = channel_choice(path, sizes.get("C", 1), channel, meta, notes) if "C" in sizes else 0
+        c = channel_choice(path, sizes.get("C", 1), channel, meta=meta, notes=notes) if "C" in sizes else 0
         t = int(time or 0)
         if t >= sizes.get("T", 1):
             raise ParameterError(f"{path}: `time` must be 0–{sizes.get('T', 1) - 1} (time points in this file); got {t}.",
@@ -113,7 +113,7 @@ def _vendor_stack(path: Path, kind: str, channel, time, scene, limits) -> StackS
     from .vendor import PACKAGES
 
     try:
-        stack = open_stack(path, kind, scene, limits)
+        stack = open_stack(path, kind, scene, limits=limits)
     except (InputError, ParameterError, MissingDependencyError):
         raise
     except ImportError as exc:
@@ -121,7 +121,7 @@ def _vendor_stack(path: Path, kind: str, channel, time, scene, limits) -> StackS
     except Exception as exc:
         raise damaged(path, kind, exc) from None
     try:
-        t = check_index(path, "time", time, stack.size("T"), "time point")
+        t = check_index(path, "time", time, count=stack.size("T"), what="time point")
         c = channel_index(path, stack, channel) or 0
         if stack.samples > 1:
             raise InputError(f"{path}: the planes are colour (RGB); a 3-D model needs a grey z-stack.")

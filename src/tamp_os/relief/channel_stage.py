@@ -157,7 +157,7 @@ def _as_cleaned(raw: list, cleaned) -> tuple[list, list]:
     return out, notes
 
 
-def run(source, layout, params, route=None, cleaned=None, title: str = "") -> ChannelStage | None:
+def run(source, layout, params, *, route=None, cleaned=None, title: str = "") -> ChannelStage | None:
     """The channel relief, or None when the picture has a single plain channel (the usual path then)."""
     raw, cleaning_notes = _as_cleaned(raw_channels(source, params), cleaned)
     names = [r[0] for r in raw]
@@ -204,7 +204,7 @@ def describe_key(key) -> str:
     return "; ".join(f"{e.encoding}: {e.label}" for e in key)
 
 
-def channel_path(source, relief, layout, params, route=None, cleaned=None, title: str = ""):
+def channel_path(source, relief, layout, *, params, route=None, cleaned=None, title: str = ""):
     """(relief, layout, key, key overlay) of the channel print, or the plain relief when the picture is not one.
 
     The key overlay is a heightmap (mm above the base, like the relief's) of what a two-colour
@@ -227,7 +227,7 @@ def channel_path(source, relief, layout, params, route=None, cleaned=None, title
         return plain if plain is not None else relief()
 
     asked = bool(params.channels) and str(params.channels).strip().lower() not in OFF
-    stage = run(source, layout, params, route, cleaned, title) if route is not None or asked else None
+    stage = run(source, layout, params, route=route, cleaned=cleaned, title=title) if route is not None or asked else None
     if stage is None:
         out = luminance()
         if asked:  # asked for, not possible

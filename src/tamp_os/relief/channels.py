@@ -446,7 +446,7 @@ def some_names(names: list[str], most: int = 5) -> str:
 
 
 def choose(channels: list[ChannelImage], assigned: dict[str, str], mm_per_px: float,
-           max_channels: int = DEFAULT_MAX_CHANNELS,
+           *, max_channels: int = DEFAULT_MAX_CHANNELS,
            masks: dict[str, np.ndarray] | None = None, stretch: float = 1.0,
            title: str = "") -> tuple[list[ChannelChoice], list[str]]:
     """An encoding for each channel kept; a note when some are left out. `title`: the file's name,
@@ -534,7 +534,7 @@ def _is_tubular(mask: np.ndarray, mm_per_px: float) -> bool:
     return elong >= TUBE_ELONGATION and width_mm <= TUBE_WIDTH_MM
 
 
-def encode(img: np.ndarray, encoding: str, mm_per_px: float, relief_mm: float, angle_deg: float = 0.0,
+def encode(img: np.ndarray, encoding: str, mm_per_px: float, *, relief_mm: float, angle_deg: float = 0.0,
            mask: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """(relief above the base in mm, mask of the region raised) for one channel; `mask` is its
     foreground() when already found."""
@@ -595,7 +595,7 @@ def channel_relief(channels: list[ChannelImage], *, mm_per_px: float, base_mm: f
         notes.append(Text(said))
     if stretch < AXIAL_STRETCH_MIN:
         stretch = 1.0
-    choices, chose_notes = choose(channels, assigned or {}, mm_per_px, max_channels, found, stretch, title)
+    choices, chose_notes = choose(channels, assigned or {}, mm_per_px, max_channels=max_channels, masks=found, stretch=stretch, title=title)
     for ch in choices:
         if ch.why == "file name":
             chose_notes.append(Decision(f"The channel {ch.name!r} names no marker of its own; the file's name does "
@@ -608,7 +608,7 @@ def channel_relief(channels: list[ChannelImage], *, mm_per_px: float, base_mm: f
     line_picture = np.max([by_name[ch.name].image for ch in choices], axis=0) if choices else heights
     angle = ridge_angle_unlike(line_picture)
     for ch in order:
-        h, mask = encode(by_name[ch.name].image, ch.encoding, mm_per_px, relief_mm, angle, found[ch.name])
+        h, mask = encode(by_name[ch.name].image, ch.encoding, mm_per_px, relief_mm=relief_mm, angle_deg=angle, mask=found[ch.name])
         heights = np.where(mask, h, heights) if ch.encoding == "domes" else np.maximum(heights, h)
         masks[ch.name] = mask
     return ChannelRelief(base_mm + heights, choices, masks, notes)

@@ -202,7 +202,7 @@ class ContentMade:
     split_pairs: int = 0  # touching members with neither a neck nor a groove of shading between them (one object split?)
 
 
-def content_polarity(work: np.ndarray, pitch_mm: float, within: np.ndarray | None = None, signal: str | None = None) -> Polarity:
+def content_polarity(work: np.ndarray, pitch_mm: float, within: np.ndarray | None = None, *, signal: str | None = None) -> Polarity:
     """Which side of the ground carries the content (see the module's note 1).
 
     Dark ground is the rule for SEM, dark field and fluorescence; a bright ground must be empty
@@ -303,7 +303,7 @@ def make_content(work: np.ndarray, *, pitch_mm: float, relief_mm: float, width_m
     if not specimen.any():  # no specimen found (a picture all mount, or flat): the whole picture is the specimen
         specimen = np.ones_like(specimen)
     hints = hints or ContentHints()
-    polarity = content_polarity(work, pitch_mm, None if specimen.all() else specimen, hints.signal)
+    polarity = content_polarity(work, pitch_mm, None if specimen.all() else specimen, signal=hints.signal)
     x = work if polarity.bright else 1.0 - work
     spectrum = lattice_spectrum(work, pitch_mm)
     period = spectrum.period
@@ -686,7 +686,7 @@ def _as_dense_field(blobs: BlobScale, picture: np.ndarray, pitch_mm: float, reli
     return ContentMade(relief01, "members", labels, reason, (note,))
 
 
-def find_columns(x: np.ndarray, pitch_mm: float, spacing_mm: float, noise: float, apart_mm: float = 0.0) -> np.ndarray:
+def find_columns(x: np.ndarray, pitch_mm: float, spacing_mm: float, *, noise: float, apart_mm: float = 0.0) -> np.ndarray:
     """(n, 2) row, col of a lattice's columns on the working grid (content bright in `x`): the
     local maxima at least half a `spacing_mm` apart that stand COLUMN_CONTRAST of a typical
     column's contrast (its 75th percentile) and three noise deviations over the troughs within
@@ -767,13 +767,13 @@ def _as_lattice(shape: tuple[int, int], x: np.ndarray, x_pitch_mm: float, pitch_
     (a coarser sublattice) and the sentences say how many the picture shows and at what width
     every one would be printed; if none can, the lattice is one flat plateau, and said so. None
     when fewer than MIN_COLUMNS columns are found (the picture is no lattice to raise)."""
-    fine_peaks = find_columns(x, x_pitch_mm, period.pitch_mm, noise)
+    fine_peaks = find_columns(x, x_pitch_mm, period.pitch_mm, noise=noise)
     if len(fine_peaks) < MIN_COLUMNS:
         return None
     fine_spacing_mm = _spacing_px(fine_peaks) * x_pitch_mm
     peaks = fine_peaks
     if fine_spacing_mm < MIN_COLUMN_PX * pitch_mm:
-        peaks = find_columns(x, x_pitch_mm, period.pitch_mm, noise, apart_mm=MIN_COLUMN_PX * pitch_mm)
+        peaks = find_columns(x, x_pitch_mm, period.pitch_mm, noise=noise, apart_mm=MIN_COLUMN_PX * pitch_mm)
     spacing_mm = _spacing_px(peaks) * x_pitch_mm
     if peaks is fine_peaks and abs(period.pitch_mm - spacing_mm) <= 0.25 * spacing_mm:
         spacing_mm = fine_spacing_mm = period.pitch_mm  # the spectrum's period: finer than the grid's rounding
@@ -958,7 +958,7 @@ def _weak_contrast(work, x, pitch_mm, relief_mm, width_mm, min_area_mm2, polarit
     return ContentMade(shape, "shape", None, reason, ())
 
 
-def check_sentences(heights_mm: np.ndarray, made: ContentMade, mm_per_px: float, base_mm: float) -> tuple[str, ...]:
+def check_sentences(heights_mm: np.ndarray, made: ContentMade, mm_per_px: float, *, base_mm: float) -> tuple[str, ...]:
     """Compare the print with what was found: how many members and how high the lowest stands
     above the ground around it; the lines' height over what they enclose."""
     if made.kind == "lattice" and made.lattice is not None:
@@ -1021,14 +1021,14 @@ def lattice_sentences(heights_mm: np.ndarray, made: ContentMade, mm_per_px: floa
     return tuple(out)
 
 
-def member_tops(heights_mm: np.ndarray, labels: np.ndarray, mm_per_px: float, ring_mm: float = 1.5) -> np.ndarray:
+def member_tops(heights_mm: np.ndarray, labels: np.ndarray, mm_per_px: float, *, ring_mm: float = 1.5) -> np.ndarray:
     """Per member: its top (highest point: what a finger finds) minus the median of a ring ring_mm
     wide around it (ring pixels belong to their nearest member)."""
     n = int(labels.max())
     mask = labels > 0
     dist, (iy, ix) = ndimage.distance_transform_edt(~mask, return_indices=True)
     owner = np.where((~mask) & (dist * mm_per_px <= ring_mm), labels[iy, ix], 0)
-    top = label_max(heights_mm, labels, n, -np.inf)[1:]
+    top = label_max(heights_mm, labels, n, initial=-np.inf)[1:]
     ring = label_median(heights_mm, owner, n)
     ring = np.where(np.isfinite(ring), ring, float(np.median(heights_mm[~mask])) if (~mask).any() else 0.0)
     return top - ring

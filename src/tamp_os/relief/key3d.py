@@ -46,7 +46,7 @@ def _swatch(encoding: str, rows: int, cols: int, mm_per_px: float, relief_mm: fl
             img[(xx - cx) ** 2 + (yy - rows * mm_per_px / 2) ** 2 <= 1.75 ** 2] = 1.0
     else:
         img[1:-1, 1:-1] = 1.0
-    h, _ = encode(img, encoding, mm_per_px, relief_mm)
+    h, _ = encode(img, encoding, mm_per_px, relief_mm=relief_mm)
     return h
 
 
@@ -160,7 +160,7 @@ def key_strip(entries: tuple[KeyEntry, ...], *, width_mm: float, mm_per_px: floa
         sw_top = top + (row_h - SWATCH_H_MM) / 2
         boxes.append(((p.left_mm + KEY_GAP_MM, sw_top, p.left_mm + KEY_GAP_MM + SWATCH_W_MM, sw_top + SWATCH_H_MM),
                       (text_left_mm, text_top, text_left_mm + text_w, text_top + text_h)))
-        for x, y_up in dot_centres(lines, spec, text_left_mm, 0.0):
+        for x, y_up in dot_centres(lines, spec, text_left_mm, top_mm=0.0):
             y_dn = text_top - y_up
             centres.append((x, y_dn))
             # only the grid points within the dot's radius can be raised: work on that window

@@ -217,7 +217,7 @@ def _brighter_than_both_sides(skeleton: np.ndarray, image: np.ndarray, pitch_mm:
     band = (dist * pitch_mm >= 0.8) & (dist * pitch_mm <= 1.6)
     owner = np.where(band, parts[iy, ix], 0)
     on = label_median(image, parts, n)
-    side = label_percentile(image, owner, n, 80)
+    side = label_percentile(image, owner, n, pct=80)
     keep = np.concatenate([[False], ~(side >= on - STEP_MARGIN)])  # NaN side (no band): keep
     return keep[parts]
 

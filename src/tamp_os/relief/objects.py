@@ -147,7 +147,7 @@ def _enclosed_parts(regions: np.ndarray, ground: int, closed: np.ndarray, pitch_
 
 
 def split_at_necks(
-    mask: np.ndarray, depth_px: float, dist: np.ndarray | None = None, within: np.ndarray | None = None
+    mask: np.ndarray, depth_px: float, dist: np.ndarray | None = None, *, within: np.ndarray | None = None
 ) -> np.ndarray:
     """Label the mask split at its necks (int32, 0 outside the mask).
 
@@ -335,7 +335,7 @@ def _perimeters(labels: np.ndarray, n: int) -> np.ndarray:
     return counts[1:] * np.pi / 4
 
 
-def label_max(values: np.ndarray, labels: np.ndarray, n: int, initial: float = 0.0) -> np.ndarray:
+def label_max(values: np.ndarray, labels: np.ndarray, n: int, *, initial: float = 0.0) -> np.ndarray:
     """Largest of `values` over each label 0..n (`initial` where a label has none or all are
     lower), float64. ufunc.at with the values' own dtype and intp indices: with a cast on the way
     (float32 values into a float64 array, int32 labels) numpy takes a slow path, 20x slower."""

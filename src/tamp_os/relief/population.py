@@ -222,7 +222,7 @@ def _merge_shallow(labels: np.ndarray, top: np.ndarray) -> np.ndarray:
     if not keys:
         return labels
     pair, where = np.unique(np.concatenate(keys), return_inverse=True)
-    saddle = label_max(np.concatenate(levels), where.reshape(-1), pair.size - 1, -1.0)
+    saddle = label_max(np.concatenate(levels), where.reshape(-1), pair.size - 1, initial=-1.0)
     x_of, y_of = pair // (n + 1), pair % (n + 1)
     shallow = saddle >= SADDLE_SHARE * np.minimum(peak[x_of], peak[y_of])
     roots = joined_roots(n, x_of[shallow].tolist(), y_of[shallow].tolist())
@@ -278,7 +278,7 @@ def neckless_pairs(labels: np.ndarray, top: np.ndarray | None = None, large_px: 
     wide = ratio > NECK_SHARE
     if top is not None:
         peak = label_max(top, labels, n)
-        saddle = label_max(np.concatenate(levels), where.reshape(-1), pair.size - 1, -1.0)
+        saddle = label_max(np.concatenate(levels), where.reshape(-1), pair.size - 1, initial=-1.0)
         area = np.bincount(labels.ravel(), minlength=n + 1)
         chip = np.minimum(area[a], area[b]) <= CHIP_SHARE * np.maximum(area[a], area[b])
         # Both rules join pieces of large objects only (a piece CRACK_MIN_MM wide: both pieces for
@@ -289,7 +289,7 @@ def neckless_pairs(labels: np.ndarray, top: np.ndarray | None = None, large_px: 
     return a[wide], b[wide]
 
 
-def merge_without_neck(labels: np.ndarray, top: np.ndarray | None = None, rounds: int = 1, large_px: float = 0.0) -> np.ndarray:
+def merge_without_neck(labels: np.ndarray, top: np.ndarray | None = None, rounds: int = 1, *, large_px: float = 0.0) -> np.ndarray:
     """Members split where their outline has no neck (neckless_pairs) joined again, renumbered;
     again on the joined ones (a particle cracked in many pieces joins piece by piece), up to
     `rounds` times."""
@@ -361,7 +361,7 @@ def _split_touching(labels: np.ndarray, depth_px: float) -> np.ndarray:
     return np.where(labels > 0, out, 0)
 
 
-def label_percentile(values: np.ndarray, labels: np.ndarray, n: int, pct: float) -> np.ndarray:
+def label_percentile(values: np.ndarray, labels: np.ndarray, n: int, *, pct: float) -> np.ndarray:
     val, starts, counts = sorted_by_label(values, labels, n)
     out = np.full(n, np.nan)
     has = counts > 0

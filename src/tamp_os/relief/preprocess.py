@@ -85,7 +85,7 @@ def _distinct_tails(values, usable, sample, low_pct, high_pct, low, high):
     return low, high
 
 
-def stretch(values: np.ndarray, alpha: np.ndarray | None, low_pct: float, high_pct: float):
+def stretch(values: np.ndarray, alpha: np.ndarray | None, low_pct: float, *, high_pct: float):
     """Map the low..high percentiles of the opaque, finite source pixels to 0..1 (clipped).
 
     Sparse content keeps its contrast. When a percentile lies in the ground's noise (within
@@ -124,7 +124,7 @@ def stretch(values: np.ndarray, alpha: np.ndarray | None, low_pct: float, high_p
     return out.astype(np.float32, copy=False), (float(low), float(high)), False
 
 
-def fit_aspect(image: np.ndarray, alpha: np.ndarray | None, target_aspect: float, mode: str):
+def fit_aspect(image: np.ndarray, alpha: np.ndarray | None, target_aspect: float, *, mode: str):
     """Make image (H×W) match target_aspect = height/width by padding or cropping (centred).
 
     Padding is transparent (alpha 0), so it prints at base level. 'stretch' returns it unchanged,
@@ -233,8 +233,8 @@ def prepare(
 ):
     """The whole preprocessing chain: stretch on the source, fit the aspect, resample to rows × cols,
     blur by `sigma_px` grid pixels, invert and mirror as asked. See `Prepared` for the result."""
-    image, (low, high), uniform = stretch(values, alpha, low_pct, high_pct)
-    image, alpha = fit_aspect(image, alpha, target_aspect, fit)
+    image, (low, high), uniform = stretch(values, alpha, low_pct, high_pct=high_pct)
+    image, alpha = fit_aspect(image, alpha, target_aspect, mode=fit)
     fitted, fitted_alpha = image, alpha
     fitted_width_px = image.shape[1]
     image = resample(image, rows, cols)

@@ -116,7 +116,7 @@ class WorkGrid:
 
     @classmethod
     def plan(cls, shape: tuple[int, int], mm_per_px: float, target_pitch_mm: float,
-             max_points: float | None = None) -> "WorkGrid":
+             *, max_points: float | None = None) -> "WorkGrid":
         """Shrink by a whole factor when the output grid is finer than target_pitch_mm, or by a
         larger one when the working grid would hold more than `max_points` (None: no bound)."""
         rows, cols = shape

@@ -130,7 +130,7 @@ def make_relief(
         used = "reference" if style == "auto" else style
         return ReliefResult(heights_mm(image01, base_mm=base_mm, relief_mm=relief_mm, layer_mm=layer_mm), used, reason)
     # Shape and objects are read at fingertip scale: a grid at the nozzle's pitch carries all of it.
-    grid = WorkGrid.plan(image01.shape, mm_per_px, options.nozzle_mm, WORK_MAX_POINTS)
+    grid = WorkGrid.plan(image01.shape, mm_per_px, options.nozzle_mm, max_points=WORK_MAX_POINTS)
     work = grid.down(image01)
     # Every style (and auto's choice) reads the same objects: find them once (content asks only if it needs them).
     found_once: list[ObjectMap] = []
@@ -194,7 +194,7 @@ def _content(image01, grid, work, found, *, mm_per_px, base_mm, relief_mm, layer
         labels = grid.up(made.labels.astype(np.float32), nearest=True).astype(np.int32)
     # The check reads the heights on the working grid, where the members and lines were found
     # (at 4096² a distance transform of the full grid alone would cost a second).
-    checks = check_sentences(grid.down(heights).astype(np.float64), made, grid.pitch_mm, base_mm)
+    checks = check_sentences(grid.down(heights).astype(np.float64), made, grid.pitch_mm, base_mm=base_mm)
     pitch = made.lattice.spacing_mm if made.lattice is not None else None
     return ReliefResult(heights, "content", made.reason, labels, (), made.notes, checks, made.kind, pitch)
 
@@ -232,7 +232,7 @@ def _with_texture(shape01: np.ndarray, work, pitch_mm, relief_mm, options) -> np
 
 
 def structure_shape(
-    work: np.ndarray, pitch_mm: float, options: StyleOptions, found: ObjectMap | None = None
+    work: np.ndarray, pitch_mm: float, options: StyleOptions, *, found: ObjectMap | None = None
 ) -> tuple[np.ndarray, ObjectMap]:
     """The `structure` style's shape before texture, 0..1, and the objects it lifted.
 
@@ -249,7 +249,7 @@ def structure_shape(
 
 
 def _structure(work, pitch_mm, relief_mm, options, found) -> _Made:
-    shape, found = structure_shape(work, pitch_mm, options, found)
+    shape, found = structure_shape(work, pitch_mm, options, found=found)
     summary = f"fingertip-scale shape (detail {options.detail_mm:g} mm) with a texture of at most {options.texture_mm:g} mm"
     if found.count:
         summary += f"; {found.count} enclosed object{'s' * (found.count != 1)} lifted"
@@ -275,7 +275,7 @@ def _levels(work, pitch_mm, relief_mm, options, found) -> _Made:
             f"`level_count`: {options.level_count} levels in a {relief_mm:g} mm relief would make steps under "
             f"{MIN_STEP_MM} mm, which fingers do not tell apart; {count} levels were used."
         ))
-    shape, found = structure_shape(work, pitch_mm, options, found)
+    shape, found = structure_shape(work, pitch_mm, options, found=found)
     classes = plateau_classes(shape, count, pitch_mm=pitch_mm, nozzle_mm=options.nozzle_mm, min_area_mm2=options.min_area_mm2)
     used = int(np.unique(classes).size)
     if used < count:

@@ -42,7 +42,7 @@ def suggest_by_touch(values: np.ndarray, alpha: np.ndarray | None, *, width_mm: 
     width_mm : print width in mm.
     nozzle_mm : nozzle diameter in mm.
     """
-    image, _, uniform = stretch(values, alpha, 2.0, 98.0)
+    image, _, uniform = stretch(values, alpha, 2.0, high_pct=98.0)
     if uniform or float(image.std()) < 1e-6:
         return TouchSuggestion("low", "the picture is uniform, so every grid gives the same flat plate", 0.0, 0.0, 2 * nozzle_mm)
     # Noise measured on the source pixels, relative to the picture's spread.

@@ -117,7 +117,7 @@ def _name(ch: str) -> str:
     return f"U+{ord(ch):04X} {unicodedata.name(ch, 'unnamed')}" + (f" ({ch})" if ch.isprintable() else "")
 
 
-def to_braille(text: str, table: str = DEFAULT_TABLE, translator: Liblouis | None = None, what: str = "text") -> str:
+def to_braille(text: str, table: str = DEFAULT_TABLE, translator: Liblouis | None = None, *, what: str = "text") -> str:
     """Unicode braille for `text` (e.g. '5 µm' -> '⠼⠑⠀⠨⠍⠍' with UEB); blanks as U+2800.
 
     `translator` defaults to the system's liblouis (`Liblouis.system()`). Characters the table
@@ -191,7 +191,7 @@ def wrap_cells(braille: str, max_cells: int) -> list[str]:
     return lines
 
 
-def dot_centres(lines: list[str], spec: BrailleSpec, left_mm: float, top_mm: float) -> list[tuple[float, float]]:
+def dot_centres(lines: list[str], spec: BrailleSpec, left_mm: float, *, top_mm: float) -> list[tuple[float, float]]:
     """Dot centres (x, y) in mm; the first line's top dots at y = top_mm - dot radius, lines going down."""
     centres = []
     r = spec.dot_diameter_mm / 2

@@ -115,12 +115,11 @@ def _scale_bar(furniture: Furniture, inner_w: float) -> tuple[ScaleBar | None, l
     per_mm = furniture.sample_m_per_print_mm
     if not per_mm:
         return None, []
-    args = (per_mm, inner_w, furniture.spec, furniture.braille_table)
     if furniture.scale_bar_m is not None:
-        return chosen_scale_bar(furniture.scale_bar_m, *args), []
+        return chosen_scale_bar(furniture.scale_bar_m, per_mm, inner_w, spec=furniture.spec, table=furniture.braille_table), []
     if not furniture.auto_scale_bar:
         return None, []
-    bar = auto_scale_bar(*args)
+    bar = auto_scale_bar(per_mm, inner_w, furniture.spec, table=furniture.braille_table)
     if bar is None:
         return None, [Text(f"`scale_bar`: the plate has no room for a scale bar of at least 8 mm ({inner_w:.1f} mm inside its borders); it was left out. The scale is in the description.")]
     return bar, []
@@ -191,7 +190,7 @@ def plan_furniture(width_mm: float, depth_mm: float, furniture: Furniture) -> Pl
     if caption_lines:
         cursor -= CLEARANCE_MM
         w, h = block_size_mm(caption_lines, spec)
-        plan.dot_centres += dot_centres(caption_lines, spec, BORDER_MM, cursor)
+        plan.dot_centres += dot_centres(caption_lines, spec, BORDER_MM, top_mm=cursor)
         placed.caption_braille = caption_lines
         placed.caption_box = (BORDER_MM, cursor - h, BORDER_MM + w, cursor)
     placed.dots = len(plan.dot_centres)
@@ -218,7 +217,7 @@ def _plan_scale_bar(plan: Plan, bar: ScaleBar, top_mm: float) -> float:
         lx, ly = x0 + bar.length_mm + GAP_MM, mid + label_h / 2
     else:
         lx, ly = x0, top_mm - TICK_LENGTH_MM - GAP_MM
-    plan.dot_centres += dot_centres(list(bar.label_lines), bar.spec, lx, ly)
+    plan.dot_centres += dot_centres(list(bar.label_lines), bar.spec, lx, top_mm=ly)
     placed = plan.placed
     placed.scale_bar_box = (x0, mid - TICK_LENGTH_MM / 2, x0 + bar.length_mm, mid + TICK_LENGTH_MM / 2)
     placed.scale_label = bar.label
@@ -250,7 +249,7 @@ def _rect(box: Box) -> list[tuple[float, float]]:
     return [(x0, y0), (x1, y0), (x1, y1), (x0, y1)]
 
 
-def build_parts(relief: Mesh, plan: Plan, base_mm: float, spec: BrailleSpec) -> list:
+def build_parts(relief: Mesh, plan: Plan, base_mm: float, *, spec: BrailleSpec) -> list:
     """manifold3d solids: the plate, the relief at its origin, and each planned element.
 
     Raised elements stand on z = base_mm and reach `sink` into the plate, whose top is SEAM_MM
@@ -282,7 +281,7 @@ def build_raised(plan: Plan, base_mm: float, spec: BrailleSpec) -> list:
     return parts
 
 
-def add_furniture(relief: Mesh, width_mm: float, depth_mm: float, base_mm: float, furniture: Furniture) -> tuple[Mesh, Placed]:
+def add_furniture(relief: Mesh, width_mm: float, depth_mm: float, *, base_mm: float, furniture: Furniture) -> tuple[Mesh, Placed]:
     """The relief on a grown plate with the requested furniture, fused into one solid.
 
     Without furniture the relief is the plate, with its corner cut (when asked). Sizes in mm;
@@ -297,7 +296,7 @@ def add_furniture(relief: Mesh, width_mm: float, depth_mm: float, base_mm: float
         top = float(relief.vertices[:, 2].max())
         return _fuse([solid], placed, top), placed
     plan = plan_furniture(width_mm, depth_mm, furniture)
-    parts = build_parts(relief, plan, base_mm, furniture.spec)
+    parts = build_parts(relief, plan, base_mm, spec=furniture.spec)
     top = max(float(relief.vertices[:, 2].max()), base_mm + max(BAR_HEIGHT_MM, FRAME_HEIGHT_MM, furniture.spec.dot_height_mm))
     return _fuse(parts, plan.placed, top), plan.placed
 
@@ -351,7 +350,7 @@ def to_mesh(solid) -> Mesh:
     return Mesh(vertices=np.asarray(out.vert_properties, dtype=np.float64)[:, :3], faces=np.asarray(out.tri_verts, dtype=INDEX))
 
 
-def braille_test_plate(text: str, table: str, heights_mm, diameters_mm, base_mm: float = 1.5):
+def braille_test_plate(text: str, table: str, heights_mm, *, diameters_mm, base_mm: float = 1.5):
     """A plate with `text` in braille once per (dot height, dot diameter), each row numbered in
     braille at its start, so a reader can pick what their printer makes legible."""
     rows = [(h, d) for h in heights_mm for d in diameters_mm]
@@ -364,6 +363,6 @@ def braille_test_plate(text: str, table: str, heights_mm, diameters_mm, base_mm:
     for i, (line, spec) in enumerate(zip(lines, specs)):
         dome = braille_dome(spec, min(0.4, base_mm / 2))
         top_y = depth - BOTTOM_BORDER_MM - i * spec.line_spacing_mm
-        parts += [dome.translate((x, y, base_mm)) for x, y in dot_centres([line], spec, BORDER_MM, top_y)]
+        parts += [dome.translate((x, y, base_mm)) for x, y in dot_centres([line], spec, BORDER_MM, top_mm=top_y)]
     placed = Placed(plate_mm=(width, depth), relief_origin_mm=(0.0, 0.0), corner_cut_mm=corner_legs_mm(width, depth))
     return _fuse(parts, placed, base_mm + max(h for h, _ in rows)), rows, lines

@@ -42,7 +42,7 @@ class Overview:
     notes: list[str]
 
 
-def overview_heights(figure_px: tuple[int, int], panels: list[OverviewPanel], cols: int, rows: int, width_mm: float,
+def overview_heights(figure_px: tuple[int, int], panels: list[OverviewPanel], cols: int, *, rows: int, width_mm: float,
                      depth_mm: float, base_mm: float, spec: BrailleSpec, table: str) -> tuple[np.ndarray, dict, list[tuple[float, float]], list[str]]:
     """The overview's heightmap, the braille per label, the letters' dot centres in relief mm
     (x right, y up from the relief's bottom edge) and notes."""
@@ -83,7 +83,7 @@ def overview_heights(figure_px: tuple[int, int], panels: list[OverviewPanel], co
             if braille:
                 heights[r0 + fw:min(pad_r1, r1 - fw), c0 + fw:min(pad_c1, c1 - fw)] = base_mm
         if braille:
-            dots += dot_centres([braille], spec, lx_mm, depth_mm - ly_mm)  # y up from the relief's bottom edge
+            dots += dot_centres([braille], spec, lx_mm, top_mm=depth_mm - ly_mm)  # y up from the relief's bottom edge
     return heights, letters, dots, notes
 
 
@@ -101,20 +101,20 @@ def _hint(values: np.ndarray, rows: int, cols: int, mm_per_px: float) -> np.ndar
     return np.clip(ndimage.gaussian_filter(small, HINT_BLUR_MM / mm_per_px), 0, 1)
 
 
-def build_overview(figure_px, panels: list[OverviewPanel], cols: int, rows: int, width_mm: float, depth_mm: float,
+def build_overview(figure_px, panels: list[OverviewPanel], cols: int, *, rows: int, width_mm: float, depth_mm: float,
                    base_mm: float, furniture: Furniture, mesher: str, max_error_mm: float) -> Overview:
     """The overview as one closed solid: the heightmap on its plate, the furniture (caption,
     cut corner) and each panel's letter in braille inside its frame."""
     from ..mesh.adaptive import adaptive_solid
     from ..mesh.solid import grid_solid
 
-    heights, letters, dots, notes = overview_heights(figure_px, panels, cols, rows, width_mm, depth_mm, base_mm,
-                                                     furniture.spec, furniture.braille_table)
-    relief = adaptive_solid(heights, width_mm, depth_mm, max_error_mm) if mesher == "adaptive" else grid_solid(heights, width_mm, depth_mm)
+    heights, letters, dots, notes = overview_heights(figure_px, panels, cols, rows=rows, width_mm=width_mm, depth_mm=depth_mm, base_mm=base_mm,
+                                                     spec=furniture.spec, table=furniture.braille_table)
+    relief = adaptive_solid(heights, width_mm, depth_mm, max_error_mm=max_error_mm) if mesher == "adaptive" else grid_solid(heights, width_mm, depth_mm)
     plan = plan_furniture(width_mm, depth_mm, furniture)
     ox, oy = plan.placed.relief_origin_mm
     plan.dot_centres += [(ox + x, oy + y) for x, y in dots]
     plan.placed.dots = len(plan.dot_centres)
-    parts = build_parts(relief, plan, base_mm, furniture.spec)
+    parts = build_parts(relief, plan, base_mm, spec=furniture.spec)
     top = max(float(heights.max()), base_mm + max(FRAME_MM, furniture.spec.dot_height_mm, 1.0))
     return Overview(heights, to_mesh(fuse_solid(parts, plan.placed, top)), plan.placed, letters, notes)

@@ -32,7 +32,7 @@ class Part:
 KEY_SINK_MM = 0.3  # the key overlay's ground lies this far below the plate's top, so subtracting the base leaves no film
 
 
-def key_overlay_meshes(heights_mm, overlay_mm, base_mm: float, mesh_of) -> tuple[Mesh, Mesh]:
+def key_overlay_meshes(heights_mm, overlay_mm, base_mm: float, *, mesh_of) -> tuple[Mesh, Mesh]:
     """(the relief without the key's braille and swatch outlines, a solid of those) for a two-colour print.
 
     heights_mm : the print's heights (mm, base included), the key strip below the picture.
@@ -48,7 +48,7 @@ def key_overlay_meshes(heights_mm, overlay_mm, base_mm: float, mesh_of) -> tuple
     return mesh_of(plain), mesh_of(raised)
 
 
-def two_colour_parts(relief: Mesh, width_mm: float, depth_mm: float, base_mm: float, furniture: Furniture,
+def two_colour_parts(relief: Mesh, width_mm: float, depth_mm: float, *, base_mm: float, furniture: Furniture,
                      overlay: Mesh | None = None) -> tuple[list[Part], Placed]:
     """The print split into a base part (plate and relief) and a raised part (the furniture).
 
@@ -76,7 +76,7 @@ def two_colour_parts(relief: Mesh, width_mm: float, depth_mm: float, base_mm: fl
     if plan is None:
         from .furniture import add_furniture
 
-        mesh, placed = add_furniture(relief, width_mm, depth_mm, base_mm, furniture)
+        mesh, placed = add_furniture(relief, width_mm, depth_mm, base_mm=base_mm, furniture=furniture)
         if overlay is None:
             return [Part("base", "plate and relief", mesh, BASE_COLOUR_RGB)], placed
         top = max(float(relief.vertices[:, 2].max()), float(overlay.vertices[:, 2].max()))

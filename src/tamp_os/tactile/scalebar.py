@@ -50,7 +50,7 @@ def label_text(value_m: float) -> str:
     return format_length(value_m).replace(".0 ", " ")
 
 
-def arrange(value_m: float, sample_m_per_mm: float, inner_mm: float, spec: BrailleSpec, table: str) -> ScaleBar:
+def arrange(value_m: float, sample_m_per_mm: float, inner_mm: float, *, spec: BrailleSpec, table: str) -> ScaleBar:
     """The bar for `value_m`, its label beside it if the row fits `inner_mm`, else below it."""
     label = label_text(value_m)
     line = to_braille(label, table)
@@ -77,13 +77,13 @@ def round_lengths_m(sample_m_per_mm: float, lo_mm: float, hi_mm: float) -> list[
     return out
 
 
-def auto_scale_bar(sample_m_per_mm: float, inner_mm: float, spec: BrailleSpec, table: str) -> ScaleBar | None:
+def auto_scale_bar(sample_m_per_mm: float, inner_mm: float, spec: BrailleSpec, *, table: str) -> ScaleBar | None:
     """The automatic bar: fits `inner_mm` (the plate's width inside its borders), its label beside
     it if possible, nearest TARGET_BAR_MM long; None when no bar of MIN_BAR_MM fits."""
     hi = min(MAX_BAR_MM, inner_mm)
     if hi < MIN_BAR_MM:
         return None
-    bars = [arrange(v, sample_m_per_mm, inner_mm, spec, table) for v in round_lengths_m(sample_m_per_mm, MIN_BAR_MM, hi)]
+    bars = [arrange(v, sample_m_per_mm, inner_mm, spec=spec, table=table) for v in round_lengths_m(sample_m_per_mm, MIN_BAR_MM, hi)]
     if not bars:
         return None
 
@@ -93,7 +93,7 @@ def auto_scale_bar(sample_m_per_mm: float, inner_mm: float, spec: BrailleSpec, t
     return min(bars, key=cost)
 
 
-def chosen_scale_bar(value_m: float, sample_m_per_mm: float, inner_mm: float, spec: BrailleSpec, table: str) -> ScaleBar:
+def chosen_scale_bar(value_m: float, sample_m_per_mm: float, inner_mm: float, *, spec: BrailleSpec, table: str) -> ScaleBar:
     """The bar the user asked for, refused with a clear message if it cannot be felt or placed."""
     length = value_m / sample_m_per_mm
     label = label_text(value_m)
@@ -107,4 +107,4 @@ def chosen_scale_bar(value_m: float, sample_m_per_mm: float, inner_mm: float, sp
             f"`scale_bar`: {label} is {length:.1f} mm on this print, longer than the {inner_mm:.1f} mm of the plate "
             f"inside its borders; choose a shorter `scale_bar`, 'auto', or a wider print (`width_mm`)."
         )
-    return arrange(value_m, sample_m_per_mm, inner_mm, spec, table)
+    return arrange(value_m, sample_m_per_mm, inner_mm, spec=spec, table=table)

@@ -32,7 +32,7 @@ class Stand:
     posts: int = 0  # floating parts held up by a post (those with a clear way straight down)
 
 
-def stand_model(model, width_mm: float, depth_mm: float, base_mm: float, furniture: Furniture, with_posts: bool = True) -> Stand:
+def stand_model(model, width_mm: float, depth_mm: float, *, base_mm: float, furniture: Furniture, with_posts: bool = True) -> Stand:
     """`model` (a manifold3d solid whose footprint is [0, width_mm] × [0, depth_mm], its lowest
     point at z = 0) on a base plate `base_mm` thick with the furniture, as one solid."""
     import manifold3d as m3

@@ -212,7 +212,7 @@ def _label_solid(mesh: Mesh, box: Box, on_margin: bool, label: str, base_mm: flo
         parts.append(m3.Manifold.extrude(m3.CrossSection([[(x0, y0), (x1, y0), (x1, y1), (x0, y1)]]), stand - base_mm / 2)
                      .translate((0, 0, base_mm / 2)))
     dome = braille_dome(spec, min(0.4, base_mm / 2))
-    parts += [dome.translate((x, y, stand)) for x, y in dot_centres([label], spec, x0, y1)]
+    parts += [dome.translate((x, y, stand)) for x, y in dot_centres([label], spec, x0, top_mm=y1)]
     return m3.Manifold.batch_boolean(parts, m3.OpType.Add)
 
 
@@ -238,7 +238,7 @@ def _solid(mesh: Mesh):
                                tri_verts=np.ascontiguousarray(mesh.faces, dtype=np.uint32)))
 
 
-def make_tiles(mesh: Mesh, bed_mm: tuple[float, float], base_mm: float, spec: BrailleSpec,
+def make_tiles(mesh: Mesh, bed_mm: tuple[float, float], base_mm: float, *, spec: BrailleSpec,
                keep_clear: list[Box] = ()) -> Tiling | None:
     """Split the plate `mesh` (mm, outline from (0, 0)) into tiles that fit a bed of `bed_mm`.
 
@@ -306,7 +306,7 @@ def describe_tiles(tiling: Tiling) -> str:
     )
 
 
-def tiles_for(mesh: Mesh, bed_mm: tuple[float, float], base_mm: float, spec: BrailleSpec,
+def tiles_for(mesh: Mesh, bed_mm: tuple[float, float], base_mm: float, *, spec: BrailleSpec,
               picture_box: Box, corner_legs_mm: float = 0.0) -> Tiling | None:
     """make_tiles for a finished print, keeping the labels off the picture and the cut corner.
 
@@ -316,4 +316,4 @@ def tiles_for(mesh: Mesh, bed_mm: tuple[float, float], base_mm: float, spec: Bra
     keep_clear = [picture_box]
     if corner_legs_mm:
         keep_clear.append((plate_w - corner_legs_mm, plate_d - corner_legs_mm, plate_w, plate_d))
-    return make_tiles(mesh, bed_mm, base_mm, spec, keep_clear)
+    return make_tiles(mesh, bed_mm, base_mm, spec=spec, keep_clear=keep_clear)

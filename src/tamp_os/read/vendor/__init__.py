@@ -43,7 +43,7 @@ def detect(path: Path) -> str | None:
     return hdf5_kind(path) if kind == "hdf5" else kind
 
 
-def open_stack(path: Path, kind: str, scene: int | None, limits, target_px: int = DEFAULT_TARGET_PX) -> Stack:
+def open_stack(path: Path, kind: str, scene: int | None, *, limits, target_px: int = DEFAULT_TARGET_PX) -> Stack:
     from .xmlbound import check_metadata_xml
 
     check_metadata_xml(path, kind)  # before a reader parses it whole (and liffile walks it recursively)
@@ -62,7 +62,7 @@ def open_stack(path: Path, kind: str, scene: int | None, limits, target_px: int 
     if kind == "omezarr":
         from .omezarr import open_omezarr
 
-        return open_omezarr(path, scene, target_px, limits)
+        return open_omezarr(path, scene, target_px, limits=limits)
     if kind == "mrc":
         from .mrc import open_mrc
 
@@ -75,7 +75,7 @@ def open_stack(path: Path, kind: str, scene: int | None, limits, target_px: int 
         raise ValueError("the HDF5 superblock cannot be read")
     from .rsci import open_rsciio
 
-    return open_rsciio(path, kind, scene, limits)
+    return open_rsciio(path, kind, scene, limits=limits)
 
 
 @dataclass
@@ -113,15 +113,15 @@ def _axes(s: Stack) -> dict[str, int]:
     return axes
 
 
-def read_planes(path: Path, kind: str, request: Request, limits, *, all_channels: bool = False,
+def read_planes(path: Path, kind: str, request: Request, *, limits, all_channels: bool = False,
                 target_px: int = DEFAULT_TARGET_PX) -> VendorPlanes:
     """Open, price and read the planes `request` asks for; every failure is one clear InputError."""
     stack = None
     try:
         with warnings.catch_warnings(record=True) as caught:  # library warnings become log lines, not failures
             warnings.simplefilter("always")
-            stack = open_stack(path, kind, request.scene, limits, target_px)
-            chosen = choose(path, stack, request, limits, all_channels=all_channels)
+            stack = open_stack(path, kind, request.scene, limits=limits, target_px=target_px)
+            chosen = choose(path, stack, request, limits=limits, all_channels=all_channels)
         for w in caught:
             log.debug("%s: %s", path, w.message)
     except (InputError, ParameterError, MissingDependencyError):

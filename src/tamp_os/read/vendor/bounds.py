@@ -94,10 +94,10 @@ def check_hdf5(path, kind: str, limits) -> None:
         if what == "declared":
             shape, itemsize, declared = facts
             dims = "×".join(str(int(n)) for n in shape)
-            check_declared(path, label, f"a dataset {name} of {dims} values of {itemsize} byte{'s' if itemsize != 1 else ''}", declared, math.inf,
-                           limits.max_decoded_gb, KINDS[kind][1])
+            check_declared(path, label, f"a dataset {name} of {dims} values of {itemsize} byte{'s' if itemsize != 1 else ''}", declared_bytes=declared, file_bytes=math.inf,
+                           max_decoded_gb=limits.max_decoded_gb, todo=KINDS[kind][1])
         shape, chunks, chunk = facts
-        check_chunk(path, f"{label} whose dataset {name}", shape, chunks, chunk, limits.max_decoded_gb, KINDS[kind][1])
+        check_chunk(path, f"{label} whose dataset {name}", shape, chunks=chunks, n_bytes=chunk, max_decoded_gb=limits.max_decoded_gb, todo=KINDS[kind][1])
 
 
 def check_array_paths(path: Path, kind: str, array_paths) -> None:

@@ -44,7 +44,7 @@ def open_czi(path, scene: int | None, limits=None) -> Stack:
         if end > file_bytes:  # the directory lists image data beyond the end: the file was cut short
             raise EOFError(f"the file ends at byte {file_bytes:,} but its image data runs to byte {end:,}")
         scenes = czi.shape[axes.index("S")] if "S" in axes else 1
-        s = check_index(path, "scene", scene, scenes, "scene")
+        s = check_index(path, "scene", scene, count=scenes, what="scene")
 
         def index(block, axis):
             return int(block.start[axes.index(axis)]) - start[axes.index(axis)] if axis in axes else 0
@@ -156,7 +156,7 @@ def _price(path, blocks, segments, plane_hw, samples, limits) -> None:
     cost.add("decoded pixels", float(plane_hw[0]) * plane_hw[1] * samples * np.dtype(blocks[0].dtype).base.itemsize)
     cost.add("subblock being decoded", largest)
     cost.add("float32 working arrays", working_bytes(*plane_hw))
-    check_memory(path, f"{plane_hw[1]}×{plane_hw[0]} image", cost, limits.max_memory_gb)
+    check_memory(path, f"{plane_hw[1]}×{plane_hw[0]} image", cost, max_memory_gb=limits.max_memory_gb)
 
 
 def decode(block, seg) -> np.ndarray:

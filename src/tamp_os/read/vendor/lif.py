@@ -15,6 +15,7 @@ is read as channels, one per wavelength ("λ 520 nm"; with several detectors "Hy
 from __future__ import annotations
 
 import itertools
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -37,46 +38,21 @@ def _step_m(coords, axis: str, n: int) -> float | None:
 def open_lif(path, scene: int | None) -> Stack:
     import liffile
 
-    from .plan import check_index
-
     lif = liffile.LifFile(str(path))
     try:
-        images = list(lif.images)
-        if not images:
-            raise ValueError("no images in the file")
-        file_bytes = Path(path).stat().st_size
-        for each in images:  # a cut-short file loses the images stored last: say so, whichever is read
-            block = each.memory_block
-            if block is not None and int(block.offset) + int(block.size) > file_bytes:
-                raise EOFError(f"image {each.name!r} runs to byte {int(block.offset) + int(block.size):,}, past the end of the file ({file_bytes:,} bytes)")
-        s = check_index(path, "scene", scene, len(images), "image", names=[i.name for i in images])
+        images, s = _chosen_image(lif, path, scene)
         im = images[s]
-        dims, shape = tuple(im.dims), tuple(int(n) for n in im.shape)
-        sizes_all = dict(zip(dims, shape))
-        has_s = dims[-1] == "S"
-        frame_axes = dims[-3:-1] if has_s else dims[-2:]
-        stack_axes = [a for a in dims if a in SPATIAL and a not in frame_axes]
-        spectral = [a for a in dims if a in SPECTRAL and a not in frame_axes]
-        others = [a for a in dims if a not in SPATIAL and a not in SPECTRAL and a not in ("C", "T", "S")]
-        if len(stack_axes) > 1 or others or any(a in SPECTRAL for a in frame_axes):
-            raise NotImplementedError(f"image {im.name!r} has axes {''.join(dims)}")
+        ax = _axes(im)
         coords = {k: np.asarray(v) for k, v in im.coords.items()}
-        stack_axis = stack_axes[0] if stack_axes else None
-        # C × each wavelength axis, flattened into channels (detector outermost, as LAS X lists them)
-        combos = list(itertools.product(range(sizes_all.get("C", 1)), *(range(sizes_all[a]) for a in spectral)))
-        sizes = {"T": sizes_all.get("T", 1), "C": len(combos), "Z": sizes_all.get(stack_axis, 1) if stack_axis else 1}
-        row_axis, col_axis = frame_axes
+        sizes_all, spectral, stack_axis = ax.sizes_all, ax.spectral, ax.stack_axis
+        sizes = {"T": sizes_all.get("T", 1), "C": len(ax.combos), "Z": sizes_all.get(stack_axis, 1) if stack_axis else 1}
+        row_axis, col_axis = ax.row_axis, ax.col_axis
         px_x, px_y = _step_m(coords, col_axis, sizes_all[col_axis]), _step_m(coords, row_axis, sizes_all[row_axis])
-        notes = []
-        if row_axis != "Y":
-            notes.append(f"image {im.name!r} is an {col_axis}{row_axis} scan: the picture's rows run along {row_axis} "
-                         f"(depth), not Y; the print shows a side view.")
-        if stack_axis and stack_axis != "Z" and sizes["Z"] > 1:
-            notes.append(f"image {im.name!r} is stacked along {stack_axis} ({sizes['Z']} steps); that axis is used as the z-stack.")
+        notes = _axis_notes(im.name, ax, sizes["Z"])
         channels = _channels(lif, im.name, sizes_all.get("C", 1))
         bands = {a: sizes_all[a] for a in spectral}
         if spectral:
-            channels, band_notes = _wavelength_channels(im.name, channels, sizes_all.get("C", 1), combos, spectral, coords)
+            channels, band_notes = _wavelength_channels(im.name, channels, sizes_all.get("C", 1), ax.combos, spectral, coords)
             notes += band_notes
         t_step = _step_m(coords, "T", sizes["T"])
         dtype = np.dtype(im.dtype)
@@ -88,7 +64,7 @@ def open_lif(path, scene: int | None) -> Stack:
         index = {}
         if "T" in sizes_all:
             index["T"] = t
-        detector, *steps = combos[c]
+        detector, *steps = ax.combos[c]
         if "C" in sizes_all:
             index["C"] = detector
         index.update(zip(spectral, steps))
@@ -103,11 +79,65 @@ def open_lif(path, scene: int | None) -> Stack:
         scene_name=im.name, channels=channels, pixel_size_m=(px_x, px_y or px_x) if px_x else None,
         pixel_size_key=key if px_x else "", z_step_m=_step_m(coords, stack_axis, sizes["Z"]) if stack_axis else None,
         z_key=f"coordinates of {stack_axis}" if stack_axis else "", time_step_s=t_step,
-        samples=sizes_all.get("S", 1), metadata={"lif_images": [i.name for i in images], "lif_axes": "".join(dims),
+        samples=sizes_all.get("S", 1), metadata={"lif_images": [i.name for i in images], "lif_axes": "".join(ax.dims),
                   "picture_axes": {"rows": row_axis, "columns": col_axis}},  # an XZ scan: rows along Z
         notes=notes, close=lif.close, scene_names=[i.name for i in images], bands=bands,
         band_key=f"image {im.name!r} coordinates of {', '.join(spectral)} (Dimensions)" if spectral else "",
     )
+
+
+def _chosen_image(lif, path, scene: int | None) -> tuple[list, int]:
+    """The file's images and the index of the one `scene` names; a cut-short file is refused whichever is read."""
+    from .plan import check_index
+
+    images = list(lif.images)
+    if not images:
+        raise ValueError("no images in the file")
+    file_bytes = Path(path).stat().st_size
+    for each in images:  # a cut-short file loses the images stored last: say so, whichever is read
+        block = each.memory_block
+        if block is not None and int(block.offset) + int(block.size) > file_bytes:
+            raise EOFError(f"image {each.name!r} runs to byte {int(block.offset) + int(block.size):,}, past the end of the file ({file_bytes:,} bytes)")
+    return images, check_index(path, "scene", scene, count=len(images), what="image", names=[i.name for i in images])
+
+
+@dataclass(frozen=True)
+class _Axes:
+    """How one LIF image's dimensions become a stack: the frame's rows and columns, the axis stacked
+    along, and the wavelength axes flattened with C into channels."""
+
+    dims: tuple[str, ...]
+    sizes_all: dict[str, int]
+    row_axis: str
+    col_axis: str
+    stack_axis: str | None
+    spectral: list[str]
+    combos: list[tuple[int, ...]]  # (detector, wavelength steps…) per channel
+
+
+def _axes(im) -> _Axes:
+    dims, shape = tuple(im.dims), tuple(int(n) for n in im.shape)
+    sizes_all = dict(zip(dims, shape))
+    frame_axes = dims[-3:-1] if dims[-1] == "S" else dims[-2:]
+    stack_axes = [a for a in dims if a in SPATIAL and a not in frame_axes]
+    spectral = [a for a in dims if a in SPECTRAL and a not in frame_axes]
+    others = [a for a in dims if a not in SPATIAL and a not in SPECTRAL and a not in ("C", "T", "S")]
+    if len(stack_axes) > 1 or others or any(a in SPECTRAL for a in frame_axes):
+        raise NotImplementedError(f"image {im.name!r} has axes {''.join(dims)}")
+    # C × each wavelength axis, flattened into channels (detector outermost, as LAS X lists them)
+    combos = list(itertools.product(range(sizes_all.get("C", 1)), *(range(sizes_all[a]) for a in spectral)))
+    return _Axes(dims, sizes_all, frame_axes[0], frame_axes[1], stack_axes[0] if stack_axes else None, spectral, combos)
+
+
+def _axis_notes(name: str, ax: _Axes, z_count: int) -> list[str]:
+    """What the reader should know of a side view or a stack along another axis than Z."""
+    notes = []
+    if ax.row_axis != "Y":
+        notes.append(f"image {name!r} is an {ax.col_axis}{ax.row_axis} scan: the picture's rows run along {ax.row_axis} "
+                     f"(depth), not Y; the print shows a side view.")
+    if ax.stack_axis and ax.stack_axis != "Z" and z_count > 1:
+        notes.append(f"image {name!r} is stacked along {ax.stack_axis} ({z_count} steps); that axis is used as the z-stack.")
+    return notes
 
 
 def _wavelength_channels(name, detectors, n_detectors, combos, spectral, coords) -> tuple[list[Channel], list[str]]:

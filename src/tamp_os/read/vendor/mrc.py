@@ -50,11 +50,11 @@ def check_header(path, limits) -> None:
     if nsymbt < 0:
         raise InputError(f"{path}: {what} whose header declares an extended header of {nsymbt} bytes (negative): the file is "
                          f"damaged or hostile; {todo}.")
-    check_declared(path, what, f"an extended header of {nsymbt:,} bytes", float(nsymbt), size - HEADER_BYTES, cap, todo,
+    check_declared(path, what, f"an extended header of {nsymbt:,} bytes", declared_bytes=float(nsymbt), file_bytes=size - HEADER_BYTES, max_decoded_gb=cap, todo=todo,
                    holds=f"the {size - HEADER_BYTES:,} bytes after its 1024-byte header hold")
     voxels = float(math.ceil(nx / 2) if mode == 101 else nx * MODE_BYTES[mode]) * ny * nz  # 4-bit rows end on a byte
-    check_declared(path, what, f"{nx}×{ny}×{nz} voxels of {MODE_BYTES[mode]:g} bytes (mode {mode})", voxels,
-                   size - HEADER_BYTES - nsymbt, cap, todo, capped=False,  # memory-mapped: the planes read are priced
+    check_declared(path, what, f"{nx}×{ny}×{nz} voxels of {MODE_BYTES[mode]:g} bytes (mode {mode})", declared_bytes=voxels,
+                   file_bytes=size - HEADER_BYTES - nsymbt, max_decoded_gb=cap, todo=todo, capped=False,  # memory-mapped: the planes read are priced
                    holds=f"the {size - HEADER_BYTES - nsymbt:,} bytes after its headers hold")
 
 
@@ -77,7 +77,7 @@ def open_mrc(path, scene: int | None, limits=None) -> Stack:
             raise ValueError(f"axis order mapc, mapr, maps = {order} is not a permutation of 1, 2, 3")
         data_axis = {order[0]: 2, order[1]: 1, order[2]: 0}  # physical axis -> numpy axis (sections, rows, cols)
         volume = np.transpose(data, (data_axis[3], data_axis[2], data_axis[1]))  # (Z, Y, X), still a memory map
-        check_index(path, "scene", scene, 1, "volume")
+        check_index(path, "scene", scene, count=1, what="volume")
         voxel = mrc.voxel_size  # cella / (mx, my, mz), in Å
         vx, vy, vz = (float(voxel.x), float(voxel.y), float(voxel.z))
         dtype = volume.dtype

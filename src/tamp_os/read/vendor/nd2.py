@@ -26,7 +26,7 @@ def open_nd2(path, scene: int | None) -> Stack:
         if extra:
             raise NotImplementedError(f"loops {', '.join(extra)}")
         scenes = int(sizes_all.get("P", 1))
-        s = check_index(path, "scene", scene, scenes, "position")
+        s = check_index(path, "scene", scene, count=scenes, what="position")
         loops = [dict(ix) for ix in f.loop_indices]
         voxel = f.voxel_size()
         channels = []

@@ -19,10 +19,10 @@ def open_oif(path, scene: int | None, limits) -> Stack:
     oif = oiffile.OifFile(str(path))
     try:
         axes, shape, dtype = oif.axes, tuple(int(n) for n in oif.shape), np.dtype(oif.dtype)
-        check_index(path, "scene", scene, 1, "image")
+        check_index(path, "scene", scene, count=1, what="image")
         if "Y" not in axes or "X" not in axes or any(a not in "TCZYX" for a in axes):
             raise NotImplementedError(f"axes {axes}")
-        check_bytes(path, shape, dtype, limits, "Olympus OIB/OIF series")
+        check_bytes(path, shape, dtype, limits=limits, what="Olympus OIB/OIF series")
         data = oif.asarray()
     finally:
         oif.close()

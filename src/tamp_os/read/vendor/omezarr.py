@@ -26,7 +26,7 @@ def _multiscales(attrs: dict) -> list:
     return attrs.get("multiscales") or (attrs.get("ome") or {}).get("multiscales") or []
 
 
-def open_omezarr(path, scene: int | None, target_px: int = 2048, limits=None) -> Stack:
+def open_omezarr(path, scene: int | None, target_px: int = 2048, *, limits=None) -> Stack:
     import zarr
 
     from .bounds import check_array_paths, check_folder
@@ -38,7 +38,7 @@ def open_omezarr(path, scene: int | None, target_px: int = 2048, limits=None) ->
     multiscales = _multiscales(attrs)
     if not multiscales:
         raise ValueError("no 'multiscales' in the folder's attributes")
-    check_index(path, "scene", scene, 1, "image")
+    check_index(path, "scene", scene, count=1, what="image")
     ms = multiscales[0]
     axes = [a["name"].upper() if isinstance(a, dict) else str(a).upper() for a in ms.get("axes", [])]
     units = [a.get("unit", "") if isinstance(a, dict) else "" for a in ms.get("axes", [])]
@@ -58,8 +58,8 @@ def open_omezarr(path, scene: int | None, target_px: int = 2048, limits=None) ->
         from .errors import KINDS
 
         chunks = tuple(array.chunks)
-        check_chunk(path, f"{KINDS[KIND][0]} whose array {datasets[level]['path']!r}", array.shape, chunks,
-                    chunk_bytes(array.shape, chunks, np.dtype(array.dtype).itemsize), limits.max_decoded_gb, KINDS[KIND][1], whole="folder")
+        check_chunk(path, f"{KINDS[KIND][0]} whose array {datasets[level]['path']!r}", array.shape, chunks=chunks,
+                    n_bytes=chunk_bytes(array.shape, chunks, np.dtype(array.dtype).itemsize), max_decoded_gb=limits.max_decoded_gb, todo=KINDS[KIND][1], whole="folder")
     scale = _scale(ms, datasets[level], len(axes))
     fx, fy = unit_factor_m(units[xi] or ""), unit_factor_m(units[yi] or "")
     pixel = (scale[xi] * fx, scale[yi] * (fy or fx)) if fx and scale[xi] > 0 else None

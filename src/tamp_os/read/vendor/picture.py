@@ -7,7 +7,7 @@ from pathlib import Path
 from ...errors import ParameterError
 
 
-def read_vendor(path: Path, kind, page, channel, limits, z_slice, time, scene, target_px):
+def read_vendor(path: Path, kind, page, *, channel, limits, z_slice, time, scene, target_px):
     """A vendor file (CZI, LIF, ND2, OME-Zarr, TIA, EMD, MRC, JEOL, ELID, HyperSpy, OIB): one plane."""
     from ..model import CHANNEL_NAMES, DEFAULT_TARGET_PX, Decoded, sha256_of, to_picture
     from . import read_planes
@@ -18,7 +18,7 @@ def read_vendor(path: Path, kind, page, channel, limits, z_slice, time, scene, t
         scene = page
         notes.append(f"page {page} chooses scene {page} in this {kind.upper()} file.")
     picked = channel if channel not in CHANNEL_NAMES else "luminance"
-    planes = read_planes(path, kind, Request(scene, time, z_slice, picked), limits, target_px=target_px or DEFAULT_TARGET_PX)
+    planes = read_planes(path, kind, Request(scene, time, z_slice, picked), limits=limits, target_px=target_px or DEFAULT_TARGET_PX)
     stack, chosen = planes.stack, planes.chosen
     facts = planes.facts()
     channels = stack.channel_list()

@@ -37,7 +37,7 @@ class Chosen:
     notes: list[str] = field(default_factory=list)
 
 
-def check_index(path, name: str, value: int | str | None, count: int, what: str, names: list[str] | None = None) -> int:
+def check_index(path, name: str, value: int | str | None, *, count: int, what: str, names: list[str] | None = None) -> int:
     """`value` as an index 0…count−1: a number, or (a scene) one of `names` in any case; else one clear error."""
     if value is None:
         return 0
@@ -100,13 +100,13 @@ def _folded(name: str) -> str:
     return "".join(name.casefold().replace("lambda", "λ").split())
 
 
-def choose(path, stack: Stack, request: Request, limits, *, all_channels: bool = False) -> Chosen:
+def choose(path, stack: Stack, request: Request, *, limits, all_channels: bool = False) -> Chosen:
     """Read the planes `request` asks for, after pricing them with the decoded-size guard."""
     from ..model import check_bytes, check_size
 
     notes: list[str] = []
     nt, nc, nz = stack.size("T"), stack.size("C"), stack.size("Z")
-    t = check_index(path, "time", request.time, nt, "time point")
+    t = check_index(path, "time", request.time, count=nt, what="time point")
     if nt > 1 and request.time is None:
         step = f", {stack.time_step_s:g} s apart" if stack.time_step_s else ""
         notes.append(Decision(f"time series of {nt} time points{step}: using the first (choose another with `time`)."))
@@ -129,12 +129,12 @@ def choose(path, stack: Stack, request: Request, limits, *, all_channels: bool =
         zs, z_words = list(range(nz)), f"projection of {nz}"
         notes.append(Decision(f"z-stack of {nz} slices: maximum-intensity projection (choose one slice with `z_slice`)."))
     else:
-        z = check_index(path, "z_slice", request.z_slice, nz, "slice")
+        z = check_index(path, "z_slice", request.z_slice, count=nz, what="slice")
         zs, z_words = [z], (f"slice {z}" if nz > 1 else "")
     check_size(path, (stack.height, stack.width), limits)
     read = len(zs) * (nc if peak else len(channels))  # the peak is found by reading every wavelength's plane
     shape = (read, stack.height, stack.width) + ((stack.samples,) if stack.samples > 1 else ())
-    check_bytes(path, shape, stack.dtype, limits, f"{stack.format} plane{'s' if shape[0] > 1 else ''}")
+    check_bytes(path, shape, stack.dtype, limits=limits, what=f"{stack.format} plane{'s' if shape[0] > 1 else ''}")
     if peak:
         array, c = _emission_peak(stack, t, zs)
         names = stack.channel_list()

@@ -158,7 +158,7 @@ def check_jeol(path, limits) -> None:
     itemsize, stored = found.get("Bits", (1, 0))
     declared = float(width) * float(height) * itemsize
     words = f"an image of {width}×{height} pixels"
-    check_declared(path, what, words, declared, stored, limits.max_decoded_gb, todo,
+    check_declared(path, what, words, declared_bytes=declared, file_bytes=stored, max_decoded_gb=limits.max_decoded_gb, todo=todo,
                    holds=f"the {stored:,} bytes of pixels it stores (Image/Bits)")
 
 
@@ -240,7 +240,7 @@ def _image_axes(item) -> tuple[int, int] | None:
     return None
 
 
-def open_rsciio(path, kind: str, scene: int | None, limits) -> Stack:
+def open_rsciio(path, kind: str, scene: int | None, *, limits) -> Stack:
     from .plan import check_index
 
     if kind in ("emd", "hspy"):
@@ -257,7 +257,7 @@ def open_rsciio(path, kind: str, scene: int | None, limits) -> Stack:
     images = [(item, ax) for item in items for ax in [_image_axes(item)] if ax is not None and len(item["axes"]) <= 3]
     if not images:
         raise LookupError("no image in it (only spectra or maps)")
-    s = check_index(path, "scene", scene, len(images), "image")
+    s = check_index(path, "scene", scene, count=len(images), what="image")
     item, (yi, xi) = images[s]
     data = item["data"]
     rgba = data.dtype.names is not None

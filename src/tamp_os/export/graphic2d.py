@@ -4,9 +4,9 @@ Coordinates are plate millimetres with the origin at the bottom-left corner and 
 far edge, as in every mesh; the region map's top row lies at the far edge. Only the drawing code
 (tactile2d.py) turns them into page coordinates.
 
-The layout follows the 3-D plate's (tactile.furniture): the picture at the top, the scale bar and
-its braille value below it, the braille caption below that, the cut corner at the top right, and
-at least CLEARANCE_MM between distinct elements.
+The layout is the 3-D plate's own (tactile.furniture.plan_furniture): the picture at the top, the
+scale bar and its braille value below it, the braille caption below that, the cut corner at the top
+right, and at least CLEARANCE_MM between distinct elements; a channel key's rows go below all that.
 """
 
 from __future__ import annotations
@@ -16,9 +16,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import ParameterError
-from ..tactile.braille import BrailleSpec, block_size_mm, cell_dots, to_braille, wrap_cells
-from ..tactile.furniture import BORDER_MM, BOTTOM_BORDER_MM, CLEARANCE_MM, CORNER_CUT_MM, TICK_LENGTH_MM, Furniture
-from ..units import format_length
+from ..tactile.braille import BrailleSpec, block_size_mm, cell_dots, wrap_cells
+from ..tactile.furniture import BORDER_MM, BOTTOM_BORDER_MM, CLEARANCE_MM, CORNER_CUT_MM, TICK_LENGTH_MM, Furniture, corner_legs_mm, plan_furniture
 
 MAX_LEVELS = 3  # textures a reader tells apart by touch: outline only, dots, lines
 PAGE_SIZES_MM = {"a4": (210.0, 297.0), "letter": (215.9, 279.4)}
@@ -144,36 +143,17 @@ def regions_from_image(image01: np.ndarray, levels: int = MAX_LEVELS) -> np.ndar
     return np.digitize(img, thresholds).astype(np.int32)
 
 
-def _rows_below(furniture: Furniture, inner_w: float) -> tuple[list[str], float | None, str | None, list[str]]:
-    """Scale-bar label lines, bar length, label text and caption lines that fit inner_w mm."""
-    spec = furniture.spec
-    label_lines, bar_mm, label = [], None, None
-    if furniture.scale_bar_m is not None and furniture.sample_m_per_print_mm:
-        bar_mm = furniture.scale_bar_m / furniture.sample_m_per_print_mm
-        label = format_length(furniture.scale_bar_m).replace(".0 ", " ")
-        label_lines = [to_braille(label, furniture.braille_table)]
-        label_w = block_size_mm(label_lines, spec)[0]
-        if bar_mm + CLEARANCE_MM + label_w > inner_w:
-            raise ParameterError(
-                f"`scale_bar`: {bar_mm:.1f} mm plus its braille value ({label_w:.1f} mm) does not fit the "
-                f"{inner_w:.1f} mm of the graphic; choose a shorter `scale_bar` or a wider print."
-            )
-    caption_lines = []
-    if furniture.caption:
-        cells = int((inner_w - spec.dot_spacing_mm - spec.dot_diameter_mm) // spec.cell_spacing_mm) + 1
-        caption_lines = wrap_cells(to_braille(furniture.caption, furniture.braille_table), cells)
-    return label_lines, bar_mm, label, caption_lines
-
-
-def layout_graphic(regions: np.ndarray, mm_per_px: float, furniture: Furniture | None = None,
-                   *, textures: dict[int, str] | None = None, key: list[tuple[str, str]] | None = None) -> Graphic2D:
-    """Place the picture, scale bar, braille value and caption on a plate, as the 3-D plate does.
+def layout_graphic(regions: np.ndarray, mm_per_px: float, furniture: Furniture | None = None, *,
+                   textures: dict[int, str] | None = None, key: list[tuple[str, str]] | None = None) -> Graphic2D:
+    """Place the picture, scale bar, braille value and caption on a plate: the 3-D plate's own layout
+    (tactile.furniture.plan_furniture), so paper and print put each element in the same place.
 
     Parameters
     ----------
     regions : (rows, cols) int array, 0 = background
     mm_per_px : picture pixel size on paper (mm)
-    furniture : caption, braille table, scale bar and frame (frame_mm > 0 draws a frame line)
+    furniture : caption, braille table, scale bar, frame and cut corner (frame_mm > 0 draws a frame line
+        along the middle of the plate's raised frame)
     key : (texture, Unicode braille label) per key entry of a channel print, drawn below everything
         else: a swatch of the texture, CLEARANCE_MM, then the label, each row CLEARANCE_MM apart
     """
@@ -182,33 +162,34 @@ def layout_graphic(regions: np.ndarray, mm_per_px: float, furniture: Furniture |
     furniture = furniture or Furniture()
     spec = furniture.spec
     rows, cols = np.shape(regions)
-    width, depth = cols * mm_per_px, rows * mm_per_px
-    side = BORDER_MM + (furniture.frame_mm + CLEARANCE_MM if furniture.frame_mm else 0.0)
-    plate_w = width + 2 * side
-    label_lines, bar_mm, label, caption_lines = _rows_below(furniture, plate_w - 2 * BORDER_MM)
-    label_h = block_size_mm(label_lines, spec)[1]
-    caption_h = block_size_mm(caption_lines, spec)[1]
-    heights = [h for h in (max(TICK_LENGTH_MM, label_h) if label_lines else 0.0, caption_h) if h]
-    below = side if not heights else (side - BORDER_MM) + sum(CLEARANCE_MM + h for h in heights) + BOTTOM_BORDER_MM
-    key_rows, key_block = _key_rows(key or [], plate_w, spec, BOTTOM_BORDER_MM if heights else side)
-    below += key_block
-    plate_d = below + depth + side
-    cursor = below - (side - BORDER_MM)  # the lowest edge of the picture or its frame
-    scale_bar = caption = None
-    if label_lines:
-        cursor -= CLEARANCE_MM
-        mid = cursor - heights[0] / 2
-        label_x = BORDER_MM + bar_mm + CLEARANCE_MM
-        scale_bar = ScaleBar2D(BORDER_MM, mid, bar_mm, BrailleText(tuple(label_lines), label_x, mid + label_h / 2), label)
-        cursor -= heights[0]
-    if caption_lines:
-        caption = BrailleText(tuple(caption_lines), BORDER_MM, cursor - CLEARANCE_MM)
+    placed = plan_furniture(cols * mm_per_px, rows * mm_per_px, furniture).placed
+    plate_w, plate_d = placed.plate_mm
+    below_rows = placed.scale_bar_box is not None or placed.caption_box is not None
+    key_bottom = BOTTOM_BORDER_MM if below_rows else placed.relief_origin_mm[1]
+    key_rows, lift = _key_rows(key or [], plate_w, spec, key_bottom)  # the key below all else lifts the rest
+
+    def up(box):
+        return None if box is None else (box[0], box[1] + lift, box[2], box[3] + lift)
+
+    caption = None
+    if placed.caption_box is not None:
+        box = up(placed.caption_box)
+        caption = BrailleText(tuple(placed.caption_braille), box[0], box[3])
+    scale_bar = None
+    if placed.scale_bar_box is not None:
+        bar, label = up(placed.scale_bar_box), up(placed.scale_label_box)
+        scale_bar = ScaleBar2D(bar[0], (bar[1] + bar[3]) / 2, bar[2] - bar[0],
+                               BrailleText(tuple(placed.scale_label_lines), label[0], label[3]), placed.scale_label or "")
     frame_box = None
-    if furniture.frame_mm:
-        gap = CLEARANCE_MM + furniture.frame_mm / 2  # the frame line's centre
-        frame_box = (side - gap, below - gap, side + width + gap, below + depth + gap)
-    return Graphic2D(np.asarray(regions), mm_per_px, (plate_w, plate_d), (side, below), caption, scale_bar,
-                     frame_box, spec=spec, textures=dict(textures or {}), key=key_rows)
+    if placed.frame_box is not None:  # the line along the middle of the plate's frame
+        x0, y0, x1, y1 = up(placed.frame_box)
+        half = furniture.frame_mm / 2
+        frame_box = (x0 + half, y0 + half, x1 - half, y1 - half)
+    plate = (plate_w, plate_d + lift)
+    corner = corner_legs_mm(*plate) if furniture.corner_cut else 0.0
+    origin = (placed.relief_origin_mm[0], placed.relief_origin_mm[1] + lift)
+    return Graphic2D(np.asarray(regions), mm_per_px, plate, origin, caption, scale_bar, frame_box, corner_cut_mm=corner,
+                     spec=spec, textures=dict(textures or {}), key=key_rows)
 
 
 def _key_rows(key: list[tuple[str, str]], plate_w: float, spec: BrailleSpec, bottom_mm: float):

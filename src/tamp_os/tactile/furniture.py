@@ -87,6 +87,7 @@ class Placed:
     scale_bar_m: float | None = None  # the sample length the bar stands for
     scale_bar_mm: float | None = None  # the bar's length on the print
     scale_label_braille: str | None = None
+    scale_label_lines: list[str] = field(default_factory=list)  # the label's braille lines, as laid out
     scale_label_box: Box | None = None
     scale_label_beside: bool = True  # the label is right of the bar (else below it)
     frame_box: Box | None = None
@@ -223,6 +224,7 @@ def _plan_scale_bar(plan: Plan, bar: ScaleBar, top_mm: float) -> float:
     placed.scale_label = bar.label
     placed.scale_bar_m, placed.scale_bar_mm = bar.value_m, round(bar.length_mm, 3)
     placed.scale_label_braille = "\u2800".join(bar.label_lines)
+    placed.scale_label_lines = list(bar.label_lines)
     placed.scale_label_box = (lx, ly - label_h, lx + label_w, ly)
     placed.scale_label_beside = bar.beside
     return top_mm - row_h

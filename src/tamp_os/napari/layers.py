@@ -163,6 +163,8 @@ def _channels_source(pictures: list[LayerPicture], out_dir: Path) -> PrintSource
 def write_channels(path: Path, planes: list[np.ndarray], names: list[str], metres: float | None) -> Path:
     """The layers as one OME-TIFF (channels named after the layers, the scale in µm), written
     whole or not at all (export.files.write_atomic)."""
+    import io
+
     import tifffile
 
     from ..export.files import write_atomic
@@ -172,7 +174,9 @@ def write_channels(path: Path, planes: list[np.ndarray], names: list[str], metre
     if metres:
         meta.update(PhysicalSizeX=metres * 1e6, PhysicalSizeXUnit="µm", PhysicalSizeY=metres * 1e6, PhysicalSizeYUnit="µm")
     path.parent.mkdir(parents=True, exist_ok=True)
-    write_atomic(path, lambda fh: tifffile.imwrite(fh, stack, ome=True, metadata=meta))
+    buffer = io.BytesIO()  # tifffile wants a named file or a buffer; write_atomic hands over a descriptor's file
+    tifffile.imwrite(buffer, stack, ome=True, metadata=meta)
+    write_atomic(path, lambda fh: fh.write(buffer.getvalue()))
     return path
 
 

@@ -125,10 +125,8 @@ class PrintWidget(Container):
         from napari.qt.threading import create_worker
 
         self._cancel.clear()
-        self.worker = create_worker(make_in_worker, pictures, settings, Path(self.output.value), self._heard, _start_thread=False)
-        self.worker.returned.connect(self._made)
-        self.worker.errored.connect(self._failed)
-        self.worker.finished.connect(self._idle)
+        self.worker = create_worker(make_in_worker, pictures, settings, Path(self.output.value), self._heard, _start_thread=False,
+                                    _connect={"returned": self._made, "errored": self._failed, "finished": self._idle})
         self.make.enabled, self.cancel.enabled, self.progress.value = False, True, 0
         self.description.value = ""
         self.say("Making the print…")

@@ -48,8 +48,24 @@ def napari_viewer(headless_display, request):
     """A napari viewer (napari's make_napari_viewer fixture), or a skip/strict failure without napari."""
     need_module("napari.viewer")  # not just `napari`: without it, tests/napari would pass for the package
     need_module("magicgui")
-    viewer = request.getfixturevalue("make_napari_viewer")()
-    return viewer
+    make = request.getfixturevalue("make_napari_viewer")
+    _ask_opengl_once(request.getfixturevalue("qtbot"))
+    return make()
+
+
+def _ask_opengl_once(qtbot) -> None:
+    """napari asks OpenGL for its extensions and texture sizes once per process (and keeps the
+    answers); asked while no context is current, the answer is empty and napari fails to add a
+    layer. Ask here, with a context of its own, until it answers."""
+    from napari._vispy.utils.gl import get_gl_extensions, get_max_texture_sizes
+
+    for _ in range(5):
+        if get_gl_extensions() and all(get_max_texture_sizes()):
+            return
+        get_gl_extensions.cache_clear()
+        get_max_texture_sizes.cache_clear()
+        qtbot.wait(100)
+    need(False, f"an OpenGL context on the X display {os.environ.get('DISPLAY')}")
 
 
 @pytest.fixture

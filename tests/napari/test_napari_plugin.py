@@ -84,7 +84,7 @@ def test_the_writer_prints_a_layer_at_its_scale(napari_plugin, tmp_path):
     import json
 
     recipe = json.loads((tmp_path / "ramp.tamp.json").read_text(encoding="utf-8"))
-    assert recipe["report"]["pixel_size_m"] == pytest.approx(0.5e-6)
+    assert recipe["params"]["pixel_size"] == pytest.approx(0.5e-6)  # the layer's scale, in metres
 
 
 def test_a_bad_layer_saved_is_one_plain_message(napari_plugin, tmp_path):
@@ -105,7 +105,7 @@ def test_messages_name_the_widgets_controls_and_leave_out_the_others():
     assert text == "The picture was printed channel by channel, and “Relief style” levels gives plateaus."
     error = ParameterError("`preset`: must be low, medium or high.", hint="Lower `max_megapixels`.")
     assert widget_words(error) == "“Level of detail”: must be low, medium or high."
-    assert "the layer's scale" in widget_words(Text("`pixel_size` 4 nm overrides 5 nm from the file."))
+    assert widget_words(Text("`pixel_size` 4 nm overrides 5 nm from the file.")).startswith("The layer's scale")
 
 
 def test_a_layer_from_a_file_keeps_it_unless_its_scale_was_set(tmp_path):

@@ -123,3 +123,16 @@ def gradient_image():
     img = np.tile(np.linspace(0, 200, 64, dtype=np.float32), (48, 1))
     img[4:16, 4:20] = 255
     return img.astype(np.uint8)
+
+
+# napari's pytest plugin (loaded whenever napari is installed) has two autouse fixtures that import
+# napari's Qt window and themes for every test: 10-15 s at the start of each test process here. These
+# names override them for the whole suite; tests/napari_support.py does their work for the napari tier.
+@pytest.fixture
+def _disable_qt_warnings():
+    return None
+
+
+@pytest.fixture
+def _clean_themes():
+    return None

@@ -48,6 +48,10 @@ def napari_viewer(headless_display, request):
     """A napari viewer (napari's make_napari_viewer fixture), or a skip/strict failure without napari."""
     need_module("napari.viewer")  # not just `napari`: without it, tests/napari would pass for the package
     need_module("magicgui")
+    from napari._qt import qt_main_window
+
+    # what napari's autouse fixture does (tests/conftest.py overrides it for the rest of the suite)
+    request.getfixturevalue("monkeypatch").setattr(qt_main_window, "SHOW_QT_WARNING", False)
     make = request.getfixturevalue("make_napari_viewer")
     _ask_opengl_once(request.getfixturevalue("qtbot"))
     return make()

@@ -75,6 +75,7 @@ def test_fept_prints_as_the_command_line_does_off_the_viewer_thread(print_widget
     assert text in print_widget.description.value
     assert "fept_spheres_sem.png" in print_widget.description.value.splitlines()[0]
     assert "fept_spheres_sem" in print_widget.message.value and "Traceback" not in print_widget.message.value
+    assert print_widget.layers.value == [layer]  # the picture stays chosen, not the relief napari selected when adding it
 
 
 @pytest.mark.timeout(600)
@@ -167,3 +168,16 @@ def test_every_control_is_labelled_and_reached_with_tab(print_widget):
         assert control.native.accessibleName() == words and control.tooltip == help_text
         takes_tab = [w for w in [control.native, *control.native.findChildren(QWidget)] if w.focusPolicy() & Qt.TabFocus]
         assert takes_tab, f"{words}: not reached with Tab"
+
+
+@pytest.mark.timeout(300)
+def test_an_unusable_output_folder_is_named_by_its_control(print_widget, napari_viewer, tmp_path, qtbot):
+    (tmp_path / "taken").write_text("a file, not a folder")
+    print_widget.output.value = tmp_path / "taken"
+    ramp = np.tile(np.linspace(0, 255, 60, dtype=np.float32), (40, 1))
+    napari_viewer.layers.selection = {napari_viewer.add_image(ramp, name="ramp")}
+    print_widget.preset.value = "low"
+    make_and_wait(print_widget, qtbot)
+    text = print_widget.message.value
+    assert print_widget.conversion is None and "Traceback" not in text
+    assert "taken" in text and "“Output folder”" in text and " -o" not in text, text

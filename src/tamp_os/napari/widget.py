@@ -152,8 +152,10 @@ class PrintWidget(Container):
         source, conversion = made
         self.conversion = conversion
         self.progress.value = len(STEPS)
+        printed = list(self.layers.value)
         for each in conversion.prints:
-            add_print_layers(self.viewer, each, self.layers.value)
+            add_print_layers(self.viewer, each, printed)
+        self.viewer.layers.selection = set(printed)  # napari selects what it adds: keep the picture chosen, not its relief
         warnings = [widget_words(w) for each in conversion.prints for w in each.report.warnings if not is_decision(w)]
         folder = conversion.written[0].parent if conversion.written else self.output.value
         self.say(" ".join([widget_words(conversion.summary()) + f" In {folder}.", *warnings]))

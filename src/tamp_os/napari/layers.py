@@ -154,13 +154,13 @@ def _channels_source(pictures: list[LayerPicture], out_dir: Path) -> PrintSource
                          f"these are {sizes}. Choose one layer, or the channels of one picture.")
     stem = file_stem(pictures[0].name)
     metres = pixel_size_m(pictures[0])
-    path = write_channels(out_dir / f"{stem}.layers.ome.tif", planes, [p.name for p in pictures], metres)
+    path = write_channels(out_dir / f"{stem}.layers.ome.tif", planes, names=[p.name for p in pictures], metres=metres)
     return PrintSource(str(path), stem, None, None,
                        (f"Printed from the layers {', '.join(f'“{p.name}”' for p in pictures)} as the channels of one picture, "
                         f"saved as {path.name} beside the print (so its recipe can make it again).",))
 
 
-def write_channels(path: Path, planes: list[np.ndarray], names: list[str], metres: float | None) -> Path:
+def write_channels(path: Path, planes: list[np.ndarray], *, names: list[str], metres: float | None) -> Path:
     """The layers as one OME-TIFF (channels named after the layers, the scale in µm), written
     whole or not at all (export.files.write_atomic)."""
     import io

@@ -125,7 +125,7 @@ class PrintWidget(Container):
         from napari.qt.threading import create_worker
 
         self._cancel.clear()
-        self.worker = create_worker(make_in_worker, pictures, settings, Path(self.output.value), self._heard, _start_thread=False,
+        self.worker = create_worker(make_in_worker, pictures, settings=settings, out_dir=Path(self.output.value), heard=self._heard, _start_thread=False,
                                     _connect={"returned": self._made, "errored": self._failed, "finished": self._idle})
         self.make.enabled, self.cancel.enabled, self.progress.value = False, True, 0
         self.description.value = ""
@@ -154,7 +154,7 @@ class PrintWidget(Container):
         self.progress.value = len(STEPS)
         printed = list(self.layers.value)
         for each in conversion.prints:
-            add_print_layers(self.viewer, each, printed)
+            add_print_layers(self.viewer, each, beside=printed)
         self.viewer.layers.selection = set(printed)  # napari selects what it adds: keep the picture chosen, not its relief
         warnings = [widget_words(w) for each in conversion.prints for w in each.report.warnings if not is_decision(w)]
         folder = conversion.written[0].parent if conversion.written else self.output.value
@@ -173,7 +173,7 @@ class PrintWidget(Container):
         self.make.enabled, self.cancel.enabled = True, False
 
 
-def make_in_worker(pictures, settings: dict, out_dir: Path, heard):
+def make_in_worker(pictures, *, settings: dict, out_dir: Path, heard):
     """The worker's job: the source the layers give, then convert() as the command line runs it."""
     from ..lithograph.convert import convert
     from ..lithograph.pipeline import stages_heard_by
@@ -184,7 +184,7 @@ def make_in_worker(pictures, settings: dict, out_dir: Path, heard):
         return source, convert(source.source, params, out_dir, stem=source.stem)
 
 
-def add_print_layers(viewer, made, beside) -> None:
+def add_print_layers(viewer, made, *, beside) -> None:
     """The print's heights (an image in mm) and its mesh (a surface in mm), right of the picture."""
     import numpy as np
 

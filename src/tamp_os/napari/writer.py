@@ -10,14 +10,14 @@ from .layers import LayerPicture, print_source
 
 
 def write_stl(path: str, layer_data: list[tuple]) -> list[str]:
-    return write_print(path, layer_data, "stl")
+    return write_print(path, layer_data, fmt="stl")
 
 
 def write_3mf(path: str, layer_data: list[tuple]) -> list[str]:
-    return write_print(path, layer_data, "3mf")
+    return write_print(path, layer_data, fmt="3mf")
 
 
-def write_print(path, layer_data: list[tuple], fmt: str) -> list[str]:
+def write_print(path, layer_data: list[tuple], *, fmt: str) -> list[str]:
     """Print the layers (one picture, or one picture's channels) to `path`; the paths written."""
     from ..errors import TampError
     from ..lithograph.convert import convert

@@ -65,7 +65,7 @@ def test_fept_prints_as_the_command_line_does_off_the_viewer_thread(print_widget
     relief = napari_viewer.layers["fept_spheres_sem relief (mm)"]
     assert relief.data.shape == litho.heightmap.shape
     assert np.allclose(relief.scale, litho.layout.mm_per_px) and all(str(u) == "millimeter" for u in relief.units)
-    assert relief.data.max() * 1 == pytest.approx(float(litho.heightmap.max()))
+    assert float(relief.data.max()) == pytest.approx(float(litho.heightmap.max()))
     mesh = napari_viewer.layers["fept_spheres_sem mesh (mm)"]
     assert len(mesh.data[1]) == litho.mesh.n_triangles
     # the mesh's far edge (largest y) is the picture's top row (row 0), as napari shows it

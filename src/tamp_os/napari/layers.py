@@ -70,6 +70,8 @@ def pixel_size_m(picture: LayerPicture) -> float | None:
 
 def check_layer(picture: LayerPicture) -> None:
     """One clear message for a layer no print can be made of, naming the “Layers” control."""
+    if picture.kind not in ("image", "labels"):
+        raise InputError(f"“Layers”: “{picture.name}” is a {picture.kind} layer; choose an image or labels layer.")
     plane = plane_of(picture)
     h, w = plane.shape[:2]
     if min(h, w) < MIN_SIDE_PX:
@@ -78,8 +80,6 @@ def check_layer(picture: LayerPicture) -> None:
     if picture.kind == "labels" and not np.any(plane):
         raise InputError(f"“Layers”: the labels layer “{picture.name}” has no objects (every pixel is 0, the background). "
                          "Paint or load labels first, or choose an image layer.")
-    if picture.kind not in ("image", "labels"):
-        raise InputError(f"“Layers”: “{picture.name}” is a {picture.kind} layer; choose an image or labels layer.")
 
 
 def plane_of(picture: LayerPicture) -> np.ndarray:

@@ -21,6 +21,6 @@ clean:
 	rm -rf demo-output .pytest_cache .hypothesis
 
 # The developer's loop: everything but the slow tiers (browser, slicer, real microscope files,
-# slow), with few hypothesis examples (docs/testing.md).
+# napari, slow), with few hypothesis examples (docs/testing.md).
 test-fast: setup
-	TAMP_HYPOTHESIS=dev .venv/bin/python -m pytest $(PARALLEL) -m "not slow and not browser and not slicer and not real" $(PYTEST_ARGS)
+	TAMP_HYPOTHESIS=dev .venv/bin/python -m pytest $(PARALLEL) -m "not slow and not browser and not slicer and not real and not napari" $(PYTEST_ARGS)

@@ -5,8 +5,8 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-# python3-venv for .venv; tesseract-ocr-eng holds the model that both the tesseract command and tesserocr (the ocr extra) read; libcairo2-dev + pkg-config to build pycairo; poppler-utils (pdfinfo, pdftoppm) to check PDFs; Mesa EGL/GL for PyVista offscreen; GLU and X client libraries that the gmsh wheel links.
-APT_PACKAGES="python3-venv liblouis-bin liblouis-data python3-louis prusa-slicer chromium tesseract-ocr tesseract-ocr-eng fonts-dejavu-core libegl1 libgl1 libglu1-mesa libxcursor1 libxft2 libxinerama1 libcairo2-dev pkg-config poppler-utils nodejs npm epubcheck"
+# python3-venv for .venv; tesseract-ocr-eng holds the model that both the tesseract command and tesserocr (the ocr extra) read; libcairo2-dev + pkg-config to build pycairo; poppler-utils (pdfinfo, pdftoppm) to check PDFs; Mesa EGL/GL for PyVista offscreen; GLU and X client libraries that the gmsh wheel links; for the napari plugin's tests, Xvfb (napari draws with OpenGL: Qt's offscreen platform gets it from an X display) and the libraries the PyQt5 wheel's Qt links (D-Bus, fontconfig, GLib, X11).
+APT_PACKAGES="python3-venv liblouis-bin liblouis-data python3-louis prusa-slicer chromium tesseract-ocr tesseract-ocr-eng fonts-dejavu-core libegl1 libgl1 libglu1-mesa libxcursor1 libxft2 libxinerama1 libcairo2-dev pkg-config poppler-utils nodejs npm epubcheck xvfb libdbus-1-3 libfontconfig1 libglib2.0-0 libx11-6 libxext6"
 missing=""
 for pkg in $APT_PACKAGES; do
   dpkg -s "$pkg" >/dev/null 2>&1 || missing="$missing $pkg"
@@ -35,8 +35,8 @@ stamp=.venv/.tamp-installed
 if [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ] || [ scripts/setup.sh -nt "$stamp" ]; then
   echo "setup: installing the tamp-os package and its Python dependencies into .venv"
   .venv/bin/python -m pip install -q --upgrade pip 2>&1 | grep -v "^WARNING: Location" || true
-  .venv/bin/python -m pip install -q -e ".[test,all]" 2>&1 | grep -v "^WARNING: Location" || true
-  .venv/bin/python -c "import tamp_os, lib3mf, trimesh, tifffile, czifile, liffile, nd2, mrcfile, zarr, h5py, tesserocr, fastapi, uvicorn, pyvista, distributed" 
+  .venv/bin/python -m pip install -q -e ".[test,all,napari]" 2>&1 | grep -v "^WARNING: Location" || true
+  .venv/bin/python -c "import tamp_os, lib3mf, trimesh, tifffile, czifile, liffile, nd2, mrcfile, zarr, h5py, tesserocr, fastapi, uvicorn, pyvista, distributed, napari, magicgui, npe2, pytestqt"
   touch "$stamp"
 fi
 

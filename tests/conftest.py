@@ -28,11 +28,11 @@ def examples(n: int) -> int:
 
 # Test tiers, applied from what a test uses, so that no one has to remember to mark it:
 # `browser` (headless Chromium), `slicer` (PrusaSlicer), `real` (the real microscope files in
-# ../shared/fixtures); `slow` for a test of the web app's real server (fixture `server`), and by
+# ../shared/fixtures), `napari` (a napari viewer, headless: tests/napari/conftest.py); `slow` for a test of the web app's real server (fixture `server`), and by
 # hand on the few synthetic tests that take more than about 5 s.
-# `make test-fast` leaves all four out; `make test` and CI run everything.
+# `make test-fast` leaves all five out; `make test` and CI run everything.
 TIER_BY_FIXTURE = {"browser": "browser", "slicer_present": "slicer", "fixture": "real", "fixtures_dir": "real", "server": "slow",
-                   "elid_bomb": "slow"}
+                   "elid_bomb": "slow", "napari_viewer": "napari", "napari_plugin": "napari"}
 
 
 def pytest_collection_modifyitems(config, items):
@@ -123,3 +123,16 @@ def gradient_image():
     img = np.tile(np.linspace(0, 200, 64, dtype=np.float32), (48, 1))
     img[4:16, 4:20] = 255
     return img.astype(np.uint8)
+
+
+# napari's pytest plugin (loaded whenever napari is installed) has two autouse fixtures that import
+# napari's Qt window and themes for every test: 10-15 s at the start of each test process here. These
+# names override them for the whole suite; tests/napari_support.py does their work for the napari tier.
+@pytest.fixture
+def _disable_qt_warnings():
+    return None
+
+
+@pytest.fixture
+def _clean_themes():
+    return None

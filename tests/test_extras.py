@@ -1,5 +1,5 @@
-"""The core install converts; the web app, rendering and Dask are extras, and a missing one is
-named in one line (`pip install 'tamp-os[gui]'`), never a traceback."""
+"""The core install converts; the web app, rendering, Dask and the napari plugin are extras, and a
+missing one is named in one line (`pip install 'tamp-os[gui]'`), never a traceback."""
 
 from __future__ import annotations
 
@@ -18,7 +18,8 @@ for name in {missing!r}:
 from tamp_os.cli import main
 code = main({argv!r})
 print("EXIT", code)
-print("LOADED", sorted(m for m in ("fastapi", "uvicorn", "pyvista", "vtk", "distributed", "dask") if sys.modules.get(m)))
+print("LOADED", sorted(m for m in ("fastapi", "uvicorn", "pyvista", "vtk", "distributed", "dask", "napari", "magicgui", "PyQt5")
+                      if sys.modules.get(m)))
 """
 
 
@@ -34,7 +35,7 @@ def test_converting_needs_no_extra(tmp_path, gradient_image):
     from PIL import Image
 
     Image.fromarray(gradient_image).save(tmp_path / "ramp.png")
-    done = run_child(["fastapi", "uvicorn", "jinja2", "pyvista", "vtk", "dask", "distributed"],
+    done = run_child(["fastapi", "uvicorn", "jinja2", "pyvista", "vtk", "dask", "distributed", "napari", "magicgui", "npe2", "PyQt5"],
                      ["convert", "ramp.png", "-o", "out", "--formats", "stl,3mf,pdf"], tmp_path)
     assert "EXIT 0" in done.stdout, done.stdout + done.stderr
     assert "LOADED []" in done.stdout

@@ -10,7 +10,7 @@ from pathlib import Path
 
 from .outputs import save_outputs
 from ..params import LithoParams
-from .pipeline import Lithograph
+from .pipeline import Lithograph, stage_begins
 from ..printing.printers import PrinterProfile
 from .report import Report, removed_notes, summary_line, touch_notes
 
@@ -131,6 +131,7 @@ def convert(source, params: LithoParams | None, out_dir, *, stem: str | None = N
     out = Path(out_dir)
     base = stem or figure.prints[0][1].name
     prints = []
+    stage_begins("save")  # the last moment a front end may cancel: past it, every file is finished
     for suffix, litho in figure.prints:
         written, litho = save_outputs(litho, out, formats, stem=f"{base}{suffix}")
         prints.append(Print(litho, tuple(written), suffix))

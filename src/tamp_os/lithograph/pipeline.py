@@ -9,8 +9,11 @@ from __future__ import annotations
 import dataclasses
 import logging
 import time
+from contextlib import contextmanager
+from contextvars import ContextVar
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
@@ -244,13 +247,40 @@ def _tactile(relief_mesh: Mesh, layout: Layout, params: LithoParams, furniture: 
     return _Tactile(mesh, placed, parts, tiles)
 
 
+# Who hears each stage begin (a front end's progress bar and its Cancel button, napari/widget.py):
+# per thread of work, so two conversions side by side never hear each other's stages.
+STAGES = ("read", "annotations", "preprocess", "relief", "legibility", "mesh", "scale bar wait", "tactile", "agreement")
+_STAGE_LISTENER: ContextVar[Callable[[str], None] | None] = ContextVar("stage_listener", default=None)
+
+
+@contextmanager
+def stages_heard_by(listener: Callable[[str], None]):
+    """Within this block, `listener(stage)` is called as each stage of a lithograph begins (STAGES,
+    then "save" before its files are written). An exception it raises stops the work there, before
+    the stage: that is how a front end cancels, and no file is half written."""
+    token = _STAGE_LISTENER.set(listener)
+    try:
+        yield
+    finally:
+        _STAGE_LISTENER.reset(token)
+
+
+def stage_begins(stage: str) -> None:
+    """Tell the listener, if any, that `stage` begins (see stages_heard_by)."""
+    listener = _STAGE_LISTENER.get()
+    if listener is not None:
+        listener(stage)
+
+
 class _Clock:
-    """`with clock("stage"):` adds the stage's wall time in seconds to `timings`."""
+    """`with clock("stage"):` adds the stage's wall time in seconds to `timings` (and says the
+    stage begins, to whoever listens: stages_heard_by)."""
 
     def __init__(self, timings: dict[str, float]):
         self.timings, self.stage, self.start = timings, "", 0.0
 
     def __call__(self, stage: str) -> "_Clock":
+        stage_begins(stage)
         self.stage = stage
         return self
 

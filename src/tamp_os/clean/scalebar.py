@@ -15,6 +15,8 @@ import re
 import shutil
 import subprocess
 import tempfile
+import threading
+from collections import OrderedDict
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -48,15 +50,56 @@ class BarReading:
     bar_seen: bool = False
 
 
+OCR_CACHE_SIZE = 256  # label crops remembered per process (a few hundred bytes each)
+_ocr_cache: OrderedDict[tuple, str | None] = OrderedDict()
+_ocr_cache_lock = threading.Lock()
+
+
 def ocr_text(ink: np.ndarray) -> str | None:
     """Text in a small crop, by the `tesseract` command (None when not installed).
 
     ink : (h, w) bool, True on the label's strokes. It is drawn black on white, upscaled and
     binarised again, with a white margin: the conditions Tesseract reads best.
+
+    What a crop reads as is remembered by its content (its shape and strokes) within the process:
+    the same picture converted again (a sweep, the web app's next setting) reads no label twice.
     """
-    exe = shutil.which("tesseract")
-    if exe is None or not ink.any():
+    if not ink.any() or shutil.which("tesseract") is None:
         return None
+    key = (ink.shape, np.packbits(ink.astype(bool, copy=False)).tobytes())
+    with _ocr_cache_lock:
+        if key in _ocr_cache:
+            _ocr_cache.move_to_end(key)
+            return _ocr_cache[key]
+    text, answered = _tesseract(ink)
+    if answered:  # a failed or timed-out run is not remembered: the next picture tries again
+        with _ocr_cache_lock:
+            _ocr_cache[key] = text
+            while len(_ocr_cache) > OCR_CACHE_SIZE:
+                _ocr_cache.popitem(last=False)
+    return text
+
+
+def clear_ocr_cache() -> None:
+    """Forget every label read (benchmarks time a picture as if it were new)."""
+    with _ocr_cache_lock:
+        _ocr_cache.clear()
+
+
+def _after_fork() -> None:
+    """A forked batch worker gets a lock of its own: the parent's scale-bar thread may have held it."""
+    global _ocr_cache_lock
+    _ocr_cache_lock = threading.Lock()
+
+
+os.register_at_fork(after_in_child=_after_fork)
+
+
+def _tesseract(ink: np.ndarray) -> tuple[str | None, bool]:
+    """(text or None, whether Tesseract answered) for `ink`, by the `tesseract` command."""
+    exe = shutil.which("tesseract")
+    if exe is None:
+        return None, False
     from PIL import Image
 
     page = Image.fromarray(np.where(ink, 0, 255).astype(np.uint8))
@@ -72,8 +115,8 @@ def ocr_text(ink: np.ndarray) -> str | None:
             done = subprocess.run(command, capture_output=True, text=True, encoding="utf-8", errors="replace", timeout=30,
                                   env=_ocr_env())
         except (OSError, subprocess.TimeoutExpired):
-            return None
-    return done.stdout if done.returncode == 0 else None
+            return None, False
+    return (done.stdout, True) if done.returncode == 0 else (None, False)
 
 
 def _ocr_env() -> dict[str, str]:

@@ -12,7 +12,7 @@ from PIL import Image, ImageDraw
 
 from conftest import need
 from figures import font
-from tamp_os.clean import scalebar
+from tamp_os.clean import ocr, scalebar
 
 
 def _label(text: str) -> np.ndarray:
@@ -32,7 +32,7 @@ def calls(monkeypatch):
 
     fake.fail = False
     monkeypatch.setattr(scalebar, "_tesseract", fake)
-    monkeypatch.setattr(scalebar.shutil, "which", lambda name: "/usr/bin/" + name)
+    monkeypatch.setattr(scalebar.ocr, "backend", lambda: "tesserocr")
     scalebar.clear_ocr_cache()
     yield asked, fake
     scalebar.clear_ocr_cache()
@@ -73,9 +73,26 @@ def test_a_failed_reading_is_tried_again(calls):
 
 @pytest.mark.timeout(120)
 def test_a_label_read_from_memory_says_what_tesseract_said():
-    need(shutil.which("tesseract") is not None, "the tesseract command (tesseract-ocr)")
+    need(ocr.backend() is not None, "OCR (tesserocr with the eng model, or the tesseract command)")
     scalebar.clear_ocr_cache()
     ink = _label("5 um")
     first = scalebar.ocr_text(ink)
     assert scalebar.ocr_text(ink.copy()) == first
     assert scalebar.parse_label(first or "") == pytest.approx(5e-6)
+
+
+@pytest.mark.timeout(120)
+@pytest.mark.parametrize("text, metres", [("5 um", 5e-6), ("200 nm", 2e-7), ("2 µm", 2e-6)])
+def test_the_command_reads_a_label_as_tesserocr_does(monkeypatch, text, metres):
+    """In process (tesserocr) is the rule; the `tesseract` command, the fallback, reads the same length."""
+    need(ocr.backend() == "tesserocr", "tesserocr with the eng model")
+    need(shutil.which("tesseract") is not None, "the tesseract command (tesseract-ocr)")
+    ink = _label(text)
+    scalebar.clear_ocr_cache()
+    in_process = scalebar.ocr_text(ink)
+    monkeypatch.setattr(scalebar.ocr, "backend", lambda: "command")
+    scalebar.clear_ocr_cache()
+    by_command = scalebar.ocr_text(ink)
+    scalebar.clear_ocr_cache()
+    assert scalebar.parse_label(in_process or "") == pytest.approx(metres)
+    assert scalebar.parse_label(by_command or "") == pytest.approx(metres)

@@ -24,6 +24,7 @@ import numpy as np
 from scipy import ndimage
 
 from ..units import unit_factor_m
+from . import ocr
 
 PROVENANCE = "scale bar label"
 LABEL = re.compile(r"^\s*([0-9]+(?:[.,][0-9]+)?)\s*(nm|µm|μm|um|mm|Å)\s*$")
@@ -56,7 +57,7 @@ _ocr_cache_lock = threading.Lock()
 
 
 def ocr_text(ink: np.ndarray) -> str | None:
-    """Text in a small crop, by the `tesseract` command (None when not installed).
+    """Text in a small crop, read by Tesseract (None when no OCR is installed).
 
     ink : (h, w) bool, True on the label's strokes. It is drawn black on white, upscaled and
     binarised again, with a white margin: the conditions Tesseract reads best.
@@ -64,7 +65,7 @@ def ocr_text(ink: np.ndarray) -> str | None:
     What a crop reads as is remembered by its content (its shape and strokes) within the process:
     the same picture converted again (a sweep, the web app's next setting) reads no label twice.
     """
-    if not ink.any() or shutil.which("tesseract") is None:
+    if not ink.any() or ocr.backend() is None:
         return None
     key = (ink.shape, np.packbits(ink.astype(bool, copy=False)).tobytes())
     with _ocr_cache_lock:
@@ -96,17 +97,16 @@ os.register_at_fork(after_in_child=_after_fork)
 
 
 def _tesseract(ink: np.ndarray) -> tuple[str | None, bool]:
-    """(text or None, whether Tesseract answered) for `ink`, by the `tesseract` command."""
+    """(text or None, whether Tesseract answered) for `ink`: in this process by tesserocr when it
+    is installed (its model loads once per process; a `tesseract` command spends 0.1-0.2 s of CPU
+    starting and loading the model for every label), else by the command."""
+    canvas = _label_canvas(ink)
+    if ocr.backend() == "tesserocr":
+        text = ocr.read_text(canvas, 7, WHITELIST)
+        return text, text is not None
     exe = shutil.which("tesseract")
     if exe is None:
         return None, False
-    from PIL import Image
-
-    page = Image.fromarray(np.where(ink, 0, 255).astype(np.uint8))
-    page = page.resize((ink.shape[1] * OCR_UPSCALE, ink.shape[0] * OCR_UPSCALE), Image.Resampling.LANCZOS)
-    page = page.point(lambda v: 255 if v > 127 else 0)
-    canvas = Image.new("L", (page.width + 40, page.height + 40), 255)
-    canvas.paste(page, (20, 20))
     with tempfile.TemporaryDirectory(prefix="tamp-ocr-") as tmp:
         path = Path(tmp) / "label.png"
         canvas.save(path)
@@ -117,6 +117,18 @@ def _tesseract(ink: np.ndarray) -> tuple[str | None, bool]:
         except (OSError, subprocess.TimeoutExpired):
             return None, False
     return (done.stdout, True) if done.returncode == 0 else (None, False)
+
+
+def _label_canvas(ink: np.ndarray):
+    """The label drawn black on white, upscaled and binarised again, with a white margin."""
+    from PIL import Image
+
+    page = Image.fromarray(np.where(ink, 0, 255).astype(np.uint8))
+    page = page.resize((ink.shape[1] * OCR_UPSCALE, ink.shape[0] * OCR_UPSCALE), Image.Resampling.LANCZOS)
+    page = page.point(lambda v: 255 if v > 127 else 0)
+    canvas = Image.new("L", (page.width + 40, page.height + 40), 255)
+    canvas.paste(page, (20, 20))
+    return canvas
 
 
 def _ocr_env() -> dict[str, str]:
@@ -336,7 +348,7 @@ def scale_from_bars(regions: list[np.ndarray], boxes: list[np.ndarray], strips: 
         candidates += [(ink, bar) for bar in find_bars(ink)]
     if not candidates:
         return BarReading(None, "no scale bar found in the image")
-    if shutil.which("tesseract") is None:
+    if ocr.backend() is None:
         return BarReading(None, "a scale bar may be in the image, but reading its label needs Tesseract (apt-get install tesseract-ocr)", seen)
     readings = [size for ink, bar in candidates[:MAX_OCR_CALLS] if (size := read_bar(ink, bar))]
     if not readings:

@@ -9,8 +9,9 @@ magnifications, the moth head, the Velox and HyperSpy files), each copied under 
 and repeated until there are COUNT (default 200). `--set fept-zeiss` is the earlier set: copies
 of the FePt and Zeiss pictures only. Workers are started once and stay warm (a process pool keeps
 them); each imports on its first picture. For each run: wall time, pictures per second, the
-speed-up over 1 worker, the largest peak resident memory of a worker, and the load average when
-it ended (the machine is shared: a parallel speed-up is only as good as the cores left free).
+speed-up over 1 worker, the CPU time per picture (every worker's, with its imports and its
+children: a `tesseract` command), the largest peak resident memory of a worker, and the load
+average when it ended (the machine is shared: a parallel speed-up is only as good as the cores left free).
 """
 
 from __future__ import annotations
@@ -55,23 +56,33 @@ def quiet_worker() -> None:
     logging.disable(logging.WARNING)
 
 
-def local_run(jobs, out: Path, workers: int) -> tuple[float, float]:
-    """(wall s, largest worker peak MB) on a local process pool of `workers` warm workers."""
+def cpu_s(pid: int) -> float:
+    """CPU seconds of a live process and its finished children (a tesseract command), from /proc."""
+    try:
+        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    except OSError:
+        return 0.0
+    return sum(int(v) for v in fields[11:15]) / os.sysconf("SC_CLK_TCK")  # utime stime cutime cstime
+
+
+def local_run(jobs, out: Path, workers: int) -> tuple[float, float, float]:
+    """(wall s, largest worker peak MB, CPU s of all workers) on a local process pool of `workers` warm workers."""
     pool = ProcessPoolExecutor(max_workers=workers, initializer=quiet_worker)
     try:
         start = time.perf_counter()
         outcomes = run_batch(jobs, out, executor=pool)
         wall = time.perf_counter() - start
         peak = max(peak_mb(pid) for pid in pool._processes)  # the benchmark looks inside; the library does not
+        cpu = sum(cpu_s(pid) for pid in pool._processes)
     finally:
         pool.shutdown()
     failed = [o["error"] for o in outcomes if o["status"] != "converted"]
     assert not failed, failed
-    return wall, peak
+    return wall, peak, cpu
 
 
-def dask_run(jobs, out: Path, workers: int) -> tuple[float, float]:
-    """(wall s, largest worker peak MB) on a Dask LocalCluster of `workers` single-threaded processes."""
+def dask_run(jobs, out: Path, workers: int) -> tuple[float, float, float]:
+    """(wall s, largest worker peak MB, CPU s of all workers) on a Dask LocalCluster of `workers` single-threaded processes."""
     from distributed import Client, LocalCluster
 
     with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, \
@@ -81,9 +92,10 @@ def dask_run(jobs, out: Path, workers: int) -> tuple[float, float]:
         outcomes = run_batch(jobs, out, executor=client)
         wall = time.perf_counter() - start
         peaks = client.run(lambda: peak_mb(os.getpid()))
+        cpus = client.run(lambda: cpu_s(os.getpid()))  # including the worker's start and imports
     failed = [o["error"] for o in outcomes if o["status"] != "converted"]
     assert not failed, failed
-    return wall, max(peaks.values())
+    return wall, max(peaks.values()), sum(cpus.values())
 
 
 def main() -> None:
@@ -96,8 +108,8 @@ def main() -> None:
     params = LithoParams(preset="medium", formats=("stl", "3mf"))
     print(f"{args.count} pictures ({len(sources)} distinct: {', '.join(s.name for s in sources)}), STL + 3MF, Medium, "
           f"{os.cpu_count()} cores\n")
-    print("| executor | workers | wall s | pictures/s | speed-up | peak MB per worker | load average after |")
-    print("|---|---:|---:|---:|---:|---:|---|")
+    print("| executor | workers | wall s | pictures/s | speed-up | CPU s per picture | peak MB per worker | load average after |")
+    print("|---|---:|---:|---:|---:|---:|---:|---|")
     with tempfile.TemporaryDirectory() as tmp:
         inputs = Path(tmp) / "in"
         inputs.mkdir()
@@ -110,10 +122,10 @@ def main() -> None:
         for name, run, workers in runs:
             out = Path(tmp) / f"out-{name.split()[0]}-{workers}"
             jobs = [Job(p, out, params) for p, _ in collect_inputs([inputs])]
-            wall, peak = run(jobs, out, workers)
+            wall, peak, cpu = run(jobs, out, workers)
             first.setdefault(name, wall)
             load = os.getloadavg()
-            print(f"| {name} | {workers} | {wall:.1f} | {args.count / wall:.2f} | {first[name] / wall:.2f}× | {peak:.0f} | "
+            print(f"| {name} | {workers} | {wall:.1f} | {args.count / wall:.2f} | {first[name] / wall:.2f}× | {cpu / args.count:.2f} | {peak:.0f} | "
                   f"{load[0]:.1f} / {load[1]:.1f} / {load[2]:.1f} |", flush=True)
             shutil.rmtree(out)
 

@@ -3,8 +3,10 @@ converted once, and where the time goes, stage by stage (issue 37.1).
 
     .venv/bin/python benchmarks/bench_warm.py [--runs 7] [PICTURE ...]
 
-Default pictures: the FePt spheres (JPEG, a burned-in "4 µm" box read by OCR) and the FEI SiO2
-particles at 35 kx (an FEI TIFF whose databar box holds the only scale: its label is read by OCR).
+Default pictures: the FePt spheres (JPEG, 1024 × 768, a burned-in "4 µm" box read by OCR), the
+FEI SiO2 particles at 35 kx and 10 kx (FEI TIFFs, 712 × 484, whose databar box holds the only
+scale: its label is read by OCR; 4 and 10 label crops go to OCR) and the TVIPS camera frame
+(1024 × 1024, a burned-in "200 nm" box; the scale is in the file, so no OCR).
 Each picture is converted once to warm the process (imports, OCR model, caches of first use), then
 `--runs` times in two ways, alternating so both see the same load:
 
@@ -33,7 +35,8 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 FIXTURES = ROOT.parent / "shared" / "fixtures"
-PICTURES = (FIXTURES / "fept_spheres_sem.png", FIXTURES / "real" / "sem_fei_sio2_particles_35kx.tif")
+PICTURES = (FIXTURES / "fept_spheres_sem.png", FIXTURES / "real" / "sem_fei_sio2_particles_35kx.tif",
+            FIXTURES / "real" / "sem_fei_sio2_particles_10kx.tif", FIXTURES / "real" / "tvips_bin4.tif")
 FORMATS = ("stl", "3mf", "glb")
 
 

@@ -84,17 +84,18 @@ for name in json.load(open(sys.argv[1])):
 """
 
 
-def _env() -> dict:
-    env = dict(os.environ, PYTHONPATH=str(ROOT / "src"))
+def _env(src: Path | None = None) -> dict:
+    env = dict(os.environ, PYTHONPATH=str(src or ROOT / "src"))
     env.pop("PYTHONDONTWRITEBYTECODE", None)  # a user's installed package has its bytecode cached
     return env
 
 
-def timed(command: list[str]) -> tuple[float, float, str]:
-    """(wall s, CPU s of the process and its children, stdout) of one new process."""
+def timed(command: list[str], src: Path | None = None) -> tuple[float, float, str]:
+    """(wall s, CPU s of the process and its children, stdout) of one new process (`src`: the
+    package's sources to run, by default this tree's)."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.perf_counter()
-    out = subprocess.run(command, check=True, capture_output=True, text=True, env=_env())
+    out = subprocess.run(command, check=True, capture_output=True, text=True, env=_env(src))
     wall = time.perf_counter() - start
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime), out.stdout
@@ -143,6 +144,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=7)
     parser.add_argument("--wide", action="store_true", help="only the 1000 mm, High rows (issue 40.5)")
+    parser.add_argument("--before", type=Path, metavar="SRC",
+                        help="also time the command line of another tree's sources (e.g. `git archive main src`), alternating")
     args = parser.parse_args()
     if args.wide:
         return wide(max(1, min(args.runs, 3)))
@@ -150,8 +153,13 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp)
         timed([py, "-m", "tamp_os.cli.commands", "convert", str(FEPT), "-o", str(out / "warmup"), "--formats", FORMATS])  # bytecode, disk cache
-        ours, loop, bare, staged = [], [], [], []
+        ours, loop, bare, staged, before = [], [], [], [], []
+        if args.before:
+            timed([py, "-m", "tamp_os.cli.commands", "convert", str(FEPT), "-o", str(out / "warmup"), "--formats", FORMATS], args.before)
         for _ in range(args.runs):  # alternate, so every measurement sees the same load
+            if args.before:
+                before.append(timed([py, "-m", "tamp_os.cli.commands", "convert", str(FEPT), "-o", str(out / "before"),
+                                     "--formats", FORMATS], args.before)[:2])
             ours.append(timed([py, "-m", "tamp_os.cli.commands", "convert", str(FEPT), "-o", str(out / "ours"), "--formats", FORMATS])[:2])
             loop.append(timed([py, "-c", LOOP, str(out)])[:2])
             bare.append(timed([py, "-c", "pass"])[:2])
@@ -164,8 +172,12 @@ def main() -> None:
           f"(load average {load[0]:.1f} / {load[1]:.1f} on {os.cpu_count()} cores):\n")
     print("| run | wall s (best) | wall s (median) | CPU s (best) |")
     print("|---|---:|---:|---:|")
-    for name, runs in (("per-pixel loop of the reference", loop), ("tamp-os convert (defaults)", ours)):
+    rows = [("per-pixel loop of the reference", loop)] + ([(f"tamp-os convert, {args.before}", before)] if before else [])
+    for name, runs in rows + [("tamp-os convert (defaults)", ours)]:
         print(f"| {name} | {min(w for w, _ in runs):.2f} | {statistics.median(w for w, _ in runs):.2f} | {min(c for _, c in runs):.2f} |")
+    for name, runs in rows[1:] + [("tamp-os convert (defaults)", ours)]:
+        print(f"\n{name} / loop: wall {statistics.median(w for w, _ in runs) / statistics.median(w for w, _ in loop):.2f}× "
+              f"(medians), CPU {min(c for _, c in runs) / min(c for _, c in loop):.2f}× (best)")
     print(f"\nwall s, tamp-os: {spread([w for w, _ in ours])}; loop: {spread([w for w, _ in loop])}")
     print("\nWhere tamp-os's time goes (best of the runs, ms; CPU of the main thread):\n")
     print("| stage | wall ms | CPU ms |")

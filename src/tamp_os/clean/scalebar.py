@@ -15,6 +15,8 @@ import re
 import shutil
 import subprocess
 import tempfile
+import threading
+from collections import OrderedDict
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -22,6 +24,7 @@ import numpy as np
 from scipy import ndimage
 
 from ..units import unit_factor_m
+from . import ocr
 
 PROVENANCE = "scale bar label"
 LABEL = re.compile(r"^\s*([0-9]+(?:[.,][0-9]+)?)\s*(nm|µm|μm|um|mm|Å)\s*$")
@@ -48,22 +51,62 @@ class BarReading:
     bar_seen: bool = False
 
 
+OCR_CACHE_SIZE = 256  # label crops remembered per process (a few hundred bytes each)
+_ocr_cache: OrderedDict[tuple, str | None] = OrderedDict()
+_ocr_cache_lock = threading.Lock()
+
+
 def ocr_text(ink: np.ndarray) -> str | None:
-    """Text in a small crop, by the `tesseract` command (None when not installed).
+    """Text in a small crop, read by Tesseract (None when no OCR is installed).
 
     ink : (h, w) bool, True on the label's strokes. It is drawn black on white, upscaled and
     binarised again, with a white margin: the conditions Tesseract reads best.
-    """
-    exe = shutil.which("tesseract")
-    if exe is None or not ink.any():
-        return None
-    from PIL import Image
 
-    page = Image.fromarray(np.where(ink, 0, 255).astype(np.uint8))
-    page = page.resize((ink.shape[1] * OCR_UPSCALE, ink.shape[0] * OCR_UPSCALE), Image.Resampling.LANCZOS)
-    page = page.point(lambda v: 255 if v > 127 else 0)
-    canvas = Image.new("L", (page.width + 40, page.height + 40), 255)
-    canvas.paste(page, (20, 20))
+    What a crop reads as is remembered by its content (its shape and strokes) within the process:
+    the same picture converted again (a sweep, the web app's next setting) reads no label twice.
+    """
+    if not ink.any() or ocr.backend() is None:
+        return None
+    key = (ink.shape, np.packbits(ink.astype(bool, copy=False)).tobytes())
+    with _ocr_cache_lock:
+        if key in _ocr_cache:
+            _ocr_cache.move_to_end(key)
+            return _ocr_cache[key]
+    text, answered = _tesseract(ink)
+    if answered:  # a failed or timed-out run is not remembered: the next picture tries again
+        with _ocr_cache_lock:
+            _ocr_cache[key] = text
+            while len(_ocr_cache) > OCR_CACHE_SIZE:
+                _ocr_cache.popitem(last=False)
+    return text
+
+
+def clear_ocr_cache() -> None:
+    """Forget every label read (benchmarks time a picture as if it were new)."""
+    with _ocr_cache_lock:
+        _ocr_cache.clear()
+
+
+def _after_fork() -> None:
+    """A forked batch worker gets a lock of its own: the parent's scale-bar thread may have held it."""
+    global _ocr_cache_lock
+    _ocr_cache_lock = threading.Lock()
+
+
+os.register_at_fork(after_in_child=_after_fork)
+
+
+def _tesseract(ink: np.ndarray) -> tuple[str | None, bool]:
+    """(text or None, whether Tesseract answered) for `ink`: in this process by tesserocr when it
+    is installed (its model loads once per process; a `tesseract` command spends 0.1-0.2 s of CPU
+    starting and loading the model for every label), else by the command."""
+    canvas = _label_canvas(ink)
+    if ocr.backend() == "tesserocr":
+        text = ocr.read_text(canvas, 7, WHITELIST)
+        return text, text is not None
+    exe = shutil.which("tesseract")
+    if exe is None:
+        return None, False
     with tempfile.TemporaryDirectory(prefix="tamp-ocr-") as tmp:
         path = Path(tmp) / "label.png"
         canvas.save(path)
@@ -72,8 +115,20 @@ def ocr_text(ink: np.ndarray) -> str | None:
             done = subprocess.run(command, capture_output=True, text=True, encoding="utf-8", errors="replace", timeout=30,
                                   env=_ocr_env())
         except (OSError, subprocess.TimeoutExpired):
-            return None
-    return done.stdout if done.returncode == 0 else None
+            return None, False
+    return (done.stdout, True) if done.returncode == 0 else (None, False)
+
+
+def _label_canvas(ink: np.ndarray):
+    """The label drawn black on white, upscaled and binarised again, with a white margin."""
+    from PIL import Image
+
+    page = Image.fromarray(np.where(ink, 0, 255).astype(np.uint8))
+    page = page.resize((ink.shape[1] * OCR_UPSCALE, ink.shape[0] * OCR_UPSCALE), Image.Resampling.LANCZOS)
+    page = page.point(lambda v: 255 if v > 127 else 0)
+    canvas = Image.new("L", (page.width + 40, page.height + 40), 255)
+    canvas.paste(page, (20, 20))
+    return canvas
 
 
 def _ocr_env() -> dict[str, str]:
@@ -293,7 +348,7 @@ def scale_from_bars(regions: list[np.ndarray], boxes: list[np.ndarray], strips: 
         candidates += [(ink, bar) for bar in find_bars(ink)]
     if not candidates:
         return BarReading(None, "no scale bar found in the image")
-    if shutil.which("tesseract") is None:
+    if ocr.backend() is None:
         return BarReading(None, "a scale bar may be in the image, but reading its label needs Tesseract (apt-get install tesseract-ocr)", seen)
     readings = [size for ink, bar in candidates[:MAX_OCR_CALLS] if (size := read_bar(ink, bar))]
     if not readings:

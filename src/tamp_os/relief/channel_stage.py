@@ -22,6 +22,9 @@ from .channels import (
     channel_relief,
     glass_weight,
     nuclear_weight,
+    NUCLEAR_OD,
+    density_weight,
+    faint_haematoxylin,
     is_fluorescence_composite,
     is_stained_brightfield,
     parse_assignments,
@@ -88,6 +91,9 @@ def _on_grid(values: np.ndarray, layout, params) -> np.ndarray:
     return prepare(values, None, rows=layout.rows, cols=layout.cols, target_aspect=layout.target_aspect, fit=layout.fit,
                    low_pct=params.stretch_low_pct, high_pct=params.stretch_high_pct, sigma_px=layout.blur_px,
                    invert=False, flip_x=params.flip_x).image
+
+
+DENSE_LABEL = "dense tissue"  # the key's word for what a faint section raises in place of nuclei
 
 
 def _weight_on_grid(w: np.ndarray, layout, params) -> np.ndarray:
@@ -173,11 +179,21 @@ def run(source, layout, params, route=None, cleaned=None, title: str = "") -> Ch
             on_grid = [ChannelImage(c.name, _on_grid(c.image, layout, params)) for c in stain_channels(stack)]
             # stain densities are already 0..1; prepare() stretched them again; glass and lumens are
             # found on the colours themselves (an off-white glass tile's stretched densities are not 0)
+            faint = faint_haematoxylin(stack)
             rel = stain_relief(on_grid, mm_per_px=mm, base_mm=params.base_mm, relief_mm=params.relief_mm,
                                glass=_weight_on_grid(glass_weight(stack), layout, params),
-                               stained=_weight_on_grid(nuclear_weight(stack), layout, params))
+                               stained=_weight_on_grid(nuclear_weight(stack), layout, params),
+                               dense=None if faint is None else _weight_on_grid(
+                                   density_weight(stack, sigma_px=stack.shape[1] / layout.cols), layout, params))
             rel.notes[:0] = cleaning_notes
-            key = tuple(KeyEntry(labels.get(ch.name.lower(), STAIN_LABEL[ch.name]), ch.encoding) for ch in rel.choices)
+            names = dict(STAIN_LABEL)
+            if faint is not None:
+                names["haematoxylin"] = DENSE_LABEL
+                rel.notes.append(Decision(f"The section's haematoxylin is faint (its tissue's 99th percentile {faint:.3f} optical "
+                                          f"density, a nucleus reaches {NUCLEAR_OD:g}): no nuclei stand out, so the denser "
+                                          f"tissue (cell-rich nests, by its total optical density) is raised as domes and the "
+                                          f"paler stroma is a low texture."))
+            key = tuple(KeyEntry(labels.get(ch.name.lower(), names[ch.name]), ch.encoding) for ch in rel.choices)
             return ChannelStage(rel, key, "stain")
         fluorescence = route.kind == "fluorescence" if route is not None and route.kind != "assigned" else is_fluorescence_composite(stack)
         if not fluorescence and not assigned:

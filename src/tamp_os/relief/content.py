@@ -112,6 +112,7 @@ GRAIN_STEP_MM = 0.5  # and the plateaus stand at least this far apart (a step fi
 # 1.7-1.9x; a flat plateau: no variation at all).
 GRAIN_OVER_NOISE = 4.0
 EMPTY_MOUNT_SHARE = 0.05  # a dark, featureless area covering at least this share is the mount
+SCATTERED_PIECES = 5  # a "specimen" in this many pieces, none holding half of it, is a population on a ground
 
 
 @dataclass(frozen=True)
@@ -380,14 +381,16 @@ def make_content(work: np.ndarray, *, pitch_mm: float, relief_mm: float, width_m
         polarity = Polarity(True, polarity.ground, f"the bright side is no empty ground but {int(labels.max())} round members of one "
                                                   f"size packed edge to edge ({wider:.1f} times as wide as the dark gaps between "
                                                   f"them), so the members are raised and the gaps sit at the base")
-        return _as_members(labels, pitch_mm, relief_mm, polarity, lattice + meta, picture=finder.picture(True),
+        made = _as_members(labels, pitch_mm, relief_mm, polarity, lattice + meta, picture=finder.picture(True),
                            what=f"{int(labels.max())} packed members, parted where their outlines meet")
+        return _with_fibres(made, finder, True, pitch_mm, relief_mm)
     if _is_population(members, pitch_mm) and not _dense_field_beats(finder.blobs(polarity.bright), members, pitch_mm):
         blobs = finder.blobs(polarity.bright)
-        return _as_members(members.labels, pitch_mm, relief_mm, polarity, lattice + meta, picture=finder.picture(polarity.bright),
+        made = _as_members(members.labels, pitch_mm, relief_mm, polarity, lattice + meta, picture=finder.picture(polarity.bright),
                            dense_field=blobs is not None and blobs.dense and period is None,  # a lattice is found whole
                            what=f"{members.count} members found by local contrast (each against the ground around it, cut at half its own peak; "
                            f"dimmest {np.min(members.contrast):.2f}, brightest {np.max(members.contrast):.2f} of the range)")
+        return _with_fibres(made, finder, polarity.bright, pitch_mm, relief_mm)
     if _is_line_art(lines, polarity, specimen):
         # Strokes on empty paper (a diagram, a drawing) are raised as lines however few regions
         # they enclose: tactile graphics raise the lines, never groove them.
@@ -438,13 +441,17 @@ class _Finder:
     def picture(self, bright: bool) -> np.ndarray:
         return self.work if bright else 1.0 - self.work
 
+    def ridges(self) -> tuple[np.ndarray, np.ndarray]:
+        """The ridge response of bright lines and of dark ones (hessian_ridges), computed once."""
+        if self._ridges is None:
+            self._ridges = hessian_ridges(self.work, self.pitch_mm)
+        return self._ridges
+
     def lines(self, bright: bool) -> Lines:
         """Lines brighter than both sides in the picture (bright) or in its inverse."""
         if bright not in self._lines:
-            if self._ridges is None:
-                self._ridges = hessian_ridges(self.work, self.pitch_mm)
             self._lines[bright] = find_lines(self.picture(bright), pitch_mm=self.pitch_mm, min_area_mm2=self.min_area_mm2,
-                                             response=self._ridges[0 if bright else 1], noise=self.noise)
+                                             response=self.ridges()[0 if bright else 1], noise=self.noise)
         return self._lines[bright]
 
     def blobs(self, bright: bool) -> BlobScale | None:
@@ -663,6 +670,135 @@ def _as_members(labels: np.ndarray, pitch_mm, relief_mm, polarity, extra, what, 
     return ContentMade(domes, "members", labels, reason, tuple(notes), split_pairs=split)
 
 
+FIBRE_GROUND_MM = 12.0  # straight lines run this far in all over the ground between members (1 mm clear of them): fibres
+FIBRE_PIECE_MM = 1.5  # in pieces at least this long (a fibre crossing a gap between two members)
+FIBRE_STRAIGHT = 0.8  # each this straight (end-to-end over its length along the skeleton): fibres, not rims or specks
+FIBRE_BROAD_MM = 1.5  # a fibre answers the ridge filter more at its fine scale (lines.RIDGE_SIGMA_MM) than at this
+FIBRE_COVER = 0.6  # a fibre's pieces run along this share of its course over the clear ground
+FIBRE_SLENDER = 0.5  # a member this slender (minor / major axis) may be a piece of a fibre
+FIBRE_MADS = 6.0  # the ridge response over the ground stands this many robust deviations above its median
+
+
+def _with_fibres(made: ContentMade, finder: "_Finder", bright: bool, pitch_mm: float, relief_mm: float) -> ContentMade:
+    """Members with the thin fibres that cross them and the ground between them raised as lines
+    (issue 32, class 1: fibres over cells on a filter are raised lines, not lost in the ground).
+    Over the ground clear of every member (1 mm away), the ridge response above the noise
+    (FIBRE_MADS robust deviations of the response there, and 3 × the picture's noise) is thinned;
+    straight pieces (FIBRE_STRAIGHT, at least FIBRE_PIECE_MM long) are fibres when they run
+    FIBRE_GROUND_MM in all; they are drawn
+    LINE_WIDTH_MM wide and LINE_HEIGHT_MM high (the members' domes stand over them where they
+    cross). Members' rims and the bridges between touching members lie within 1 mm of them."""
+    if made.labels is None or not made.labels.max() or relief_mm <= 0:
+        return made
+    response = finder.ridges()[0 if bright else 1]
+    # Elongated members (a fibre's piece between two cells, found as a member) do not hide it.
+    count_members = int(made.labels.max())
+    slender = np.concatenate([[False], roundness(made.labels, count_members)[1:] < FIBRE_SLENDER])
+    solid = (made.labels > 0) & ~slender[made.labels]
+    clear = ~ndimage.binary_dilation(solid, iterations=max(1, round(1.0 / pitch_mm)))
+    if clear.sum() < 100:
+        return made
+    ground = response[clear]
+    med = float(np.median(ground))
+    mad = 1.4826 * float(np.median(np.abs(ground - med))) + 1e-9
+    mask = clear & (response > max(med + FIBRE_MADS * mad, 3 * finder.noise))
+    if not mask.any():
+        return made
+    # Thin: the ridge answers more at the fine scale than at FIBRE_BROAD_MM (both scale-normalised);
+    # the edges of broad bands (a coarse picture's blocks, shading) answer more at the broad one.
+    broad = hessian_ridges(finder.work, pitch_mm, sigma_mm=FIBRE_BROAD_MM)[0 if bright else 1]
+    mask &= response >= broad
+    skeleton = morphology.skeletonize(mask)
+    # Apart at crossings (skeleton points with three or more neighbours): two fibres that cross
+    # are two straight pieces, not one bent one.
+    neighbours = ndimage.convolve(skeleton.astype(np.uint8), np.ones((3, 3), np.uint8), mode="constant") - 1
+    skeleton &= ~ndimage.binary_dilation(skeleton & (neighbours >= 3))
+    parts, n = ndimage.label(skeleton, structure=np.ones((3, 3)))
+    if n == 0:
+        return made
+    fibres, count = _straight_runs(skeleton, parts, n, pitch_mm, clear)
+    if not count:
+        return made
+    from dataclasses import replace
+
+    from .lines import network_of
+
+    drawn = draw_lines(network_of(fibres, pitch_mm=pitch_mm, min_area_mm2=1e9, strength=0.0), pitch_mm)
+    height = min(LINE_HEIGHT_MM, relief_mm)
+    # Slender members lying along a fibre were pieces of it: drawn as the line, not as a dome.
+    near = ndimage.binary_dilation(fibres, iterations=2)
+    on_fibre = np.bincount(made.labels[near], minlength=count_members + 1) >= 0.5 * np.bincount(made.labels.ravel(), minlength=count_members + 1)
+    dropped = slender & on_fibre
+    dropped[0] = False
+    labels = made.labels
+    relief01 = made.relief01
+    if dropped.any():
+        labels = segmentation.relabel_sequential(np.where(dropped[labels], 0, labels))[0].astype(np.int32)
+        relief01 = np.where(dropped[made.labels] | (ndimage.binary_dilation(dropped[made.labels], iterations=2) & (labels == 0)), 0.0, relief01)
+    relief01 = np.maximum(relief01, drawn * height / relief_mm).astype(np.float32)
+    length_mm = float(fibres.sum() * pitch_mm * 1.12)
+    reason = (f"{made.reason}; {count} thin fibres ({length_mm:.0f} mm of line over the ground) cross the members "
+              f"and the ground between them: raised as lines {LINE_WIDTH_MM:g} mm wide and {height:.1f} mm high")
+    return replace(made, relief01=relief01, reason=reason, line_mask=fibres, labels=labels)
+
+
+def _covers_its_line(parts: np.ndarray, ids: np.ndarray, theta: float, dist: float, clear: np.ndarray) -> bool:
+    """Whether the pieces `ids` run along FIBRE_COVER of their line's course over the clear ground
+    between their ends: a fibre is continuous where nothing lies over it; a row of dashes (the
+    banding of a coarse picture, a chain of specks) is not."""
+    ys, xs = np.nonzero(np.isin(parts, ids))
+    direction = np.array([-np.sin(theta), np.cos(theta)])  # along the line, (x, y)
+    t = xs * direction[0] + ys * direction[1]
+    steps = np.arange(float(t.min()), float(t.max()) + 1.0)
+    px = np.rint(dist * np.cos(theta) + steps * direction[0]).astype(int)
+    py = np.rint(dist * np.sin(theta) + steps * direction[1]).astype(int)
+    inside = (px >= 0) & (py >= 0) & (px < clear.shape[1]) & (py < clear.shape[0])
+    course = int(clear[py[inside], px[inside]].sum())
+    return ys.size >= FIBRE_COVER * max(course, 1)
+
+
+def _straight_runs(skeleton: np.ndarray, parts: np.ndarray, n: int, pitch_mm: float,
+                   clear: np.ndarray) -> tuple[np.ndarray, int]:
+    """(mask, how many lines) of the skeleton's pieces that lie along straight lines carrying FIBRE_GROUND_MM of it in all
+    (a Hough transform's peaks: a fibre crosses the ground in many pieces between the members it
+    passes over, all on one line), each piece at least FIBRE_PIECE_MM long, straight
+    (FIBRE_STRAIGHT) and running along its line (within 25 degrees). Halos and rims around
+    members are arcs: no straight line collects enough of them."""
+    from skimage.transform import hough_line, hough_line_peaks
+
+    size = np.bincount(parts.ravel(), minlength=n + 1)
+    pieces = np.zeros(n + 1, bool)
+    angle = np.zeros(n + 1)
+    for k, box in enumerate(ndimage.find_objects(parts), 1):
+        if box is None or size[k] * pitch_mm * 1.12 < FIBRE_PIECE_MM:
+            continue
+        ys, xs = np.nonzero(parts[box] == k)
+        if float(np.hypot(np.ptp(ys), np.ptp(xs))) >= FIBRE_STRAIGHT * ys.size:
+            pieces[k] = True
+            cov = np.cov(np.stack([xs, ys]).astype(np.float64)) if ys.size > 2 else np.eye(2)
+            _, vecs = np.linalg.eigh(cov)
+            angle[k] = float(np.arctan2(vecs[1, -1], vecs[0, -1]))
+    candidates = pieces[parts]
+    votes = FIBRE_GROUND_MM / (pitch_mm * 1.12)
+    if candidates.sum() < votes:
+        return np.zeros_like(skeleton), 0
+    accumulator, thetas, dists = hough_line(candidates, theta=np.linspace(-np.pi / 2, np.pi / 2, 180, endpoint=False))
+    votes_at, peak_thetas, peak_dists = hough_line_peaks(accumulator, thetas, dists, threshold=votes, min_distance=3, min_angle=5)
+    log.debug("fibre lines: %s votes each, %d candidate px", [int(v) for v in votes_at], int(candidates.sum()))
+    keep = np.zeros(n + 1, bool)
+    count = 0
+    yy, xx = np.nonzero(candidates)
+    for theta, dist in zip(peak_thetas, peak_dists):
+        on = np.abs(xx * np.cos(theta) + yy * np.sin(theta) - dist) <= 1.5
+        ids = np.unique(parts[yy[on], xx[on]])
+        # the line's direction is perpendicular to its normal theta; a piece along it, not across
+        along = np.abs(np.sin(angle[ids] - (theta + np.pi / 2))) <= np.sin(np.radians(25))
+        if size[ids[along]].sum() >= votes and _covers_its_line(parts, ids[along], theta, dist, clear):
+            keep[ids[along]] = True
+            count += 1
+    return keep[parts], count
+
+
 def _as_dense_field(blobs: BlobScale, picture: np.ndarray, pitch_mm: float, relief_mm: float, polarity: Polarity, extra: str) -> ContentMade:
     """A dense field of small members (dense.py): each point rises by its own local contrast (a
     top-hat DENSE_TOPHAT_WIDTHS members wide, its DENSE_LIFT_PCT percentile at tanh(1) of the lift), so
@@ -870,7 +1006,15 @@ def find_specimen(work: np.ndarray, pitch_mm: float) -> np.ndarray:
     detail = np.abs(work - smooth)
     if np.median(detail[dark]) > 0.5 * np.median(detail[~dark]) + 0.01 or np.median(work[dark]) > 0.25:
         return np.ones(work.shape, bool)
-    return ndimage.binary_opening(~dark, iterations=2)
+    specimen = ndimage.binary_opening(~dark, iterations=2)
+    # A specimen on a mount is one piece, or a few large ones; many small pieces with none holding
+    # most of them are a population on an empty ground (cells on a filter, beads, particles), whose
+    # ground the whole picture's polarity finds: taken as a specimen, the members' own brightness
+    # would be its "ground" and the members would go to the base.
+    pieces, n = ndimage.label(specimen)
+    if n >= SCATTERED_PIECES and float(np.bincount(pieces.ravel())[1:].max()) < 0.5 * float(specimen.sum()):
+        return np.ones(work.shape, bool)
+    return specimen
 
 
 def has_grain_structure(work: np.ndarray, specimen: np.ndarray, pitch_mm: float) -> bool:

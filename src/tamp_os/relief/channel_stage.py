@@ -233,7 +233,6 @@ def channel_path(source, relief, layout, params, route=None, cleaned=None, title
     """
     import dataclasses
 
-    from ..tactile.braille import to_braille
     from .key3d import key_strip
     from .styles import ReliefResult
 
@@ -262,26 +261,36 @@ def channel_path(source, relief, layout, params, route=None, cleaned=None, title
     why = f"auto chose channels ({route.why}): " if route is not None and route.kind != "assigned" else ""
     reason = (f"{why}{len(rel.choices)} {what} as textures: {describe_key(strip.entries)} "
               f"(encodings from {', '.join(sorted({c.why for c in rel.choices}))}).")
-    notes = tuple(rel.notes)
-    if why:
+    notes = tuple(rel.notes) + _key_notes(stage, route if why else None, strip, params.braille_table,
+                                          grown.depth_mm - layout.depth_mm)
+    out = ReliefResult(heights, "channels", reason, None, (), notes)
+    overlay = np.vstack([np.zeros_like(rel.heights_mm), strip.overlay_mm[1:, :cols]])
+    return out, grown, strip.entries, ChannelExtras(overlay, region_map(rel))
+
+
+def _key_notes(stage, route, strip, braille_table: str, grown_mm: float) -> tuple[Text, ...]:
+    """What the channel print says of itself beside its reason: why auto printed it channel by
+    channel (`route`, None when it was asked for), the key's shortened or cut braille labels, and
+    how far the plate grew to hold the key."""
+    from ..tactile.braille import to_braille
+
+    notes: tuple[Text, ...] = ()
+    if route is not None:
         how = ("The stains were separated by colour deconvolution" if stage.kind == "stain"
                else "The picture was printed channel by channel")
         # (⟦…⟧: advice a front end without those controls leaves out, errors.render)
         notes += (Decision(f"{how}, each a texture named in the key, because {route.why}⟦; `channel` prints a single "
-                       f"channel⟧⟦, and `channels` off prints the brightness as before⟧."),)
+                           f"channel⟧⟦, and `channels` off prints the brightness as before⟧."),)
     short = [e for e in strip.entries if e.braille_label and e.braille_label != e.label]
     if short:
         notes += (Decision("The key writes shorter labels in braille, to fit its lines: "
-                       + "; ".join(f"{e.braille_label!r} for {e.label!r}" for e in short) + "."),)
-    cut = [e.label for e in strip.entries if e.braille != to_braille(e.braille_label, params.braille_table, what="key_labels")]
+                           + "; ".join(f"{e.braille_label!r} for {e.label!r}" for e in short) + "."),)
+    cut = [e.label for e in strip.entries if e.braille != to_braille(e.braille_label, braille_table, what="key_labels")]
     if cut:
         notes += (Text(f"The key's braille for {', '.join(map(repr, cut))} is cut to two lines⟦; give a shorter label "
                        f"with `key_labels`⟧."),)
-    notes += (Decision(f"The plate grew by {grown.depth_mm - layout.depth_mm:.1f} mm along its depth to hold the "
-                   f"braille key below the picture."),)
-    out = ReliefResult(heights, "channels", reason, None, (), notes)
-    overlay = np.vstack([np.zeros_like(rel.heights_mm), strip.overlay_mm[1:, :cols]])
-    return out, grown, strip.entries, ChannelExtras(overlay, region_map(rel))
+    notes += (Decision(f"The plate grew by {grown_mm:.1f} mm along its depth to hold the braille key below the picture."),)
+    return notes
 
 
 @dataclass(frozen=True)

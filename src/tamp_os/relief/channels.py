@@ -475,6 +475,17 @@ def choose(channels: list[ChannelImage], assigned: dict[str, str], mm_per_px: fl
         notes.append(Decision(f"The picture has {len(channels)} channels; the {max_channels} with most structure are printed "
                           f"({', '.join(c.name for c in kept)}); left out: {some_names(dropped)}."
                           f"⟦ Choose others with `channels`.⟧"))
+    out = _first_choices(channels, kept, shapes, title)
+    # round blobs much smaller than another channel's are spots beside its nuclei
+    dome_diams = [shapes[c.name].blob_diam_mm for c in out if c.encoding == "domes"]
+    out = [ChannelChoice(c.name, "dots", "shape") if c.encoding == "domes" and c.why == "shape"
+           and shapes[c.name].blob_diam_mm < 0.4 * max(dome_diams) else c for c in out]
+    return _distinct(out, shapes), notes
+
+
+def _first_choices(channels: list[ChannelImage], kept: list[ChannelImage], shapes: dict, title: str) -> list[ChannelChoice]:
+    """Each kept channel's encoding by what first says it: its name, a marker in the file's name,
+    its wavelength, the usual colours of an RGB composite, else its shape."""
     out = []
     rgb = sorted(c.name for c in channels) == ["blue", "green", "red"]
     titled = marker_in_title(title, channels) if title else {}
@@ -497,13 +508,14 @@ def choose(channels: list[ChannelImage], assigned: dict[str, str], mm_per_px: fl
             out.append(ChannelChoice(c.name, "domes", "colour", "nuclei"))
         else:
             out.append(ChannelChoice(c.name, by_shape(shapes[c.name]), "shape"))
-    # round blobs much smaller than another channel's are spots beside its nuclei
-    dome_diams = [shapes[c.name].blob_diam_mm for c in out if c.encoding == "domes"]
-    out = [ChannelChoice(c.name, "dots", "shape") if c.encoding == "domes" and c.why == "shape"
-           and shapes[c.name].blob_diam_mm < 0.4 * max(dome_diams) else c for c in out]
-    # two channels with the same encoding would feel alike: the ones chosen by shape give way to
-    # those chosen by name or wavelength, and take their next-best encoding
-    # (between two channels a name or wavelength placed, the one whose shape fits the encoding better keeps it)
+    return out
+
+
+def _distinct(out: list[ChannelChoice], shapes: dict) -> list[ChannelChoice]:
+    """Two channels with the same encoding would feel alike: the ones chosen by shape give way to
+    those chosen by name or wavelength, and take their next-best encoding (between two channels a
+    name or wavelength placed, the one whose shape fits the encoding better keeps it)."""
+    out = list(out)
     used = set()
     for i in sorted(range(len(out)), key=lambda i: (out[i].why == "shape", shape_ranking(shapes[out[i].name]).index(out[i].encoding))):
         ch = out[i]
@@ -512,7 +524,7 @@ def choose(channels: list[ChannelImage], assigned: dict[str, str], mm_per_px: fl
             if free:
                 out[i] = ChannelChoice(ch.name, free[0], "distinct", ch.role)  # what it shows stays in the key
         used.add(out[i].encoding)
-    return out, notes
+    return out
 
 
 def _domes(img: np.ndarray, mask: np.ndarray) -> np.ndarray:

@@ -305,32 +305,65 @@ def make_content(work: np.ndarray, *, pitch_mm: float, relief_mm: float, width_m
         specimen = np.ones_like(specimen)
     hints = hints or ContentHints()
     polarity = content_polarity(work, pitch_mm, None if specimen.all() else specimen, hints.signal)
-    x = work if polarity.bright else 1.0 - work
     spectrum = lattice_spectrum(work, pitch_mm)
-    period = spectrum.period
     meta = f"; file metadata: {hints.words()}" if hints.words() else ""
-    lattice = _lattice_words(period, width_mm)
+    ask = _Ask(work, pitch_mm, relief_mm, width_mm, min_area_mm2, _lattice_words(spectrum.period, width_mm) + meta)
     if not specimen.all():
         lo, hi = np.percentile(work[specimen], [5, 95])
         if hi - lo < WEAK_SPREAD:
-            return _weak_contrast(work, x, pitch_mm, relief_mm, width_mm, min_area_mm2, polarity, lattice + meta, specimen)
+            x = work if polarity.bright else 1.0 - work
+            return _weak_contrast(work, x, pitch_mm, relief_mm, width_mm, min_area_mm2, polarity, ask.extra, specimen)
     finder = _Finder(work, pitch_mm, min_area_mm2)
-    found_lattice = _lattice_picture(work, spectrum, fine, pitch_mm, width_mm, finder.noise)
-    if found_lattice is not None:
-        # A lattice (atomic columns, a dot grid) is raised column by column, evenly: found as
-        # members one by one, a dim column on a dark patch goes missing and noise cracks the rest.
-        picture, picture_pitch_mm, picture_period, picture_noise = found_lattice
-        if polarity.undecided:
-            # A mid-grey ground: the columns are the side whose detail is skewed (sharp peaks over
-            # broad troughs), bright dots on a dark ground or dark ones on a bright one.
-            detail = picture - ndimage.gaussian_filter(picture, picture_period.pitch_mm / picture_pitch_mm, mode="nearest")
-            bright = float(np.mean(detail**3)) >= 0.0
-            if bright != polarity.bright:
-                polarity = polarity.flipped("the lattice's columns are on that side (its detail is skewed that way)")
-        made = _as_lattice(work.shape, picture if polarity.bright else 1.0 - picture, picture_pitch_mm, pitch_mm, picture_period,
-                           relief_mm, width_mm, polarity, meta, picture_noise)
-        if made is not None:
-            return made
+    made, polarity = _lattice_made(ask, spectrum, fine, finder, polarity, meta)
+    if made is not None:
+        return made
+    polarity, lines, members = _settled_polarity(finder, polarity, hints.signal, pitch_mm)
+    made = _lines_or_members(ask, finder, polarity, lines, members, spectrum.period)
+    if made is None:
+        made = _other_content(ask, finder, polarity, lines, specimen, found, fine)
+    if made is not None or not fallback:
+        return made
+    return _weak_contrast(work, finder.picture(polarity.bright), pitch_mm, relief_mm, width_mm, min_area_mm2, polarity, ask.extra,
+                          None if specimen.all() else specimen, grains=False)
+
+
+@dataclass(frozen=True)
+class _Ask:
+    """What every way of making the content relief is given: the working grid and its pitch, the
+    relief, the print's width, the smallest area, and the words every reason ends with (a lattice's
+    pitch, the file's metadata)."""
+
+    work: np.ndarray
+    pitch_mm: float
+    relief_mm: float
+    width_mm: float
+    min_area_mm2: float
+    extra: str
+
+
+def _lattice_made(ask: _Ask, spectrum: Spectrum, fine, finder: "_Finder", polarity: Polarity,
+                  meta: str) -> tuple[ContentMade | None, Polarity]:
+    """A lattice (atomic columns, a dot grid) raised column by column, evenly, or None; and the
+    polarity, turned over when the lattice's columns say so. (Found as members one by one, a dim
+    column on a dark patch goes missing and noise cracks the rest.)"""
+    found_lattice = _lattice_picture(ask.work, spectrum, fine, ask.pitch_mm, ask.width_mm, finder.noise)
+    if found_lattice is None:
+        return None, polarity
+    picture, picture_pitch_mm, picture_period, picture_noise = found_lattice
+    if polarity.undecided:
+        # A mid-grey ground: the columns are the side whose detail is skewed (sharp peaks over
+        # broad troughs), bright dots on a dark ground or dark ones on a bright one.
+        detail = picture - ndimage.gaussian_filter(picture, picture_period.pitch_mm / picture_pitch_mm, mode="nearest")
+        bright = float(np.mean(detail**3)) >= 0.0
+        if bright != polarity.bright:
+            polarity = polarity.flipped("the lattice's columns are on that side (its detail is skewed that way)")
+    return _as_lattice(ask.work.shape, picture if polarity.bright else 1.0 - picture, picture_pitch_mm, ask.pitch_mm,
+                       picture_period, ask.relief_mm, ask.width_mm, polarity, meta, picture_noise), polarity
+
+
+def _settled_polarity(finder: "_Finder", polarity: Polarity, signal: str | None, pitch_mm: float) -> tuple[Polarity, Lines, Members]:
+    """The polarity the ground's brightness gave, turned over where the content says otherwise,
+    with the lines and members of the side it raises."""
     lines = finder.lines(polarity.bright)
     members = finder.members(polarity.bright)
     if polarity.undecided and not _is_population(members, pitch_mm):
@@ -340,14 +373,14 @@ def make_content(work: np.ndarray, *, pitch_mm: float, relief_mm: float, width_m
         here = finder.blobs(polarity.bright)
         there = None if here is not None and here.dense else finder.blobs(not polarity.bright)
         other = finder.members(not polarity.bright)
+        was = polarity.bright
         if there is not None and there.dense:
             polarity = polarity.flipped(f"the other side's blobs are a dense field (peaks {there.asymmetry:.2f} × its troughs)")
         elif (here is None or not here.dense) and other.energy > members.energy:
             polarity = polarity.flipped(f"members of the other side hold more of the detail ({other.energy:.0%} against {members.energy:.0%})")
-        if polarity.bright != (x is work):
-            x, members = 1.0 - x, finder.members(polarity.bright)
-            lines = finder.lines(polarity.bright)
-    elif hints.signal is None and not _is_population(members, pitch_mm):
+        if polarity.bright != was:
+            members, lines = finder.members(polarity.bright), finder.lines(polarity.bright)
+    elif signal is None and not _is_population(members, pitch_mm):
         # The ground's brightness said one side, but nothing stands out there while the other side
         # holds round members of one size (dark cells on a glass whose noise hid that it is empty):
         # those are the content. Only a population by shape turns it over, never one that merely
@@ -359,7 +392,15 @@ def make_content(work: np.ndarray, *, pitch_mm: float, relief_mm: float, width_m
                                 f"the ground looked {'bright' if polarity.bright else 'dark'} ({polarity.ground:.2f} of the range), but "
                                 f"nothing stands out there, while the {side} side holds {other.count} round members of one size, "
                                 f"so the {side} parts are raised")
-            x, members, lines = 1.0 - x, other, finder.lines(polarity.bright)
+            members, lines = other, finder.lines(polarity.bright)
+    return polarity, lines, members
+
+
+def _lines_or_members(ask: _Ask, finder: "_Finder", polarity: Polarity, lines: Lines, members: Members,
+                      period: Period | None) -> ContentMade | None:
+    """A line network (of either polarity), a packed field of bright members, or a population;
+    None when the picture holds none of them."""
+    pitch_mm, relief_mm, extra = ask.pitch_mm, ask.relief_mm, ask.extra
     network = _is_network(lines) and not _members_explain(members, lines, pitch_mm)
     if not network:
         # A network of the other polarity (dark lines between bright grains whose own brightness
@@ -371,8 +412,8 @@ def make_content(work: np.ndarray, *, pitch_mm: float, relief_mm: float, width_m
                                 f"{'dark' if polarity.bright else 'bright'} lines form a network ({other.cell_count} regions), so they are "
                                 f"raised and the regions they enclose sit at the base")
     if network:
-        return _as_lines(lines, pitch_mm, relief_mm, width_mm, polarity, lattice + meta, "lines")
-    packed = _packed_bright_field(work, pitch_mm) if polarity.empty and not _is_population(members, pitch_mm) else None
+        return _as_lines(lines, pitch_mm, relief_mm, ask.width_mm, polarity, extra, "lines")
+    packed = _packed_bright_field(ask.work, pitch_mm) if polarity.empty and not _is_population(members, pitch_mm) else None
     if packed is not None:
         # The "empty bright ground" is a packed field of bright round members (cells on a filter,
         # sintered spheres): they are raised, the dark gaps between them, which split into more
@@ -381,34 +422,42 @@ def make_content(work: np.ndarray, *, pitch_mm: float, relief_mm: float, width_m
         polarity = Polarity(True, polarity.ground, f"the bright side is no empty ground but {int(labels.max())} round members of one "
                                                   f"size packed edge to edge ({wider:.1f} times as wide as the dark gaps between "
                                                   f"them), so the members are raised and the gaps sit at the base")
-        made = _as_members(labels, pitch_mm, relief_mm, polarity, lattice + meta, picture=finder.picture(True),
+        made = _as_members(labels, pitch_mm, relief_mm, polarity, extra, picture=finder.picture(True),
                            what=f"{int(labels.max())} packed members, parted where their outlines meet")
         return _with_fibres(made, finder, True, pitch_mm, relief_mm)
     if _is_population(members, pitch_mm) and not _dense_field_beats(finder.blobs(polarity.bright), members, pitch_mm):
         blobs = finder.blobs(polarity.bright)
-        made = _as_members(members.labels, pitch_mm, relief_mm, polarity, lattice + meta, picture=finder.picture(polarity.bright),
+        made = _as_members(members.labels, pitch_mm, relief_mm, polarity, extra, picture=finder.picture(polarity.bright),
                            dense_field=blobs is not None and blobs.dense and period is None,  # a lattice is found whole
                            what=f"{members.count} members found by local contrast (each against the ground around it, cut at half its own peak; "
                            f"dimmest {np.min(members.contrast):.2f}, brightest {np.max(members.contrast):.2f} of the range)")
         return _with_fibres(made, finder, polarity.bright, pitch_mm, relief_mm)
+    return None
+
+
+def _other_content(ask: _Ask, finder: "_Finder", polarity: Polarity, lines: Lines, specimen: np.ndarray, found,
+                   fine) -> ContentMade | None:
+    """Line art, objects wider than the local ground, a network thinner than the print grid, or a
+    dense field of small members; None when the picture holds none of them."""
+    pitch_mm, relief_mm, width_mm, extra = ask.pitch_mm, ask.relief_mm, ask.width_mm, ask.extra
     if _is_line_art(lines, polarity, specimen):
         # Strokes on empty paper (a diagram, a drawing) are raised as lines however few regions
         # they enclose: tactile graphics raise the lines, never groove them.
-        return _as_lines(lines, pitch_mm, relief_mm, width_mm, polarity, lattice + meta, "lines",
+        return _as_lines(lines, pitch_mm, relief_mm, width_mm, polarity, extra, "lines",
                          what=f"line art: {lines.length_mm:.0f} mm of strokes on an empty ground "
                               f"(ridge strength {lines.strength:.0f} × noise)")
     # Objects wider than the local ground (the FePt spheres) are found by the edges around them.
     big = _large_edge_objects(found() if callable(found) else found, pitch_mm)
     if big is not None:
-        return _as_members(big, pitch_mm, relief_mm, polarity, lattice + meta,
+        return _as_members(big, pitch_mm, relief_mm, polarity, extra,
                            f"{int(big.max())} objects outlined by edges, wider than the {BACKGROUND_MM:g} mm local ground")
-    thin = _fine_network(fine, work.shape, pitch_mm, width_mm, min_area_mm2)
+    thin = _fine_network(fine, ask.work.shape, pitch_mm, width_mm, ask.min_area_mm2)
     if thin is not None:
         bright, fine_pitch_mm, found_lines = thin
         side = "bright" if bright else "dark"
         polarity = Polarity(bright, polarity.ground, f"the {side} lines form the network, so they are raised and the regions "
                                                     f"they enclose sit at the base")
-        return _as_lines(found_lines, pitch_mm, relief_mm, width_mm, polarity, lattice + meta, "lines",
+        return _as_lines(found_lines, pitch_mm, relief_mm, width_mm, polarity, extra, "lines",
                          what=(f"a network of {side} lines thinner than the print grid, found on a {fine_pitch_mm:.2f} mm grid "
                                f"before the print's blur, enclosing {found_lines.cell_count} regions ({found_lines.length_mm:.0f} mm "
                                f"of line, ridge strength {found_lines.strength:.0f} × noise)"))
@@ -416,13 +465,10 @@ def make_content(work: np.ndarray, *, pitch_mm: float, relief_mm: float, width_m
     # particles have and texture has not.
     blobs = finder.blobs(polarity.bright)
     if blobs is not None and blobs.dense:
-        made = _as_dense_field(blobs, finder.picture(polarity.bright), pitch_mm, relief_mm, polarity, lattice + meta)
+        made = _as_dense_field(blobs, finder.picture(polarity.bright), pitch_mm, relief_mm, polarity, extra)
         if made.labels is not None and made.labels.max():
             return made
-    if not fallback:
-        return None
-    return _weak_contrast(work, x, pitch_mm, relief_mm, width_mm, min_area_mm2, polarity, lattice + meta,
-                          None if specimen.all() else specimen, grains=False)
+    return None
 
 
 class _Finder:
@@ -725,21 +771,27 @@ def _with_fibres(made: ContentMade, finder: "_Finder", bright: bool, pitch_mm: f
 
     drawn = draw_lines(network_of(fibres, pitch_mm=pitch_mm, min_area_mm2=1e9, strength=0.0), pitch_mm)
     height = min(LINE_HEIGHT_MM, relief_mm)
-    # Slender members lying along a fibre were pieces of it: drawn as the line, not as a dome.
-    near = ndimage.binary_dilation(fibres, iterations=2)
-    on_fibre = np.bincount(made.labels[near], minlength=count_members + 1) >= 0.5 * np.bincount(made.labels.ravel(), minlength=count_members + 1)
-    dropped = slender & on_fibre
-    dropped[0] = False
-    labels = made.labels
-    relief01 = made.relief01
-    if dropped.any():
-        labels = segmentation.relabel_sequential(np.where(dropped[labels], 0, labels))[0].astype(np.int32)
-        relief01 = np.where(dropped[made.labels] | (ndimage.binary_dilation(dropped[made.labels], iterations=2) & (labels == 0)), 0.0, relief01)
+    labels, relief01 = _without_fibre_pieces(made, slender, fibres)
     relief01 = np.maximum(relief01, drawn * height / relief_mm).astype(np.float32)
     length_mm = float(fibres.sum() * pitch_mm * 1.12)
     reason = (f"{made.reason}; {count} thin fibres ({length_mm:.0f} mm of line over the ground) cross the members "
               f"and the ground between them: raised as lines {LINE_WIDTH_MM:g} mm wide and {height:.1f} mm high")
     return replace(made, relief01=relief01, reason=reason, line_mask=fibres, labels=labels)
+
+
+def _without_fibre_pieces(made: ContentMade, slender: np.ndarray, fibres: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(labels, relief01) without the slender members lying along a fibre (at least half of them
+    within 2 points of it): they were pieces of it, drawn as the line, not as domes."""
+    count = int(made.labels.max())
+    near = ndimage.binary_dilation(fibres, iterations=2)
+    on_fibre = np.bincount(made.labels[near], minlength=count + 1) >= 0.5 * np.bincount(made.labels.ravel(), minlength=count + 1)
+    dropped = slender & on_fibre
+    dropped[0] = False
+    if not dropped.any():
+        return made.labels, made.relief01
+    gone = dropped[made.labels]
+    labels = segmentation.relabel_sequential(np.where(gone, 0, made.labels))[0].astype(np.int32)
+    return labels, np.where(gone | (ndimage.binary_dilation(gone, iterations=2) & (labels == 0)), 0.0, made.relief01)
 
 
 def _covers_its_line(parts: np.ndarray, ids: np.ndarray, theta: float, dist: float, clear: np.ndarray) -> bool:
@@ -894,6 +946,27 @@ def _lattice_picture(work: np.ndarray, spectrum: Spectrum, fine, pitch_mm: float
     return picture, fine_pitch_mm, found.period, noise_level(picture.astype(np.float32))
 
 
+def _column_domes(shape: tuple[int, int], peaks: np.ndarray, upper: np.ndarray | None, radius: float, pitch_mm: float,
+                  relief_mm: float) -> tuple[np.ndarray, np.ndarray, float, float]:
+    """(relief01, labels, step_mm, dome_mm) of a lattice's columns at `peaks` on the working grid.
+    A brighter layer (`upper`) stands on a plateau a step higher (the cells of its columns); every
+    column is a domed cap of one height (as a braille dot), at most PIN_ASPECT times its radius
+    tall: a 3 mm spike on a 1 mm base is a prick, not a dome, and does not print."""
+    step_mm = min(max(GRAIN_STEP_MM, relief_mm / 4), relief_mm / 3) if upper is not None and relief_mm > 0 else 0.0
+    dome_mm = min(relief_mm - step_mm, PIN_ASPECT * (radius + 0.5) * pitch_mm)
+    on_plateau = np.zeros(len(peaks) + 1, np.float32)
+    if upper is not None:
+        on_plateau[1:][upper] = step_mm
+    ids = np.zeros(shape, np.int32)
+    ids[tuple(peaks.T)] = np.arange(1, len(peaks) + 1)
+    dist, (iy, ix) = ndimage.distance_transform_edt(ids == 0, return_indices=True)
+    owner = ids[iy, ix]
+    cap = np.sqrt(np.clip(1.0 - (dist / (radius + 0.5)) ** 2, 0.0, 1.0))  # down to the ground at radius + 0.5 px
+    relief01 = ((on_plateau[owner] + dome_mm * cap) / max(relief_mm, 1e-9)).astype(np.float32)
+    labels = np.where(dist <= radius, owner, 0).astype(np.int32)
+    return relief01, labels, step_mm, dome_mm
+
+
 def _as_lattice(shape: tuple[int, int], x: np.ndarray, x_pitch_mm: float, pitch_mm: float, period: Period, relief_mm: float,
                 width_mm: float, polarity: Polarity, extra: str, noise: float) -> ContentMade | None:
     """A lattice raised column by column (issue 32): every column a dome of the same lift,
@@ -927,21 +1000,7 @@ def _as_lattice(shape: tuple[int, int], x: np.ndarray, x_pitch_mm: float, pitch_
     # The columns on the working grid (found on a finer picture, if so).
     scale = (np.array(shape, np.float64) - 1) / (np.array(x.shape, np.float64) - 1)
     peaks = np.clip(np.rint(peaks * scale).astype(np.int64), 0, np.array(shape) - 1)
-    # A brighter layer stands on a plateau a step higher (the cells of its columns); every column
-    # is a domed cap of one height (as a braille dot), at most PIN_ASPECT times its radius tall:
-    # a 3 mm spike on a 1 mm base is a prick, not a dome, and does not print.
-    step_mm = min(max(GRAIN_STEP_MM, relief_mm / 4), relief_mm / 3) if upper is not None and relief_mm > 0 else 0.0
-    dome_mm = min(relief_mm - step_mm, PIN_ASPECT * (radius + 0.5) * pitch_mm)
-    on_plateau = np.zeros(len(peaks) + 1, np.float32)
-    if upper is not None:
-        on_plateau[1:][upper] = step_mm
-    ids = np.zeros(shape, np.int32)
-    ids[tuple(peaks.T)] = np.arange(1, len(peaks) + 1)
-    dist, (iy, ix) = ndimage.distance_transform_edt(ids == 0, return_indices=True)
-    owner = ids[iy, ix]
-    cap = np.sqrt(np.clip(1.0 - (dist / (radius + 0.5)) ** 2, 0.0, 1.0))  # down to the ground at radius + 0.5 px
-    relief01 = ((on_plateau[owner] + dome_mm * cap) / max(relief_mm, 1e-9)).astype(np.float32)
-    labels = np.where(dist <= radius, owner, 0).astype(np.int32)
+    relief01, labels, step_mm, dome_mm = _column_domes(shape, peaks, upper, radius, pitch_mm, relief_mm)
     found = LatticeFound(len(peaks), spacing_mm, len(fine_peaks), fine_spacing_mm, 1 if upper is None else 2,
                          0 if upper is None else int(upper.sum()), step_mm, dome_mm=dome_mm)
     what = (f"a lattice of {spacing_mm:.1f} mm pitch on the print: {len(peaks)} columns, each raised as a dome {dome_mm:.1f} mm "

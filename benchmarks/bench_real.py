@@ -200,6 +200,8 @@ def synthetic_rows() -> list[tuple]:
     distinct = int((levels[1] > 0.1 * levels[1].sum()).sum())
     out.append(("polished alloy, 20 grey levels between grains", "grains", _chose(litho),
                 f"{distinct} grain levels; a grain {np.mean(shares):.0%} one height", "yes" if distinct >= 2 and np.mean(shares) >= 0.7 else "no"))
+    out.append(_fibres_row())
+    out += _sintered_rows()
     nuclei, fil, spots = _synthetic_channels(600, 600)
     with tempfile.TemporaryDirectory() as folder:
         path = Path(folder) / "cells_lyso_mito_nuclei.png"
@@ -208,6 +210,48 @@ def synthetic_rows() -> list[tuple]:
     labels = [e.label for e in litho.report.key]
     want = ["lysosomes (red)", "mitochondria (green)", "nuclei (blue)"]
     out.append(("RGB composite named lyso_mito_nuclei", "channels", _chose(litho), "; ".join(labels), "yes" if labels == want else "no"))
+    return out
+
+
+def _fibres_row() -> tuple:
+    """Class 1's last part: bright round cells with thin bright fibres crossing cells and gaps
+    (synthetic_content.cells_and_fibres): the fibres over the gaps stand ≥ 0.5 mm (median, and
+    the share of their course), the cells are felt, the gaps stay at the base."""
+    from scipy import ndimage
+    from synthetic_content import cells_and_fibres
+
+    from tamp_os.lithograph.pipeline import make_lithograph
+
+    t = cells_and_fibres()
+    litho = make_lithograph(t.image, width_mm=100, scale_bar="off")
+    h = litho.heightmap - litho.params.base_mm
+    cells, fibres = _grid_of(t.members, h.shape), _grid_of(t.lines.astype(np.uint8), h.shape) > 0
+    over_gaps = fibres & ~ndimage.binary_dilation(cells > 0, iterations=4)
+    ground = ~ndimage.binary_dilation((cells > 0) | fibres, iterations=5)
+    base = float(np.median(h[ground]))
+    rise = h[over_gaps] - base
+    tops = [np.median(h[cells == k]) - base for k in range(1, int(cells.max()) + 1) if (cells == k).sum() >= 10]
+    felt = float(np.mean(np.asarray(tops) >= 0.5))
+    ok = float(np.median(rise)) >= 0.5 and felt >= 0.9 and base <= 0.1
+    return ("bright cells crossed by thin fibres", "members + lines", _chose(litho),
+            f"fibres over the gaps {np.median(rise):+.2f} mm ({np.mean(rise >= 0.5):.0%} of their course ≥ 0.5 mm); "
+            f"{felt:.0%} of {len(tops)} cells felt; gaps at {base:.2f} mm", "yes" if ok else "no")
+
+
+def _sintered_rows() -> list[tuple]:
+    """Class 6: sintered dumbbells (two particles joined by a neck, mottled shading), 12 particles
+    of 16 mm (two seeds) and of 20 mm on the print: one dome each (a dumbbell may part at its neck)."""
+    from test_relief_lattice import content, sintered_dumbbells
+
+    out = []
+    for radius_px, seed in ((20, 2), (20, 3), (25, 3)):
+        image, count = sintered_dumbbells(radius_px=radius_px, seed=seed)
+        made = content(image)
+        said = any("may have been split" in c for c in made.checks)
+        width_mm = 2 * radius_px * 100 / 255
+        out.append((f"sintered dumbbells, particles {width_mm:.0f} mm (seed {seed})", "members (split)", f"content ({made.content_kind})",
+                    f"{made.object_count} domes for {count} particles; the check {'says' if said else 'does not say'} 'split'",
+                    "yes" if made.object_count <= count * 1.1 else "no"))
     return out
 
 

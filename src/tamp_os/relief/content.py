@@ -736,33 +736,12 @@ def _with_fibres(made: ContentMade, finder: "_Finder", bright: bool, pitch_mm: f
     cross). Members' rims and the bridges between touching members lie within 1 mm of them."""
     if made.labels is None or not made.labels.max() or relief_mm <= 0:
         return made
-    response = finder.ridges()[0 if bright else 1]
     # Elongated members (a fibre's piece between two cells, found as a member) do not hide it.
     count_members = int(made.labels.max())
     slender = np.concatenate([[False], roundness(made.labels, count_members)[1:] < FIBRE_SLENDER])
     solid = (made.labels > 0) & ~slender[made.labels]
     clear = ~ndimage.binary_dilation(solid, iterations=max(1, round(1.0 / pitch_mm)))
-    if clear.sum() < 100:
-        return made
-    ground = response[clear]
-    med = float(np.median(ground))
-    mad = 1.4826 * float(np.median(np.abs(ground - med))) + 1e-9
-    mask = clear & (response > max(med + FIBRE_MADS * mad, 3 * finder.noise))
-    if not mask.any():
-        return made
-    # Thin: the ridge answers more at the fine scale than at FIBRE_BROAD_MM (both scale-normalised);
-    # the edges of broad bands (a coarse picture's blocks, shading) answer more at the broad one.
-    broad = hessian_ridges(finder.work, pitch_mm, sigma_mm=FIBRE_BROAD_MM)[0 if bright else 1]
-    mask &= response >= broad
-    skeleton = morphology.skeletonize(mask)
-    # Apart at crossings (skeleton points with three or more neighbours): two fibres that cross
-    # are two straight pieces, not one bent one.
-    neighbours = ndimage.convolve(skeleton.astype(np.uint8), np.ones((3, 3), np.uint8), mode="constant") - 1
-    skeleton &= ~ndimage.binary_dilation(skeleton & (neighbours >= 3))
-    parts, n = ndimage.label(skeleton, structure=np.ones((3, 3)))
-    if n == 0:
-        return made
-    fibres, count = _straight_runs(skeleton, parts, n, pitch_mm, clear)
+    fibres, count = _fibre_lines(finder, bright, pitch_mm, clear)
     if not count:
         return made
     from dataclasses import replace
@@ -777,6 +756,35 @@ def _with_fibres(made: ContentMade, finder: "_Finder", bright: bool, pitch_mm: f
     reason = (f"{made.reason}; {count} thin fibres ({length_mm:.0f} mm of line over the ground) cross the members "
               f"and the ground between them: raised as lines {LINE_WIDTH_MM:g} mm wide and {height:.1f} mm high")
     return replace(made, relief01=relief01, reason=reason, line_mask=fibres, labels=labels)
+
+
+def _fibre_lines(finder: "_Finder", bright: bool, pitch_mm: float, clear: np.ndarray) -> tuple[np.ndarray, int]:
+    """(skeleton, count) of the thin straight fibres over `clear` (see _with_fibres); count 0 when
+    there are none. The ridge response above the noise there (FIBRE_MADS robust deviations, and
+    3 × the picture's noise), finer than FIBRE_BROAD_MM, thinned, apart at crossings; its straight
+    pieces collinear with FIBRE_GROUND_MM of others (_straight_runs)."""
+    none = np.zeros(clear.shape, bool), 0
+    if clear.sum() < 100:
+        return none
+    response = finder.ridges()[0 if bright else 1]
+    ground = response[clear]
+    med = float(np.median(ground))
+    mad = 1.4826 * float(np.median(np.abs(ground - med))) + 1e-9
+    mask = clear & (response > max(med + FIBRE_MADS * mad, 3 * finder.noise))
+    if not mask.any():
+        return none
+    # Thin: the ridge answers more at the fine scale than at FIBRE_BROAD_MM (both scale-normalised);
+    # the edges of broad bands (a coarse picture's blocks, shading) answer more at the broad one.
+    broad = hessian_ridges(finder.work, pitch_mm, sigma_mm=FIBRE_BROAD_MM)[0 if bright else 1]
+    skeleton = morphology.skeletonize(mask & (response >= broad))
+    # Apart at crossings (skeleton points with three or more neighbours): two fibres that cross
+    # are two straight pieces, not one bent one.
+    neighbours = ndimage.convolve(skeleton.astype(np.uint8), np.ones((3, 3), np.uint8), mode="constant") - 1
+    skeleton &= ~ndimage.binary_dilation(skeleton & (neighbours >= 3))
+    parts, n = ndimage.label(skeleton, structure=np.ones((3, 3)))
+    if n == 0:
+        return none
+    return _straight_runs(skeleton, parts, n, pitch_mm, clear)
 
 
 def _without_fibre_pieces(made: ContentMade, slender: np.ndarray, fibres: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -192,6 +192,26 @@ def cells_and_fibres(rows: int = 450, cols: int = 600, seed: int = 11, fibres: i
     return Truth("cells_and_fibres", np.clip(image, 0, 1).astype(np.float32), members=labels, lines=lines)
 
 
+def stress_fibres(rows: int = 450, cols: int = 600, seed: int = 5, count: int = 14) -> Truth:
+    """Issue 32, class 8: a cell's actin stress fibres in one fluorescence channel, unnamed: a dim
+    oval cell body on a dark ground with `count` thin bright straight fibres (Gaussian half-width
+    2 px, about 0.8 mm across on a 100 mm print) running mostly one way (25 ± 8 degrees), crossing
+    at small angles. Lines: the fibres' centre lines."""
+    rng = np.random.default_rng(seed)
+    yy, xx = _grid(rows, cols)
+    image = 0.08 + 0.02 * rng.standard_normal((rows, cols))
+    cell = ((yy - rows / 2) / (0.38 * rows)) ** 2 + ((xx - cols / 2) / (0.42 * cols)) ** 2 <= 1
+    image = np.where(cell, image + 0.12, image)
+    lines = np.zeros((rows, cols), bool)
+    for k in range(count):
+        y0, angle = 0.2 * rows + k * 0.6 * rows / count + rng.uniform(-5, 5), np.radians(25 + rng.uniform(-8, 8))
+        dist = (yy - y0) * np.cos(angle) - (xx - cols / 2) * np.sin(angle)
+        image = np.maximum(image, 0.2 + 0.7 * np.exp(-((dist / 2.0) ** 2)) * cell)
+        lines |= (np.abs(dist) <= 0.5) & cell
+    image = image + 0.02 * rng.standard_normal((rows, cols))
+    return Truth("stress_fibres", np.clip(image, 0, 1).astype(np.float32), lines=lines)
+
+
 def line_diagram(rows: int = 192, cols: int = 256, seed: int = 7) -> Truth:
     """A diagram: black strokes 2 px wide on white (a box, a circle, a connecting line) with
     three short text labels in black beside them."""

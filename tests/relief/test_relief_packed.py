@@ -79,3 +79,23 @@ def test_thin_fibres_over_cells_and_gaps_are_raised_lines_the_cells_domes_the_ga
     assert float(np.median(h[ground])) <= 0.1
     assert float(np.mean(h[over_gaps] - np.median(h[ground]) >= RAISED_MM)) >= 0.7
     assert _felt(h + litho.params.base_mm, members, ground) >= 0.9
+
+
+@pytest.mark.timeout(120)
+def test_stress_fibres_in_one_unnamed_channel_are_oriented_ridges_not_plateaus():
+    """Issue 32, class 8, beyond named dyes: straight bright fibres in a dim cell (exact truth)
+    print as raised lines along the fibres (most of their course at least 0.5 mm up), the ground
+    between them at the base and nothing raised as a mesa (no point over a line's height)."""
+    from scipy import ndimage
+
+    from synthetic_content import stress_fibres
+
+    t = stress_fibres()
+    litho = make_lithograph(t.image, width_mm=100, scale_bar="off")
+    h = litho.heightmap - litho.params.base_mm
+    fibres = _on_grid(t.lines.astype(np.uint8), h.shape) > 0
+    assert litho.report.content_kind == "lines" and "straight fibres" in litho.report.relief_reason, litho.report.relief_reason
+    between = ~ndimage.binary_dilation(fibres, iterations=4)
+    assert float(np.median(h[between])) <= 0.1
+    assert float(np.mean(h[fibres] >= RAISED_MM)) >= 0.6
+    assert float(h.max()) <= 1.0 + 0.15  # raised lines 1 mm high: no 3 mm plateaus where fibres cross

@@ -40,6 +40,7 @@ from .lines import (
     LINE_WIDTH_MM,
     MIN_GAP_MM,
     Lines,
+    brighter_than_both_sides,
     draw_lines,
     find_lines,
     fine_lines,
@@ -446,6 +447,9 @@ def _other_content(ask: _Ask, finder: "_Finder", polarity: Polarity, lines: Line
         return _as_lines(lines, pitch_mm, relief_mm, width_mm, polarity, extra, "lines",
                          what=f"line art: {lines.length_mm:.0f} mm of strokes on an empty ground "
                               f"(ridge strength {lines.strength:.0f} × noise)")
+    made = _fibre_field(ask, finder, polarity)
+    if made is not None:
+        return made
     # Objects wider than the local ground (the FePt spheres) are found by the edges around them.
     big = _large_edge_objects(found() if callable(found) else found, pitch_mm)
     if big is not None:
@@ -720,6 +724,7 @@ FIBRE_GROUND_MM = 12.0  # straight lines run this far in all over the ground bet
 FIBRE_PIECE_MM = 1.5  # in pieces at least this long (a fibre crossing a gap between two members)
 FIBRE_STRAIGHT = 0.8  # each this straight (end-to-end over its length along the skeleton): fibres, not rims or specks
 FIBRE_BROAD_MM = 1.5  # a fibre answers the ridge filter more at its fine scale (lines.RIDGE_SIGMA_MM) than at this
+FIBRE_GAP_MM = 4.0  # a fibre goes on along its ridge this far past its straight pieces (through crossings)
 FIBRE_COVER = 0.6  # a fibre's pieces run along this share of its course over the clear ground
 FIBRE_SLENDER = 0.5  # a member this slender (minor / major axis) may be a piece of a fibre
 FIBRE_MADS = 6.0  # the ridge response over the ground stands this many robust deviations above its median
@@ -776,15 +781,58 @@ def _fibre_lines(finder: "_Finder", bright: bool, pitch_mm: float, clear: np.nda
     # Thin: the ridge answers more at the fine scale than at FIBRE_BROAD_MM (both scale-normalised);
     # the edges of broad bands (a coarse picture's blocks, shading) answer more at the broad one.
     broad = hessian_ridges(finder.work, pitch_mm, sigma_mm=FIBRE_BROAD_MM)[0 if bright else 1]
-    skeleton = morphology.skeletonize(mask & (response >= broad))
+    whole = morphology.skeletonize(mask & (response >= broad))
     # Apart at crossings (skeleton points with three or more neighbours): two fibres that cross
     # are two straight pieces, not one bent one.
-    neighbours = ndimage.convolve(skeleton.astype(np.uint8), np.ones((3, 3), np.uint8), mode="constant") - 1
-    skeleton &= ~ndimage.binary_dilation(skeleton & (neighbours >= 3))
+    neighbours = ndimage.convolve(whole.astype(np.uint8), np.ones((3, 3), np.uint8), mode="constant") - 1
+    skeleton = whole & ~ndimage.binary_dilation(whole & (neighbours >= 3))
+    # Lines, not the flanks of a brighter line (the Hessian answers there for the other side).
+    skeleton = brighter_than_both_sides(skeleton, finder.picture(bright), pitch_mm)
     parts, n = ndimage.label(skeleton, structure=np.ones((3, 3)))
     if n == 0:
         return none
-    return _straight_runs(skeleton, parts, n, pitch_mm, clear)
+    fibres, count, lines = _straight_runs(skeleton, parts, n, pitch_mm, clear)
+    if not count:
+        return none
+    # Where fibres cross at a small angle their ridge is broad, and the crossings were cut out
+    # above: the fibres go on along the ridge skeleton (without the fineness rule) up to
+    # FIBRE_GAP_MM from their straight pieces, along their own lines.
+    yy, xx = np.mgrid[0 : clear.shape[0], 0 : clear.shape[1]]
+    along = np.zeros(clear.shape, bool)
+    for theta, dist in lines:
+        along |= np.abs(xx * np.cos(theta) + yy * np.sin(theta) - dist) <= 1.5
+    loose = (morphology.skeletonize(mask) | whole) & along
+    for _ in range(max(1, round(FIBRE_GAP_MM / pitch_mm))):
+        grown = fibres | (loose & ndimage.binary_dilation(fibres, structure=np.ones((3, 3), bool)))
+        if grown.sum() == fibres.sum():
+            break
+        fibres = grown
+    return fibres, count
+
+
+def _fibre_field(ask: _Ask, finder: "_Finder", polarity: Polarity) -> ContentMade | None:
+    """Straight fibres with no members and no network (stress fibres, collagen bundles,
+    microtubules in one channel) raised as oriented lines, not the plateaus their mesh of
+    crossings makes of the picture's shape; None when they run less than LINE_ART_MM in all. On
+    a mid-grey ground the side whose fibres run longer is raised."""
+    everywhere = np.ones(ask.work.shape, bool)
+    sides = [polarity.bright, not polarity.bright] if polarity.undecided else [polarity.bright]
+    found = [(float(mask.sum()), bright, mask, count) for bright in sides
+             for mask, count in [_fibre_lines(finder, bright, ask.pitch_mm, everywhere)] if count]
+    if not found:
+        return None
+    length_px, bright, fibres, count = max(found, key=lambda f: f[0])
+    if length_px * ask.pitch_mm * 1.12 < LINE_ART_MM:
+        return None
+    if bright != polarity.bright:
+        side = "bright" if bright else "dark"
+        polarity = Polarity(bright, polarity.ground, f"the {side} lines are straight fibres, so they are raised and the ground "
+                                                    f"between them sits at the base")
+    from .lines import network_of
+
+    found_lines = network_of(fibres, pitch_mm=ask.pitch_mm, min_area_mm2=ask.min_area_mm2, strength=0.0)
+    return _as_lines(found_lines, ask.pitch_mm, ask.relief_mm, ask.width_mm, polarity, ask.extra, "lines",
+                     what=f"{count} straight fibres ({found_lines.length_mm:.0f} mm of line), no members and no network")
 
 
 def _without_fibre_pieces(made: ContentMade, slender: np.ndarray, fibres: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -818,8 +866,8 @@ def _covers_its_line(parts: np.ndarray, ids: np.ndarray, theta: float, dist: flo
 
 
 def _straight_runs(skeleton: np.ndarray, parts: np.ndarray, n: int, pitch_mm: float,
-                   clear: np.ndarray) -> tuple[np.ndarray, int]:
-    """(mask, how many lines) of the skeleton's pieces that lie along straight lines carrying FIBRE_GROUND_MM of it in all
+                   clear: np.ndarray) -> tuple[np.ndarray, int, list[tuple[float, float]]]:
+    """(mask, how many lines, the lines as (theta, distance) of their normal) of the skeleton's pieces that lie along straight lines carrying FIBRE_GROUND_MM of it in all
     (a Hough transform's peaks: a fibre crosses the ground in many pieces between the members it
     passes over, all on one line), each piece at least FIBRE_PIECE_MM long, straight
     (FIBRE_STRAIGHT) and running along its line (within 25 degrees). Halos and rims around
@@ -841,12 +889,13 @@ def _straight_runs(skeleton: np.ndarray, parts: np.ndarray, n: int, pitch_mm: fl
     candidates = pieces[parts]
     votes = FIBRE_GROUND_MM / (pitch_mm * 1.12)
     if candidates.sum() < votes:
-        return np.zeros_like(skeleton), 0
+        return np.zeros_like(skeleton), 0, []
     accumulator, thetas, dists = hough_line(candidates, theta=np.linspace(-np.pi / 2, np.pi / 2, 180, endpoint=False))
     votes_at, peak_thetas, peak_dists = hough_line_peaks(accumulator, thetas, dists, threshold=votes, min_distance=3, min_angle=5)
     log.debug("fibre lines: %s votes each, %d candidate px", [int(v) for v in votes_at], int(candidates.sum()))
     keep = np.zeros(n + 1, bool)
     count = 0
+    lines: list[tuple[float, float]] = []
     yy, xx = np.nonzero(candidates)
     for theta, dist in zip(peak_thetas, peak_dists):
         on = np.abs(xx * np.cos(theta) + yy * np.sin(theta) - dist) <= 1.5
@@ -856,7 +905,8 @@ def _straight_runs(skeleton: np.ndarray, parts: np.ndarray, n: int, pitch_mm: fl
         if size[ids[along]].sum() >= votes and _covers_its_line(parts, ids[along], theta, dist, clear):
             keep[ids[along]] = True
             count += 1
-    return keep[parts], count
+            lines.append((theta, dist))
+    return keep[parts], count, lines
 
 
 def _as_dense_field(blobs: BlobScale, picture: np.ndarray, pitch_mm: float, relief_mm: float, polarity: Polarity, extra: str) -> ContentMade:

@@ -201,6 +201,7 @@ def synthetic_rows() -> list[tuple]:
     out.append(("polished alloy, 20 grey levels between grains", "grains", _chose(litho),
                 f"{distinct} grain levels; a grain {np.mean(shares):.0%} one height", "yes" if distinct >= 2 and np.mean(shares) >= 0.7 else "no"))
     out.append(_fibres_row())
+    out.append(_stress_fibres_row())
     out += _sintered_rows()
     nuclei, fil, spots = _synthetic_channels(600, 600)
     with tempfile.TemporaryDirectory() as folder:
@@ -236,6 +237,27 @@ def _fibres_row() -> tuple:
     return ("bright cells crossed by thin fibres", "members + lines", _chose(litho),
             f"fibres over the gaps {np.median(rise):+.2f} mm ({np.mean(rise >= 0.5):.0%} of their course ≥ 0.5 mm); "
             f"{felt:.0%} of {len(tops)} cells felt; gaps at {base:.2f} mm", "yes" if ok else "no")
+
+
+def _stress_fibres_row() -> tuple:
+    """Class 8 beyond named dyes: straight bright fibres in one unnamed channel
+    (synthetic_content.stress_fibres) are raised lines along the fibres, the ground between at the
+    base, no plateau over a line's height."""
+    from scipy import ndimage
+    from synthetic_content import stress_fibres
+
+    from tamp_os.lithograph.pipeline import make_lithograph
+
+    t = stress_fibres()
+    litho = make_lithograph(t.image, width_mm=100, scale_bar="off")
+    h = litho.heightmap - litho.params.base_mm
+    fibres = _grid_of(t.lines.astype(np.uint8), h.shape) > 0
+    between = float(np.median(h[~ndimage.binary_dilation(fibres, iterations=4)]))
+    on = float(np.mean(h[fibres] >= 0.5))
+    ok = on >= 0.6 and between <= 0.1 and float(h.max()) <= 1.15
+    return ("stress fibres in one unnamed channel", "fibres (ridges)", _chose(litho),
+            f"{on:.0%} of the fibres' course ≥ 0.5 mm; between them {between:.2f} mm; highest point {h.max():.2f} mm",
+            "yes" if ok else "no")
 
 
 def _sintered_rows() -> list[tuple]:

@@ -447,9 +447,6 @@ def _other_content(ask: _Ask, finder: "_Finder", polarity: Polarity, lines: Line
         return _as_lines(lines, pitch_mm, relief_mm, width_mm, polarity, extra, "lines",
                          what=f"line art: {lines.length_mm:.0f} mm of strokes on an empty ground "
                               f"(ridge strength {lines.strength:.0f} × noise)")
-    made = _fibre_field(ask, finder, polarity)
-    if made is not None:
-        return made
     # Objects wider than the local ground (the FePt spheres) are found by the edges around them.
     big = _large_edge_objects(found() if callable(found) else found, pitch_mm)
     if big is not None:
@@ -465,6 +462,9 @@ def _other_content(ask: _Ask, finder: "_Finder", polarity: Polarity, lines: Line
                          what=(f"a network of {side} lines thinner than the print grid, found on a {fine_pitch_mm:.2f} mm grid "
                                f"before the print's blur, enclosing {found_lines.cell_count} regions ({found_lines.length_mm:.0f} mm "
                                f"of line, ridge strength {found_lines.strength:.0f} × noise)"))
+    made = _fibre_field(ask, finder, polarity)
+    if made is not None:
+        return made
     # A dense field of small members the segmentation could not part (dense.py): one size, as
     # particles have and texture has not.
     blobs = finder.blobs(polarity.bright)
@@ -724,6 +724,7 @@ FIBRE_GROUND_MM = 12.0  # straight lines run this far in all over the ground bet
 FIBRE_PIECE_MM = 1.5  # in pieces at least this long (a fibre crossing a gap between two members)
 FIBRE_STRAIGHT = 0.8  # each this straight (end-to-end over its length along the skeleton): fibres, not rims or specks
 FIBRE_BROAD_MM = 1.5  # a fibre answers the ridge filter more at its fine scale (lines.RIDGE_SIGMA_MM) than at this
+FIBRE_DETAIL_SHARE = 0.5  # fibres alone (no members, no network) carry this share of the ridge response within 1 mm
 FIBRE_GAP_MM = 4.0  # a fibre goes on along its ridge this far past its straight pieces (through crossings)
 FIBRE_COVER = 0.6  # a fibre's pieces run along this share of its course over the clear ground
 FIBRE_SLENDER = 0.5  # a member this slender (minor / major axis) may be a piece of a fibre
@@ -823,6 +824,12 @@ def _fibre_field(ask: _Ask, finder: "_Finder", polarity: Polarity) -> ContentMad
         return None
     length_px, bright, fibres, count = max(found, key=lambda f: f[0])
     if length_px * ask.pitch_mm * 1.12 < LINE_ART_MM:
+        return None
+    # The fibres are what the picture shows: they carry most of its lines of that side (the ridge
+    # response; a photograph's straight edges, a tripod's legs, carry little of it).
+    response = finder.ridges()[0 if bright else 1]
+    near = ndimage.binary_dilation(fibres, iterations=max(1, round(1.0 / ask.pitch_mm)))
+    if float(response[near].sum()) < FIBRE_DETAIL_SHARE * float(response.sum()):
         return None
     if bright != polarity.bright:
         side = "bright" if bright else "dark"

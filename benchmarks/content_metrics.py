@@ -21,9 +21,16 @@ RING_MM = 1.5
 
 
 def members_felt(h: np.ndarray, labels: np.ndarray, mm: float) -> float:
+    felt, present = members_felt_each(h, labels, mm)
+    return float(np.mean(felt[present])) if present.any() else float("nan")
+
+
+def members_felt_each(h: np.ndarray, labels: np.ndarray, mm: float) -> tuple[np.ndarray, np.ndarray]:
+    """Per true member (1..n): whether it is felt (see the module's note), and whether it has
+    pixels on this grid at all (a member the resampling lost is neither counted nor felt)."""
     n = int(labels.max())
     if n == 0:
-        return float("nan")
+        return np.zeros(0, bool), np.zeros(0, bool)
     mask = labels > 0
     dist, (iy, ix) = ndimage.distance_transform_edt(~mask, return_indices=True)
     owner = np.where((~mask) & (dist * mm <= RING_MM), labels[iy, ix], 0)
@@ -32,7 +39,7 @@ def members_felt(h: np.ndarray, labels: np.ndarray, mm: float) -> float:
     ring = np.asarray(ndimage.median(h, owner, index), dtype=np.float64)
     ring = np.where(np.isfinite(ring), ring, np.median(h[~mask]))
     ok = np.isfinite(top)
-    return float(np.mean((top - ring)[ok] >= FELT_MM))
+    return ok & ((np.where(ok, top, 0) - ring) >= FELT_MM), ok
 
 
 def lines_over_enclosed(h: np.ndarray, lines: np.ndarray, mm: float) -> float:
@@ -82,3 +89,49 @@ def spurious(h: np.ndarray, content: np.ndarray | None, mm: float, base_mm: floa
     bad = (~touches) & (area >= 2.0)
     bad[0] = False
     return int(bad.sum())
+
+
+def members_split(made: np.ndarray | None, labels: np.ndarray) -> tuple[np.ndarray, int]:
+    """Per true member, whether the relief split it: (bool per member 1..n, true members the relief
+    joined into one). The relief's members (`made`, labels on the same grid) that lie mostly in a
+    true member (at least OVERLAP_SHARE of the relief member, or of the true member) are its pieces;
+    the true member's pixels go to their nearest piece, and it is split when two pieces share a
+    border wider than the smaller one's inscribed diameter (population.neckless_pairs: no neck in
+    its outline there). A cut through a real neck of the true outline is no split: a truth mask
+    that joins touching members (the HAADF spheres' Otsu clusters) is then a merge of truth, and
+    the pieces' count says so (`joined`: true members with more than one piece, all at necks)."""
+    from skimage import segmentation
+
+    from tamp_os.relief.population import neckless_pairs
+
+    n = int(labels.max())
+    split = np.zeros(n, bool)
+    if made is None or n == 0 or not made.max():
+        return split, 0
+    mask = labels > 0
+    # The true member each relief member mostly lies in, and how much of each they share.
+    pair = labels[mask].astype(np.int64) * (int(made.max()) + 1) + made[mask]
+    keys, shared = np.unique(pair[made[mask] > 0], return_counts=True)
+    truth_of, piece = keys // (int(made.max()) + 1), keys % (int(made.max()) + 1)
+    made_area = np.bincount(made.ravel(), minlength=int(made.max()) + 1)
+    true_area = np.bincount(labels.ravel(), minlength=n + 1)
+    ok = (shared >= OVERLAP_SHARE * made_area[piece]) | (shared >= OVERLAP_SHARE * true_area[truth_of])
+    ok &= shared >= 2
+    joined = 0
+    for k in np.unique(truth_of[ok]):
+        pieces = piece[ok & (truth_of == k)]
+        if pieces.size < 2:
+            continue
+        sl = ndimage.find_objects((labels == k).astype(np.int32))[0]
+        sl = tuple(slice(max(0, s.start - 1), s.stop + 1) for s in sl)
+        inside = labels[sl] == k
+        seeds = np.where(inside & np.isin(made[sl], pieces), made[sl], 0)
+        parts = np.where(inside, segmentation.expand_labels(seeds, distance=max(seeds.shape)), 0)
+        parts = segmentation.relabel_sequential(parts)[0].astype(np.int32)
+        a, _ = neckless_pairs(parts)
+        split[k - 1] = a.size > 0
+        joined += a.size == 0
+    return split, joined
+
+
+OVERLAP_SHARE = 0.5

@@ -49,9 +49,11 @@ def _to_grid(a: np.ndarray | None, shape) -> np.ndarray | None:
 
 
 def _members_by_threshold(values: np.ndarray, sigma: float, min_distance: int, min_px: int, exclude=None,
-                          noise_sigmas: float | None = None) -> np.ndarray:
+                          noise_sigmas: float | None = None, peak_sigma: float | None = None) -> np.ndarray:
     """Otsu of the smoothed picture (or, with noise_sigmas, the median plus that many robust
-    deviations: for sparse members), touching members split by a watershed of the distance."""
+    deviations: for sparse members), touching members split by a watershed of the distance (or,
+    with peak_sigma, of the brightness smoothed by that many px from its peaks: spheres in HAADF
+    STEM are brightest at their centres, thickest there, while packed ones' outline has no neck)."""
     smooth = filters.gaussian(values.astype(np.float64), sigma, preserve_range=True)
     sample = smooth if exclude is None else smooth[~exclude]
     if noise_sigmas is None:
@@ -62,7 +64,7 @@ def _members_by_threshold(values: np.ndarray, sigma: float, min_distance: int, m
     mask = smooth > thresh
     if exclude is not None:
         mask &= ~exclude
-    dist = ndimage.distance_transform_edt(mask)
+    dist = ndimage.distance_transform_edt(mask) if peak_sigma is None else filters.gaussian(values.astype(np.float64), peak_sigma, preserve_range=True)
     peaks = feature.peak_local_max(dist, min_distance=min_distance, labels=ndimage.label(mask)[0], exclude_border=False)
     markers = np.zeros(mask.shape, np.int32)
     markers[tuple(peaks.T)] = np.arange(1, len(peaks) + 1)
@@ -154,8 +156,9 @@ def real_cases() -> list[Case]:
         out += [_skip("stem_haadf_sio2_spheres.hspy", f"no reader ({exc})"), _skip("velox_talos_haadf_particles.emd", f"no reader ({exc})")]
     else:
         stem = np.asarray(hspy_reader(str(FIXTURES / "real" / "stem_haadf_sio2_spheres.hspy"))[0]["data"], np.float32)
-        out.append(_case("stem_haadf_sio2_spheres.hspy", stem, members=_members_by_threshold(stem, 0.7, 3, 12),
-                         how="Otsu after a 0.7 px Gaussian, distance watershed (min distance 3 px)"))
+        out.append(_case("stem_haadf_sio2_spheres.hspy", stem, members=_members_by_threshold(stem, 0.7, 2, 12, peak_sigma=1.0),
+                         how="Otsu after a 0.7 px Gaussian, parted by a watershed from the brightness peaks after a 1 px "
+                             "Gaussian, at least 2 px apart (one per sphere: the README's 170-220)"))
         emd = np.asarray(emd_reader(str(FIXTURES / "real" / "velox_talos_haadf_particles.emd"))[0]["data"], np.float32)
         edge = np.zeros(emd.shape, bool)
         edge[:60, 420:] = True  # the grid bar, top right corner, is not a particle

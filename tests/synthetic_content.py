@@ -163,6 +163,55 @@ def packed_cells(rows: int = 450, cols: int = 600, seed: int = 3, overlap: float
     return Truth("packed_cells", np.clip(image, 0, 1).astype(np.float32), members=labels)
 
 
+def cells_and_fibres(rows: int = 450, cols: int = 600, seed: int = 11, fibres: int = 6, fibre_px: float = 2.0) -> Truth:
+    """Issue 32, class 1's last part: bright round cells (radius 21-27 px, 4.6-6 mm on a 100 mm
+    print) on a dark filter, apart by gaps, and `fibres` thin bright straight fibres (Gaussian
+    profile, half-width `fibre_px`: about 0.4 mm wide on the print) crossing cells and gaps alike.
+    Members: the cells; lines: the fibres' centre lines (one pixel wide)."""
+    rng = np.random.default_rng(seed)
+    yy, xx = _grid(rows, cols)
+    image = 0.12 + 0.02 * rng.standard_normal((rows, cols))
+    labels = np.zeros((rows, cols), np.int32)
+    centres: list[tuple[float, float, float]] = []
+    for _ in range(2000):
+        cy, cx, r = rng.uniform(30, rows - 30), rng.uniform(30, cols - 30), rng.uniform(21, 27)
+        if any((cy - a) ** 2 + (cx - b) ** 2 < (r + c + 10) ** 2 for a, b, c in centres):
+            continue
+        centres.append((cy, cx, r))
+        d = np.sqrt((yy - cy) ** 2 + (xx - cx) ** 2) / r
+        inside = d <= 1
+        image = np.where(inside, 0.72 + 0.06 * np.exp(-((d - 0.7) / 0.22) ** 2) - 0.06 * np.exp(-(d / 0.35) ** 2), image)
+        labels[inside] = len(centres)
+    lines = np.zeros((rows, cols), bool)
+    for k in range(fibres):  # straight fibres at spread angles, across the whole picture
+        y0, angle = rng.uniform(0.2 * rows, 0.8 * rows), (k + rng.uniform(0.2, 0.8)) * np.pi / fibres
+        dist = (yy - y0) * np.cos(angle) - (xx - cols / 2) * np.sin(angle)
+        image = np.maximum(image, 0.95 * np.exp(-((dist / fibre_px) ** 2)))
+        lines |= np.abs(dist) <= 0.5
+    image = image + 0.02 * rng.standard_normal((rows, cols))
+    return Truth("cells_and_fibres", np.clip(image, 0, 1).astype(np.float32), members=labels, lines=lines)
+
+
+def stress_fibres(rows: int = 450, cols: int = 600, seed: int = 5, count: int = 14) -> Truth:
+    """Issue 32, class 8: a cell's actin stress fibres in one fluorescence channel, unnamed: a dim
+    oval cell body on a dark ground with `count` thin bright straight fibres (Gaussian half-width
+    2 px, about 0.8 mm across on a 100 mm print) running mostly one way (25 ± 8 degrees), crossing
+    at small angles. Lines: the fibres' centre lines."""
+    rng = np.random.default_rng(seed)
+    yy, xx = _grid(rows, cols)
+    image = 0.08 + 0.02 * rng.standard_normal((rows, cols))
+    cell = ((yy - rows / 2) / (0.38 * rows)) ** 2 + ((xx - cols / 2) / (0.42 * cols)) ** 2 <= 1
+    image = np.where(cell, image + 0.12, image)
+    lines = np.zeros((rows, cols), bool)
+    for k in range(count):
+        y0, angle = 0.2 * rows + k * 0.6 * rows / count + rng.uniform(-5, 5), np.radians(25 + rng.uniform(-8, 8))
+        dist = (yy - y0) * np.cos(angle) - (xx - cols / 2) * np.sin(angle)
+        image = np.maximum(image, 0.2 + 0.7 * np.exp(-((dist / 2.0) ** 2)) * cell)
+        lines |= (np.abs(dist) <= 0.5) & cell
+    image = image + 0.02 * rng.standard_normal((rows, cols))
+    return Truth("stress_fibres", np.clip(image, 0, 1).astype(np.float32), lines=lines)
+
+
 def line_diagram(rows: int = 192, cols: int = 256, seed: int = 7) -> Truth:
     """A diagram: black strokes 2 px wide on white (a box, a circle, a connecting line) with
     three short text labels in black beside them."""

@@ -225,3 +225,69 @@ def test_the_check_says_when_domes_may_split_one_object_and_the_option_that_chan
     assert "may have been split into several domes" in said[1] and "`relief_style` objects" in said[1]
     whole = ContentMade(np.zeros(labels.shape, np.float32), "members", labels, "", ())
     assert len(check_sentences(heights, whole, 0.4, base_mm=BASE)) == 1
+
+
+@pytest.mark.timeout(120)
+@pytest.mark.parametrize("radius_px, seed", [(20, 2), (25, 3)])
+def test_the_check_says_split_exactly_when_the_print_has_more_domes_than_particles(radius_px, seed):
+    """Sintered dumbbells (exact count): 10 mm particles print one dome each; 20 mm ones, wider
+    than the local ground, crack into several domes (issue 32, class 6: not yet solved). Either
+    way the check says "split" when, and only when, the print has clearly more domes than the
+    picture has particles, with the one option that changes it."""
+    image, count = sintered_dumbbells(radius_px=radius_px, seed=seed)
+    made = content(image)
+    split_said = [c for c in made.checks if "may have been split into several domes" in c]
+    over = made.object_count > 1.25 * count
+    assert bool(split_said) == over, (made.object_count, count, made.checks)
+    if split_said:
+        assert "`relief_style` objects" in split_said[0]
+
+
+@pytest.mark.timeout(120)
+@pytest.mark.parametrize("which", ["beads", "split dumbbells"])
+def test_the_description_of_members_says_one_count_and_one_height(which):
+    """The description never contradicts itself: every count of members or domes it says is the
+    same number, and the height they stand is said once, with no "stand only … (median)" beside it."""
+    from synthetic_content import dim_and_bright_beads
+
+    from tamp_os.lithograph.pipeline import make_lithograph
+    from tamp_os.lithograph.report import describe
+
+    image = dim_and_bright_beads().image if which == "beads" else sintered_dumbbells(radius_px=25, seed=3)[0]
+    litho = make_lithograph((image * 65535).astype(np.uint16), scale_bar="off")
+    text = describe(litho.report, litho.params, "members.tif")
+    assert litho.report.content_kind == "members", litho.report.relief_reason
+    words = {w: k for k, w in enumerate("zero one two three four five six seven eight nine ten eleven twelve".split())}
+    counts = {int(m) for m in re.findall(r"(\d+) members", text)}
+    counts |= {words[m.lower()] for m in re.findall(r"\b([A-Za-z]+) (?:round )?domes stand", text) if m.lower() in words}
+    assert len(counts) == 1, (counts, text)
+    assert len(re.findall(r"raised at least [0-9.]+ mm", text)) == 1, text
+    assert "stand only" not in text and "(median)" not in text, text
+
+
+def test_the_check_says_when_a_lattices_columns_are_missing_from_the_print():
+    """A lattice of 64 columns drawn as domes, of which the print left a quarter flat (exact): the
+    check counts the columns standing 0.5 mm over their troughs against the picture's, says that
+    columns may be missing, and names the one option (a wider print)."""
+    from tamp_os.relief.content import ContentMade, LatticeFound, check_sentences
+
+    pitch_mm, spacing_px = 0.4, 8
+    rows = cols = 8 * spacing_px
+    yy, xx = np.mgrid[0:rows, 0:cols]
+    labels = np.zeros((rows, cols), np.int32)
+    heights = np.full((rows, cols), BASE)
+    k = 0
+    for cy in range(spacing_px // 2, rows, spacing_px):
+        for cx in range(spacing_px // 2, cols, spacing_px):
+            k += 1
+            disk = (yy - cy) ** 2 + (xx - cx) ** 2 <= 4
+            labels[disk] = k
+            if k % 4:  # every fourth column left flat
+                heights[disk] = BASE + 1.5
+    found = LatticeFound(k, spacing_px * pitch_mm, k, spacing_px * pitch_mm, dome_mm=1.5)
+    made = ContentMade(np.zeros(labels.shape, np.float32), "lattice", labels, "", (), lattice=found)
+    said = " ".join(check_sentences(heights, made, pitch_mm, base_mm=BASE))
+    assert f"A lattice of {k} columns" in said and f"{k - k // 4} of them (75%)" in said, said
+    assert "columns may be missing" in said and "`width_mm`" in said, said
+    whole = np.where(labels > 0, BASE + 1.5, BASE)
+    assert "missing" not in " ".join(check_sentences(whole, made, pitch_mm, base_mm=BASE))

@@ -56,3 +56,46 @@ def test_dark_cells_packed_on_bright_glass_stay_the_raised_side():
     assert 0.3 < (members > 0).mean() < 0.7
     assert "packed edge to edge" not in litho.report.relief_reason
     assert np.median(h[members > 0]) > np.median(h[members == 0]) + RAISED_MM, litho.report.relief_reason
+
+
+@pytest.mark.timeout(120)
+def test_thin_fibres_over_cells_and_gaps_are_raised_lines_the_cells_domes_the_gaps_the_base():
+    """Bright round cells on a dark filter with six thin bright fibres (about 0.4 mm wide on the
+    print) crossing cells and gaps (exact truth): the cells are raised, the fibres stand as lines at
+    least 0.5 mm over the gaps along most of their course there, and the gaps stay at the base."""
+    from scipy import ndimage
+
+    from synthetic_content import cells_and_fibres
+
+    t = cells_and_fibres()
+    litho = make_lithograph(t.image, width_mm=100, scale_bar="off")
+    h = litho.heightmap - litho.params.base_mm
+    members, fibres = _on_grid(t.members, h.shape), _on_grid(t.lines.astype(np.uint8), h.shape) > 0
+    assert litho.report.content_kind == "members", litho.report.relief_reason
+    assert "thin fibres" in litho.report.relief_reason
+    cells = members > 0
+    over_gaps = fibres & ~ndimage.binary_dilation(cells, iterations=4)
+    ground = ~ndimage.binary_dilation(cells | fibres, iterations=5)
+    assert float(np.median(h[ground])) <= 0.1
+    assert float(np.mean(h[over_gaps] - np.median(h[ground]) >= RAISED_MM)) >= 0.7
+    assert _felt(h + litho.params.base_mm, members, ground) >= 0.9
+
+
+@pytest.mark.timeout(120)
+def test_stress_fibres_in_one_unnamed_channel_are_oriented_ridges_not_plateaus():
+    """Issue 32, class 8, beyond named dyes: straight bright fibres in a dim cell (exact truth)
+    print as raised lines along the fibres (most of their course at least 0.5 mm up), the ground
+    between them at the base and nothing raised as a mesa (no point over a line's height)."""
+    from scipy import ndimage
+
+    from synthetic_content import stress_fibres
+
+    t = stress_fibres()
+    litho = make_lithograph(t.image, width_mm=100, scale_bar="off")
+    h = litho.heightmap - litho.params.base_mm
+    fibres = _on_grid(t.lines.astype(np.uint8), h.shape) > 0
+    assert litho.report.content_kind == "lines" and "straight fibres" in litho.report.relief_reason, litho.report.relief_reason
+    between = ~ndimage.binary_dilation(fibres, iterations=4)
+    assert float(np.median(h[between])) <= 0.1
+    assert float(np.mean(h[fibres] >= RAISED_MM)) >= 0.6
+    assert float(h.max()) <= 1.0 + 0.15  # raised lines 1 mm high: no 3 mm plateaus where fibres cross

@@ -140,9 +140,9 @@ def _he_measure(path):
     return he_heights(path)
 
 
-FROZEN = ("not done: the frozen section TCGA-CR-7395 has almost no haematoxylin (its tissue's 99th percentile "
-          "0.029 OD, a nucleus ≥ 0.035); its darker epithelial nests are eosin-dense, so no nuclei are raised and "
-          "nests and strands print as one stroma texture (glass is at the base)")
+FROZEN = ("by design: the frozen section TCGA-CR-7395 has almost no haematoxylin (its tissue's 99th percentile "
+          "0.026 OD, a nucleus ≥ 0.035), so no nuclei are named: its cell-dense nests are raised by their total optical "
+          "density, and the key says \"dense tissue\", not \"nuclei\" (the nests are checked below)")
 
 
 @pytest.mark.timeout(300)
@@ -160,7 +160,6 @@ def test_real_he_slides_nuclei_over_stroma_and_glass_at_base(fixture, name):
 
 
 @pytest.mark.timeout(300)
-@pytest.mark.xfail(strict=True, reason=FROZEN)
 def test_real_frozen_section_raises_its_darker_nests_over_the_pale_strands(fixture):
     from tamp_os.read.channels import read_channels
 
@@ -175,6 +174,7 @@ def test_real_frozen_section_raises_its_darker_nests_over_the_pale_strands(fixtu
     glass = (lum > 0.85) & (small.max(axis=2) - small.min(axis=2) < 0.1)
     nests, strands = ~glass & (lum < 0.6), ~glass & (lum > 0.75)
     assert np.median(h[nests]) >= np.median(h[strands]) + 0.5
+    assert [e.label for e in litho.report.key] == ["dense tissue", "stroma"]  # said as what it is: no nuclei were found
 
 
 # ---- class 4: channel roles by what the dye shows ---------------------------------------------
@@ -412,3 +412,28 @@ def test_markers_by_shape_gives_nothing_it_is_not_sure_of():
     assert markers_by_shape("lyso_mito_actin", chans, shapes) == {}  # three markers for two colours
     assert markers_by_shape("mito", chans, shapes) == {}  # one marker for two colours
     assert markers_by_shape("snap-03", chans, shapes) == {}
+
+
+@pytest.mark.timeout(60)
+def test_a_faint_section_raises_its_denser_tissue_by_optical_density_not_its_faint_haematoxylin():
+    """A pink section with almost no haematoxylin: darker pink nests (eosin-dense) in pale pink
+    stroma, glass around. No pixel reaches a nucleus's density, so nuclear_weight finds nothing;
+    the nests (exact truth) are what density_weight raises, the stroma and glass are not."""
+    from scipy import ndimage as ndi
+
+    from tamp_os.relief.channels import density_weight, faint_haematoxylin, nuclear_weight
+
+    rows, cols = 120, 160
+    yy, xx = np.mgrid[0:rows, 0:cols]
+    tissue = (yy - 60) ** 2 / 50**2 + (xx - 80) ** 2 / 70**2 <= 1
+    nests = tissue & (((yy - 45) ** 2 + (xx - 55) ** 2 <= 15**2) | ((yy - 75) ** 2 + (xx - 105) ** 2 <= 18**2))
+    rgb = np.ones((rows, cols, 3))
+    rgb[tissue] = (0.93, 0.72, 0.82)  # pale pink stroma
+    rgb[nests] = (0.80, 0.42, 0.60)  # eosin-dense nests
+    rgb = np.clip(rgb + np.random.default_rng(0).normal(0, 0.01, rgb.shape), 0, 1)
+    assert faint_haematoxylin(rgb) is not None
+    assert (nuclear_weight(rgb) >= 0.5).mean() < 0.01
+    dense = density_weight(rgb, sigma_px=1.5) >= 0.5
+    inner = ndi.binary_erosion(nests, iterations=3)
+    stroma = ndi.binary_erosion(tissue & ~nests, iterations=3) & ~ndi.binary_dilation(nests, iterations=3)
+    assert dense[inner].mean() > 0.95 and dense[stroma].mean() < 0.05 and not dense[~tissue].any()

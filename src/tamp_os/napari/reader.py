@@ -45,7 +45,7 @@ def read_layers(path) -> list[tuple]:
     path = Path(path)
     picture = read_image(path)
     f = picture.file
-    metres = read_pixel_size(f.metadata, f.tiff_tags, f.path, f.width).metres
+    metres = read_pixel_size(f.metadata, f.tiff_tags, f.path, width_px=f.width).metres
     planes = read_channels(path) if f.channel_count > 1 else None
     if not planes:
         return [(picture.values, _keywords(path, path.stem, metres, None, 1, None), "image")]

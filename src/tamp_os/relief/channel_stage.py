@@ -22,6 +22,9 @@ from .channels import (
     channel_relief,
     glass_weight,
     nuclear_weight,
+    NUCLEAR_OD,
+    density_weight,
+    faint_haematoxylin,
     is_fluorescence_composite,
     is_stained_brightfield,
     parse_assignments,
@@ -88,6 +91,9 @@ def _on_grid(values: np.ndarray, layout, params) -> np.ndarray:
     return prepare(values, None, rows=layout.rows, cols=layout.cols, target_aspect=layout.target_aspect, fit=layout.fit,
                    low_pct=params.stretch_low_pct, high_pct=params.stretch_high_pct, sigma_px=layout.blur_px,
                    invert=False, flip_x=params.flip_x).image
+
+
+DENSE_LABEL = "dense tissue"  # the key's word for what a faint section raises in place of nuclei
 
 
 def _weight_on_grid(w: np.ndarray, layout, params) -> np.ndarray:
@@ -173,11 +179,21 @@ def run(source, layout, params, *, route=None, cleaned=None, title: str = "") ->
             on_grid = [ChannelImage(c.name, _on_grid(c.image, layout, params)) for c in stain_channels(stack)]
             # stain densities are already 0..1; prepare() stretched them again; glass and lumens are
             # found on the colours themselves (an off-white glass tile's stretched densities are not 0)
+            faint = faint_haematoxylin(stack)
             rel = stain_relief(on_grid, mm_per_px=mm, base_mm=params.base_mm, relief_mm=params.relief_mm,
                                glass=_weight_on_grid(glass_weight(stack), layout, params),
-                               stained=_weight_on_grid(nuclear_weight(stack), layout, params))
+                               stained=_weight_on_grid(nuclear_weight(stack), layout, params),
+                               dense=None if faint is None else _weight_on_grid(
+                                   density_weight(stack, sigma_px=stack.shape[1] / layout.cols), layout, params))
             rel.notes[:0] = cleaning_notes
-            key = tuple(KeyEntry(labels.get(ch.name.lower(), STAIN_LABEL[ch.name]), ch.encoding) for ch in rel.choices)
+            names = dict(STAIN_LABEL)
+            if faint is not None:
+                names["haematoxylin"] = DENSE_LABEL
+                rel.notes.append(Decision(f"The section's haematoxylin is faint (its tissue's 99th percentile {faint:.3f} optical "
+                                          f"density, a nucleus reaches {NUCLEAR_OD:g}): no nuclei stand out, so the denser "
+                                          f"tissue (cell-rich nests, by its total optical density) is raised as domes and the "
+                                          f"paler stroma is a low texture."))
+            key = tuple(KeyEntry(labels.get(ch.name.lower(), names[ch.name]), ch.encoding) for ch in rel.choices)
             return ChannelStage(rel, key, "stain")
         fluorescence = route.kind == "fluorescence" if route is not None and route.kind != "assigned" else is_fluorescence_composite(stack)
         if not fluorescence and not assigned:
@@ -217,7 +233,6 @@ def channel_path(source, relief, layout, *, params, route=None, cleaned=None, ti
     """
     import dataclasses
 
-    from ..tactile.braille import to_braille
     from .key3d import key_strip
     from .styles import ReliefResult
 
@@ -246,26 +261,36 @@ def channel_path(source, relief, layout, *, params, route=None, cleaned=None, ti
     why = f"auto chose channels ({route.why}): " if route is not None and route.kind != "assigned" else ""
     reason = (f"{why}{len(rel.choices)} {what} as textures: {describe_key(strip.entries)} "
               f"(encodings from {', '.join(sorted({c.why for c in rel.choices}))}).")
-    notes = tuple(rel.notes)
-    if why:
+    notes = tuple(rel.notes) + _key_notes(stage, route if why else None, strip, params.braille_table,
+                                          grown.depth_mm - layout.depth_mm)
+    out = ReliefResult(heights, "channels", reason, None, (), notes)
+    overlay = np.vstack([np.zeros_like(rel.heights_mm), strip.overlay_mm[1:, :cols]])
+    return out, grown, strip.entries, ChannelExtras(overlay, region_map(rel))
+
+
+def _key_notes(stage, route, strip, braille_table: str, grown_mm: float) -> tuple[Text, ...]:
+    """What the channel print says of itself beside its reason: why auto printed it channel by
+    channel (`route`, None when it was asked for), the key's shortened or cut braille labels, and
+    how far the plate grew to hold the key."""
+    from ..tactile.braille import to_braille
+
+    notes: tuple[Text, ...] = ()
+    if route is not None:
         how = ("The stains were separated by colour deconvolution" if stage.kind == "stain"
                else "The picture was printed channel by channel")
         # (⟦…⟧: advice a front end without those controls leaves out, errors.render)
         notes += (Decision(f"{how}, each a texture named in the key, because {route.why}⟦; `channel` prints a single "
-                       f"channel⟧⟦, and `channels` off prints the brightness as before⟧."),)
+                           f"channel⟧⟦, and `channels` off prints the brightness as before⟧."),)
     short = [e for e in strip.entries if e.braille_label and e.braille_label != e.label]
     if short:
         notes += (Decision("The key writes shorter labels in braille, to fit its lines: "
-                       + "; ".join(f"{e.braille_label!r} for {e.label!r}" for e in short) + "."),)
-    cut = [e.label for e in strip.entries if e.braille != to_braille(e.braille_label, params.braille_table, what="key_labels")]
+                           + "; ".join(f"{e.braille_label!r} for {e.label!r}" for e in short) + "."),)
+    cut = [e.label for e in strip.entries if e.braille != to_braille(e.braille_label, braille_table, what="key_labels")]
     if cut:
         notes += (Text(f"The key's braille for {', '.join(map(repr, cut))} is cut to two lines⟦; give a shorter label "
                        f"with `key_labels`⟧."),)
-    notes += (Decision(f"The plate grew by {grown.depth_mm - layout.depth_mm:.1f} mm along its depth to hold the "
-                   f"braille key below the picture."),)
-    out = ReliefResult(heights, "channels", reason, None, (), notes)
-    overlay = np.vstack([np.zeros_like(rel.heights_mm), strip.overlay_mm[1:, :cols]])
-    return out, grown, strip.entries, ChannelExtras(overlay, region_map(rel))
+    notes += (Decision(f"The plate grew by {grown_mm:.1f} mm along its depth to hold the braille key below the picture."),)
+    return notes
 
 
 @dataclass(frozen=True)

@@ -40,6 +40,7 @@ from .lines import (
     LINE_WIDTH_MM,
     MIN_GAP_MM,
     Lines,
+    brighter_than_both_sides,
     draw_lines,
     find_lines,
     fine_lines,
@@ -112,6 +113,7 @@ GRAIN_STEP_MM = 0.5  # and the plateaus stand at least this far apart (a step fi
 # 1.7-1.9x; a flat plateau: no variation at all).
 GRAIN_OVER_NOISE = 4.0
 EMPTY_MOUNT_SHARE = 0.05  # a dark, featureless area covering at least this share is the mount
+SCATTERED_PIECES = 5  # a "specimen" in this many pieces, none holding half of it, is a population on a ground
 
 
 @dataclass(frozen=True)
@@ -304,32 +306,65 @@ def make_content(work: np.ndarray, *, pitch_mm: float, relief_mm: float, width_m
         specimen = np.ones_like(specimen)
     hints = hints or ContentHints()
     polarity = content_polarity(work, pitch_mm, None if specimen.all() else specimen, signal=hints.signal)
-    x = work if polarity.bright else 1.0 - work
     spectrum = lattice_spectrum(work, pitch_mm)
-    period = spectrum.period
     meta = f"; file metadata: {hints.words()}" if hints.words() else ""
-    lattice = _lattice_words(period, width_mm)
+    ask = _Ask(work, pitch_mm, relief_mm, width_mm, min_area_mm2, _lattice_words(spectrum.period, width_mm) + meta)
     if not specimen.all():
         lo, hi = np.percentile(work[specimen], [5, 95])
         if hi - lo < WEAK_SPREAD:
-            return _weak_contrast(work, x, pitch_mm, relief_mm, width_mm, min_area_mm2, polarity, lattice + meta, specimen)
+            x = work if polarity.bright else 1.0 - work
+            return _weak_contrast(work, x, pitch_mm, relief_mm, width_mm, min_area_mm2, polarity, ask.extra, specimen)
     finder = _Finder(work, pitch_mm, min_area_mm2)
-    found_lattice = _lattice_picture(work, spectrum, fine, pitch_mm, width_mm, finder.noise)
-    if found_lattice is not None:
-        # A lattice (atomic columns, a dot grid) is raised column by column, evenly: found as
-        # members one by one, a dim column on a dark patch goes missing and noise cracks the rest.
-        picture, picture_pitch_mm, picture_period, picture_noise = found_lattice
-        if polarity.undecided:
-            # A mid-grey ground: the columns are the side whose detail is skewed (sharp peaks over
-            # broad troughs), bright dots on a dark ground or dark ones on a bright one.
-            detail = picture - ndimage.gaussian_filter(picture, picture_period.pitch_mm / picture_pitch_mm, mode="nearest")
-            bright = float(np.mean(detail**3)) >= 0.0
-            if bright != polarity.bright:
-                polarity = polarity.flipped("the lattice's columns are on that side (its detail is skewed that way)")
-        made = _as_lattice(work.shape, picture if polarity.bright else 1.0 - picture, picture_pitch_mm, pitch_mm, picture_period,
-                           relief_mm, width_mm, polarity, meta, picture_noise)
-        if made is not None:
-            return made
+    made, polarity = _lattice_made(ask, spectrum, fine, finder, polarity, meta)
+    if made is not None:
+        return made
+    polarity, lines, members = _settled_polarity(finder, polarity, hints.signal, pitch_mm)
+    made = _lines_or_members(ask, finder, polarity, lines, members, spectrum.period)
+    if made is None:
+        made = _other_content(ask, finder, polarity, lines, specimen, found, fine)
+    if made is not None or not fallback:
+        return made
+    return _weak_contrast(work, finder.picture(polarity.bright), pitch_mm, relief_mm, width_mm, min_area_mm2, polarity, ask.extra,
+                          None if specimen.all() else specimen, grains=False)
+
+
+@dataclass(frozen=True)
+class _Ask:
+    """What every way of making the content relief is given: the working grid and its pitch, the
+    relief, the print's width, the smallest area, and the words every reason ends with (a lattice's
+    pitch, the file's metadata)."""
+
+    work: np.ndarray
+    pitch_mm: float
+    relief_mm: float
+    width_mm: float
+    min_area_mm2: float
+    extra: str
+
+
+def _lattice_made(ask: _Ask, spectrum: Spectrum, fine, finder: "_Finder", polarity: Polarity,
+                  meta: str) -> tuple[ContentMade | None, Polarity]:
+    """A lattice (atomic columns, a dot grid) raised column by column, evenly, or None; and the
+    polarity, turned over when the lattice's columns say so. (Found as members one by one, a dim
+    column on a dark patch goes missing and noise cracks the rest.)"""
+    found_lattice = _lattice_picture(ask.work, spectrum, fine, ask.pitch_mm, ask.width_mm, finder.noise)
+    if found_lattice is None:
+        return None, polarity
+    picture, picture_pitch_mm, picture_period, picture_noise = found_lattice
+    if polarity.undecided:
+        # A mid-grey ground: the columns are the side whose detail is skewed (sharp peaks over
+        # broad troughs), bright dots on a dark ground or dark ones on a bright one.
+        detail = picture - ndimage.gaussian_filter(picture, picture_period.pitch_mm / picture_pitch_mm, mode="nearest")
+        bright = float(np.mean(detail**3)) >= 0.0
+        if bright != polarity.bright:
+            polarity = polarity.flipped("the lattice's columns are on that side (its detail is skewed that way)")
+    return _as_lattice(ask.work.shape, picture if polarity.bright else 1.0 - picture, picture_pitch_mm, ask.pitch_mm,
+                       picture_period, ask.relief_mm, ask.width_mm, polarity, meta, picture_noise), polarity
+
+
+def _settled_polarity(finder: "_Finder", polarity: Polarity, signal: str | None, pitch_mm: float) -> tuple[Polarity, Lines, Members]:
+    """The polarity the ground's brightness gave, turned over where the content says otherwise,
+    with the lines and members of the side it raises."""
     lines = finder.lines(polarity.bright)
     members = finder.members(polarity.bright)
     if polarity.undecided and not _is_population(members, pitch_mm):
@@ -339,14 +374,14 @@ def make_content(work: np.ndarray, *, pitch_mm: float, relief_mm: float, width_m
         here = finder.blobs(polarity.bright)
         there = None if here is not None and here.dense else finder.blobs(not polarity.bright)
         other = finder.members(not polarity.bright)
+        was = polarity.bright
         if there is not None and there.dense:
             polarity = polarity.flipped(f"the other side's blobs are a dense field (peaks {there.asymmetry:.2f} × its troughs)")
         elif (here is None or not here.dense) and other.energy > members.energy:
             polarity = polarity.flipped(f"members of the other side hold more of the detail ({other.energy:.0%} against {members.energy:.0%})")
-        if polarity.bright != (x is work):
-            x, members = 1.0 - x, finder.members(polarity.bright)
-            lines = finder.lines(polarity.bright)
-    elif hints.signal is None and not _is_population(members, pitch_mm):
+        if polarity.bright != was:
+            members, lines = finder.members(polarity.bright), finder.lines(polarity.bright)
+    elif signal is None and not _is_population(members, pitch_mm):
         # The ground's brightness said one side, but nothing stands out there while the other side
         # holds round members of one size (dark cells on a glass whose noise hid that it is empty):
         # those are the content. Only a population by shape turns it over, never one that merely
@@ -358,7 +393,15 @@ def make_content(work: np.ndarray, *, pitch_mm: float, relief_mm: float, width_m
                                 f"the ground looked {'bright' if polarity.bright else 'dark'} ({polarity.ground:.2f} of the range), but "
                                 f"nothing stands out there, while the {side} side holds {other.count} round members of one size, "
                                 f"so the {side} parts are raised")
-            x, members, lines = 1.0 - x, other, finder.lines(polarity.bright)
+            members, lines = other, finder.lines(polarity.bright)
+    return polarity, lines, members
+
+
+def _lines_or_members(ask: _Ask, finder: "_Finder", polarity: Polarity, lines: Lines, members: Members,
+                      period: Period | None) -> ContentMade | None:
+    """A line network (of either polarity), a packed field of bright members, or a population;
+    None when the picture holds none of them."""
+    pitch_mm, relief_mm, extra = ask.pitch_mm, ask.relief_mm, ask.extra
     network = _is_network(lines) and not _members_explain(members, lines, pitch_mm)
     if not network:
         # A network of the other polarity (dark lines between bright grains whose own brightness
@@ -370,8 +413,8 @@ def make_content(work: np.ndarray, *, pitch_mm: float, relief_mm: float, width_m
                                 f"{'dark' if polarity.bright else 'bright'} lines form a network ({other.cell_count} regions), so they are "
                                 f"raised and the regions they enclose sit at the base")
     if network:
-        return _as_lines(lines, pitch_mm, relief_mm, width_mm, polarity, lattice + meta, "lines")
-    packed = _packed_bright_field(work, pitch_mm) if polarity.empty and not _is_population(members, pitch_mm) else None
+        return _as_lines(lines, pitch_mm, relief_mm, ask.width_mm, polarity, extra, "lines")
+    packed = _packed_bright_field(ask.work, pitch_mm) if polarity.empty and not _is_population(members, pitch_mm) else None
     if packed is not None:
         # The "empty bright ground" is a packed field of bright round members (cells on a filter,
         # sintered spheres): they are raised, the dark gaps between them, which split into more
@@ -380,46 +423,56 @@ def make_content(work: np.ndarray, *, pitch_mm: float, relief_mm: float, width_m
         polarity = Polarity(True, polarity.ground, f"the bright side is no empty ground but {int(labels.max())} round members of one "
                                                   f"size packed edge to edge ({wider:.1f} times as wide as the dark gaps between "
                                                   f"them), so the members are raised and the gaps sit at the base")
-        return _as_members(labels, pitch_mm, relief_mm, polarity, lattice + meta, picture=finder.picture(True),
+        made = _as_members(labels, pitch_mm, relief_mm, polarity, extra, picture=finder.picture(True),
                            what=f"{int(labels.max())} packed members, parted where their outlines meet")
+        return _with_fibres(made, finder, True, pitch_mm, relief_mm)
     if _is_population(members, pitch_mm) and not _dense_field_beats(finder.blobs(polarity.bright), members, pitch_mm):
         blobs = finder.blobs(polarity.bright)
-        return _as_members(members.labels, pitch_mm, relief_mm, polarity, lattice + meta, picture=finder.picture(polarity.bright),
+        made = _as_members(members.labels, pitch_mm, relief_mm, polarity, extra, picture=finder.picture(polarity.bright),
                            dense_field=blobs is not None and blobs.dense and period is None,  # a lattice is found whole
                            what=f"{members.count} members found by local contrast (each against the ground around it, cut at half its own peak; "
                            f"dimmest {np.min(members.contrast):.2f}, brightest {np.max(members.contrast):.2f} of the range)")
+        return _with_fibres(made, finder, polarity.bright, pitch_mm, relief_mm)
+    return None
+
+
+def _other_content(ask: _Ask, finder: "_Finder", polarity: Polarity, lines: Lines, specimen: np.ndarray, found,
+                   fine) -> ContentMade | None:
+    """Line art, objects wider than the local ground, a network thinner than the print grid, or a
+    dense field of small members; None when the picture holds none of them."""
+    pitch_mm, relief_mm, width_mm, extra = ask.pitch_mm, ask.relief_mm, ask.width_mm, ask.extra
     if _is_line_art(lines, polarity, specimen):
         # Strokes on empty paper (a diagram, a drawing) are raised as lines however few regions
         # they enclose: tactile graphics raise the lines, never groove them.
-        return _as_lines(lines, pitch_mm, relief_mm, width_mm, polarity, lattice + meta, "lines",
+        return _as_lines(lines, pitch_mm, relief_mm, width_mm, polarity, extra, "lines",
                          what=f"line art: {lines.length_mm:.0f} mm of strokes on an empty ground "
                               f"(ridge strength {lines.strength:.0f} × noise)")
     # Objects wider than the local ground (the FePt spheres) are found by the edges around them.
     big = _large_edge_objects(found() if callable(found) else found, pitch_mm)
     if big is not None:
-        return _as_members(big, pitch_mm, relief_mm, polarity, lattice + meta,
+        return _as_members(big, pitch_mm, relief_mm, polarity, extra,
                            f"{int(big.max())} objects outlined by edges, wider than the {BACKGROUND_MM:g} mm local ground")
-    thin = _fine_network(fine, work.shape, pitch_mm, width_mm, min_area_mm2)
+    thin = _fine_network(fine, ask.work.shape, pitch_mm, width_mm, ask.min_area_mm2)
     if thin is not None:
         bright, fine_pitch_mm, found_lines = thin
         side = "bright" if bright else "dark"
         polarity = Polarity(bright, polarity.ground, f"the {side} lines form the network, so they are raised and the regions "
                                                     f"they enclose sit at the base")
-        return _as_lines(found_lines, pitch_mm, relief_mm, width_mm, polarity, lattice + meta, "lines",
+        return _as_lines(found_lines, pitch_mm, relief_mm, width_mm, polarity, extra, "lines",
                          what=(f"a network of {side} lines thinner than the print grid, found on a {fine_pitch_mm:.2f} mm grid "
                                f"before the print's blur, enclosing {found_lines.cell_count} regions ({found_lines.length_mm:.0f} mm "
                                f"of line, ridge strength {found_lines.strength:.0f} × noise)"))
+    made = _fibre_field(ask, finder, polarity)
+    if made is not None:
+        return made
     # A dense field of small members the segmentation could not part (dense.py): one size, as
     # particles have and texture has not.
     blobs = finder.blobs(polarity.bright)
     if blobs is not None and blobs.dense:
-        made = _as_dense_field(blobs, finder.picture(polarity.bright), pitch_mm, relief_mm, polarity, lattice + meta)
+        made = _as_dense_field(blobs, finder.picture(polarity.bright), pitch_mm, relief_mm, polarity, extra)
         if made.labels is not None and made.labels.max():
             return made
-    if not fallback:
-        return None
-    return _weak_contrast(work, x, pitch_mm, relief_mm, width_mm, min_area_mm2, polarity, lattice + meta,
-                          None if specimen.all() else specimen, grains=False)
+    return None
 
 
 class _Finder:
@@ -438,13 +491,17 @@ class _Finder:
     def picture(self, bright: bool) -> np.ndarray:
         return self.work if bright else 1.0 - self.work
 
+    def ridges(self) -> tuple[np.ndarray, np.ndarray]:
+        """The ridge response of bright lines and of dark ones (hessian_ridges), computed once."""
+        if self._ridges is None:
+            self._ridges = hessian_ridges(self.work, self.pitch_mm)
+        return self._ridges
+
     def lines(self, bright: bool) -> Lines:
         """Lines brighter than both sides in the picture (bright) or in its inverse."""
         if bright not in self._lines:
-            if self._ridges is None:
-                self._ridges = hessian_ridges(self.work, self.pitch_mm)
             self._lines[bright] = find_lines(self.picture(bright), pitch_mm=self.pitch_mm, min_area_mm2=self.min_area_mm2,
-                                             response=self._ridges[0 if bright else 1], noise=self.noise)
+                                             response=self.ridges()[0 if bright else 1], noise=self.noise)
         return self._lines[bright]
 
     def blobs(self, bright: bool) -> BlobScale | None:
@@ -663,6 +720,202 @@ def _as_members(labels: np.ndarray, pitch_mm, relief_mm, polarity, extra, what, 
     return ContentMade(domes, "members", labels, reason, tuple(notes), split_pairs=split)
 
 
+FIBRE_GROUND_MM = 12.0  # straight lines run this far in all over the ground between members (1 mm clear of them): fibres
+FIBRE_PIECE_MM = 1.5  # in pieces at least this long (a fibre crossing a gap between two members)
+FIBRE_STRAIGHT = 0.8  # each this straight (end-to-end over its length along the skeleton): fibres, not rims or specks
+FIBRE_BROAD_MM = 1.5  # a fibre answers the ridge filter more at its fine scale (lines.RIDGE_SIGMA_MM) than at this
+FIBRE_DETAIL_SHARE = 0.5  # fibres alone (no members, no network) carry this share of the ridge response within 1 mm
+FIBRE_GAP_MM = 4.0  # a fibre goes on along its ridge this far past its straight pieces (through crossings)
+FIBRE_COVER = 0.6  # a fibre's pieces run along this share of its course over the clear ground
+FIBRE_SLENDER = 0.5  # a member this slender (minor / major axis) may be a piece of a fibre
+FIBRE_MADS = 6.0  # the ridge response over the ground stands this many robust deviations above its median
+
+
+def _with_fibres(made: ContentMade, finder: "_Finder", bright: bool, pitch_mm: float, relief_mm: float) -> ContentMade:
+    """Members with the thin fibres that cross them and the ground between them raised as lines
+    (issue 32, class 1: fibres over cells on a filter are raised lines, not lost in the ground).
+    Over the ground clear of every member (1 mm away), the ridge response above the noise
+    (FIBRE_MADS robust deviations of the response there, and 3 × the picture's noise) is thinned;
+    straight pieces (FIBRE_STRAIGHT, at least FIBRE_PIECE_MM long) are fibres when they run
+    FIBRE_GROUND_MM in all; they are drawn
+    LINE_WIDTH_MM wide and LINE_HEIGHT_MM high (the members' domes stand over them where they
+    cross). Members' rims and the bridges between touching members lie within 1 mm of them."""
+    if made.labels is None or not made.labels.max() or relief_mm <= 0:
+        return made
+    # Elongated members (a fibre's piece between two cells, found as a member) do not hide it.
+    count_members = int(made.labels.max())
+    slender = np.concatenate([[False], roundness(made.labels, count_members)[1:] < FIBRE_SLENDER])
+    solid = (made.labels > 0) & ~slender[made.labels]
+    clear = ~ndimage.binary_dilation(solid, iterations=max(1, round(1.0 / pitch_mm)))
+    fibres, count = _fibre_lines(finder, bright, pitch_mm, clear)
+    if not count:
+        return made
+    from dataclasses import replace
+
+    from .lines import network_of
+
+    drawn = draw_lines(network_of(fibres, pitch_mm=pitch_mm, min_area_mm2=1e9, strength=0.0), pitch_mm)
+    height = min(LINE_HEIGHT_MM, relief_mm)
+    labels, relief01 = _without_fibre_pieces(made, slender, fibres)
+    relief01 = np.maximum(relief01, drawn * height / relief_mm).astype(np.float32)
+    length_mm = float(fibres.sum() * pitch_mm * 1.12)
+    reason = (f"{made.reason}; {count} thin fibres ({length_mm:.0f} mm of line over the ground) cross the members "
+              f"and the ground between them: raised as lines {LINE_WIDTH_MM:g} mm wide and {height:.1f} mm high")
+    return replace(made, relief01=relief01, reason=reason, line_mask=fibres, labels=labels)
+
+
+def _fibre_lines(finder: "_Finder", bright: bool, pitch_mm: float, clear: np.ndarray) -> tuple[np.ndarray, int]:
+    """(skeleton, count) of the thin straight fibres over `clear` (see _with_fibres); count 0 when
+    there are none. The ridge response above the noise there (FIBRE_MADS robust deviations, and
+    3 × the picture's noise), finer than FIBRE_BROAD_MM, thinned, apart at crossings; its straight
+    pieces collinear with FIBRE_GROUND_MM of others (_straight_runs)."""
+    none = np.zeros(clear.shape, bool), 0
+    if clear.sum() < 100:
+        return none
+    response = finder.ridges()[0 if bright else 1]
+    ground = response[clear]
+    med = float(np.median(ground))
+    mad = 1.4826 * float(np.median(np.abs(ground - med))) + 1e-9
+    mask = clear & (response > max(med + FIBRE_MADS * mad, 3 * finder.noise))
+    if not mask.any():
+        return none
+    # Thin: the ridge answers more at the fine scale than at FIBRE_BROAD_MM (both scale-normalised);
+    # the edges of broad bands (a coarse picture's blocks, shading) answer more at the broad one.
+    broad = hessian_ridges(finder.work, pitch_mm, sigma_mm=FIBRE_BROAD_MM)[0 if bright else 1]
+    whole = morphology.skeletonize(mask & (response >= broad))
+    # Apart at crossings (skeleton points with three or more neighbours): two fibres that cross
+    # are two straight pieces, not one bent one.
+    neighbours = ndimage.convolve(whole.astype(np.uint8), np.ones((3, 3), np.uint8), mode="constant") - 1
+    skeleton = whole & ~ndimage.binary_dilation(whole & (neighbours >= 3))
+    # Lines, not the flanks of a brighter line (the Hessian answers there for the other side).
+    skeleton = brighter_than_both_sides(skeleton, finder.picture(bright), pitch_mm)
+    parts, n = ndimage.label(skeleton, structure=np.ones((3, 3)))
+    if n == 0:
+        return none
+    fibres, count, lines = _straight_runs(skeleton, parts, n, pitch_mm, clear)
+    if not count:
+        return none
+    # Where fibres cross at a small angle their ridge is broad, and the crossings were cut out
+    # above: the fibres go on along the ridge skeleton (without the fineness rule) up to
+    # FIBRE_GAP_MM from their straight pieces, along their own lines.
+    yy, xx = np.mgrid[0 : clear.shape[0], 0 : clear.shape[1]]
+    along = np.zeros(clear.shape, bool)
+    for theta, dist in lines:
+        along |= np.abs(xx * np.cos(theta) + yy * np.sin(theta) - dist) <= 1.5
+    loose = (morphology.skeletonize(mask) | whole) & along
+    for _ in range(max(1, round(FIBRE_GAP_MM / pitch_mm))):
+        grown = fibres | (loose & ndimage.binary_dilation(fibres, structure=np.ones((3, 3), bool)))
+        if grown.sum() == fibres.sum():
+            break
+        fibres = grown
+    return fibres, count
+
+
+def _fibre_field(ask: _Ask, finder: "_Finder", polarity: Polarity) -> ContentMade | None:
+    """Straight fibres with no members and no network (stress fibres, collagen bundles,
+    microtubules in one channel) raised as oriented lines, not the plateaus their mesh of
+    crossings makes of the picture's shape; None when they run less than LINE_ART_MM in all. On
+    a mid-grey ground the side whose fibres run longer is raised."""
+    everywhere = np.ones(ask.work.shape, bool)
+    sides = [polarity.bright, not polarity.bright] if polarity.undecided else [polarity.bright]
+    found = [(float(mask.sum()), bright, mask, count) for bright in sides
+             for mask, count in [_fibre_lines(finder, bright, ask.pitch_mm, everywhere)] if count]
+    if not found:
+        return None
+    length_px, bright, fibres, count = max(found, key=lambda f: f[0])
+    if length_px * ask.pitch_mm * 1.12 < LINE_ART_MM:
+        return None
+    # The fibres are what the picture shows: they carry most of its lines of that side (the ridge
+    # response; a photograph's straight edges, a tripod's legs, carry little of it).
+    response = finder.ridges()[0 if bright else 1]
+    near = ndimage.binary_dilation(fibres, iterations=max(1, round(1.0 / ask.pitch_mm)))
+    if float(response[near].sum()) < FIBRE_DETAIL_SHARE * float(response.sum()):
+        return None
+    if bright != polarity.bright:
+        side = "bright" if bright else "dark"
+        polarity = Polarity(bright, polarity.ground, f"the {side} lines are straight fibres, so they are raised and the ground "
+                                                    f"between them sits at the base")
+    from .lines import network_of
+
+    found_lines = network_of(fibres, pitch_mm=ask.pitch_mm, min_area_mm2=ask.min_area_mm2, strength=0.0)
+    return _as_lines(found_lines, ask.pitch_mm, ask.relief_mm, ask.width_mm, polarity, ask.extra, "lines",
+                     what=f"{count} straight fibres ({found_lines.length_mm:.0f} mm of line), no members and no network")
+
+
+def _without_fibre_pieces(made: ContentMade, slender: np.ndarray, fibres: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(labels, relief01) without the slender members lying along a fibre (at least half of them
+    within 2 points of it): they were pieces of it, drawn as the line, not as domes."""
+    count = int(made.labels.max())
+    near = ndimage.binary_dilation(fibres, iterations=2)
+    on_fibre = np.bincount(made.labels[near], minlength=count + 1) >= 0.5 * np.bincount(made.labels.ravel(), minlength=count + 1)
+    dropped = slender & on_fibre
+    dropped[0] = False
+    if not dropped.any():
+        return made.labels, made.relief01
+    gone = dropped[made.labels]
+    labels = segmentation.relabel_sequential(np.where(gone, 0, made.labels))[0].astype(np.int32)
+    return labels, np.where(gone | (ndimage.binary_dilation(gone, iterations=2) & (labels == 0)), 0.0, made.relief01)
+
+
+def _covers_its_line(parts: np.ndarray, ids: np.ndarray, theta: float, dist: float, clear: np.ndarray) -> bool:
+    """Whether the pieces `ids` run along FIBRE_COVER of their line's course over the clear ground
+    between their ends: a fibre is continuous where nothing lies over it; a row of dashes (the
+    banding of a coarse picture, a chain of specks) is not."""
+    ys, xs = np.nonzero(np.isin(parts, ids))
+    direction = np.array([-np.sin(theta), np.cos(theta)])  # along the line, (x, y)
+    t = xs * direction[0] + ys * direction[1]
+    steps = np.arange(float(t.min()), float(t.max()) + 1.0)
+    px = np.rint(dist * np.cos(theta) + steps * direction[0]).astype(int)
+    py = np.rint(dist * np.sin(theta) + steps * direction[1]).astype(int)
+    inside = (px >= 0) & (py >= 0) & (px < clear.shape[1]) & (py < clear.shape[0])
+    course = int(clear[py[inside], px[inside]].sum())
+    return ys.size >= FIBRE_COVER * max(course, 1)
+
+
+def _straight_runs(skeleton: np.ndarray, parts: np.ndarray, n: int, pitch_mm: float,
+                   clear: np.ndarray) -> tuple[np.ndarray, int, list[tuple[float, float]]]:
+    """(mask, how many lines, the lines as (theta, distance) of their normal) of the skeleton's pieces that lie along straight lines carrying FIBRE_GROUND_MM of it in all
+    (a Hough transform's peaks: a fibre crosses the ground in many pieces between the members it
+    passes over, all on one line), each piece at least FIBRE_PIECE_MM long, straight
+    (FIBRE_STRAIGHT) and running along its line (within 25 degrees). Halos and rims around
+    members are arcs: no straight line collects enough of them."""
+    from skimage.transform import hough_line, hough_line_peaks
+
+    size = np.bincount(parts.ravel(), minlength=n + 1)
+    pieces = np.zeros(n + 1, bool)
+    angle = np.zeros(n + 1)
+    for k, box in enumerate(ndimage.find_objects(parts), 1):
+        if box is None or size[k] * pitch_mm * 1.12 < FIBRE_PIECE_MM:
+            continue
+        ys, xs = np.nonzero(parts[box] == k)
+        if float(np.hypot(np.ptp(ys), np.ptp(xs))) >= FIBRE_STRAIGHT * ys.size:
+            pieces[k] = True
+            cov = np.cov(np.stack([xs, ys]).astype(np.float64)) if ys.size > 2 else np.eye(2)
+            _, vecs = np.linalg.eigh(cov)
+            angle[k] = float(np.arctan2(vecs[1, -1], vecs[0, -1]))
+    candidates = pieces[parts]
+    votes = FIBRE_GROUND_MM / (pitch_mm * 1.12)
+    if candidates.sum() < votes:
+        return np.zeros_like(skeleton), 0, []
+    accumulator, thetas, dists = hough_line(candidates, theta=np.linspace(-np.pi / 2, np.pi / 2, 180, endpoint=False))
+    votes_at, peak_thetas, peak_dists = hough_line_peaks(accumulator, thetas, dists, threshold=votes, min_distance=3, min_angle=5)
+    log.debug("fibre lines: %s votes each, %d candidate px", [int(v) for v in votes_at], int(candidates.sum()))
+    keep = np.zeros(n + 1, bool)
+    count = 0
+    lines: list[tuple[float, float]] = []
+    yy, xx = np.nonzero(candidates)
+    for theta, dist in zip(peak_thetas, peak_dists):
+        on = np.abs(xx * np.cos(theta) + yy * np.sin(theta) - dist) <= 1.5
+        ids = np.unique(parts[yy[on], xx[on]])
+        # the line's direction is perpendicular to its normal theta; a piece along it, not across
+        along = np.abs(np.sin(angle[ids] - (theta + np.pi / 2))) <= np.sin(np.radians(25))
+        if size[ids[along]].sum() >= votes and _covers_its_line(parts, ids[along], theta, dist, clear):
+            keep[ids[along]] = True
+            count += 1
+            lines.append((theta, dist))
+    return keep[parts], count, lines
+
+
 def _as_dense_field(blobs: BlobScale, picture: np.ndarray, pitch_mm: float, relief_mm: float, polarity: Polarity, extra: str) -> ContentMade:
     """A dense field of small members (dense.py): each point rises by its own local contrast (a
     top-hat DENSE_TOPHAT_WIDTHS members wide, its DENSE_LIFT_PCT percentile at tanh(1) of the lift), so
@@ -758,6 +1011,27 @@ def _lattice_picture(work: np.ndarray, spectrum: Spectrum, fine, pitch_mm: float
     return picture, fine_pitch_mm, found.period, noise_level(picture.astype(np.float32))
 
 
+def _column_domes(shape: tuple[int, int], peaks: np.ndarray, upper: np.ndarray | None, radius: float, pitch_mm: float,
+                  relief_mm: float) -> tuple[np.ndarray, np.ndarray, float, float]:
+    """(relief01, labels, step_mm, dome_mm) of a lattice's columns at `peaks` on the working grid.
+    A brighter layer (`upper`) stands on a plateau a step higher (the cells of its columns); every
+    column is a domed cap of one height (as a braille dot), at most PIN_ASPECT times its radius
+    tall: a 3 mm spike on a 1 mm base is a prick, not a dome, and does not print."""
+    step_mm = min(max(GRAIN_STEP_MM, relief_mm / 4), relief_mm / 3) if upper is not None and relief_mm > 0 else 0.0
+    dome_mm = min(relief_mm - step_mm, PIN_ASPECT * (radius + 0.5) * pitch_mm)
+    on_plateau = np.zeros(len(peaks) + 1, np.float32)
+    if upper is not None:
+        on_plateau[1:][upper] = step_mm
+    ids = np.zeros(shape, np.int32)
+    ids[tuple(peaks.T)] = np.arange(1, len(peaks) + 1)
+    dist, (iy, ix) = ndimage.distance_transform_edt(ids == 0, return_indices=True)
+    owner = ids[iy, ix]
+    cap = np.sqrt(np.clip(1.0 - (dist / (radius + 0.5)) ** 2, 0.0, 1.0))  # down to the ground at radius + 0.5 px
+    relief01 = ((on_plateau[owner] + dome_mm * cap) / max(relief_mm, 1e-9)).astype(np.float32)
+    labels = np.where(dist <= radius, owner, 0).astype(np.int32)
+    return relief01, labels, step_mm, dome_mm
+
+
 def _as_lattice(shape: tuple[int, int], x: np.ndarray, x_pitch_mm: float, pitch_mm: float, period: Period, relief_mm: float,
                 width_mm: float, polarity: Polarity, extra: str, noise: float) -> ContentMade | None:
     """A lattice raised column by column (issue 32): every column a dome of the same lift,
@@ -791,21 +1065,7 @@ def _as_lattice(shape: tuple[int, int], x: np.ndarray, x_pitch_mm: float, pitch_
     # The columns on the working grid (found on a finer picture, if so).
     scale = (np.array(shape, np.float64) - 1) / (np.array(x.shape, np.float64) - 1)
     peaks = np.clip(np.rint(peaks * scale).astype(np.int64), 0, np.array(shape) - 1)
-    # A brighter layer stands on a plateau a step higher (the cells of its columns); every column
-    # is a domed cap of one height (as a braille dot), at most PIN_ASPECT times its radius tall:
-    # a 3 mm spike on a 1 mm base is a prick, not a dome, and does not print.
-    step_mm = min(max(GRAIN_STEP_MM, relief_mm / 4), relief_mm / 3) if upper is not None and relief_mm > 0 else 0.0
-    dome_mm = min(relief_mm - step_mm, PIN_ASPECT * (radius + 0.5) * pitch_mm)
-    on_plateau = np.zeros(len(peaks) + 1, np.float32)
-    if upper is not None:
-        on_plateau[1:][upper] = step_mm
-    ids = np.zeros(shape, np.int32)
-    ids[tuple(peaks.T)] = np.arange(1, len(peaks) + 1)
-    dist, (iy, ix) = ndimage.distance_transform_edt(ids == 0, return_indices=True)
-    owner = ids[iy, ix]
-    cap = np.sqrt(np.clip(1.0 - (dist / (radius + 0.5)) ** 2, 0.0, 1.0))  # down to the ground at radius + 0.5 px
-    relief01 = ((on_plateau[owner] + dome_mm * cap) / max(relief_mm, 1e-9)).astype(np.float32)
-    labels = np.where(dist <= radius, owner, 0).astype(np.int32)
+    relief01, labels, step_mm, dome_mm = _column_domes(shape, peaks, upper, radius, pitch_mm, relief_mm)
     found = LatticeFound(len(peaks), spacing_mm, len(fine_peaks), fine_spacing_mm, 1 if upper is None else 2,
                          0 if upper is None else int(upper.sum()), step_mm, dome_mm=dome_mm)
     what = (f"a lattice of {spacing_mm:.1f} mm pitch on the print: {len(peaks)} columns, each raised as a dome {dome_mm:.1f} mm "
@@ -870,7 +1130,15 @@ def find_specimen(work: np.ndarray, pitch_mm: float) -> np.ndarray:
     detail = np.abs(work - smooth)
     if np.median(detail[dark]) > 0.5 * np.median(detail[~dark]) + 0.01 or np.median(work[dark]) > 0.25:
         return np.ones(work.shape, bool)
-    return ndimage.binary_opening(~dark, iterations=2)
+    specimen = ndimage.binary_opening(~dark, iterations=2)
+    # A specimen on a mount is one piece, or a few large ones; many small pieces with none holding
+    # most of them are a population on an empty ground (cells on a filter, beads, particles), whose
+    # ground the whole picture's polarity finds: taken as a specimen, the members' own brightness
+    # would be its "ground" and the members would go to the base.
+    pieces, n = ndimage.label(specimen)
+    if n >= SCATTERED_PIECES and float(np.bincount(pieces.ravel())[1:].max()) < 0.5 * float(specimen.sum()):
+        return np.ones(work.shape, bool)
+    return specimen
 
 
 def has_grain_structure(work: np.ndarray, specimen: np.ndarray, pitch_mm: float) -> bool:

@@ -211,33 +211,47 @@ def verdicts(f: dict, nozzle_mm: float, style: str | None = None) -> tuple[str, 
     """Plain sentences, each with advice where something reads badly (never to use the style in use)."""
     if f["relief_span_mm"] < 0.05 and f["levels_used"] <= 1:
         return ("This print is a flat plate: there is nothing raised to feel.",)
-    out = []
+    out = [_fine_verdict(f, style)]
+    out += _level_verdicts(f)
+    out += _narrow_verdicts(f, nozzle_mm, style)
+    if f["object_count"] and style != "content":  # the content style's own check says how high its members stand (once)
+        out.append(_object_verdict(f, style))
+    out.append(f"The steepest slope is {f['steepest_slope_deg']:.0f} degrees.")
+    return tuple(out)
+
+
+def _fine_verdict(f: dict, style: str | None) -> str:
+    """How much of the relief is finer than a fingertip resolves, and what that is."""
     share = f["fine_share"]
     if share > FINE_SHARE_WARN and f.get("period_mm"):
-        out.append(
+        return (
             f"{share:.0%} of this relief's height variation is finer than a 1 mm low-pass keeps, but it is a lattice of "
             f"{f['period_mm']:.1f} mm pitch, which fingers feel as a pattern (braille dots are 2.5 mm apart), not as roughness."
         )
-    elif share > FINE_SHARE_WARN and style == "content":
+    if share > FINE_SHARE_WARN and style == "content":
         # The content style draws lines and members' edges on purpose: advice to smooth them
         # away would erase the main content.
-        out.append(
+        return (
             f"{share:.0%} of this relief's height variation is finer than a fingertip resolves (about 1 mm): it is the "
             f"edges of the drawn content (raised lines, members' outlines), kept on purpose; a wider print spreads it out."
         )
-    elif share > FINE_SHARE_WARN and style == "channels":
+    if share > FINE_SHARE_WARN and style == "channels":
         # the channels' textures (ridges, dots) are drawn at a set spacing on purpose; detail_mm and the
         # relief style do not reach them, so there is nothing to advise
-        out.append(f"{share:.0%} of this relief's height variation is finer than a fingertip resolves (about 1 mm): it is "
-                   f"the channels' textures (ridges, dots), drawn so on purpose and named in the key.")
-    elif share > FINE_SHARE_WARN:
-        out.append(Text(
+        return (f"{share:.0%} of this relief's height variation is finer than a fingertip resolves (about 1 mm): it is "
+                f"the channels' textures (ridges, dots), drawn so on purpose and named in the key.")
+    if share > FINE_SHARE_WARN:
+        return Text(
             f"{share:.0%} of this relief's height variation is finer than a fingertip resolves (about 1 mm), so it is "
             f"felt as roughness, not as shape; "
             + ("try a larger `detail_mm` or a lower `texture_mm`." if style == "structure" else "try `relief_style` structure, or a larger `detail_mm`.")
-        ))
-    else:
-        out.append(f"Most of the relief is shape a fingertip can follow: only {share:.0%} of its variation is finer than about 1 mm.")
+        )
+    return f"Most of the relief is shape a fingertip can follow: only {share:.0%} of its variation is finer than about 1 mm."
+
+
+def _level_verdicts(f: dict) -> list[str]:
+    """How many height levels, and whether fingers tell the steps apart."""
+    out = []
     levels, step = f["levels_used"], f["smallest_step_mm"]
     if levels > MANY_LEVELS:
         out.append(f"The heights vary continuously ({levels} layer levels in use): read it as a landscape, not as distinct levels.")
@@ -248,6 +262,12 @@ def verdicts(f: dict, nozzle_mm: float, style: str | None = None) -> tuple[str, 
         )
     elif step is not None:
         out.append(f"{levels} distinct height levels, at least {step:.2g} mm apart: easy to tell apart by touch.")
+    return out
+
+
+def _narrow_verdicts(f: dict, nozzle_mm: float, style: str | None) -> list[str]:
+    """Raised detail narrower than two nozzle widths, said as what it is for the style."""
+    out = []
     if f["narrow_share"] > 0.05 and style == "content":  # a lattice's columns, small domes: drawn so on purpose
         out.append(f"{f['narrow_area_mm2']:.0f} mm² ({f['narrow_share']:.0%} of the picture) is raised detail narrower than two "
                    f"nozzle widths ({2 * nozzle_mm:g} mm): the drawn content's small domes and lines, kept on purpose; a wider "
@@ -260,18 +280,19 @@ def verdicts(f: dict, nozzle_mm: float, style: str | None = None) -> tuple[str, 
             f"{f['narrow_area_mm2']:.0f} mm² ({f['narrow_share']:.0%} of the picture) is ridges or grooves narrower than two "
             f"nozzle widths ({2 * nozzle_mm:g} mm): they may not print and read as noise; a larger `detail_mm` removes them."
         ))
-    if f["object_count"] and style != "content":  # the content style's own check says how high its members stand (once)
-        lift, low = f["object_lift_mm"], f["lowest_lift_mm"]
-        n = f["object_count"]
-        if lift < LIFT_MM:
-            out.append(Text(
-                f"The {n} object{'s' * (n != 1)} stand{'s' * (n == 1)} only {lift:.2g} mm (median) above the ground around "
-                f"{'it' if n == 1 else 'them'}; "
-                f"a finger may not find {'it' if n == 1 else 'them'}; "
-                + ("try a taller `relief_mm`." if style in ("objects", "content") else "try `relief_style` objects.")
-            ))
-        else:
-            out.append(f"{n} object{'s' * (n != 1)} stand{'s' * (n == 1)} {lift:.2g} mm (median; lowest {low:.2g} mm) above the "
-                       f"ground around {'it' if n == 1 else 'them'}.")
-    out.append(f"The steepest slope is {f['steepest_slope_deg']:.0f} degrees.")
-    return tuple(out)
+    return out
+
+
+def _object_verdict(f: dict, style: str | None) -> str:
+    """How high the objects stand above the ground around them (styles other than content)."""
+    lift, low = f["object_lift_mm"], f["lowest_lift_mm"]
+    n = f["object_count"]
+    if lift < LIFT_MM:
+        return Text(
+            f"The {n} object{'s' * (n != 1)} stand{'s' * (n == 1)} only {lift:.2g} mm (median) above the ground around "
+            f"{'it' if n == 1 else 'them'}; "
+            f"a finger may not find {'it' if n == 1 else 'them'}; "
+            + ("try a taller `relief_mm`." if style in ("objects", "content") else "try `relief_style` objects.")
+        )
+    return (f"{n} object{'s' * (n != 1)} stand{'s' * (n == 1)} {lift:.2g} mm (median; lowest {low:.2g} mm) above the "
+            f"ground around {'it' if n == 1 else 'them'}.")

@@ -121,7 +121,7 @@ def find_lines(bright01: np.ndarray, *, pitch_mm: float, min_area_mm2: float = 6
     mask = response > thresh
     skeleton = morphology.skeletonize(mask)
     skeleton = _drop_short(skeleton, MIN_PIECE_MM / pitch_mm)
-    skeleton = _brighter_than_both_sides(skeleton, image, pitch_mm)
+    skeleton = brighter_than_both_sides(skeleton, image, pitch_mm)
     on = response[skeleton]
     strength = float((np.median(on) - med) / mad) if on.size else 0.0
     return network_of(skeleton, pitch_mm=pitch_mm, min_area_mm2=min_area_mm2, strength=strength)
@@ -206,7 +206,7 @@ def draw_lines(lines: Lines, pitch_mm: float) -> np.ndarray:
     return np.maximum(profile, lines.merged.astype(np.float32)).astype(np.float32)
 
 
-def _brighter_than_both_sides(skeleton: np.ndarray, image: np.ndarray, pitch_mm: float) -> np.ndarray:
+def brighter_than_both_sides(skeleton: np.ndarray, image: np.ndarray, pitch_mm: float) -> np.ndarray:
     """Keep skeleton pieces that are lines, not step edges: along a line the ground is darker on
     both sides, so even the brighter side of the band 0.8–1.6 mm away (its 80th percentile) stays
     below the line; beside a step edge one side is as bright as the edge itself."""

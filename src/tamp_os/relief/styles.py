@@ -20,6 +20,7 @@ work with every style, upstream of it.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 
@@ -127,36 +128,46 @@ def make_relief(
     check_style(style, options, mm_per_px)
     if style == "reference" or uniform:
         reason = "brightness mapped to height, as the reference workflow does" if style == "reference" else "the picture is uniform: a flat plate"
-        used = "reference" if style == "auto" else style
-        return ReliefResult(heights_mm(image01, base_mm=base_mm, relief_mm=relief_mm, layer_mm=layer_mm), used, reason)
+        return ReliefResult(heights_mm(image01, base_mm=base_mm, relief_mm=relief_mm, layer_mm=layer_mm),
+                            "reference" if style == "auto" else style, reason)
     # Shape and objects are read at fingertip scale: a grid at the nozzle's pitch carries all of it.
     grid = WorkGrid.plan(image01.shape, mm_per_px, options.nozzle_mm, max_points=WORK_MAX_POINTS)
     work = grid.down(image01)
     # Every style (and auto's choice) reads the same objects: find them once (content asks only if it needs them).
-    found_once: list[ObjectMap] = []
-
-    def objects_found() -> ObjectMap:
-        if not found_once:
-            found_once.append(find_objects_in_picture(work, pitch_mm=grid.pitch_mm, min_area_mm2=options.min_area_mm2, nozzle_mm=options.nozzle_mm))
-        return found_once[0]
+    objects_found = functools.cache(lambda: find_objects_in_picture(work, pitch_mm=grid.pitch_mm, min_area_mm2=options.min_area_mm2,
+                                                                    nozzle_mm=options.nozzle_mm))
 
     if style in ("content", "auto"):
-        # auto tries the content translation first: the benchmark (README, relief styles) shows
-        # it ahead wherever it finds members, a line network or grains; elsewhere auto picks as before.
-        content = _content(image01, grid, work, objects_found, mm_per_px=mm_per_px, base_mm=base_mm, relief_mm=relief_mm,
-                           layer_mm=layer_mm, options=options, hints=hints, fallback=style == "content", fine=fine)
-        if style == "content":
+        content = _content_first(image01, grid, work, objects_found, style=style, mm_per_px=mm_per_px, base_mm=base_mm,
+                                 relief_mm=relief_mm, layer_mm=layer_mm, options=options, hints=hints, fine=fine)
+        if content is not None or style == "content":
             return content
-        if content is not None and content.content_kind != "shape":
-            return ReliefResult(content.heights_mm, "content", f"auto chose content ({_KIND_WORDS[content.content_kind]}): {content.reason}",
-                                content.objects, (), content.notes, content.checks, content.content_kind,
-                                content.lattice_pitch_mm)
     found = objects_found()
+    reason = ""
     if style == "auto":
         style, reason = choose_style(work, pitch_mm=grid.pitch_mm, options=options, found=found)
-    else:
-        reason = ""
     made = _STYLE_FUNCS[style](work, grid.pitch_mm, relief_mm, options, found)
+    return _on_output_grid(made, style, reason, grid, base_mm=base_mm, relief_mm=relief_mm, layer_mm=layer_mm)
+
+
+def _content_first(image01, grid, work, found, *, style: str, mm_per_px, base_mm, relief_mm, layer_mm, options, hints,
+                   fine) -> ReliefResult | None:
+    """The content style's relief; for auto, only when it found content (not the fallback
+    shape), else None. Auto tries the content translation first: the benchmark (README, relief
+    styles) shows it ahead wherever it finds members, a line network or grains; elsewhere auto
+    picks as before."""
+    content = _content(image01, grid, work, found, mm_per_px=mm_per_px, base_mm=base_mm, relief_mm=relief_mm,
+                       layer_mm=layer_mm, options=options, hints=hints, fallback=style == "content", fine=fine)
+    if style == "content" or content is None or content.content_kind == "shape":
+        return content if style == "content" else None
+    return ReliefResult(content.heights_mm, "content", f"auto chose content ({_KIND_WORDS[content.content_kind]}): {content.reason}",
+                        content.objects, (), content.notes, content.checks, content.content_kind, content.lattice_pitch_mm)
+
+
+def _on_output_grid(made: "_Made", style: str, reason: str, grid, *, base_mm: float, relief_mm: float,
+                    layer_mm: float | None) -> ReliefResult:
+    """A style's relief (on the working grid) brought to the output grid as heights in mm, with
+    its objects' labels and, for levels, the plateaus' heights."""
     relief01 = _full_span(np.clip(grid.up(made.relief01, nearest=style == "levels"), 0.0, 1.0))
     labels = None
     if made.objects is not None and made.objects.count:

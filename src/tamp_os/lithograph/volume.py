@@ -43,6 +43,7 @@ SPECK_MM3 = 1.0  # parts smaller than a 1 mm cube are noise to a finger: dropped
 WALL_SAMPLES = 5000
 RESIN_WORDS = ("resin", "sla", "msla", "dlp", "lcd")
 FDM_WALL_MM, RESIN_WALL_MM = 1.0, 0.6
+COARSER = (1.5, 2.0, 3.0, 4.0)  # the working grid made this many times coarser, in turn, when simplifying alone misses the budget
 
 
 @dataclass
@@ -88,6 +89,9 @@ class VolumeModel:
     warnings: list[str] = field(default_factory=list)
     seconds: float = 0.0
     sample_m_per_mm: float | None = None  # the sample length one millimetre of the model stands for
+    thin_left: list = field(default_factory=list)  # mesh.volume.ThinRegion: thin parts not thickened (where, how thin, why)
+    thin_grown: int = 0  # thin parts thickened to the wall
+    coarsened: float = 1.0  # the working grid made this many times coarser to meet the triangle budget
 
 
 def min_wall_for(params: LithoParams, printer_name: str, printer_description: str) -> float:
@@ -192,14 +196,85 @@ def make_volume(source, params: LithoParams | None = None, *, printer=None) -> V
                          f"coarser grid) or `size_mm`.") from None
 
 
+@dataclass
+class _Grid:
+    """The working voxels, cropped to the content: values, their voxel on the print (mm), the scale."""
+
+    values: np.ndarray
+    pitch: np.ndarray  # z, y, x, print mm
+    scale: float  # print mm per sample unit (m, or source voxels when the size is unknown)
+    lo: float
+    hi: float
+    level: float
+    level_from: str
+
+
+@dataclass
+class _Surface:
+    """The model's surface as kept, and what keeping it cost."""
+
+    solid: object  # manifold3d.Manifold
+    model: Mesh
+    budget: object  # mesh.budget.Budget
+    coarsened: float = 1.0  # the working grid was made this many times coarser to meet the budget
+
+
 def _model(path, picture, params, printer, read, voxel_m, rel, factors, budget_voxels, notes, warnings, start, mv, mb) -> VolumeModel:
-    from scipy import ndimage
+    """The model from the read stack: level, voxels, surface within the budget, walls, stand."""
+    size_mm = float(params.size_mm or printer.width_mm)
+    grid = _content_grid(path, read.values, params, rel, factors, size_mm, budget_voxels, mv)
+    wall = min_wall_for(params, printer.name, printer.description)
+    filled, report = mv.solid_mask(grid.values, grid.level, tuple(grid.pitch), SPECK_MM3)
+    if not report.voxels:
+        raise InputError(f"{path}: no part of the stack above `iso_level` {grid.level:g} is larger than {SPECK_MM3:g} mm³ on the "
+                         f"model; choose a lower `iso_level` (the stack's values run from {grid.lo:g} to {grid.hi:g}) or a larger "
+                         f"`size_mm`.")
+    mv.thicken(filled, tuple(grid.pitch), wall, report)
+    working_shape = tuple(int(n_) for n_ in filled.shape)
+    field_ = mv.surface_field(grid.values, grid.level, filled, report, tuple(grid.pitch))
+    del filled
+    grid.values = None
+    report.grow_field = None
+    surface = _surface_within_budget(path, field_, grid, size_mm, params, mv, mb)
+    del field_
+    warnings.extend(_surface_warnings(surface, params))
+    points, normals = mb.sample_surface(surface.model, WALL_SAMPLES, seed=3)
+    walls = mb.wall_thickness(surface.solid, points, normals, reach_mm=size_mm)
+    pieces = surface.solid.decompose()
+    warnings.extend(_wall_warnings(report, walls, wall))
+    model = surface.model
+    x, y, z = (float(v) for v in (model.vertices.max(axis=0) - model.vertices.min(axis=0)))
+    per_mm = None if voxel_m is None else 1.0 / grid.scale  # sample metres per print mm
+    budget = surface.budget
+    out = VolumeModel(
+        mesh=model, model=model, params=params, name=path.name, path=str(path), sha256=picture.file.sha256,
+        format=read.format, source_shape=read.source_shape, working_shape=working_shape, voxel_m=voxel_m,
+        pitch_mm=tuple(float(p) for p in grid.pitch), size_mm=(x, y, z), level=grid.level, level_from=grid.level_from,
+        specks_dropped=report.specks_dropped, voids_filled=report.voids_filled, parts=len(pieces),
+        genus=sum(int(p.genus()) for p in pieces), triangles_full=budget.triangles_before, triangles=budget.triangles,
+        deviation_mm=budget.deviation_mm, tolerance_mm=budget.tolerance_mm, budget_met=budget.met, min_wall_mm=float(walls.min()),
+        wall_p1_mm=float(np.percentile(walls, 1)), wall_wanted_mm=wall, thickened_mm=report.grown_mm,
+        thin_voxels=report.thin_voxels, joined=report.joined, thin_regions_mm=report.thin_regions_mm,
+        notes=notes, warnings=warnings, sample_m_per_mm=per_mm, thin_left=list(report.thin_left),
+        thin_grown=report.thin_grown, coarsened=surface.coarsened,
+    )
+    if params.volume_stand == "plate":
+        _stand(out, path, surface.solid, params, per_mm)
+    else:
+        from ..mesh.repair import as_written
 
-    from ..tactile.furniture import Furniture
-    from ..tactile.stand import stand_model
-    from ..units import format_length
+        out.mesh = as_written(model)  # the bare model, repaired of faces of no area where needed
+    if per_mm:
+        from ..units import format_length
 
-    values = read.values
+        notes.append(f"1 mm on the model = {format_length(per_mm)} of the sample.")
+    out.seconds = time.perf_counter() - start
+    return out
+
+
+def _level(path, values, params, mv) -> tuple[float, str, float, float]:
+    """(level, where it came from, the stack's lowest and highest values); a blank stack or a level
+    outside the values refused."""
     lo, hi = float(values.min()), float(values.max())
     if lo == hi:
         raise InputError(f"{path}: the stack is blank: every voxel is {lo:g}, so there is no surface to model. Check the "
@@ -210,12 +285,19 @@ def _model(path, picture, params, printer, read, voxel_m, rel, factors, budget_v
         raise ParameterError(f"{path}: `iso_level` must lie within the stack's values, {lo:g} to {hi:g} (below its largest "
                              f"value, so some voxels lie above it); got {level:g}. Leave it out for Otsu's level.",
                              parameter="iso_level", value=level, allowed=f"{lo:g} to {hi:g}")
-    size_mm = float(params.size_mm or printer.width_mm)
+    return level, level_from, lo, hi
+
+
+def _content_grid(path, values, params, rel, factors, size_mm, budget_voxels, mv) -> _Grid:
+    """The working values cropped to what is left once specks are dropped (which sets the model's
+    extent and scale), interpolated up towards FINEST_PITCH_MM and smoothed."""
+    from scipy import ndimage
+
+    level, level_from, lo, hi = _level(path, values, params, mv)
     step = np.asarray(rel, dtype=float) * np.asarray(factors, dtype=float)  # working voxel, sample units (m, or voxels)
     # Specks, at the scale of the whole stack (the model is at least this large): what is left sets the model's extent.
     provisional = size_mm / float((np.asarray(values.shape) * step).max())
-    mask0 = values > level
-    labels, n = ndimage.label(mask0)
+    labels, n = ndimage.label(values > level)
     sizes = np.bincount(labels.ravel())[1:] * float(np.prod(step * provisional))
     keep = np.flatnonzero(sizes >= SPECK_MM3) + 1
     if keep.size == 0:
@@ -224,7 +306,7 @@ def _model(path, picture, params, printer, read, voxel_m, rel, factors, budget_v
                          f"{biggest:.2g} mm³ at this size, each smaller than {SPECK_MM3:g} mm³), nothing a hand can find; choose a "
                          f"lower `iso_level` (the stack's values run from {lo:g} to {hi:g}) or a larger `size_mm`.")
     kept = np.isin(labels, keep)
-    del labels, mask0
+    del labels
     box = ndimage.find_objects(kept.astype(np.int8))[0]
     box = tuple(slice(max(b.start - 3, 0), min(b.stop + 3, n_)) for b, n_ in zip(box, values.shape))  # room for the smoothing
     margin = ndimage.binary_dilation(kept[box], iterations=2)
@@ -234,97 +316,131 @@ def _model(path, picture, params, printer, read, voxel_m, rel, factors, budget_v
     extent = np.asarray([b.stop - b.start for b in inner], dtype=float) * step  # z, y, x in sample units: the object's own
     del kept
     scale = size_mm / float(extent.max())  # print mm per sample unit
-    pitch = step * scale
-    # A coarse grid is interpolated up (linear) so the surface is smooth: towards FINEST_PITCH_MM, within the budget.
+    cropped, pitch = _refined(cropped, step * scale, budget_voxels)
+    return _Grid(cropped, pitch, scale, lo, hi, level, level_from)
+
+
+def _refined(values: np.ndarray, pitch: np.ndarray, budget_voxels: int) -> tuple[np.ndarray, np.ndarray]:
+    """A coarse grid interpolated up (linear) towards FINEST_PITCH_MM within the budget, so the
+    surface is smooth, then smoothed by SMOOTH_VOXELS: (values, their pitch on the print)."""
+    from scipy import ndimage
+
     zoom = np.maximum(1.0, pitch / FINEST_PITCH_MM)
-    grown = float(np.prod(np.asarray(cropped.shape) * zoom))
+    grown = float(np.prod(np.asarray(values.shape) * zoom))
     if grown > budget_voxels:
         zoom = np.maximum(1.0, zoom * (budget_voxels / grown) ** (1 / 3))
     zoom = np.round(zoom * 4) / 4
     if (zoom > 1).any():
-        cropped = ndimage.zoom(cropped, zoom, order=1, mode="nearest", grid_mode=True)
+        values = ndimage.zoom(values, zoom, order=1, mode="nearest", grid_mode=True)
         pitch = pitch / zoom
     if SMOOTH_VOXELS:
-        cropped = ndimage.gaussian_filter(cropped, SMOOTH_VOXELS, mode="nearest")
-    wall = min_wall_for(params, printer.name, printer.description)
-    filled, report = mv.solid_mask(cropped, level, tuple(pitch), SPECK_MM3)
-    if not report.voxels:
-        raise InputError(f"{path}: no part of the stack above `iso_level` {level:g} is larger than {SPECK_MM3:g} mm³ on the "
-                         f"model; choose a lower `iso_level` (the stack's values run from {lo:g} to {hi:g}) or a larger `size_mm`.")
-    mv.thicken(filled, tuple(pitch), wall, report)
-    working_shape = tuple(int(n_) for n_ in filled.shape)
-    surface = mv.surface_field(cropped, level, filled, report, tuple(pitch))
-    del cropped, filled
-    report.grow_field = None
-    full = mv.isosurface(surface, tuple(pitch))
-    del surface
-    full = _exact_size(full, size_mm)
-    solid = mb.to_manifold(full)
+        values = ndimage.gaussian_filter(values, SMOOTH_VOXELS, mode="nearest")
+    return values, pitch
+
+
+def _closed(path, mesh: Mesh, level: float, mb):
+    """The mesh as a manifold3d solid; InputError when it cannot be one."""
     import manifold3d as m3
 
+    solid = mb.to_manifold(mesh)
     if solid.status() != m3.Error.NoError:
         raise InputError(f"{path}: the isosurface at `iso_level` {level:g} could not be made a closed solid "
                          f"({solid.status()}); try another `iso_level` or a smaller `size_mm`, and please report this stack.")
+    return solid
+
+
+def _surface_within_budget(path, field_, grid: _Grid, size_mm: float, params, mv, mb) -> _Surface:
+    """The surface simplified to `max_triangles` within MAX_DEVIATION_MM of the full-resolution one;
+    when no simplification reaches the budget so, meshed again on coarser grids (COARSER steps) until
+    it does, the deviation from the full surface measured each time. When even the coarsest keeps
+    more than the budget, the finest-grid result within MAX_DEVIATION_MM is kept (budget not met)."""
+    full = _exact_size(mv.isosurface(field_, tuple(grid.pitch)), size_mm)
+    solid = _closed(path, full, grid.level, mb)
     simplified, budget = mb.meet_budget(solid, params.max_triangles, MAX_DEVIATION_MM, full)
-    model = mb.from_manifold(simplified)
-    deviation = budget.deviation_mm
-    if not budget.met:
-        warnings.append(Text(f"the model needs {budget.triangles:,} triangles to stay within {MAX_DEVIATION_MM} mm of its surface, "
-                             f"more than `max_triangles` {params.max_triangles:,}; it was kept at {budget.triangles:,}. Raise "
-                             f"`max_triangles`, or lower `size_mm` for fewer, larger details."))
-    points, normals = mb.sample_surface(model, WALL_SAMPLES, seed=3)
-    walls = mb.wall_thickness(simplified, points, normals, reach_mm=size_mm)
-    pieces = simplified.decompose()
-    genus = sum(int(p.genus()) for p in pieces)
-    if report.thin_voxels and report.joined:
-        where = "; ".join(f"x {b[0]:.0f}–{b[3]:.0f}, y {b[1]:.0f}–{b[4]:.0f}, z {b[2]:.0f}–{b[5]:.0f} mm" for b in report.thin_regions_mm[:3])
-        warnings.append(Text(f"thickening walls to {wall:g} mm joined {report.joined} parts that were apart (thin parts at {where}); "
-                             f"a larger `size_mm` keeps them apart."))
-    if float(np.percentile(walls, 1)) < wall * 0.9:
-        warnings.append(Text(f"some walls are thinner than {wall:g} mm where the surface bends ({np.percentile(walls, 1):.2f} mm at "
-                             f"the thinnest 1 % of {WALL_SAMPLES:,} points); a larger `size_mm` makes them thicker."))
-    x, y, z = (float(v) for v in (model.vertices.max(axis=0) - model.vertices.min(axis=0)))
-    per_mm = None if voxel_m is None else 1.0 / scale  # sample metres per print mm
-    out = VolumeModel(
-        mesh=model, model=model, params=params, name=path.name, path=str(path), sha256=picture.file.sha256,
-        format=read.format, source_shape=read.source_shape, working_shape=working_shape, voxel_m=voxel_m,
-        pitch_mm=tuple(float(p) for p in pitch), size_mm=(x, y, z), level=level, level_from=level_from,
-        specks_dropped=report.specks_dropped, voids_filled=report.voids_filled, parts=len(pieces), genus=genus,
-        triangles_full=budget.triangles_before, triangles=budget.triangles, deviation_mm=deviation,
-        tolerance_mm=budget.tolerance_mm, budget_met=budget.met, min_wall_mm=float(walls.min()),
-        wall_p1_mm=float(np.percentile(walls, 1)), wall_wanted_mm=wall, thickened_mm=report.grown_mm,
-        thin_voxels=report.thin_voxels, joined=report.joined, thin_regions_mm=report.thin_regions_mm,
-        notes=notes, warnings=warnings, sample_m_per_mm=per_mm,
+    first = _Surface(simplified, mb.from_manifold(simplified), budget)
+    if budget.met:
+        return first
+    from scipy import ndimage
+
+    for factor in COARSER:
+        coarse = ndimage.zoom(field_, 1 / factor, order=1, mode="nearest", grid_mode=True)
+        pitch = grid.pitch * np.asarray(field_.shape, float) / np.asarray(coarse.shape, float)
+        mesh = _exact_size(mv.isosurface(coarse, tuple(pitch)), size_mm)
+        del coarse
+        candidate = _closed(path, mesh, grid.level, mb)
+        # Simplified within the limit of the coarse surface; then measured against the full one.
+        candidate, fallback = mb.meet_budget(candidate, params.max_triangles, MAX_DEVIATION_MM, mesh)
+        if not fallback.met:
+            continue
+        measured = mb.surface_deviation(full, mb.from_manifold(candidate))
+        budget = mb.Budget(first.budget.triangles_before, fallback.triangles, fallback.tolerance_mm, True, measured,
+                           within=measured <= MAX_DEVIATION_MM)
+        log.info("meshed %g times coarser to meet the budget: %d triangles, %.3f mm from the full surface", factor,
+                 budget.triangles, measured)
+        return _Surface(candidate, mb.from_manifold(candidate), budget, factor)
+    return first
+
+
+def _surface_warnings(surface: _Surface, params) -> list[str]:
+    """The one plain line when the budget and the 0.1 mm could not both hold: which was kept, the numbers."""
+    b = surface.budget
+    if not b.met:
+        return [Text(f"the model keeps {b.triangles:,} triangles, more than `max_triangles` {params.max_triangles:,}: "
+                     f"no simplification or coarser grid reached the budget, so the surface was kept within "
+                     f"{MAX_DEVIATION_MM} mm ({b.deviation_mm:.3f} mm) instead. Raise `max_triangles`, or lower `size_mm`.")]
+    if not b.within:
+        return [Text(f"the triangle budget was kept and the {MAX_DEVIATION_MM} mm was not: {b.triangles:,} triangles (at most "
+                     f"`max_triangles` {params.max_triangles:,}), meshed {surface.coarsened:g} times coarser, lie up to "
+                     f"{b.deviation_mm:.2f} mm from the full-resolution surface of {b.triangles_before:,} triangles. Raise "
+                     f"`max_triangles` for the finer surface.")]
+    return []
+
+
+def _wall_warnings(report, walls: np.ndarray, wall: float) -> list[str]:
+    """Thin parts left thin (where, how thin, why), and walls thinner than asked where the surface bends."""
+    out = []
+    if report.thin_left:
+        where = "; ".join(r.words() for r in report.thin_left[:3])
+        more = f" and {len(report.thin_left) - 3} more" if len(report.thin_left) > 3 else ""
+        out.append(Text(f"{len(report.thin_left)} thin part{'s' if len(report.thin_left) > 1 else ''} left thinner than "
+                        f"{wall:g} mm, since thickening would change the structure: {where}{more}; a larger `size_mm` "
+                        f"makes them thicker."))
+    if report.joined:
+        out.append(Text(f"thickening walls to {wall:g} mm joined {report.joined} parts that were apart; a larger `size_mm` keeps "
+                        f"them apart."))
+    p1 = float(np.percentile(walls, 1))
+    if p1 < wall * 0.9 and not report.thin_left:
+        out.append(Text(f"some walls are thinner than {wall:g} mm where the surface bends ({p1:.2f} mm at the thinnest 1 % of "
+                        f"{WALL_SAMPLES:,} points); a larger `size_mm` makes them thicker."))
+    return out
+
+
+def _stand(out: VolumeModel, path, simplified, params, per_mm) -> None:
+    """`out` on its base plate with the furniture (its mesh, plate, scale and the floating parts' note)."""
+    from ..tactile.furniture import Furniture
+    from ..tactile.stand import stand_model
+
+    x, y, _ = out.size_mm
+    furniture = Furniture(
+        caption=params.caption if params.caption is not None else path.stem.replace("_", " ")[:60],
+        braille_table=params.braille_table, scale_bar_m=params.scale_bar_m,
+        auto_scale_bar=params.scale_bar == "auto", sample_m_per_print_mm=per_mm,
+        corner_cut=params.orientation_corner == "cut", spec=params.braille_spec(),
     )
-    if params.volume_stand == "plate":
-        furniture = Furniture(
-            caption=params.caption if params.caption is not None else path.stem.replace("_", " ")[:60],
-            braille_table=params.braille_table, scale_bar_m=params.scale_bar_m,
-            auto_scale_bar=params.scale_bar == "auto", sample_m_per_print_mm=per_mm,
-            corner_cut=params.orientation_corner == "cut", spec=params.braille_spec(),
-        )
-        stand, out.mesh = _fused(path, simplified, x, y, params.base_mm, furniture, stand_model)
-        out.floating, out.posts = stand.floating, stand.posts
-        out.plate_mm = stand.placed.plate_mm
-        out.scale_label = stand.placed.scale_label
-        out.caption_braille = stand.placed.caption_braille
-        notes.extend(stand.placed.notes)
-        if stand.floating:
-            held = (f"; {'each' if stand.posts == stand.floating else stand.posts} stands on a post 2.4 mm across"
-                    if stand.posts else "")
-            loose = stand.floating - stand.posts
-            notes.append(f"{stand.floating} part{'s' if stand.floating > 1 else ''} of the model do{'es' if stand.floating == 1 else ''} "
+    stand, out.mesh = _fused(path, simplified, x, y, params.base_mm, furniture, stand_model)
+    out.floating, out.posts = stand.floating, stand.posts
+    out.plate_mm = stand.placed.plate_mm
+    out.scale_label = stand.placed.scale_label
+    out.caption_braille = stand.placed.caption_braille
+    out.notes.extend(stand.placed.notes)
+    if stand.floating:
+        held = (f"; {'each' if stand.posts == stand.floating else stand.posts} stands on a post 2.4 mm across"
+                if stand.posts else "")
+        loose = stand.floating - stand.posts
+        out.notes.append(f"{stand.floating} part{'s' if stand.floating > 1 else ''} of the model do{'es' if stand.floating == 1 else ''} "
                          f"not reach the base{held}" + (f"; {loose} with other parts below {'them' if loose > 1 else 'it'} "
                          f"float{'s' if loose == 1 else ''} in the file as separate pieces (print them apart, or give "
                          f"a lower `iso_level` so they join)" if loose else "") + ".")
-    else:
-        from ..mesh.repair import as_written
-
-        out.mesh = as_written(model)  # the bare model, repaired of faces of no area where needed
-    if per_mm:
-        notes.append(f"1 mm on the model = {format_length(per_mm)} of the sample.")
-    out.seconds = time.perf_counter() - start
-    return out
 
 
 def _fused(path, simplified, width_mm, depth_mm, base_mm, furniture, stand_model):
@@ -388,8 +504,21 @@ def describe_volume(v: VolumeModel) -> str:
                  + joined + ".")
     if v.voids_filled:
         parts.append(f"{v.voids_filled} internal void{'s were' if v.voids_filled > 1 else ' was'} filled, since a finger cannot reach it.")
-    if v.thin_voxels:
-        parts.append(f"Walls thinner than {v.wall_wanted_mm:g} mm were thickened by {v.thickened_mm:.2f} mm on each side.")
+    if v.thin_grown:
+        parts.append(f"Walls thinner than {v.wall_wanted_mm:g} mm were thickened to at least {v.wall_wanted_mm:g} mm "
+                     f"({v.thin_grown} part{'s' if v.thin_grown != 1 else ''}).")
+    if v.thin_left:
+        parts.append(f"{len(v.thin_left)} thin part{'s were' if len(v.thin_left) != 1 else ' was'} left thinner than "
+                     f"{v.wall_wanted_mm:g} mm, since thickening would change the structure: "
+                     + "; ".join(r.words() for r in v.thin_left[:5]) + ("; …" if len(v.thin_left) > 5 else "") + ".")
+    if v.budget_met and v.tolerance_mm == 0 and v.coarsened == 1:
+        parts.append(f"Its surface has {v.triangles:,} triangles, the full-resolution surface.")
+    elif v.deviation_mm <= MAX_DEVIATION_MM:
+        parts.append(f"Its surface has {v.triangles:,} triangles, within {v.deviation_mm:.2f} mm of the full-resolution surface "
+                     f"({v.triangles_full:,} triangles).")
+    else:
+        parts.append(f"The triangle budget was kept and the {MAX_DEVIATION_MM} mm was not: its {v.triangles:,} triangles lie up to "
+                     f"{v.deviation_mm:.2f} mm from the full-resolution surface ({v.triangles_full:,} triangles).")
     if v.plate_mm:
         parts.append(f"It stands on a base plate {v.plate_mm[0]:.0f} × {v.plate_mm[1]:.0f} mm with a braille caption"
                      + (f", a scale bar of {v.scale_label}" if v.scale_label else "") + ", and the top right corner cut off.")
@@ -466,6 +595,10 @@ def convert_volume(source, params: LithoParams, out_dir, *, stem: str | None = N
             "triangles_full_surface": model.triangles_full, "deviation_mm": round(model.deviation_mm, 4),
             "thinnest_wall_mm": round(model.min_wall_mm, 4), "wall_1st_percentile_mm": round(model.wall_p1_mm, 4),
             "level": model.level, "level_from": model.level_from, "parts": model.parts, "genus": model.genus,
+            "budget_met": model.budget_met, "meshed_coarser_by": model.coarsened,
+            "thin_parts_thickened": model.thin_grown,
+            "thin_parts_left": [{"box_mm_xyz": [round(b, 2) for b in r.box_mm], "thinnest_mm": round(r.thinnest_mm, 3), "why": r.why}
+                                for r in model.thin_left],
             "voids_filled": model.voids_filled, "specks_dropped": model.specks_dropped, "floating_parts_on_posts": model.floating,
             "working_voxels_zyx": list(model.working_shape), "voxel_m_zyx": list(model.voxel_m) if model.voxel_m else None,
             "sample_m_per_mm": model.sample_m_per_mm, "seconds": round(model.seconds, 2),

@@ -3,8 +3,8 @@
 - `to_manifold` / `from_manifold` move a Mesh into manifold3d and back (manifold3d keeps every
   result closed and 2-manifold);
 - `meet_budget` simplifies with manifold3d's `simplify(tolerance)` (edge collapses that move no
-  surface by more than the tolerance), raising the tolerance step by step up to `max_deviation_mm`
-  until the mesh has at most `max_triangles`;
+  surface by more than the tolerance), raising the tolerance step by step until the mesh has at
+  most `max_triangles`, as long as the measured deviation stays within `max_deviation_mm`;
 - `surface_deviation` measures, independently of the simplifier, the largest distance between two
   surfaces at sampled points, both ways (point to nearest triangle, exactly);
 - `wall_thickness` casts a ray inward from sampled surface points (along the inward normal) and
@@ -19,7 +19,9 @@ import numpy as np
 
 from .solid import INDEX, Mesh
 
-TOLERANCE_STEPS = (0.01, 0.02, 0.035, 0.05, 0.07, 0.085, 0.1)  # mm, tried in turn (times max_deviation_mm / 0.1)
+# mm, tried in turn (times max_deviation_mm / 0.1): beyond 0.1 the simplifier's own bound is loose (it moves the
+# surface less than its tolerance), so larger tolerances are tried while the measured deviation stays within the limit.
+TOLERANCE_STEPS = (0.01, 0.02, 0.035, 0.05, 0.07, 0.085, 0.1, 0.13, 0.17, 0.22, 0.3)
 
 
 @dataclass
@@ -31,6 +33,7 @@ class Budget:
     tolerance_mm: float  # the simplifier's tolerance used (0: not simplified)
     met: bool
     deviation_mm: float = 0.0  # measured between the full surface and the result (0: not simplified)
+    within: bool = True  # the deviation is within the limit asked (False only when a coarser grid kept the budget instead)
 
 
 def to_manifold(mesh: Mesh):
@@ -62,12 +65,14 @@ def meet_budget(solid, max_triangles: int, max_deviation_mm: float, reference: M
         tolerance = step * max_deviation_mm / 0.1
         candidate = candidate.simplify(tolerance)  # each step from the last: smaller each time, measured against the full surface
         over = candidate.num_tri() > max_triangles
-        if over and step != TOLERANCE_STEPS[-1]:
+        if over and tolerance < max_deviation_mm * 0.999:  # within the limit by the simplifier's own bound: measured later
             continue
         measured = surface_deviation(reference, from_manifold(candidate))
-        if measured <= max_deviation_mm:
-            best, used, deviation = candidate, tolerance, measured
-        break
+        if measured > max_deviation_mm:
+            break
+        best, used, deviation = candidate, tolerance, measured
+        if not over:
+            break
     if used == 0.0:  # no tolerance within the budget kept the surface close enough: the finest step that does
         for step in TOLERANCE_STEPS[:3]:
             candidate = solid.simplify(step * max_deviation_mm / 0.1)

@@ -6,7 +6,7 @@ All in voxel space, with the voxel's size on the print in millimetres (`spacing_
 - `solid_mask` thresholds, drops specks smaller than `speck_mm3`, and fills internal voids
   (binary fill holes: a hollow object prints as a solid one, a void no finger can reach);
 - `thicken` grows walls thinner than `min_wall_mm` (a distance-transform dilation restricted to
-  the thin parts) and says where growing them joined parts that were apart;
+  the thin parts), except where growing would join parts or close a hole: those it lists;
 - `surface_field` turns the values into a signed field whose zero is the surface: the data's own
   (interpolated, so the surface lies between voxels where the values say) where the mask kept it,
   positive in filled voids, negative in dropped specks, and the thickening's distance where walls grew;
@@ -29,6 +29,20 @@ PAD_VOXELS = 2
 NUDGE = np.float32(0.01)
 
 
+@dataclass(frozen=True)
+class ThinRegion:
+    """A thin part left as it is: where (x0, y0, z0, x1, y1, z1 on the model, mm), how thin, and why."""
+
+    box_mm: tuple[float, ...]
+    thinnest_mm: float
+    why: str
+
+    def words(self) -> str:
+        b = self.box_mm
+        return (f"{self.thinnest_mm:.2f} mm at x {b[0]:.0f}–{b[3]:.0f}, y {b[1]:.0f}–{b[4]:.0f}, z {b[2]:.0f}–{b[5]:.0f} mm "
+                f"(thickening it {self.why})")
+
+
 @dataclass
 class MaskReport:
     """What the voxel steps did, for the report."""
@@ -43,6 +57,8 @@ class MaskReport:
     grown_mm: float = 0.0
     joined: int = 0  # parts that thickening joined (were apart, now touch)
     thin_regions_mm: list = field(default_factory=list)  # (x0, y0, z0, x1, y1, z1) boxes of thin parts, print mm
+    thin_grown: int = 0  # thin parts grown to the wall
+    thin_left: list = field(default_factory=list)  # ThinRegion: thin parts left thin, since growing them changes the structure
     grow_field: np.ndarray | None = field(default=None, repr=False)  # grown_mm − distance to the thin parts (mm)
 
 
@@ -91,24 +107,17 @@ def solid_mask(values: np.ndarray, level: float, spacing_mm, speck_mm3: float) -
     return filled, report
 
 
-def thicken(mask: np.ndarray, spacing_mm, min_wall_mm: float, report: MaskReport) -> np.ndarray:
-    """Walls thinner than `min_wall_mm` grown until they are that thick; the rest unchanged.
+def _thin_parts(mask: np.ndarray, spacing: np.ndarray, min_wall_mm: float) -> tuple[np.ndarray, np.ndarray]:
+    """(the thin voxels, the depth of every voxel inside the mask in mm).
 
-    The thin parts are the voxels a ball of diameter `min_wall_mm` cannot reach from inside (the
-    mask minus its morphological opening, by distance transforms; a voxel's depth is counted from
-    the surface half a voxel outside its outer centres). Parts smaller than such a ball, and the edges
-    and corners of thick parts (all within a wall's thickness of the balls that fill them), are not
-    walls and stay. Each thin part grows, only near itself, by whole voxel
-    layers until its thinnest wall reaches `min_wall_mm`, so thick parts keep their size. Where
-    growing joins parts that were apart, `report.joined` counts them; `report.thin_regions_mm` lists
-    where the thin parts are.
+    The thin voxels are those a ball of diameter `min_wall_mm` cannot reach from inside (the mask
+    minus its morphological opening, by distance transforms; a voxel's depth is counted from the
+    surface half a voxel outside its outer centres). Parts smaller than such a ball, and the edges and
+    corners of thick parts (all within a wall's thickness of the balls that fill them), are not walls.
     """
     from scipy import ndimage
 
-    spacing = np.asarray(spacing_mm, dtype=float)
     vox, radius = float(spacing.max()), min_wall_mm / 2
-    if not mask.any() or radius <= 0:
-        return mask
     inside = ndimage.distance_transform_edt(mask, sampling=spacing)
     core = inside - 0.5 * vox >= radius - 0.25 * vox  # centres of wall-sized balls that fit inside
     reach = ndimage.distance_transform_edt(~core, sampling=spacing) if core.any() else np.full(mask.shape, np.inf)
@@ -116,37 +125,126 @@ def thicken(mask: np.ndarray, spacing_mm, min_wall_mm: float, report: MaskReport
     del core
     labels, n = ndimage.label(thin, structure=_structure())
     if n:
-        # Edges and corners of thick parts (a wedge's tip, a box's corner) lie within a wall's thickness
-        # of the balls that fill the part, and parts smaller than such a ball are no walls: both stay.
         sizes = np.bincount(labels.ravel())[1:] * float(np.prod(spacing))
         farthest = np.asarray(ndimage.maximum(reach, labels, np.arange(1, n + 1)), dtype=float).reshape(-1)
         corners = np.flatnonzero((sizes < np.pi / 6 * min_wall_mm ** 3) | (farthest <= min_wall_mm)) + 1
         if corners.size:
             thin &= ~np.isin(labels, corners)
-    del reach
+    return thin, inside
+
+
+def thicken(mask: np.ndarray, spacing_mm, min_wall_mm: float, report: MaskReport) -> np.ndarray:
+    """Walls thinner than `min_wall_mm` grown until they are that thick, where growing them keeps the
+    structure; the rest unchanged.
+
+    The thin parts (`_thin_parts`) grow, each near itself only, to the union of balls of diameter
+    `min_wall_mm` (and a quarter voxel) centred on their middle ridge (the voxels deepest across the
+    wall), so every wall there reaches the threshold and thick parts keep their size. A thin part
+    whose growth would touch another part that was apart, or would close a hole through the model or
+    open a cavity (the Euler number of its neighbourhood changes), is left as it is and listed in
+    `report.thin_left` (where, how thin, why): growing it would change what the model shows.
+    """
+    from scipy import ndimage
+
+    spacing = np.asarray(spacing_mm, dtype=float)
+    vox, radius = float(spacing.max()), min_wall_mm / 2
+    if not mask.any() or radius <= 0:
+        return mask
+    thin, inside = _thin_parts(mask, spacing, min_wall_mm)
     report.thin_voxels = int(thin.sum())
     if not report.thin_voxels:
         return mask
-    labels, n = ndimage.label(thin, structure=_structure())
-    boxes = ndimage.find_objects(labels)
-    del labels
-    # The thinnest wall: twice the depth at the thin parts' ridges, less a voxel (never more than it is).
+    parts, n = ndimage.label(thin, structure=_structure())
+    boxes = ndimage.find_objects(parts)
+    report.thin_regions_mm = [_box_mm(b, spacing, mask.shape) for b in boxes[:20]]
+    # Each part's middle ridge: the voxels deepest across the wall (a part with none grows from all of its voxels).
     ridge = thin & (inside >= ndimage.maximum_filter(inside, size=3) - 1e-9)
-    depth = inside[ridge] if ridge.any() else inside[thin]
-    thinnest = max(2 * float(np.percentile(depth, 2)) - vox, 0.0)
-    del inside, ridge
-    layers = max(1, int(np.ceil((min_wall_mm - thinnest) / (2 * vox) - 1e-9)))
-    grow = layers * vox + 1e-6
-    report.grown_mm = grow
-    grow_field = np.float32(grow) - ndimage.distance_transform_edt(~thin, sampling=spacing).astype(np.float32)
+    has_ridge = np.zeros(n + 1, bool)
+    has_ridge[np.unique(parts[ridge])] = True
+    centres = ridge | (thin & ~has_ridge[parts])
+    del ridge, thin
+    index = np.arange(1, n + 1)
+    thinnest = np.maximum(2 * np.asarray(ndimage.minimum(inside, np.where(centres, parts, 0), index), float).reshape(-1) - vox, 0.0)
+    del inside
+    reach = np.float32(radius + 0.25 * vox)
+    distance, nearest = ndimage.distance_transform_edt(~centres, sampling=spacing, return_indices=True)
+    owner_part = parts[tuple(nearest)]  # the thin part each voxel's nearest ridge voxel belongs to
+    del nearest, centres
+    grow_field = (reach - distance).astype(np.float32)
+    del distance
+    grow = (grow_field >= 0) & ~mask
+    owner_part[~grow] = 0
+    bad = _merging_parts(mask, parts, owner_part, grow, n) | _hole_changing_parts(
+        mask, owner_part, grow, boxes, int(np.ceil(float(reach) / float(spacing.min()))) + 1)
+    report.grown_mm = float(reach)
+    grow_field[np.isin(owner_part, list(bad))] = -reach  # those parts' growth withheld
+    out = mask | (grow_field >= 0)
+    cavities = ndimage.binary_fill_holes(out, structure=_structure()) & ~out  # growth that closed a pocket: filled too
+    if cavities.any():
+        grow_field[cavities] = np.float32(vox)
+        out |= cavities
     report.grow_field = grow_field
     before = report.components
-    out = mask | (grow_field >= 0)
     after = int(ndimage.label(out, structure=_structure())[1])
     report.joined = max(before - after, 0)
     report.components = after
-    report.thin_regions_mm = [_box_mm(b, spacing, mask.shape) for b in boxes[:20]]
+    report.thin_left = [ThinRegion(_box_mm(boxes[i - 1], spacing, mask.shape), float(thinnest[i - 1]), why)
+                        for i, why in sorted(bad.items(), key=lambda kv: thinnest[kv[0] - 1])]
+    report.thin_grown = n - len(report.thin_left)
     return out
+
+
+def _merging_parts(mask, parts, owner_part, grow, n) -> dict[int, str]:
+    """The thin parts whose growth would touch a part of the model that is apart from their own."""
+    from scipy import ndimage
+
+    old, _ = ndimage.label(mask, structure=_structure())
+    part_old = np.zeros(n + 1, dtype=old.dtype)
+    found = ndimage.maximum(old, parts, np.arange(1, n + 1))
+    part_old[1:] = np.asarray(found, dtype=old.dtype).reshape(-1)
+    owner = old
+    owner[grow] = part_old[owner_part[grow]]
+    bad: set[int] = set()
+    for axis in range(3):
+        a = np.moveaxis(owner, axis, 0)
+        g = np.moveaxis(owner_part, axis, 0)
+        clash = (a[:-1] > 0) & (a[1:] > 0) & (a[:-1] != a[1:])
+        bad.update(np.unique(g[:-1][clash]).tolist())
+        bad.update(np.unique(g[1:][clash]).tolist())
+    bad.discard(0)
+    return {int(i): "joins parts that are apart" for i in bad}
+
+
+def _hole_changing_parts(mask, owner_part, grow, boxes, pad: int, most: int = 400) -> dict[int, str]:
+    """The thin parts whose growth alone would change the Euler number around them (close a hole
+    through the model, or open a cavity): measured in each part's own box, a voxel beyond its growth."""
+    from skimage.measure import euler_number
+
+    bad: dict[int, str] = {}
+    for i, box in enumerate(boxes[:most], start=1):
+        if box is None:
+            continue
+        where = _grown_box(owner_part, box, i, pad)
+        if where is None:
+            continue
+        m = mask[where]
+        g = m | (owner_part[where] == i) & grow[where]
+        if euler_number(g, connectivity=1) != euler_number(m, connectivity=1):
+            bad[i] = "closes a hole or a pocket"
+    return bad
+
+
+def _grown_box(owner_part, box, i, pad: int):
+    """The box around part `i`'s growth (which reaches at most `pad` voxels beyond the part), two
+    voxels wider on each side, clipped to the grid."""
+    shape = owner_part.shape
+    near = tuple(slice(max(b.start - pad, 0), min(b.stop + pad, n)) for b, n in zip(box, shape))
+    hit = np.argwhere(owner_part[near] == i)
+    if hit.size == 0:
+        return None
+    lo = hit.min(axis=0) + [s.start for s in near]
+    hi = hit.max(axis=0) + [s.start for s in near]
+    return tuple(slice(max(int(a) - 2, 0), min(int(b) + 3, n)) for a, b, n in zip(lo, hi, shape))
 
 
 def _box_mm(box, spacing, shape) -> tuple[float, ...]:

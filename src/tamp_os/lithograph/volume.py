@@ -43,7 +43,7 @@ SPECK_MM3 = 1.0  # parts smaller than a 1 mm cube are noise to a finger: dropped
 WALL_SAMPLES = 5000
 RESIN_WORDS = ("resin", "sla", "msla", "dlp", "lcd")
 FDM_WALL_MM, RESIN_WALL_MM = 1.0, 0.6
-COARSER = (1.5, 2.0, 3.0, 4.0)  # the working grid made this many times coarser, in turn, when simplifying alone misses the budget
+COARSER = (1.5, 2.0)  # coarser working grids tried (besides simplifying alone) when the budget cannot hold within 0.1 mm
 
 
 @dataclass
@@ -350,35 +350,50 @@ def _closed(path, mesh: Mesh, level: float, mb):
 
 
 def _surface_within_budget(path, field_, grid: _Grid, size_mm: float, params, mv, mb) -> _Surface:
-    """The surface simplified to `max_triangles` within MAX_DEVIATION_MM of the full-resolution one;
-    when no simplification reaches the budget so, meshed again on coarser grids (COARSER steps) until
-    it does, the deviation from the full surface measured each time. When even the coarsest keeps
-    more than the budget, the finest-grid result within MAX_DEVIATION_MM is kept (budget not met)."""
+    """The surface simplified to `max_triangles` within MAX_DEVIATION_MM of the full-resolution one.
+
+    When that cannot be (the simplification that meets the budget moves the surface further), the
+    budget is kept the way that moves it least, by measurement: the full surface simplified to the
+    budget, or, when that moves it more than twice the limit, meshed again on grids COARSER times
+    coarser (simplified to the budget if still over it), each measured against the full surface; the
+    deviation is reported. Only when none meets the budget is the surface kept within the limit.
+    """
     full = _exact_size(mv.isosurface(field_, tuple(grid.pitch)), size_mm)
     solid = _closed(path, full, grid.level, mb)
-    simplified, budget = mb.meet_budget(solid, params.max_triangles, MAX_DEVIATION_MM, full)
-    first = _Surface(simplified, mb.from_manifold(simplified), budget)
-    if budget.met:
-        return first
+    before, limit, most = int(solid.num_tri()), MAX_DEVIATION_MM, params.max_triangles
+    if before <= most:
+        return _Surface(solid, mb.from_manifold(solid), mb.Budget(before, before, 0.0, True))
+    candidate, tolerance, measured = mb.simplify_to_budget(solid, most, full, limit)
+    best = None
+    if candidate.num_tri() <= most:
+        best = _Surface(candidate, mb.from_manifold(candidate), mb.Budget(before, int(candidate.num_tri()), tolerance, True,
+                                                                          measured, within=measured <= limit))
+    for factor in COARSER if best is None or measured > 2 * limit else ():
+        coarse = _closed(path, _coarse_mesh(field_, grid.pitch, factor, size_mm, mv), grid.level, mb)
+        tolerance = mb.tolerance_for(coarse, most, limit) if coarse.num_tri() > most else 0.0
+        coarse = coarse.simplify(tolerance) if tolerance else coarse
+        if coarse.num_tri() > most:
+            continue
+        mesh = mb.from_manifold(coarse)
+        measured = mb.surface_deviation(full, mesh)
+        log.info("budget by a %g times coarser grid and tolerance %.3f mm: %d triangles, %.3f mm from the full surface",
+                 factor, tolerance, coarse.num_tri(), measured)
+        if best is None or measured < best.budget.deviation_mm:
+            best = _Surface(coarse, mesh, mb.Budget(before, int(coarse.num_tri()), tolerance, True, measured,
+                                                    within=measured <= limit), factor)
+    if best is not None:
+        return best
+    kept, tolerance, measured = mb.largest_within(solid, full, limit, limit)
+    return _Surface(kept, mb.from_manifold(kept), mb.Budget(before, int(kept.num_tri()), tolerance, False, measured))
+
+
+def _coarse_mesh(field_, pitch, factor: float, size_mm: float, mv) -> Mesh:
+    """The field's surface meshed on a grid `factor` times coarser, at the model's size."""
     from scipy import ndimage
 
-    for factor in COARSER:
-        coarse = ndimage.zoom(field_, 1 / factor, order=1, mode="nearest", grid_mode=True)
-        pitch = grid.pitch * np.asarray(field_.shape, float) / np.asarray(coarse.shape, float)
-        mesh = _exact_size(mv.isosurface(coarse, tuple(pitch)), size_mm)
-        del coarse
-        candidate = _closed(path, mesh, grid.level, mb)
-        # Simplified within the limit of the coarse surface; then measured against the full one.
-        candidate, fallback = mb.meet_budget(candidate, params.max_triangles, MAX_DEVIATION_MM, mesh)
-        if not fallback.met:
-            continue
-        measured = mb.surface_deviation(full, mb.from_manifold(candidate))
-        budget = mb.Budget(first.budget.triangles_before, fallback.triangles, fallback.tolerance_mm, True, measured,
-                           within=measured <= MAX_DEVIATION_MM)
-        log.info("meshed %g times coarser to meet the budget: %d triangles, %.3f mm from the full surface", factor,
-                 budget.triangles, measured)
-        return _Surface(candidate, mb.from_manifold(candidate), budget, factor)
-    return first
+    coarse = ndimage.zoom(field_, 1 / factor, order=1, mode="nearest", grid_mode=True)
+    step = np.asarray(pitch) * np.asarray(field_.shape, float) / np.asarray(coarse.shape, float)
+    return _exact_size(mv.isosurface(coarse, tuple(step)), size_mm)
 
 
 def _surface_warnings(surface: _Surface, params) -> list[str]:
@@ -389,10 +404,10 @@ def _surface_warnings(surface: _Surface, params) -> list[str]:
                      f"no simplification or coarser grid reached the budget, so the surface was kept within "
                      f"{MAX_DEVIATION_MM} mm ({b.deviation_mm:.3f} mm) instead. Raise `max_triangles`, or lower `size_mm`.")]
     if not b.within:
+        how = f"meshed {surface.coarsened:g} times coarser" if surface.coarsened > 1 else "simplified"
         return [Text(f"the triangle budget was kept and the {MAX_DEVIATION_MM} mm was not: {b.triangles:,} triangles (at most "
-                     f"`max_triangles` {params.max_triangles:,}), meshed {surface.coarsened:g} times coarser, lie up to "
-                     f"{b.deviation_mm:.2f} mm from the full-resolution surface of {b.triangles_before:,} triangles. Raise "
-                     f"`max_triangles` for the finer surface.")]
+                     f"`max_triangles` {params.max_triangles:,}), {how}, lie up to {b.deviation_mm:.2f} mm from the "
+                     f"full-resolution surface of {b.triangles_before:,} triangles. Raise `max_triangles` for the finer surface.")]
     return []
 
 

@@ -217,6 +217,16 @@ class _Surface:
     model: Mesh
     budget: object  # mesh.budget.Budget
     coarsened: float = 1.0  # the working grid was made this many times coarser to meet the budget
+    rescale: float = 1.0  # the surface was scaled by this to its exact size (walls grown past the object's extent)
+    origin: np.ndarray | None = None  # the grid's point (x, y, z mm) that became the model's lowest corner
+
+    def on_model(self, region):
+        """A ThinRegion from the working grid's millimetres to the model's."""
+        import dataclasses
+
+        o = np.zeros(3) if self.origin is None else self.origin
+        box = [(b - o[i % 3]) * self.rescale for i, b in enumerate(region.box_mm)]
+        return dataclasses.replace(region, box_mm=tuple(float(b) for b in box), thinnest_mm=region.thinnest_mm * self.rescale)
 
 
 def _model(path, picture, params, printer, read, voxel_m, rel, factors, budget_voxels, notes, warnings, start, mv, mb) -> VolumeModel:
@@ -224,6 +234,9 @@ def _model(path, picture, params, printer, read, voxel_m, rel, factors, budget_v
     size_mm = float(params.size_mm or printer.width_mm)
     grid = _content_grid(path, read.values, params, rel, factors, size_mm, budget_voxels, mv)
     wall = min_wall_for(params, printer.name, printer.description)
+    # Background around the grid: a part cut by the stack's edge has a face there, and its walls can grow past it.
+    pad = int(np.ceil((wall / 2 + float(grid.pitch.max())) / float(grid.pitch.min()))) + 1
+    grid.values = np.pad(grid.values, pad, mode="constant", constant_values=np.float32(grid.lo))
     filled, report = mv.solid_mask(grid.values, grid.level, tuple(grid.pitch), SPECK_MM3)
     if not report.voxels:
         raise InputError(f"{path}: no part of the stack above `iso_level` {grid.level:g} is larger than {SPECK_MM3:g} mm³ on the "
@@ -241,10 +254,11 @@ def _model(path, picture, params, printer, read, voxel_m, rel, factors, budget_v
     points, normals = mb.sample_surface(surface.model, WALL_SAMPLES, seed=3)
     walls = mb.wall_thickness(surface.solid, points, normals, reach_mm=size_mm)
     pieces = surface.solid.decompose()
+    report.thin_left = [surface.on_model(r) for r in report.thin_left]
     warnings.extend(_wall_warnings(report, walls, wall))
     model = surface.model
     x, y, z = (float(v) for v in (model.vertices.max(axis=0) - model.vertices.min(axis=0)))
-    per_mm = None if voxel_m is None else 1.0 / grid.scale  # sample metres per print mm
+    per_mm = None if voxel_m is None else 1.0 / (grid.scale * surface.rescale)  # sample metres per print mm
     budget = surface.budget
     out = VolumeModel(
         mesh=model, model=model, params=params, name=path.name, path=str(path), sha256=picture.file.sha256,
@@ -358,7 +372,18 @@ def _surface_within_budget(path, field_, grid: _Grid, size_mm: float, params, mv
     coarser (simplified to the budget if still over it), each measured against the full surface; the
     deviation is reported. Only when none meets the budget is the surface kept within the limit.
     """
-    full = _exact_size(mv.isosurface(field_, tuple(grid.pitch)), size_mm)
+    raw = mv.isosurface(field_, tuple(grid.pitch))
+    rescale = size_mm / float((raw.vertices.max(axis=0) - raw.vertices.min(axis=0)).max())
+    origin = raw.vertices.min(axis=0)
+    full = _exact_size(raw, size_mm)
+    del raw
+    surface = _budgeted(path, field_, grid, full, size_mm, params, mv, mb)
+    surface.rescale, surface.origin = rescale, origin
+    return surface
+
+
+def _budgeted(path, field_, grid: _Grid, full: Mesh, size_mm: float, params, mv, mb) -> _Surface:
+    """`_surface_within_budget` once the full surface is made (see there)."""
     solid = _closed(path, full, grid.level, mb)
     before, limit, most = int(solid.num_tri()), MAX_DEVIATION_MM, params.max_triangles
     if before <= most:

@@ -31,7 +31,8 @@ NUDGE = np.float32(0.01)
 
 @dataclass(frozen=True)
 class ThinRegion:
-    """A thin part left as it is: where (x0, y0, z0, x1, y1, z1 on the model, mm), how thin, and why."""
+    """A thin part left as it is: where (x0, y0, z0, x1, y1, z1 on the model, mm), how thick across its
+    ridge (the median), and why."""
 
     box_mm: tuple[float, ...]
     thinnest_mm: float
@@ -39,7 +40,7 @@ class ThinRegion:
 
     def words(self) -> str:
         b = self.box_mm
-        return (f"{self.thinnest_mm:.2f} mm at x {b[0]:.0f}–{b[3]:.0f}, y {b[1]:.0f}–{b[4]:.0f}, z {b[2]:.0f}–{b[5]:.0f} mm "
+        return (f"{self.thinnest_mm:.2f} mm thick at x {b[0]:.1f}–{b[3]:.1f}, y {b[1]:.1f}–{b[4]:.1f}, z {b[2]:.1f}–{b[5]:.1f} mm "
                 f"(thickening it {self.why})")
 
 
@@ -164,7 +165,9 @@ def thicken(mask: np.ndarray, spacing_mm, min_wall_mm: float, report: MaskReport
     centres = ridge | (thin & ~has_ridge[parts])
     del ridge, thin
     index = np.arange(1, n + 1)
-    thinnest = np.maximum(2 * np.asarray(ndimage.minimum(inside, np.where(centres, parts, 0), index), float).reshape(-1) - vox, 0.0)
+    # How thin each part is: across its ridge (the median, so its rim, where the ridge is shallow, does not decide),
+    # within half a voxel whether the wall is an odd or an even number of voxels across.
+    thinnest = np.maximum(2 * np.asarray(ndimage.median(inside, np.where(centres, parts, 0), index), float).reshape(-1) - 0.5 * vox, 0.0)
     del inside
     reach = np.float32(radius + 0.25 * vox)
     distance, nearest = ndimage.distance_transform_edt(~centres, sampling=spacing, return_indices=True)

@@ -607,7 +607,7 @@ def convert_volume(source, params: LithoParams, out_dir, *, stem: str | None = N
     from ..formats import GRAPHIC_FORMATS, PIN_FORMATS
     from ..printing.print_settings import settings_for
     from ..version import __version__
-    from .outputs import dependency_versions, write_meshes
+    from .outputs import dependency_versions, file_sha256, write_meshes
     from .sizing import resolve_printer
 
     printer = printer_profile or resolve_printer(params)
@@ -630,6 +630,8 @@ def convert_volume(source, params: LithoParams, out_dir, *, stem: str | None = N
         "kind": "volume", "tamp_os": __version__, "dependencies": dependency_versions(),
         "input": {"name": model.name, "path": model.path, "sha256": model.sha256},
         "params": params.to_dict(), "printer_profile": printer.as_dict(), "files": [p.name for p in written],
+        # As every recipe lists them, so `batch` knows a rerun has nothing to do (outputs.recipe_outputs_if_current).
+        "outputs": [p.name for p in written], "output_sha256": {p.name: file_sha256(p) for p in written},
         "measured": {
             "size_mm": [round(v, 4) for v in model.size_mm], "triangles": model.mesh.n_triangles,
             "triangles_full_surface": model.triangles_full, "deviation_mm": round(model.deviation_mm, 4),

@@ -140,7 +140,8 @@ def thicken(mask: np.ndarray, spacing_mm, min_wall_mm: float, report: MaskReport
 
     The thin parts (`_thin_parts`) grow, each near itself only, to the union of balls of diameter
     `min_wall_mm` (and a quarter voxel) centred on their middle ridge (the voxels deepest across the
-    wall), so every wall there reaches the threshold and thick parts keep their size. A thin part
+    wall) and of the part grown by what its wall lacks, so every wall there reaches the threshold and
+    thick parts keep their size. A thin part
     whose growth would touch another part that was apart, or would close a hole through the model or
     open a cavity (the Euler number of its neighbourhood changes), is left as it is and listed in
     `report.thin_left` (where, how thin, why): growing it would change what the model shows.
@@ -169,18 +170,14 @@ def thicken(mask: np.ndarray, spacing_mm, min_wall_mm: float, report: MaskReport
     # within half a voxel whether the wall is an odd or an even number of voxels across.
     thinnest = np.maximum(2 * np.asarray(ndimage.median(inside, np.where(centres, parts, 0), index), float).reshape(-1) - 0.5 * vox, 0.0)
     del inside
-    reach = np.float32(radius + 0.25 * vox)
-    distance, nearest = ndimage.distance_transform_edt(~centres, sampling=spacing, return_indices=True)
-    owner_part = parts[tuple(nearest)]  # the thin part each voxel's nearest ridge voxel belongs to
-    del nearest, centres
-    grow_field = (reach - distance).astype(np.float32)
-    del distance
-    grow = (grow_field >= 0) & ~mask
-    owner_part[~grow] = 0
-    bad = _merging_parts(mask, parts, owner_part, grow, n) | _hole_changing_parts(
-        mask, owner_part, grow, boxes, int(np.ceil(float(reach) / float(spacing.min()))) + 1)
-    report.grown_mm = float(reach)
-    grow_field[np.isin(owner_part, list(bad))] = -reach  # those parts' growth withheld
+    report.grown_mm = radius + 0.25 * vox
+    growth = _Growth(mask, parts, centres, boxes, spacing, radius, thinnest)
+    bad = growth.grow(range(1, n + 1))
+    merging = _merging_parts(mask, parts, growth.owner, n)
+    if merging:  # grown again without them, so the overlap of their growth with another's is that one's again
+        bad |= merging | growth.grow([i for i in range(1, n + 1) if i not in bad and i not in merging])
+    grow_field = growth.field
+    del growth, centres
     out = mask | (grow_field >= 0)
     cavities = ndimage.binary_fill_holes(out, structure=_structure()) & ~out  # growth that closed a pocket: filled too
     if cavities.any():
@@ -197,7 +194,51 @@ def thicken(mask: np.ndarray, spacing_mm, min_wall_mm: float, report: MaskReport
     return out
 
 
-def _merging_parts(mask, parts, owner_part, grow, n) -> dict[int, str]:
+class _Growth:
+    """The thin parts' growth, part by part in its own box: `field` (mm, ≥ 0 where grown) and
+    `owner` (the part each grown voxel grew from)."""
+
+    def __init__(self, mask, parts, centres, boxes, spacing, radius: float, thinnest):
+        self.mask, self.parts, self.centres, self.boxes = mask, parts, centres, boxes
+        self.spacing, self.radius, self.thinnest = spacing, radius, thinnest
+        vox = float(spacing.max())
+        self.reach = radius + 0.25 * vox  # the balls on the ridge: a quarter voxel spare
+        self.pad = int(np.ceil((radius + vox) / float(spacing.min()))) + 3
+        self.field = self.owner = None
+
+    def grow(self, which) -> dict[int, str]:
+        """Grow the parts `which` (afresh); the parts left as they are because growing one alone
+        changes the Euler number of its neighbourhood (closes a hole or a pocket)."""
+        from scipy import ndimage
+        from skimage.measure import euler_number
+
+        vox = float(self.spacing.max())
+        self.field = np.full(self.mask.shape, -np.float32(self.reach), np.float32)
+        self.owner = np.zeros(self.mask.shape, np.int32)
+        bad: dict[int, str] = {}
+        for i in which:
+            box = tuple(slice(max(b.start - self.pad, 0), min(b.stop + self.pad, n))
+                        for b, n in zip(self.boxes[i - 1], self.mask.shape))
+            part = self.parts[box] == i
+            ridge = part & self.centres[box]
+            # Balls of the wall's radius on the ridge, and the whole part grown by what its wall lacks: the
+            # second fills between ridge voxels the first leaves apart (a ridge is a voxel's guess).
+            lack = max(self.radius - self.thinnest[i - 1] / 2, 0.0) + 0.75 * vox
+            field = np.maximum(self.reach - ndimage.distance_transform_edt(~ridge, sampling=self.spacing),
+                               lack - ndimage.distance_transform_edt(~part, sampling=self.spacing)).astype(np.float32)
+            m = self.mask[box]
+            grown = (field >= 0) & ~m
+            if euler_number(m | grown, connectivity=1) != euler_number(m, connectivity=1):
+                bad[i] = "closes a hole or a pocket"
+                continue
+            here, owner = self.field[box], self.owner[box]
+            take = field > here
+            owner[take & grown] = i
+            np.copyto(here, field, where=take)
+        return bad
+
+
+def _merging_parts(mask, parts, owner_part, n) -> dict[int, str]:
     """The thin parts whose growth would touch a part of the model that is apart from their own."""
     from scipy import ndimage
 
@@ -206,6 +247,7 @@ def _merging_parts(mask, parts, owner_part, grow, n) -> dict[int, str]:
     found = ndimage.maximum(old, parts, np.arange(1, n + 1))
     part_old[1:] = np.asarray(found, dtype=old.dtype).reshape(-1)
     owner = old
+    grow = owner_part > 0
     owner[grow] = part_old[owner_part[grow]]
     bad: set[int] = set()
     for axis in range(3):
@@ -216,38 +258,6 @@ def _merging_parts(mask, parts, owner_part, grow, n) -> dict[int, str]:
         bad.update(np.unique(g[1:][clash]).tolist())
     bad.discard(0)
     return {int(i): "joins parts that are apart" for i in bad}
-
-
-def _hole_changing_parts(mask, owner_part, grow, boxes, pad: int, most: int = 400) -> dict[int, str]:
-    """The thin parts whose growth alone would change the Euler number around them (close a hole
-    through the model, or open a cavity): measured in each part's own box, a voxel beyond its growth."""
-    from skimage.measure import euler_number
-
-    bad: dict[int, str] = {}
-    for i, box in enumerate(boxes[:most], start=1):
-        if box is None:
-            continue
-        where = _grown_box(owner_part, box, i, pad)
-        if where is None:
-            continue
-        m = mask[where]
-        g = m | (owner_part[where] == i) & grow[where]
-        if euler_number(g, connectivity=1) != euler_number(m, connectivity=1):
-            bad[i] = "closes a hole or a pocket"
-    return bad
-
-
-def _grown_box(owner_part, box, i, pad: int):
-    """The box around part `i`'s growth (which reaches at most `pad` voxels beyond the part), two
-    voxels wider on each side, clipped to the grid."""
-    shape = owner_part.shape
-    near = tuple(slice(max(b.start - pad, 0), min(b.stop + pad, n)) for b, n in zip(box, shape))
-    hit = np.argwhere(owner_part[near] == i)
-    if hit.size == 0:
-        return None
-    lo = hit.min(axis=0) + [s.start for s in near]
-    hi = hit.max(axis=0) + [s.start for s in near]
-    return tuple(slice(max(int(a) - 2, 0), min(int(b) + 3, n)) for a, b, n in zip(lo, hi, shape))
 
 
 def _box_mm(box, spacing, shape) -> tuple[float, ...]:

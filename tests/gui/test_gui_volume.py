@@ -13,7 +13,7 @@ import pytest
 import tifffile
 import trimesh
 
-from gui_support import generate_and_wait, new_job, png_bytes, start_server, stop_server
+from gui_support import browser, generate_and_wait, new_job, png_bytes, start_server, stop_server, tab_to  # noqa: F401 (fixture)
 
 
 @pytest.fixture(scope="module")
@@ -53,3 +53,16 @@ def test_a_z_stack_is_offered_and_printed_as_a_3d_model(server):
         mesh = trimesh.load(io.BytesIO(archive.read("ball.stl")), file_type="stl", process=True)
         assert mesh.is_watertight and mesh.volume > 0
         assert "3-D tactile model" in archive.read("ball.description.txt").decode()
+
+
+@pytest.mark.timeout(180)
+def test_the_3d_model_checkbox_is_reached_and_ticked_by_keyboard(server, browser):
+    with httpx.Client(base_url=server, timeout=60, follow_redirects=False) as client:
+        job = new_job(client, [("ball.tif", ball_stack())])
+    page = browser.new_page()
+    page.goto(f"{server}/jobs/{job}")
+    tab_to(page, lambda i: i["id"] == "volume")  # reached by Tab, its focus visible
+    assert page.evaluate("document.activeElement.labels[0].textContent") == "Print as a 3-D model"
+    page.keyboard.press("Space")
+    assert page.is_checked("#volume") and page.evaluate("document.activeElement.id") == "volume"
+    page.close()

@@ -120,7 +120,7 @@ def _thin_parts(mask: np.ndarray, spacing: np.ndarray, min_wall_mm: float) -> tu
 
     vox, radius = float(spacing.max()), min_wall_mm / 2
     inside = ndimage.distance_transform_edt(mask, sampling=spacing)
-    core = inside - 0.5 * vox >= radius - 0.1 * vox  # centres of wall-sized balls that fit inside (a tenth of a voxel spare)
+    core = inside - 0.5 * vox >= radius - 0.25 * vox  # centres of wall-sized balls that fit inside (a quarter voxel spare)
     reach = ndimage.distance_transform_edt(~core, sampling=spacing) if core.any() else np.full(mask.shape, np.inf)
     thin = mask & (reach > radius + 0.5 * vox)
     del core

@@ -90,7 +90,8 @@ def side_by_side(stl: Path, stack: Path, out: Path) -> Path:
 
     mesh = trimesh.load(stl, force="mesh", process=True)
     tilted, _ = render_views(mesh.vertices, mesh.faces, View(width_px=800, height_px=640))
-    above, _ = render_views(mesh.vertices, mesh.faces, View(width_px=640, height_px=640, azimuth_deg=0.0, elevation_deg=90.0))
+    # From straight above, +y (the far edge) up: just short of 90°, so the camera keeps z as its up direction.
+    above, _ = render_views(mesh.vertices, mesh.faces, View(width_px=640, height_px=640, azimuth_deg=0.0, elevation_deg=89.5))
     flat = Image.fromarray(projection(stack)).convert("RGB")
     flat = flat.resize((max(1, round(flat.width * 640 / flat.height)), 640), Image.NEAREST)
     panels = [Image.fromarray(np.asarray(tilted)), Image.fromarray(np.asarray(above)), flat]

@@ -219,6 +219,7 @@ class _Surface:
     coarsened: float = 1.0  # the working grid was made this many times coarser to meet the budget
     rescale: float = 1.0  # the surface was scaled by this to its exact size (walls grown past the object's extent)
     origin: np.ndarray | None = None  # the grid's point (x, y, z mm) that became the model's lowest corner
+    full: Mesh | None = None  # the full-resolution surface, the deviation's reference
 
     def on_model(self, region):
         """A ThinRegion from the working grid's millimetres to the model's."""
@@ -273,7 +274,7 @@ def _model(path, picture, params, printer, read, voxel_m, rel, factors, budget_v
         thin_grown=report.thin_grown, coarsened=surface.coarsened,
     )
     if params.volume_stand == "plate":
-        _stand(out, path, surface.solid, params, per_mm)
+        _stand(out, path, surface, params, per_mm)
     else:
         from ..mesh.repair import as_written
 
@@ -378,7 +379,7 @@ def _surface_within_budget(path, field_, grid: _Grid, size_mm: float, params, mv
     full = _exact_size(raw, size_mm)
     del raw
     surface = _budgeted(path, field_, grid, full, size_mm, params, mv, mb)
-    surface.rescale, surface.origin = rescale, origin
+    surface.rescale, surface.origin, surface.full = rescale, origin, full
     return surface
 
 
@@ -455,8 +456,10 @@ def _wall_warnings(report, walls: np.ndarray, wall: float) -> list[str]:
     return out
 
 
-def _stand(out: VolumeModel, path, simplified, params, per_mm) -> None:
-    """`out` on its base plate with the furniture (its mesh, plate, scale and the floating parts' note)."""
+def _stand(out: VolumeModel, path, surface: _Surface, params, per_mm) -> None:
+    """`out` on its base plate with the furniture (its mesh, plate, scale and the floating parts' note).
+    The budget counts the whole file: when the base and furniture take it over `max_triangles`, the
+    model is simplified further by what they need, measured again, and stood again."""
     from ..tactile.furniture import Furniture
     from ..tactile.stand import stand_model
 
@@ -467,7 +470,12 @@ def _stand(out: VolumeModel, path, simplified, params, per_mm) -> None:
         auto_scale_bar=params.scale_bar == "auto", sample_m_per_print_mm=per_mm,
         corner_cut=params.orientation_corner == "cut", spec=params.braille_spec(),
     )
-    stand, out.mesh = _fused(path, simplified, x, y, params.base_mm, furniture, stand_model)
+    stand, out.mesh = _fused(path, surface.solid, x, y, params.base_mm, furniture, stand_model)
+    extra = out.mesh.n_triangles - int(surface.solid.num_tri())
+    if (out.mesh.n_triangles > params.max_triangles and surface.budget.met and surface.full is not None
+            and params.max_triangles > 2 * extra):
+        _leave_room(out, surface, params.max_triangles - extra)
+        stand, out.mesh = _fused(path, surface.solid, x, y, params.base_mm, furniture, stand_model)
     out.floating, out.posts = stand.floating, stand.posts
     out.plate_mm = stand.placed.plate_mm
     out.scale_label = stand.placed.scale_label
@@ -481,6 +489,25 @@ def _stand(out: VolumeModel, path, simplified, params, per_mm) -> None:
                          f"not reach the base{held}" + (f"; {loose} with other parts below {'them' if loose > 1 else 'it'} "
                          f"float{'s' if loose == 1 else ''} in the file as separate pieces (print them apart, or give "
                          f"a lower `iso_level` so they join)" if loose else "") + ".")
+
+
+def _leave_room(out: VolumeModel, surface: _Surface, most: int) -> None:
+    """The model simplified to at most `most` triangles (room for its base), measured against the full surface."""
+    from ..mesh import budget as mb
+
+    tolerance = mb.tolerance_for(surface.solid, most, max(surface.budget.tolerance_mm, 0.01))
+    surface.solid = surface.solid.simplify(tolerance)
+    surface.model = mb.from_manifold(surface.solid)
+    deviation = mb.surface_deviation(surface.full, surface.model)
+    out.model, out.triangles, out.deviation_mm = surface.model, int(surface.solid.num_tri()), deviation
+    out.tolerance_mm = max(out.tolerance_mm, tolerance)
+    points, normals = mb.sample_surface(surface.model, WALL_SAMPLES, seed=3)  # the walls of the model as written
+    walls = mb.wall_thickness(surface.solid, points, normals, reach_mm=max(out.size_mm))
+    out.min_wall_mm, out.wall_p1_mm = float(walls.min()), float(np.percentile(walls, 1))
+    if deviation > MAX_DEVIATION_MM and not any("budget was kept" in str(w) for w in out.warnings):
+        out.warnings.append(Text(f"the triangle budget was kept and the {MAX_DEVIATION_MM} mm was not: the model's "
+                                 f"{out.triangles:,} triangles (its base takes the rest of `max_triangles`) lie up to "
+                                 f"{deviation:.2f} mm from the full-resolution surface. Raise `max_triangles` for the finer surface."))
 
 
 def _fused(path, simplified, width_mm, depth_mm, base_mm, furniture, stand_model):

@@ -80,6 +80,22 @@ def projection(stack: Path):
     return (np.clip((values - lo) / max(hi - lo, 1e-9), 0, 1) * 255).astype(np.uint8)
 
 
+def from_above(mesh):
+    """The model seen from straight above, +y (the far edge) at the top of the picture (PyVista's xy view)."""
+    import numpy as np
+    import pyvista as pv
+
+    cells = np.hstack([np.full((len(mesh.faces), 1), 3), mesh.faces]).ravel()
+    plotter = pv.Plotter(off_screen=True, window_size=(640, 640))
+    plotter.set_background("white")
+    plotter.add_mesh(pv.PolyData(np.asarray(mesh.vertices), cells), color="#b9b4ab", specular=0.0)
+    plotter.enable_parallel_projection()
+    plotter.view_xy()
+    image = plotter.screenshot(return_img=True)
+    plotter.close()
+    return image
+
+
 def side_by_side(stl: Path, stack: Path, out: Path) -> Path:
     """The model from the front left and from above (PyVista offscreen) beside the stack's maximum projection."""
     import numpy as np
@@ -90,8 +106,7 @@ def side_by_side(stl: Path, stack: Path, out: Path) -> Path:
 
     mesh = trimesh.load(stl, force="mesh", process=True)
     tilted, _ = render_views(mesh.vertices, mesh.faces, View(width_px=800, height_px=640))
-    # From straight above, +y (the far edge) up: just short of 90°, so the camera keeps z as its up direction.
-    above, _ = render_views(mesh.vertices, mesh.faces, View(width_px=640, height_px=640, azimuth_deg=0.0, elevation_deg=89.5))
+    above = from_above(mesh)
     flat = Image.fromarray(projection(stack)).convert("RGB")
     flat = flat.resize((max(1, round(flat.width * 640 / flat.height)), 640), Image.NEAREST)
     panels = [Image.fromarray(np.asarray(tilted)), Image.fromarray(np.asarray(above)), flat]

@@ -13,7 +13,7 @@ import pytest
 import tifffile
 import trimesh
 
-from gui_support import browser, generate_and_wait, new_job, png_bytes, start_server, stop_server, tab_to  # noqa: F401 (fixture)
+from gui_support import audit, browser, generate_and_wait, new_job, png_bytes, start_server, stop_server, tab_to  # noqa: F401 (fixture)
 
 
 @pytest.fixture(scope="module")
@@ -61,6 +61,7 @@ def test_the_3d_model_checkbox_is_reached_and_ticked_by_keyboard(server, browser
         job = new_job(client, [("ball.tif", ball_stack())])
     page = browser.new_page()
     page.goto(f"{server}/jobs/{job}")
+    audit(page, "settings of a z-stack")  # axe, WCAG 2.2 AA: the new fieldset and checkbox included
     tab_to(page, lambda i: i["id"] == "volume")  # reached by Tab, its focus visible
     assert page.evaluate("document.activeElement.labels[0].textContent") == "Print as a 3-D model"
     page.keyboard.press("Space")

@@ -117,3 +117,31 @@ def test_unreachable_dask_scheduler_is_a_clear_usage_error(tmp_path, capsys):
     src = make_inputs(tmp_path / "in", good=1, hostile=0)
     code, _, err = run(capsys, "batch", src, "-o", tmp_path / "out", "--dask-scheduler", f"tcp://127.0.0.1:{free_port()}")
     assert code == 1 and "cannot reach a Dask scheduler" in err and "Traceback" not in err
+
+
+@pytest.mark.timeout(300)
+def test_volume_batch_makes_each_stack_a_model_and_one_bad_file_stops_nothing(tmp_path, capsys):
+    """`batch --volume`: each z-stack becomes a closed 3-D model; a single plane and a broken file fail
+    with their own message; a rerun finds the models up to date."""
+    import tifffile
+    import trimesh
+
+    src = tmp_path / "in"
+    src.mkdir()
+    z, y, x = np.mgrid[:24, :24, :24]
+    for i, radius in enumerate((6, 8)):
+        ball = np.where(np.sqrt((x - 12) ** 2 + (y - 12) ** 2 + (z - 12) ** 2) < radius, 1000, 100).astype(np.uint16)
+        tifffile.imwrite(src / f"ball{i}.tif", ball, imagej=True, resolution=(2.0, 2.0), metadata={"spacing": 0.5, "unit": "um", "axes": "ZYX"})
+    tifffile.imwrite(src / "flat.tif", np.full((32, 32), 7, np.uint16))
+    (src / "broken.tif").write_bytes(b"II*\x00" + b"\xff" * 10)
+    args = ("batch", src, "-o", tmp_path / "out", "--volume", "--size-mm", "30", "--workers", "1")
+    code, out, _ = run(capsys, *args)
+    assert code == 1 and "2 converted, 0 already up to date, 2 failed" in out
+    report = {os.path.basename(r["input"]): r for r in json.loads((tmp_path / "out" / "batch-report.json").read_text(encoding="utf-8"))}
+    assert "single plane" in report["flat.tif"]["error"] and "broken.tif" in report["broken.tif"]["error"]
+    for name in ("ball0", "ball1"):
+        assert report[f"{name}.tif"]["outputs"] == [f"{name}.stl", f"{name}.description.txt", f"{name}.tamp.json"]
+        mesh = trimesh.load(tmp_path / "out" / f"{name}.stl", force="mesh", process=True)
+        assert mesh.is_watertight and mesh.volume > 0 and max(mesh.extents) >= 30  # the model on its base plate
+    code, out, _ = run(capsys, *args)
+    assert "0 converted, 2 already up to date, 2 failed" in out

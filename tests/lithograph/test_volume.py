@@ -156,6 +156,100 @@ def test_budget_is_met_within_a_tenth_of_a_millimetre(tmp_path):
     assert analytic.max() <= 0.1 + 0.05  # the simplified surface from the true torus: within the budget's 0.1 mm of the full one
 
 
+@pytest.mark.slow
+@pytest.mark.timeout(180)
+def test_budget_kept_when_a_tenth_of_a_millimetre_cannot_hold(tmp_path):
+    """A bumpy ball far over a small budget: no simplification within 0.1 mm reaches 1,000 triangles, so
+    the budget is kept (by a coarser grid or a coarser simplification, whichever moves the surface
+    least), the deviation from the full-resolution surface is measured, and one line says which was kept."""
+    def sdf(x, y, z):
+        return 4.5 - np.sqrt((x - 6) ** 2 + (y - 6) ** 2 + (z - 6) ** 2) + 0.5 * np.sin(3 * x) * np.sin(3 * y) * np.sin(3 * z)
+
+    stack = write_stack(tmp_path / "bumpy.tif", sdf, (30, 30, 30))
+    done = convert_volume(stack, params(size_mm=11.0, max_triangles=1000), tmp_path)
+    v = done.model
+    check_solid_file(tmp_path / "bumpy.stl")
+    assert v.triangles_full > 1000 and v.mesh.n_triangles <= 1000 and v.budget_met
+    assert v.deviation_mm > 0.1
+    said = [w for w in v.warnings if "budget was kept" in str(w)]
+    assert len(said) == 1 and f"{v.deviation_mm:.2f} mm" in str(said[0]) and "0.1 mm was not" in str(said[0])
+    assert "budget was kept" in done.written[-2].read_text()
+    # The deviation as an independent measure finds it: the full-resolution model, and distances to dense samples of each surface.
+    full = make_volume(stack, params(size_mm=11.0, max_triangles=50_000_000)).model
+    from scipy.spatial import cKDTree
+
+    a, b = (trimesh.Trimesh(m.vertices, m.faces) for m in (full, v.model))
+    dense_a, dense_b = (trimesh.sample.sample_surface(m, 300_000, seed=5)[0] for m in (a, b))
+    far = max(cKDTree(dense_b).query(trimesh.sample.sample_surface(a, 4000, seed=6)[0])[0].max(),
+              cKDTree(dense_a).query(trimesh.sample.sample_surface(b, 4000, seed=7)[0])[0].max())
+    assert far == pytest.approx(v.deviation_mm, abs=0.06)
+
+
+def thin_walls(model, n=6000):
+    """(sampled surface points, the wall behind each) on the model."""
+    return walls(model, n)
+
+
+def in_boxes(points, regions, margin_mm):
+    boxes = np.array([r.box_mm for r in regions]).reshape(-1, 6)
+    lo, hi = boxes[:, :3] - margin_mm, boxes[:, 3:] + margin_mm
+    return ((points[:, None, :] >= lo[None]) & (points[:, None, :] <= hi[None])).all(axis=2).any(axis=1)
+
+
+def plate(cx, half_mm=0.25):
+    """A square plate 7 mm across, 2 × `half_mm` thick, its faces across x at `cx`."""
+    return lambda x, y, z: np.minimum(half_mm - np.abs(x - cx), np.minimum(3.5 - np.abs(y - 5), 3.5 - np.abs(z - 5)))
+
+
+@pytest.mark.timeout(120)
+def test_a_thin_plate_is_thickened_to_the_wall(tmp_path):
+    """A plate 0.5 mm thick, alone: grown to at least 1 mm, every one of 6,000 sampled walls."""
+    stack = write_stack(tmp_path / "plate.tif", plate(4.0), (50, 50, 40), pitch_um=(0.2, 0.2, 0.2))
+    v = convert_volume(stack, params(size_mm=7.0, min_wall_mm=1.0), tmp_path).model
+    check_solid_file(tmp_path / "plate.stl")
+    assert v.thin_grown == 1 and not v.thin_left and v.parts == 1
+    _, wall = thin_walls(v.model)
+    assert wall.min() >= 0.95, np.percentile(wall, [0, 1, 5])
+    assert min(v.size_mm) >= 0.95  # the plate itself, across
+
+
+@pytest.mark.timeout(120)
+def test_thin_plates_that_thickening_would_join_are_listed(tmp_path):
+    """Two plates 0.5 mm thick and 0.5 mm apart: grown to 1 mm they would touch, so both stay as they
+    are and are listed (where, how thin, why); every sampled wall under 1 mm lies in a listed region."""
+    def sdf(x, y, z):
+        return np.maximum(plate(4.0)(x, y, z), plate(5.0)(x, y, z))
+
+    stack = write_stack(tmp_path / "two.tif", sdf, (50, 50, 45), pitch_um=(0.2, 0.2, 0.2))
+    done = convert_volume(stack, params(size_mm=7.5, min_wall_mm=1.0), tmp_path)
+    v = done.model
+    check_solid_file(tmp_path / "two.stl")
+    assert v.parts == 2 and v.thin_grown == 0 and len(v.thin_left) == 2
+    assert all(r.why == "joins parts that are apart" and 0.25 <= r.thinnest_mm <= 0.75 for r in v.thin_left)  # 0.5 mm, within a voxel
+    points, wall = thin_walls(v.model)
+    thin = wall < 0.95
+    assert thin.sum() > 1000 and in_boxes(points[thin], v.thin_left, 0.3).all()
+    assert any("2 thin parts left thinner than 1 mm" in str(w) for w in v.warnings)
+    assert "left thinner than 1 mm" in done.written[-2].read_text()
+
+
+@pytest.mark.timeout(120)
+def test_a_thin_washer_keeps_its_hole(tmp_path):
+    """A washer 0.5 mm thick around a hole 0.7 mm across: grown to 1 mm it would close the hole, so it
+    stays thin (one hole through it) and is listed."""
+    def sdf(x, y, z):
+        rho = np.hypot(x - 5, y - 5)
+        return np.minimum(np.minimum(0.25 - np.abs(z - 3), 4 - rho), rho - 0.35)
+
+    stack = write_stack(tmp_path / "washer.tif", sdf, (30, 50, 50), pitch_um=(0.2, 0.2, 0.2))
+    v = convert_volume(stack, params(size_mm=8.0, min_wall_mm=1.0), tmp_path).model
+    mesh = check_solid_file(tmp_path / "washer.stl")
+    assert v.genus == 1 and mesh.euler_number == 0
+    assert len(v.thin_left) == 1 and v.thin_left[0].why == "closes a hole or a pocket"
+    points, wall = thin_walls(v.model)
+    assert in_boxes(points[wall < 0.95], v.thin_left, 0.3).all()
+
+
 @pytest.mark.timeout(180)
 def test_two_touching_spheres_are_one_part(tmp_path):
     a, d = 5.0, 9.6

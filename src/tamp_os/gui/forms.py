@@ -57,11 +57,11 @@ STYLE_CHOICES = (
     ("reference", "Brightness as height", "Every brightness step becomes height, as the published workflow does."),
 )
 NUMBER_FIELDS = tuple(n for n in FIELDS if n not in TEXT_FIELDS)
-FLAGS = ("invert", "flip_x", "keep_annotations", "gcode", "multicolour")
+FLAGS = ("invert", "flip_x", "keep_annotations", "gcode", "multicolour", "volume")
 LABELS = {**{n: f.label for n, f in FIELDS.items()}, "printer": "Printer profile", "preset": "Level of detail",
           "relief_style": "Relief style",
           "formats": "Output formats", "braille_table": "Braille code", "page_size": "Page size for PDF and SVG",
-          "multicolour": "Two colours", "subject": "What the image shows"}
+          "multicolour": "Two colours", "subject": "What the image shows", "volume": "Print as a 3-D model"}
 PAGE_SIZE_CHOICES = ("plate", "a4", "letter")
 
 

@@ -72,6 +72,7 @@ class Result:
     prints: list = field(default_factory=list)  # a figure's prints (panel_choice.PrintShown), the overview first
     figure_files: list[OutputFile] = field(default_factory=list)  # a figure's own files (all pages, its recipe)
     left_out: list[str] = field(default_factory=list)  # a figure's panels found but not printed on their own
+    volume: bool = False  # a z-stack printed as a 3-D model (no heightmap; the pictures show the model)
 
 
 @dataclass
@@ -204,6 +205,63 @@ def run_library(path: Path, params: LithoParams, out: Path, *, stem: str):
     return conversion
 
 
+def run_volume(path: Path, params: LithoParams, out: Path, *, stem: str):
+    """The web app's call for a z-stack printed as a 3-D model: convert_volume, and a preview model."""
+    from ..export import save_mesh
+    from ..lithograph.volume import convert_volume, describe_volume
+
+    done = convert_volume(path, params, out, stem=stem)
+    meta = {"title": f"Tactile 3-D model of {done.model.name}", "description": describe_volume(done.model)}
+    save_mesh(done.model.mesh, out / f"{stem}{PREVIEW_SUFFIX}", meta, checked=True)
+    return done
+
+
+def volume_params(params: LithoParams, upload: Upload) -> LithoParams:
+    """`volume` applies to an upload with a z axis only (the others stay reliefs), and a model is
+    written as meshes: the flat formats ticked for the reliefs are left out of it (STL when none is left)."""
+    from ..formats import GRAPHIC_FORMATS, PIN_FORMATS
+
+    if not params.volume:
+        return params
+    if upload.z_slices < 2:
+        return params.replace(volume=False)
+    meshes = tuple(f for f in params.formats if f not in GRAPHIC_FORMATS and f not in PIN_FORMATS)
+    return params.replace(formats=meshes or ("stl",), z_slice=None)
+
+
+def _volume_result(job: WebJob, upload: Upload, params: LithoParams, stem: str) -> Result:
+    """A z-stack as a 3-D model: its files, description, facts and a rendered picture."""
+    from ..lithograph.volume import describe_volume
+    from .forms import web_words
+    from .workers import read_memory_gb, shared_pool
+
+    try:
+        done = shared_pool().run(upload.name, run_volume, upload.path, params.replace(max_memory_gb=read_memory_gb()), job.out, stem)
+    except TampError as exc:
+        return Result(upload.name, False, web_words(exc).replace(str(upload.path), upload.name))
+    except Exception as exc:  # keep the server alive and say what happened
+        return Result(upload.name, False, f"{upload.name}: unexpected error ({exc.__class__.__name__}); please report it.")
+    v = done.model
+    result = Result(upload.name, True, files=[OutputFile(p.name, p.stat().st_size) for p in done.written],
+                    description=describe_volume(v), model_glb=f"{stem}{PREVIEW_SUFFIX}", volume=True,
+                    summary=[web_words(line) for line in (done.summary(), *v.warnings, *v.notes)])
+    _render_preview(job, result, v.mesh, stem)
+    return result
+
+
+def _render_preview(job: WebJob, result: Result, mesh, stem: str) -> None:
+    """The rendered picture of `mesh` beside the result; a failed render is said, not fatal."""
+    try:
+        from ..lithograph.render import View, render_views
+
+        with RENDER_LOCK:
+            full, _ = render_views(mesh.vertices, mesh.faces, View(width_px=640, height_px=480))
+        result.render_png = f"{stem}.render.png"
+        write_png(job.out / result.render_png, full)
+    except Exception as exc:  # previews are a help, not the product: report and go on
+        result.summary.append(f"No rendered picture: {exc}")
+
+
 # What each downloaded file is for, by the end of its name (longest first wins), in the zip's README.txt.
 FILE_PURPOSES = (
     (".description.txt", "the print described in words: read it aloud, or use it as the alt text of the picture"),
@@ -254,6 +312,9 @@ def convert(job: WebJob, upload: Upload) -> Result:
     if upload.panels and params.panels == "auto":  # this figure's own panels, as ticked on the settings page
         params = params.replace(panel=panel_parameter(upload.panels, upload.panel_choice))
     stem = Path(upload.name).stem
+    params = volume_params(params, upload)
+    if params.volume:
+        return _volume_result(job, upload, params, stem)
     try:
         from .workers import read_memory_gb, shared_pool  # one bad upload costs one message, never the server
 
@@ -275,13 +336,5 @@ def convert(job: WebJob, upload: Upload) -> Result:
     printed = {each.suffix[len(".panel-"):] for each in made.panels}
     result.left_out = [p.label for p in upload.panels if made.panels and p.label not in printed]
     write_png(job.out / result.heightmap_png, to_uint8(made.litho.heightmap))
-    try:
-        from ..lithograph.render import View, render_views
-
-        with RENDER_LOCK:
-            full, _ = render_views(mesh.vertices, mesh.faces, View(width_px=640, height_px=480))
-        result.render_png = f"{stem}.render.png"
-        write_png(job.out / result.render_png, full)
-    except Exception as exc:  # previews are a help, not the product: report and go on
-        result.summary.append(f"No rendered picture: {exc}")
+    _render_preview(job, result, mesh, stem)
     return result

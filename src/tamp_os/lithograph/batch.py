@@ -138,6 +138,8 @@ def convert_one(source: str, out_dir: str, params_json: str, *, stem: str) -> di
     if done:
         return dataclasses.asdict(Outcome(str(src), "skipped (up to date)", done, time.perf_counter() - start))
     try:
+        if params.volume:  # a z-stack as a 3-D model: its files and warnings
+            return _volume_outcome(src, params, out, stem, start)
         conversion = convert(src, params, out, stem=stem)
     except TampError as exc:  # exc.text() keeps the parameter names for the CLI to say as options
         return dataclasses.asdict(Outcome(str(src), "failed", [], time.perf_counter() - start, exc.text()))
@@ -150,6 +152,15 @@ def convert_one(source: str, out_dir: str, params_json: str, *, stem: str) -> di
         warnings.insert(0, FLAT_PLATE_NOTE)
     return dataclasses.asdict(Outcome(str(src), "converted", [p.name for p in conversion.all_written], time.perf_counter() - start,
                                       warnings=warnings, touch=conversion.touch()))
+
+
+def _volume_outcome(src: Path, params: LithoParams, out: Path, stem: str, start: float) -> dict:
+    """`convert_one` for `volume`: the model written (volume.convert_volume), its warnings and its summary."""
+    from .volume import convert_volume
+
+    done = convert_volume(src, params, out, stem=stem)
+    return dataclasses.asdict(Outcome(str(src), "converted", done.names, time.perf_counter() - start,
+                                      warnings=[str(w) for w in done.model.warnings]))
 
 
 FLAT_PLATE_NOTE = "flat plate: the image is uniform, so nothing is raised"  # first of a uniform input's warnings

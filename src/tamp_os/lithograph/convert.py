@@ -118,8 +118,8 @@ def convert(source, params: LithoParams | None, out_dir, *, stem: str | None = N
     if params is not None and params.volume:  # lithograph/volume.py makes those; a relief here would ignore it silently
         from ..errors import ParameterError
 
-        raise ParameterError("`volume`: 3-D models of z-stacks are made by `tamp-os convert` (lithograph.volume.convert_volume); "
-                             "batch, sweep and the web app do not make them yet. Leave `volume` out for a relief.",
+        raise ParameterError("`volume`: 3-D models of z-stacks are made by lithograph.volume.convert_volume (as `tamp-os convert`, "
+                             "`batch` and the web app make them); sweep does not make them yet. Leave `volume` out for a relief.",
                              parameter="volume", value=True)
     if params is not None and params.sections:  # lithograph/sections.py makes the series, one convert per slice
         from ..errors import ParameterError

@@ -43,6 +43,7 @@ SPECK_MM3 = 1.0  # parts smaller than a 1 mm cube are noise to a finger: dropped
 WALL_SAMPLES = 5000
 RESIN_WORDS = ("resin", "sla", "msla", "dlp", "lcd")
 FDM_WALL_MM, RESIN_WALL_MM = 1.0, 0.6
+COARSER = (1.5, 2.0)  # coarser working grids tried (besides simplifying alone) when the budget cannot hold within 0.1 mm
 
 
 @dataclass
@@ -88,6 +89,9 @@ class VolumeModel:
     warnings: list[str] = field(default_factory=list)
     seconds: float = 0.0
     sample_m_per_mm: float | None = None  # the sample length one millimetre of the model stands for
+    thin_left: list = field(default_factory=list)  # mesh.volume.ThinRegion: thin parts not thickened (where, how thin, why)
+    thin_grown: int = 0  # thin parts thickened to the wall
+    coarsened: float = 1.0  # the working grid made this many times coarser to meet the triangle budget
 
 
 def min_wall_for(params: LithoParams, printer_name: str, printer_description: str) -> float:
@@ -192,14 +196,100 @@ def make_volume(source, params: LithoParams | None = None, *, printer=None) -> V
                          f"coarser grid) or `size_mm`.") from None
 
 
+@dataclass
+class _Grid:
+    """The working voxels, cropped to the content: values, their voxel on the print (mm), the scale."""
+
+    values: np.ndarray
+    pitch: np.ndarray  # z, y, x, print mm
+    scale: float  # print mm per sample unit (m, or source voxels when the size is unknown)
+    lo: float
+    hi: float
+    level: float
+    level_from: str
+
+
+@dataclass
+class _Surface:
+    """The model's surface as kept, and what keeping it cost."""
+
+    solid: object  # manifold3d.Manifold
+    model: Mesh
+    budget: object  # mesh.budget.Budget
+    coarsened: float = 1.0  # the working grid was made this many times coarser to meet the budget
+    rescale: float = 1.0  # the surface was scaled by this to its exact size (walls grown past the object's extent)
+    origin: np.ndarray | None = None  # the grid's point (x, y, z mm) that became the model's lowest corner
+    full: Mesh | None = None  # the full-resolution surface, the deviation's reference
+
+    def on_model(self, region):
+        """A ThinRegion from the working grid's millimetres to the model's."""
+        import dataclasses
+
+        o = np.zeros(3) if self.origin is None else self.origin
+        box = [(b - o[i % 3]) * self.rescale for i, b in enumerate(region.box_mm)]
+        return dataclasses.replace(region, box_mm=tuple(float(b) for b in box), thinnest_mm=region.thinnest_mm * self.rescale)
+
+
 def _model(path, picture, params, printer, read, voxel_m, rel, factors, budget_voxels, notes, warnings, start, mv, mb) -> VolumeModel:
-    from scipy import ndimage
+    """The model from the read stack: level, voxels, surface within the budget, walls, stand."""
+    size_mm = float(params.size_mm or printer.width_mm)
+    grid = _content_grid(path, read.values, params, rel, factors, size_mm, budget_voxels, mv)
+    wall = min_wall_for(params, printer.name, printer.description)
+    # Background around the grid: a part cut by the stack's edge has a face there, and its walls can grow past it.
+    pad = int(np.ceil((wall / 2 + float(grid.pitch.max())) / float(grid.pitch.min()))) + 1
+    grid.values = np.pad(grid.values, pad, mode="constant", constant_values=np.float32(grid.lo))
+    filled, report = mv.solid_mask(grid.values, grid.level, tuple(grid.pitch), speck_mm3=SPECK_MM3)
+    if not report.voxels:
+        raise InputError(f"{path}: no part of the stack above `iso_level` {grid.level:g} is larger than {SPECK_MM3:g} mm³ on the "
+                         f"model; choose a lower `iso_level` (the stack's values run from {grid.lo:g} to {grid.hi:g}) or a larger "
+                         f"`size_mm`.")
+    mv.thicken(filled, tuple(grid.pitch), wall, report=report)
+    working_shape = tuple(int(n_) for n_ in filled.shape)
+    field_ = mv.surface_field(grid.values, grid.level, filled, report=report, spacing_mm=tuple(grid.pitch))
+    del filled
+    grid.values = None
+    report.grow_field = None
+    surface = _surface_within_budget(path, field_, grid, size_mm, params, mv, mb)
+    del field_
+    warnings.extend(_surface_warnings(surface, params))
+    points, normals = mb.sample_surface(surface.model, WALL_SAMPLES, seed=3)
+    walls = mb.wall_thickness(surface.solid, points, normals, reach_mm=size_mm)
+    pieces = surface.solid.decompose()
+    report.thin_left = [surface.on_model(r) for r in report.thin_left]
+    warnings.extend(_wall_warnings(report, walls, wall))
+    model = surface.model
+    x, y, z = (float(v) for v in (model.vertices.max(axis=0) - model.vertices.min(axis=0)))
+    per_mm = None if voxel_m is None else 1.0 / (grid.scale * surface.rescale)  # sample metres per print mm
+    budget = surface.budget
+    out = VolumeModel(
+        mesh=model, model=model, params=params, name=path.name, path=str(path), sha256=picture.file.sha256,
+        format=read.format, source_shape=read.source_shape, working_shape=working_shape, voxel_m=voxel_m,
+        pitch_mm=tuple(float(p) for p in grid.pitch), size_mm=(x, y, z), level=grid.level, level_from=grid.level_from,
+        specks_dropped=report.specks_dropped, voids_filled=report.voids_filled, parts=len(pieces),
+        genus=sum(int(p.genus()) for p in pieces), triangles_full=budget.triangles_before, triangles=budget.triangles,
+        deviation_mm=budget.deviation_mm, tolerance_mm=budget.tolerance_mm, budget_met=budget.met, min_wall_mm=float(walls.min()),
+        wall_p1_mm=float(np.percentile(walls, 1)), wall_wanted_mm=wall, thickened_mm=report.grown_mm,
+        thin_voxels=report.thin_voxels, joined=report.joined, thin_regions_mm=report.thin_regions_mm,
+        notes=notes, warnings=warnings, sample_m_per_mm=per_mm, thin_left=list(report.thin_left),
+        thin_grown=report.thin_grown, coarsened=surface.coarsened,
+    )
+    if params.volume_stand == "plate":
+        _stand(out, path, surface, params, per_mm)
+    else:
+        from ..mesh.repair import as_written
 
-    from ..tactile.furniture import Furniture
-    from ..tactile.stand import stand_model
-    from ..units import format_length
+        out.mesh = as_written(model)  # the bare model, repaired of faces of no area where needed
+    if per_mm:
+        from ..units import format_length
 
-    values = read.values
+        notes.append(f"1 mm on the model = {format_length(per_mm)} of the sample.")
+    out.seconds = time.perf_counter() - start
+    return out
+
+
+def _level(path, values, params, mv) -> tuple[float, str, float, float]:
+    """(level, where it came from, the stack's lowest and highest values); a blank stack or a level
+    outside the values refused."""
     lo, hi = float(values.min()), float(values.max())
     if lo == hi:
         raise InputError(f"{path}: the stack is blank: every voxel is {lo:g}, so there is no surface to model. Check the "
@@ -210,12 +300,19 @@ def _model(path, picture, params, printer, read, voxel_m, rel, factors, budget_v
         raise ParameterError(f"{path}: `iso_level` must lie within the stack's values, {lo:g} to {hi:g} (below its largest "
                              f"value, so some voxels lie above it); got {level:g}. Leave it out for Otsu's level.",
                              parameter="iso_level", value=level, allowed=f"{lo:g} to {hi:g}")
-    size_mm = float(params.size_mm or printer.width_mm)
+    return level, level_from, lo, hi
+
+
+def _content_grid(path, values, params, rel, factors, size_mm, budget_voxels, mv) -> _Grid:
+    """The working values cropped to what is left once specks are dropped (which sets the model's
+    extent and scale), interpolated up towards FINEST_PITCH_MM and smoothed."""
+    from scipy import ndimage
+
+    level, level_from, lo, hi = _level(path, values, params, mv)
     step = np.asarray(rel, dtype=float) * np.asarray(factors, dtype=float)  # working voxel, sample units (m, or voxels)
     # Specks, at the scale of the whole stack (the model is at least this large): what is left sets the model's extent.
     provisional = size_mm / float((np.asarray(values.shape) * step).max())
-    mask0 = values > level
-    labels, n = ndimage.label(mask0)
+    labels, n = ndimage.label(values > level)
     sizes = np.bincount(labels.ravel())[1:] * float(np.prod(step * provisional))
     keep = np.flatnonzero(sizes >= SPECK_MM3) + 1
     if keep.size == 0:
@@ -224,7 +321,7 @@ def _model(path, picture, params, printer, read, voxel_m, rel, factors, budget_v
                          f"{biggest:.2g} mm³ at this size, each smaller than {SPECK_MM3:g} mm³), nothing a hand can find; choose a "
                          f"lower `iso_level` (the stack's values run from {lo:g} to {hi:g}) or a larger `size_mm`.")
     kept = np.isin(labels, keep)
-    del labels, mask0
+    del labels
     box = ndimage.find_objects(kept.astype(np.int8))[0]
     box = tuple(slice(max(b.start - 3, 0), min(b.stop + 3, n_)) for b, n_ in zip(box, values.shape))  # room for the smoothing
     margin = ndimage.binary_dilation(kept[box], iterations=2)
@@ -234,97 +331,183 @@ def _model(path, picture, params, printer, read, voxel_m, rel, factors, budget_v
     extent = np.asarray([b.stop - b.start for b in inner], dtype=float) * step  # z, y, x in sample units: the object's own
     del kept
     scale = size_mm / float(extent.max())  # print mm per sample unit
-    pitch = step * scale
-    # A coarse grid is interpolated up (linear) so the surface is smooth: towards FINEST_PITCH_MM, within the budget.
+    cropped, pitch = _refined(cropped, step * scale, budget_voxels)
+    return _Grid(cropped, pitch, scale, lo, hi, level, level_from)
+
+
+def _refined(values: np.ndarray, pitch: np.ndarray, budget_voxels: int) -> tuple[np.ndarray, np.ndarray]:
+    """A coarse grid interpolated up (linear) towards FINEST_PITCH_MM within the budget, so the
+    surface is smooth, then smoothed by SMOOTH_VOXELS: (values, their pitch on the print)."""
+    from scipy import ndimage
+
     zoom = np.maximum(1.0, pitch / FINEST_PITCH_MM)
-    grown = float(np.prod(np.asarray(cropped.shape) * zoom))
+    grown = float(np.prod(np.asarray(values.shape) * zoom))
     if grown > budget_voxels:
         zoom = np.maximum(1.0, zoom * (budget_voxels / grown) ** (1 / 3))
     zoom = np.round(zoom * 4) / 4
     if (zoom > 1).any():
-        cropped = ndimage.zoom(cropped, zoom, order=1, mode="nearest", grid_mode=True)
+        values = ndimage.zoom(values, zoom, order=1, mode="nearest", grid_mode=True)
         pitch = pitch / zoom
     if SMOOTH_VOXELS:
-        cropped = ndimage.gaussian_filter(cropped, SMOOTH_VOXELS, mode="nearest")
-    wall = min_wall_for(params, printer.name, printer.description)
-    filled, report = mv.solid_mask(cropped, level, tuple(pitch), speck_mm3=SPECK_MM3)
-    if not report.voxels:
-        raise InputError(f"{path}: no part of the stack above `iso_level` {level:g} is larger than {SPECK_MM3:g} mm³ on the "
-                         f"model; choose a lower `iso_level` (the stack's values run from {lo:g} to {hi:g}) or a larger `size_mm`.")
-    mv.thicken(filled, tuple(pitch), wall, report=report)
-    working_shape = tuple(int(n_) for n_ in filled.shape)
-    surface = mv.surface_field(cropped, level, filled, report=report, spacing_mm=tuple(pitch))
-    del cropped, filled
-    report.grow_field = None
-    full = mv.isosurface(surface, tuple(pitch))
-    del surface
-    full = _exact_size(full, size_mm)
-    solid = mb.to_manifold(full)
+        values = ndimage.gaussian_filter(values, SMOOTH_VOXELS, mode="nearest")
+    return values, pitch
+
+
+def _closed(path, mesh: Mesh, level: float, mb):
+    """The mesh as a manifold3d solid; InputError when it cannot be one."""
     import manifold3d as m3
 
+    solid = mb.to_manifold(mesh)
     if solid.status() != m3.Error.NoError:
         raise InputError(f"{path}: the isosurface at `iso_level` {level:g} could not be made a closed solid "
                          f"({solid.status()}); try another `iso_level` or a smaller `size_mm`, and please report this stack.")
-    simplified, budget = mb.meet_budget(solid, params.max_triangles, MAX_DEVIATION_MM, reference=full)
-    model = mb.from_manifold(simplified)
-    deviation = budget.deviation_mm
-    if not budget.met:
-        warnings.append(Text(f"the model needs {budget.triangles:,} triangles to stay within {MAX_DEVIATION_MM} mm of its surface, "
-                             f"more than `max_triangles` {params.max_triangles:,}; it was kept at {budget.triangles:,}. Raise "
-                             f"`max_triangles`, or lower `size_mm` for fewer, larger details."))
-    points, normals = mb.sample_surface(model, WALL_SAMPLES, seed=3)
-    walls = mb.wall_thickness(simplified, points, normals, reach_mm=size_mm)
-    pieces = simplified.decompose()
-    genus = sum(int(p.genus()) for p in pieces)
-    if report.thin_voxels and report.joined:
-        where = "; ".join(f"x {b[0]:.0f}–{b[3]:.0f}, y {b[1]:.0f}–{b[4]:.0f}, z {b[2]:.0f}–{b[5]:.0f} mm" for b in report.thin_regions_mm[:3])
-        warnings.append(Text(f"thickening walls to {wall:g} mm joined {report.joined} parts that were apart (thin parts at {where}); "
-                             f"a larger `size_mm` keeps them apart."))
-    if float(np.percentile(walls, 1)) < wall * 0.9:
-        warnings.append(Text(f"some walls are thinner than {wall:g} mm where the surface bends ({np.percentile(walls, 1):.2f} mm at "
-                             f"the thinnest 1 % of {WALL_SAMPLES:,} points); a larger `size_mm` makes them thicker."))
-    x, y, z = (float(v) for v in (model.vertices.max(axis=0) - model.vertices.min(axis=0)))
-    per_mm = None if voxel_m is None else 1.0 / scale  # sample metres per print mm
-    out = VolumeModel(
-        mesh=model, model=model, params=params, name=path.name, path=str(path), sha256=picture.file.sha256,
-        format=read.format, source_shape=read.source_shape, working_shape=working_shape, voxel_m=voxel_m,
-        pitch_mm=tuple(float(p) for p in pitch), size_mm=(x, y, z), level=level, level_from=level_from,
-        specks_dropped=report.specks_dropped, voids_filled=report.voids_filled, parts=len(pieces), genus=genus,
-        triangles_full=budget.triangles_before, triangles=budget.triangles, deviation_mm=deviation,
-        tolerance_mm=budget.tolerance_mm, budget_met=budget.met, min_wall_mm=float(walls.min()),
-        wall_p1_mm=float(np.percentile(walls, 1)), wall_wanted_mm=wall, thickened_mm=report.grown_mm,
-        thin_voxels=report.thin_voxels, joined=report.joined, thin_regions_mm=report.thin_regions_mm,
-        notes=notes, warnings=warnings, sample_m_per_mm=per_mm,
+    return solid
+
+
+def _surface_within_budget(path, field_, grid: _Grid, size_mm: float, params, mv, mb) -> _Surface:
+    """The surface simplified to `max_triangles` within MAX_DEVIATION_MM of the full-resolution one.
+
+    When that cannot be (the simplification that meets the budget moves the surface further), the
+    budget is kept the way that moves it least, by measurement: the full surface simplified to the
+    budget, or, when that moves it more than twice the limit, meshed again on grids COARSER times
+    coarser (simplified to the budget if still over it), each measured against the full surface; the
+    deviation is reported. Only when none meets the budget is the surface kept within the limit.
+    """
+    raw = mv.isosurface(field_, tuple(grid.pitch))
+    rescale = size_mm / float((raw.vertices.max(axis=0) - raw.vertices.min(axis=0)).max())
+    origin = raw.vertices.min(axis=0)
+    full = _exact_size(raw, size_mm)
+    del raw
+    surface = _budgeted(path, field_, grid, full, size_mm, params, mv, mb)
+    surface.rescale, surface.origin, surface.full = rescale, origin, full
+    return surface
+
+
+def _budgeted(path, field_, grid: _Grid, full: Mesh, size_mm: float, params, mv, mb) -> _Surface:
+    """`_surface_within_budget` once the full surface is made (see there)."""
+    solid = _closed(path, full, grid.level, mb)
+    before, limit, most = int(solid.num_tri()), MAX_DEVIATION_MM, params.max_triangles
+    if before <= most:
+        return _Surface(solid, mb.from_manifold(solid), mb.Budget(before, before, 0.0, True))
+    candidate, tolerance, measured = mb.simplify_to_budget(solid, most, full, start_mm=limit)
+    best = None
+    if candidate.num_tri() <= most:
+        best = _Surface(candidate, mb.from_manifold(candidate), mb.Budget(before, int(candidate.num_tri()), tolerance, True,
+                                                                          measured, within=measured <= limit))
+    for factor in COARSER if best is None or measured > 2 * limit else ():
+        coarse = _closed(path, _coarse_mesh(field_, grid.pitch, factor, size_mm, mv), grid.level, mb)
+        tolerance = mb.tolerance_for(coarse, most, limit) if coarse.num_tri() > most else 0.0
+        coarse = coarse.simplify(tolerance) if tolerance else coarse
+        if coarse.num_tri() > most:
+            continue
+        mesh = mb.from_manifold(coarse)
+        measured = mb.surface_deviation(full, mesh)
+        log.info("budget by a %g times coarser grid and tolerance %.3f mm: %d triangles, %.3f mm from the full surface",
+                 factor, tolerance, coarse.num_tri(), measured)
+        if best is None or measured < best.budget.deviation_mm:
+            best = _Surface(coarse, mesh, mb.Budget(before, int(coarse.num_tri()), tolerance, True, measured,
+                                                    within=measured <= limit), factor)
+    if best is not None:
+        return best
+    kept, tolerance, measured = mb.largest_within(solid, full, limit, max_deviation_mm=limit)
+    return _Surface(kept, mb.from_manifold(kept), mb.Budget(before, int(kept.num_tri()), tolerance, False, measured))
+
+
+def _coarse_mesh(field_, pitch, factor: float, size_mm: float, mv) -> Mesh:
+    """The field's surface meshed on a grid `factor` times coarser, at the model's size."""
+    from scipy import ndimage
+
+    coarse = ndimage.zoom(field_, 1 / factor, order=1, mode="nearest", grid_mode=True)
+    step = np.asarray(pitch) * np.asarray(field_.shape, float) / np.asarray(coarse.shape, float)
+    return _exact_size(mv.isosurface(coarse, tuple(step)), size_mm)
+
+
+def _surface_warnings(surface: _Surface, params) -> list[str]:
+    """The one plain line when the budget and the 0.1 mm could not both hold: which was kept, the numbers."""
+    b = surface.budget
+    if not b.met:
+        return [Text(f"the model keeps {b.triangles:,} triangles, more than `max_triangles` {params.max_triangles:,}: "
+                     f"no simplification or coarser grid reached the budget, so the surface was kept within "
+                     f"{MAX_DEVIATION_MM} mm ({b.deviation_mm:.3f} mm) instead. Raise `max_triangles`, or lower `size_mm`.")]
+    if not b.within:
+        how = f"meshed {surface.coarsened:g} times coarser" if surface.coarsened > 1 else "simplified"
+        return [Text(f"the triangle budget was kept and the {MAX_DEVIATION_MM} mm was not: {b.triangles:,} triangles (at most "
+                     f"`max_triangles` {params.max_triangles:,}), {how}, lie up to {b.deviation_mm:.2f} mm from the "
+                     f"full-resolution surface of {b.triangles_before:,} triangles. Raise `max_triangles` for the finer surface.")]
+    return []
+
+
+def _wall_warnings(report, walls: np.ndarray, wall: float) -> list[str]:
+    """Thin parts left thin (where, how thin, why), and walls thinner than asked where the surface bends."""
+    out = []
+    if report.thin_left:
+        where = "; ".join(r.words() for r in report.thin_left[:3])
+        more = f" and {len(report.thin_left) - 3} more" if len(report.thin_left) > 3 else ""
+        out.append(Text(f"{len(report.thin_left)} thin part{'s' if len(report.thin_left) > 1 else ''} left thinner than "
+                        f"{wall:g} mm, since thickening would change the structure: {where}{more}; a larger `size_mm` "
+                        f"makes them thicker."))
+    if report.joined:
+        out.append(Text(f"thickening walls to {wall:g} mm joined {report.joined} parts that were apart; a larger `size_mm` keeps "
+                        f"them apart."))
+    p1 = float(np.percentile(walls, 1))
+    if p1 < wall * 0.9 and not report.thin_left:
+        out.append(Text(f"some walls are thinner than {wall:g} mm where the surface bends ({p1:.2f} mm at the thinnest 1 % of "
+                        f"{WALL_SAMPLES:,} points); a larger `size_mm` makes them thicker."))
+    return out
+
+
+def _stand(out: VolumeModel, path, surface: _Surface, params, per_mm) -> None:
+    """`out` on its base plate with the furniture (its mesh, plate, scale and the floating parts' note).
+    The budget counts the whole file: when the base and furniture take it over `max_triangles`, the
+    model is simplified further by what they need, measured again, and stood again."""
+    from ..tactile.furniture import Furniture
+    from ..tactile.stand import stand_model
+
+    x, y, _ = out.size_mm
+    furniture = Furniture(
+        caption=params.caption if params.caption is not None else path.stem.replace("_", " ")[:60],
+        braille_table=params.braille_table, scale_bar_m=params.scale_bar_m,
+        auto_scale_bar=params.scale_bar == "auto", sample_m_per_print_mm=per_mm,
+        corner_cut=params.orientation_corner == "cut", spec=params.braille_spec(),
     )
-    if params.volume_stand == "plate":
-        furniture = Furniture(
-            caption=params.caption if params.caption is not None else path.stem.replace("_", " ")[:60],
-            braille_table=params.braille_table, scale_bar_m=params.scale_bar_m,
-            auto_scale_bar=params.scale_bar == "auto", sample_m_per_print_mm=per_mm,
-            corner_cut=params.orientation_corner == "cut", spec=params.braille_spec(),
-        )
-        stand, out.mesh = _fused(path, simplified, x, y, params.base_mm, furniture, stand_model)
-        out.floating, out.posts = stand.floating, stand.posts
-        out.plate_mm = stand.placed.plate_mm
-        out.scale_label = stand.placed.scale_label
-        out.caption_braille = stand.placed.caption_braille
-        notes.extend(stand.placed.notes)
-        if stand.floating:
-            held = (f"; {'each' if stand.posts == stand.floating else stand.posts} stands on a post 2.4 mm across"
-                    if stand.posts else "")
-            loose = stand.floating - stand.posts
-            notes.append(f"{stand.floating} part{'s' if stand.floating > 1 else ''} of the model do{'es' if stand.floating == 1 else ''} "
+    stand, out.mesh = _fused(path, surface.solid, x, y, params.base_mm, furniture, stand_model)
+    extra = out.mesh.n_triangles - int(surface.solid.num_tri())
+    if (out.mesh.n_triangles > params.max_triangles and surface.budget.met and surface.full is not None
+            and params.max_triangles > 2 * extra):
+        _leave_room(out, surface, params.max_triangles - extra)
+        stand, out.mesh = _fused(path, surface.solid, x, y, params.base_mm, furniture, stand_model)
+    out.floating, out.posts = stand.floating, stand.posts
+    out.plate_mm = stand.placed.plate_mm
+    out.scale_label = stand.placed.scale_label
+    out.caption_braille = stand.placed.caption_braille
+    out.notes.extend(stand.placed.notes)
+    if stand.floating:
+        held = (f"; {'each' if stand.posts == stand.floating else stand.posts} stands on a post 2.4 mm across"
+                if stand.posts else "")
+        loose = stand.floating - stand.posts
+        out.notes.append(f"{stand.floating} part{'s' if stand.floating > 1 else ''} of the model do{'es' if stand.floating == 1 else ''} "
                          f"not reach the base{held}" + (f"; {loose} with other parts below {'them' if loose > 1 else 'it'} "
                          f"float{'s' if loose == 1 else ''} in the file as separate pieces (print them apart, or give "
                          f"a lower `iso_level` so they join)" if loose else "") + ".")
-    else:
-        from ..mesh.repair import as_written
 
-        out.mesh = as_written(model)  # the bare model, repaired of faces of no area where needed
-    if per_mm:
-        notes.append(f"1 mm on the model = {format_length(per_mm)} of the sample.")
-    out.seconds = time.perf_counter() - start
-    return out
+
+def _leave_room(out: VolumeModel, surface: _Surface, most: int) -> None:
+    """The model simplified to at most `most` triangles (room for its base), measured against the full surface."""
+    from ..mesh import budget as mb
+
+    tolerance = mb.tolerance_for(surface.solid, most, max(surface.budget.tolerance_mm, 0.01))
+    surface.solid = surface.solid.simplify(tolerance)
+    surface.model = mb.from_manifold(surface.solid)
+    deviation = mb.surface_deviation(surface.full, surface.model)
+    out.model, out.triangles, out.deviation_mm = surface.model, int(surface.solid.num_tri()), deviation
+    out.tolerance_mm = max(out.tolerance_mm, tolerance)
+    points, normals = mb.sample_surface(surface.model, WALL_SAMPLES, seed=3)  # the walls of the model as written
+    walls = mb.wall_thickness(surface.solid, points, normals, reach_mm=max(out.size_mm))
+    out.min_wall_mm, out.wall_p1_mm = float(walls.min()), float(np.percentile(walls, 1))
+    if deviation > MAX_DEVIATION_MM and not any("budget was kept" in str(w) for w in out.warnings):
+        out.warnings.append(Text(f"the triangle budget was kept and the {MAX_DEVIATION_MM} mm was not: the model's "
+                                 f"{out.triangles:,} triangles (its base takes the rest of `max_triangles`) lie up to "
+                                 f"{deviation:.2f} mm from the full-resolution surface. Raise `max_triangles` for the finer surface."))
 
 
 def _fused(path, simplified, width_mm, depth_mm, base_mm, furniture, stand_model):
@@ -388,8 +571,21 @@ def describe_volume(v: VolumeModel) -> str:
                  + joined + ".")
     if v.voids_filled:
         parts.append(f"{v.voids_filled} internal void{'s were' if v.voids_filled > 1 else ' was'} filled, since a finger cannot reach it.")
-    if v.thin_voxels:
-        parts.append(f"Walls thinner than {v.wall_wanted_mm:g} mm were thickened by {v.thickened_mm:.2f} mm on each side.")
+    if v.thin_grown:
+        parts.append(f"Walls thinner than {v.wall_wanted_mm:g} mm were thickened to at least {v.wall_wanted_mm:g} mm "
+                     f"({v.thin_grown} part{'s' if v.thin_grown != 1 else ''}).")
+    if v.thin_left:
+        parts.append(f"{len(v.thin_left)} thin part{'s were' if len(v.thin_left) != 1 else ' was'} left thinner than "
+                     f"{v.wall_wanted_mm:g} mm, since thickening would change the structure: "
+                     + "; ".join(r.words() for r in v.thin_left[:5]) + ("; …" if len(v.thin_left) > 5 else "") + ".")
+    if v.budget_met and v.tolerance_mm == 0 and v.coarsened == 1:
+        parts.append(f"Its surface has {v.triangles:,} triangles, the full-resolution surface.")
+    elif v.deviation_mm <= MAX_DEVIATION_MM:
+        parts.append(f"Its surface has {v.triangles:,} triangles, within {v.deviation_mm:.2f} mm of the full-resolution surface "
+                     f"({v.triangles_full:,} triangles).")
+    else:
+        parts.append(f"The triangle budget was kept and the {MAX_DEVIATION_MM} mm was not: its {v.triangles:,} triangles lie up to "
+                     f"{v.deviation_mm:.2f} mm from the full-resolution surface ({v.triangles_full:,} triangles).")
     if v.plate_mm:
         parts.append(f"It stands on a base plate {v.plate_mm[0]:.0f} × {v.plate_mm[1]:.0f} mm with a braille caption"
                      + (f", a scale bar of {v.scale_label}" if v.scale_label else "") + ", and the top right corner cut off.")
@@ -438,7 +634,7 @@ def convert_volume(source, params: LithoParams, out_dir, *, stem: str | None = N
     from ..formats import GRAPHIC_FORMATS, PIN_FORMATS
     from ..printing.print_settings import settings_for
     from ..version import __version__
-    from .outputs import dependency_versions, write_meshes
+    from .outputs import dependency_versions, file_sha256, write_meshes
     from .sizing import resolve_printer
 
     printer = printer_profile or resolve_printer(params)
@@ -461,11 +657,17 @@ def convert_volume(source, params: LithoParams, out_dir, *, stem: str | None = N
         "kind": "volume", "tamp_os": __version__, "dependencies": dependency_versions(),
         "input": {"name": model.name, "path": model.path, "sha256": model.sha256},
         "params": params.to_dict(), "printer_profile": printer.as_dict(), "files": [p.name for p in written],
+        # As every recipe lists them, so `batch` knows a rerun has nothing to do (outputs.recipe_outputs_if_current).
+        "outputs": [p.name for p in written], "output_sha256": {p.name: file_sha256(p) for p in written},
         "measured": {
             "size_mm": [round(v, 4) for v in model.size_mm], "triangles": model.mesh.n_triangles,
             "triangles_full_surface": model.triangles_full, "deviation_mm": round(model.deviation_mm, 4),
             "thinnest_wall_mm": round(model.min_wall_mm, 4), "wall_1st_percentile_mm": round(model.wall_p1_mm, 4),
             "level": model.level, "level_from": model.level_from, "parts": model.parts, "genus": model.genus,
+            "budget_met": model.budget_met, "meshed_coarser_by": model.coarsened,
+            "thin_parts_thickened": model.thin_grown,
+            "thin_parts_left": [{"box_mm_xyz": [round(b, 2) for b in r.box_mm], "thinnest_mm": round(r.thinnest_mm, 3), "why": r.why}
+                                for r in model.thin_left],
             "voids_filled": model.voids_filled, "specks_dropped": model.specks_dropped, "floating_parts_on_posts": model.floating,
             "working_voxels_zyx": list(model.working_shape), "voxel_m_zyx": list(model.voxel_m) if model.voxel_m else None,
             "sample_m_per_mm": model.sample_m_per_mm, "seconds": round(model.seconds, 2),

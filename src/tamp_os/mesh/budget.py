@@ -3,8 +3,8 @@
 - `to_manifold` / `from_manifold` move a Mesh into manifold3d and back (manifold3d keeps every
   result closed and 2-manifold);
 - `meet_budget` simplifies with manifold3d's `simplify(tolerance)` (edge collapses that move no
-  surface by more than the tolerance), raising the tolerance step by step up to `max_deviation_mm`
-  until the mesh has at most `max_triangles`;
+  surface by more than about the tolerance), the tolerance found by bisection: the smallest that
+  leaves at most `max_triangles`, kept when the measured deviation stays within `max_deviation_mm`;
 - `surface_deviation` measures, independently of the simplifier, the largest distance between two
   surfaces at sampled points, both ways (point to nearest triangle, exactly);
 - `wall_thickness` casts a ray inward from sampled surface points (along the inward normal) and
@@ -19,7 +19,7 @@ import numpy as np
 
 from .solid import INDEX, Mesh
 
-TOLERANCE_STEPS = (0.01, 0.02, 0.035, 0.05, 0.07, 0.085, 0.1)  # mm, tried in turn (times max_deviation_mm / 0.1)
+BISECTIONS = 5  # halvings of the tolerance interval: within 1/32 of it
 
 
 @dataclass
@@ -31,6 +31,9 @@ class Budget:
     tolerance_mm: float  # the simplifier's tolerance used (0: not simplified)
     met: bool
     deviation_mm: float = 0.0  # measured between the full surface and the result (0: not simplified)
+    within: bool = True  # the deviation is within the limit asked (False only when the budget was kept instead)
+    budget_tolerance_mm: float = 0.0  # unmet: the tolerance that would meet the budget, and how far that moves the surface
+    budget_deviation_mm: float = 0.0
 
 
 def to_manifold(mesh: Mesh):
@@ -49,33 +52,63 @@ def meet_budget(solid, max_triangles: int, max_deviation_mm: float, *, reference
     """(the solid simplified to at most `max_triangles`, Budget), never further from `reference`
     (the full surface) than `max_deviation_mm` as measured by `surface_deviation`.
 
-    Tolerances are tried from small to large; the first that meets the budget is kept if its measured
-    deviation is within the limit, else the largest that stayed within it (the budget then unmet).
+    The smallest tolerance that meets the budget is found by bisection (`tolerance_for`); kept when its
+    measured deviation is within the limit. Else the budget cannot be met within it: the largest
+    tolerance whose measured deviation stays within the limit is kept (the budget then unmet), and
+    the Budget says what meeting it would have cost.
     """
     before = int(solid.num_tri())
     if before <= max_triangles:
         return solid, Budget(before, before, 0.0, True)
     reference = reference if reference is not None else from_manifold(solid)
+    candidate, tolerance, measured = simplify_to_budget(solid, max_triangles, reference, start_mm=max_deviation_mm)
+    if measured <= max_deviation_mm and candidate.num_tri() <= max_triangles:
+        return candidate, Budget(before, int(candidate.num_tri()), tolerance, True, measured)
+    best, used, deviation = largest_within(solid, reference, min(tolerance, max_deviation_mm), max_deviation_mm=max_deviation_mm)
+    return best, Budget(before, int(best.num_tri()), used, int(best.num_tri()) <= max_triangles, deviation,
+                        budget_tolerance_mm=tolerance, budget_deviation_mm=measured)
+
+
+def simplify_to_budget(solid, max_triangles: int, reference: Mesh, *, start_mm: float):
+    """(the solid simplified by the smallest tolerance that leaves at most `max_triangles`, that
+    tolerance, its measured deviation from `reference`)."""
+    tolerance = tolerance_for(solid, max_triangles, start_mm)
+    candidate = solid.simplify(tolerance)
+    return candidate, tolerance, surface_deviation(reference, from_manifold(candidate))
+
+
+def largest_within(solid, reference: Mesh, most_mm: float, *, max_deviation_mm: float):
+    """(the solid simplified by the largest tolerance up to `most_mm` whose measured deviation from
+    `reference` is within `max_deviation_mm`, by bisection; that tolerance (0: none); its deviation)."""
     best, used, deviation = solid, 0.0, 0.0
-    candidate = solid
-    for step in TOLERANCE_STEPS:
-        tolerance = step * max_deviation_mm / 0.1
-        candidate = candidate.simplify(tolerance)  # each step from the last: smaller each time, measured against the full surface
-        over = candidate.num_tri() > max_triangles
-        if over and step != TOLERANCE_STEPS[-1]:
-            continue
+    lo, hi = 0.0, most_mm
+    for _ in range(BISECTIONS):
+        middle = (lo + hi) / 2
+        candidate = solid.simplify(middle)
         measured = surface_deviation(reference, from_manifold(candidate))
         if measured <= max_deviation_mm:
-            best, used, deviation = candidate, tolerance, measured
-        break
-    if used == 0.0:  # no tolerance within the budget kept the surface close enough: the finest step that does
-        for step in TOLERANCE_STEPS[:3]:
-            candidate = solid.simplify(step * max_deviation_mm / 0.1)
-            measured = surface_deviation(reference, from_manifold(candidate))
-            if measured > max_deviation_mm:
-                break
-            best, used, deviation = candidate, step * max_deviation_mm / 0.1, measured
-    return best, Budget(before, int(best.num_tri()), used, int(best.num_tri()) <= max_triangles, deviation)
+            best, used, deviation, lo = candidate, middle, measured, middle
+        else:
+            hi = middle
+    return best, used, deviation
+
+
+def tolerance_for(solid, max_triangles: int, start_mm: float, *, most_mm: float = 5.0) -> float:
+    """The smallest simplification tolerance (mm) that leaves at most `max_triangles`, by bisection
+    (manifold3d's edge collapses: fewer triangles as the tolerance grows); `most_mm` when none does."""
+    hi = start_mm
+    while solid.simplify(hi).num_tri() > max_triangles:
+        if hi >= most_mm:
+            return most_mm
+        hi = min(hi * 2, most_mm)
+    lo = 0.0
+    for _ in range(BISECTIONS):
+        middle = (lo + hi) / 2
+        if solid.simplify(middle).num_tri() > max_triangles:
+            lo = middle
+        else:
+            hi = middle
+    return hi
 
 
 def sample_surface(mesh: Mesh, count: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:

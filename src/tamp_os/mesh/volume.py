@@ -6,7 +6,7 @@ All in voxel space, with the voxel's size on the print in millimetres (`spacing_
 - `solid_mask` thresholds, drops specks smaller than `speck_mm3`, and fills internal voids
   (binary fill holes: a hollow object prints as a solid one, a void no finger can reach);
 - `thicken` grows walls thinner than `min_wall_mm` (a distance-transform dilation restricted to
-  the thin parts) and says where growing them joined parts that were apart;
+  the thin parts), except where growing would join parts or close a hole: those it lists;
 - `surface_field` turns the values into a signed field whose zero is the surface: the data's own
   (interpolated, so the surface lies between voxels where the values say) where the mask kept it,
   positive in filled voids, negative in dropped specks, and the thickening's distance where walls grew;
@@ -29,6 +29,21 @@ PAD_VOXELS = 2
 NUDGE = np.float32(0.01)
 
 
+@dataclass(frozen=True)
+class ThinRegion:
+    """A thin part left as it is: where (x0, y0, z0, x1, y1, z1 on the model, mm), how thick across its
+    ridge (the median), and why."""
+
+    box_mm: tuple[float, ...]
+    thinnest_mm: float
+    why: str
+
+    def words(self) -> str:
+        b = self.box_mm
+        return (f"{self.thinnest_mm:.2f} mm thick at x {b[0]:.1f}–{b[3]:.1f}, y {b[1]:.1f}–{b[4]:.1f}, z {b[2]:.1f}–{b[5]:.1f} mm "
+                f"(thickening it {self.why})")
+
+
 @dataclass
 class MaskReport:
     """What the voxel steps did, for the report."""
@@ -43,6 +58,8 @@ class MaskReport:
     grown_mm: float = 0.0
     joined: int = 0  # parts that thickening joined (were apart, now touch)
     thin_regions_mm: list = field(default_factory=list)  # (x0, y0, z0, x1, y1, z1) boxes of thin parts, print mm
+    thin_grown: int = 0  # thin parts grown to the wall
+    thin_left: list = field(default_factory=list)  # ThinRegion: thin parts left thin, since growing them changes the structure
     grow_field: np.ndarray | None = field(default=None, repr=False)  # grown_mm − distance to the thin parts (mm)
 
 
@@ -91,17 +108,43 @@ def solid_mask(values: np.ndarray, level: float, spacing_mm, *, speck_mm3: float
     return filled, report
 
 
-def thicken(mask: np.ndarray, spacing_mm, min_wall_mm: float, *, report: MaskReport) -> np.ndarray:
-    """Walls thinner than `min_wall_mm` grown until they are that thick; the rest unchanged.
+def _thin_parts(mask: np.ndarray, spacing: np.ndarray, min_wall_mm: float) -> tuple[np.ndarray, np.ndarray]:
+    """(the thin voxels, the depth of every voxel inside the mask in mm).
 
-    The thin parts are the voxels a ball of diameter `min_wall_mm` cannot reach from inside (the
-    mask minus its morphological opening, by distance transforms; a voxel's depth is counted from
-    the surface half a voxel outside its outer centres). Parts smaller than such a ball, and the edges
-    and corners of thick parts (all within a wall's thickness of the balls that fill them), are not
-    walls and stay. Each thin part grows, only near itself, by whole voxel
-    layers until its thinnest wall reaches `min_wall_mm`, so thick parts keep their size. Where
-    growing joins parts that were apart, `report.joined` counts them; `report.thin_regions_mm` lists
-    where the thin parts are.
+    The thin voxels are those a ball of diameter `min_wall_mm` cannot reach from inside (the mask
+    minus its morphological opening, by distance transforms; a voxel's depth is counted from the
+    surface half a voxel outside its outer centres). Parts smaller than such a ball, and the edges and
+    corners of thick parts (all within a wall's thickness of the balls that fill them), are not walls.
+    """
+    from scipy import ndimage
+
+    vox, radius = float(spacing.max()), min_wall_mm / 2
+    inside = ndimage.distance_transform_edt(mask, sampling=spacing)
+    core = inside - 0.5 * vox >= radius - 0.25 * vox  # centres of wall-sized balls that fit inside (a quarter voxel spare)
+    reach = ndimage.distance_transform_edt(~core, sampling=spacing) if core.any() else np.full(mask.shape, np.inf)
+    thin = mask & (reach > radius + 0.5 * vox)
+    del core
+    labels, n = ndimage.label(thin, structure=_structure())
+    if n:
+        sizes = np.bincount(labels.ravel())[1:] * float(np.prod(spacing))
+        farthest = np.asarray(ndimage.maximum(reach, labels, np.arange(1, n + 1)), dtype=float).reshape(-1)
+        corners = np.flatnonzero((sizes < np.pi / 6 * min_wall_mm ** 3) | (farthest <= min_wall_mm)) + 1
+        if corners.size:
+            thin &= ~np.isin(labels, corners)
+    return thin, inside
+
+
+def thicken(mask: np.ndarray, spacing_mm, min_wall_mm: float, *, report: MaskReport) -> np.ndarray:
+    """Walls thinner than `min_wall_mm` grown until they are that thick, where growing them keeps the
+    structure; the rest unchanged.
+
+    The thin parts (`_thin_parts`) grow, each near itself only, to the union of balls of diameter
+    `min_wall_mm` (and a quarter voxel) centred on their middle ridge (the voxels deepest across the
+    wall) and of the part grown by what its wall lacks, so every wall there reaches the threshold and
+    thick parts keep their size. A thin part
+    whose growth would touch another part that was apart, or would close a hole through the model or
+    open a cavity (the Euler number of its neighbourhood changes), is left as it is and listed in
+    `report.thin_left` (where, how thin, why): growing it would change what the model shows.
     """
     from scipy import ndimage
 
@@ -109,44 +152,112 @@ def thicken(mask: np.ndarray, spacing_mm, min_wall_mm: float, *, report: MaskRep
     vox, radius = float(spacing.max()), min_wall_mm / 2
     if not mask.any() or radius <= 0:
         return mask
-    inside = ndimage.distance_transform_edt(mask, sampling=spacing)
-    core = inside - 0.5 * vox >= radius - 0.25 * vox  # centres of wall-sized balls that fit inside
-    reach = ndimage.distance_transform_edt(~core, sampling=spacing) if core.any() else np.full(mask.shape, np.inf)
-    thin = mask & (reach > radius + 0.5 * vox)
-    del core
-    labels, n = ndimage.label(thin, structure=_structure())
-    if n:
-        # Edges and corners of thick parts (a wedge's tip, a box's corner) lie within a wall's thickness
-        # of the balls that fill the part, and parts smaller than such a ball are no walls: both stay.
-        sizes = np.bincount(labels.ravel())[1:] * float(np.prod(spacing))
-        farthest = np.asarray(ndimage.maximum(reach, labels, np.arange(1, n + 1)), dtype=float).reshape(-1)
-        corners = np.flatnonzero((sizes < np.pi / 6 * min_wall_mm ** 3) | (farthest <= min_wall_mm)) + 1
-        if corners.size:
-            thin &= ~np.isin(labels, corners)
-    del reach
+    thin, inside = _thin_parts(mask, spacing, min_wall_mm)
     report.thin_voxels = int(thin.sum())
     if not report.thin_voxels:
         return mask
-    labels, n = ndimage.label(thin, structure=_structure())
-    boxes = ndimage.find_objects(labels)
-    del labels
-    # The thinnest wall: twice the depth at the thin parts' ridges, less a voxel (never more than it is).
+    parts, n = ndimage.label(thin, structure=_structure())
+    boxes = ndimage.find_objects(parts)
+    report.thin_regions_mm = [_box_mm(b, spacing, mask.shape) for b in boxes[:20]]
+    # Each part's middle ridge: the voxels deepest across the wall (a part with none grows from all of its voxels).
     ridge = thin & (inside >= ndimage.maximum_filter(inside, size=3) - 1e-9)
-    depth = inside[ridge] if ridge.any() else inside[thin]
-    thinnest = max(2 * float(np.percentile(depth, 2)) - vox, 0.0)
-    del inside, ridge
-    layers = max(1, int(np.ceil((min_wall_mm - thinnest) / (2 * vox) - 1e-9)))
-    grow = layers * vox + 1e-6
-    report.grown_mm = grow
-    grow_field = np.float32(grow) - ndimage.distance_transform_edt(~thin, sampling=spacing).astype(np.float32)
+    has_ridge = np.zeros(n + 1, bool)
+    has_ridge[np.unique(parts[ridge])] = True
+    centres = ridge | (thin & ~has_ridge[parts])
+    del ridge, thin
+    index = np.arange(1, n + 1)
+    # How thin each part is: across its ridge (the median, so its rim, where the ridge is shallow, does not decide),
+    # within half a voxel whether the wall is an odd or an even number of voxels across.
+    thinnest = np.maximum(2 * np.asarray(ndimage.median(inside, np.where(centres, parts, 0), index), float).reshape(-1) - 0.5 * vox, 0.0)
+    del inside
+    report.grown_mm = radius + 0.25 * vox
+    growth = _Growth(mask, parts, centres, boxes, spacing, radius, thinnest)
+    bad = growth.grow(range(1, n + 1))
+    merging = _merging_parts(mask, parts, growth.owner, n)
+    if merging:  # grown again without them, so the overlap of their growth with another's is that one's again
+        bad |= merging | growth.grow([i for i in range(1, n + 1) if i not in bad and i not in merging])
+    grow_field = growth.field
+    del growth, centres
+    out = mask | (grow_field >= 0)
+    cavities = ndimage.binary_fill_holes(out, structure=_structure()) & ~out  # growth that closed a pocket: filled too
+    if cavities.any():
+        grow_field[cavities] = np.float32(vox)
+        out |= cavities
     report.grow_field = grow_field
     before = report.components
-    out = mask | (grow_field >= 0)
     after = int(ndimage.label(out, structure=_structure())[1])
     report.joined = max(before - after, 0)
     report.components = after
-    report.thin_regions_mm = [_box_mm(b, spacing, mask.shape) for b in boxes[:20]]
+    report.thin_left = [ThinRegion(_box_mm(boxes[i - 1], spacing, mask.shape), float(thinnest[i - 1]), why)
+                        for i, why in sorted(bad.items(), key=lambda kv: thinnest[kv[0] - 1])]
+    report.thin_grown = n - len(report.thin_left)
     return out
+
+
+class _Growth:
+    """The thin parts' growth, part by part in its own box: `field` (mm, ≥ 0 where grown) and
+    `owner` (the part each grown voxel grew from)."""
+
+    def __init__(self, mask, parts, centres, boxes, spacing, radius: float, thinnest):
+        self.mask, self.parts, self.centres, self.boxes = mask, parts, centres, boxes
+        self.spacing, self.radius, self.thinnest = spacing, radius, thinnest
+        vox = float(spacing.max())
+        self.reach = radius + 0.25 * vox  # the balls on the ridge: a quarter voxel spare
+        self.pad = int(np.ceil((radius + vox) / float(spacing.min()))) + 3
+        self.field = self.owner = None
+
+    def grow(self, which) -> dict[int, str]:
+        """Grow the parts `which` (afresh); the parts left as they are because growing one alone
+        changes the Euler number of its neighbourhood (closes a hole or a pocket)."""
+        from scipy import ndimage
+        from skimage.measure import euler_number
+
+        vox = float(self.spacing.max())
+        self.field = np.full(self.mask.shape, -np.float32(self.reach), np.float32)
+        self.owner = np.zeros(self.mask.shape, np.int32)
+        bad: dict[int, str] = {}
+        for i in which:
+            box = tuple(slice(max(b.start - self.pad, 0), min(b.stop + self.pad, n))
+                        for b, n in zip(self.boxes[i - 1], self.mask.shape))
+            part = self.parts[box] == i
+            ridge = part & self.centres[box]
+            # Balls of the wall's radius on the ridge, and the whole part grown by what its wall lacks: the
+            # second fills between ridge voxels the first leaves apart (a ridge is a voxel's guess).
+            lack = max(self.radius - self.thinnest[i - 1] / 2, 0.0) + 0.75 * vox
+            field = np.maximum(self.reach - ndimage.distance_transform_edt(~ridge, sampling=self.spacing),
+                               lack - ndimage.distance_transform_edt(~part, sampling=self.spacing)).astype(np.float32)
+            m = self.mask[box]
+            grown = (field >= 0) & ~m
+            if euler_number(m | grown, connectivity=1) != euler_number(m, connectivity=1):
+                bad[i] = "closes a hole or a pocket"
+                continue
+            here, owner = self.field[box], self.owner[box]
+            take = field > here
+            owner[take & grown] = i
+            np.copyto(here, field, where=take)
+        return bad
+
+
+def _merging_parts(mask, parts, owner_part, n) -> dict[int, str]:
+    """The thin parts whose growth would touch a part of the model that is apart from their own."""
+    from scipy import ndimage
+
+    old, _ = ndimage.label(mask, structure=_structure())
+    part_old = np.zeros(n + 1, dtype=old.dtype)
+    found = ndimage.maximum(old, parts, np.arange(1, n + 1))
+    part_old[1:] = np.asarray(found, dtype=old.dtype).reshape(-1)
+    owner = old
+    grow = owner_part > 0
+    owner[grow] = part_old[owner_part[grow]]
+    bad: set[int] = set()
+    for axis in range(3):
+        a = np.moveaxis(owner, axis, 0)
+        g = np.moveaxis(owner_part, axis, 0)
+        clash = (a[:-1] > 0) & (a[1:] > 0) & (a[:-1] != a[1:])
+        bad.update(np.unique(g[:-1][clash]).tolist())
+        bad.update(np.unique(g[1:][clash]).tolist())
+    bad.discard(0)
+    return {int(i): "joins parts that are apart" for i in bad}
 
 
 def _box_mm(box, spacing, shape) -> tuple[float, ...]:

@@ -52,6 +52,35 @@ def test_a_mixed_upload_keeps_the_good_files_and_lists_the_bad_ones(server):
         assert "One file was not added" in not_added and "notes.png is not an image TAMP-OS can read" in not_added
 
 
+@pytest.mark.timeout(120)
+def test_a_partly_failed_upload_is_announced_once_where_focus_lands(server):
+    """Issue 33.10: the files an upload refused are an alert that takes focus on the settings page's
+    first view (app.js focuses it); a later view (after Update) lists them quietly."""
+    with httpx.Client(base_url=server, timeout=60) as client:
+        r = _upload(client, [("good.png", png_bytes((30, 40), 1)), ("notes.png", b"my notes, not an image")])
+        first = client.get(r.headers["location"]).text
+        section = first.split('id="not-added"')[1].split(">")[0]
+        assert 'role="alert"' in section and "data-focus-on-load" in section and 'tabindex="-1"' in section
+        again = client.get(r.headers["location"]).text
+        section = again.split('id="not-added"')[1].split(">")[0]
+        assert "One file was not added" in again and 'role="alert"' not in section and "data-focus-on-load" not in section
+
+
+@pytest.mark.timeout(60)
+def test_one_bad_file_is_one_problem(server):
+    """Issue 33.10: one file that is not an image is one problem, not two; what to do next is said
+    under the list."""
+    with httpx.Client(base_url=server, timeout=60) as client:
+        r = _upload(client, [("notes.png", b"my notes, not an image")])
+        assert r.status_code == 400
+        summary = r.text.split('id="error-summary"')[1].split("</div>")[0]
+        assert "There is a problem" in summary and "There are" not in summary
+        assert summary.count("<li>") == 1 and "notes.png is not an image TAMP-OS can read" in summary
+        assert "Nothing was added; choose image files and try again." in summary
+        r = _upload(client, [("a.png", b"not an image"), ("b.png", b"nor this")])
+        assert "There are 2 problems" in r.text.split('id="error-summary"')[1].split("</div>")[0]
+
+
 @pytest.mark.timeout(300)
 def test_each_image_has_its_own_caption_and_subject_and_the_zip_says_what_each_file_is_for(server):
     with httpx.Client(base_url=server, timeout=120) as client:

@@ -89,6 +89,7 @@ class WebJob:
     results: list[Result] = field(default_factory=list)
     delete_after: float | None = None
     rejected: list[str] = field(default_factory=list)  # uploads that were not added, each with its reason
+    rejected_announced: bool = False  # the settings page has said them (role alert, focus) once
 
     @property
     def out(self) -> Path:

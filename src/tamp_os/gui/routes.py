@@ -50,13 +50,14 @@ def add_upload_routes(app: FastAPI, web) -> None:
         problems = await store_uploads(web, job, files)
         if problems and not job.uploads:
             web.store.remove(job.id)
-            return upload_error(request, problems + ["Nothing was added; choose image files and try again."], 400)
+            return upload_error(request, problems, 400, note="Nothing was added; choose image files and try again.")
         job.rejected = problems  # the good files stay; the settings page lists the others with their reasons
         return RedirectResponse(f"{web.base}/jobs/{job.id}", status_code=303)
 
-    def upload_error(request, messages: list[str], status: int):
-        return web.page(request, "index.html", status=status, errors={"images": " ".join(messages)},
-                        summary=[("images", m) for m in messages])
+    def upload_error(request, messages: list[str], status: int, note: str = ""):
+        """The first page again, each problem listed once (what to do next is a note, not a problem)."""
+        return web.page(request, "index.html", status=status, errors={"images": " ".join(messages + [note] * bool(note))},
+                        summary=[("images", m) for m in messages], summary_note=note)
 
 
 async def store_uploads(web, job: WebJob, files) -> list[str]:
@@ -87,8 +88,9 @@ def add_job_routes(app: FastAPI, web) -> None:
         job = web.store.get(job_id)
         if job is None:
             return RedirectResponse(f"{web.base}/?message=That+job+has+ended+or+does+not+exist.", status_code=303)
-        if job.state == "added":
-            return settings_page(web, request, job)
+        if job.state == "added":  # files refused at upload: said once, where focus lands, on the first view
+            announce, job.rejected_announced = bool(job.rejected) and not job.rejected_announced, True
+            return settings_page(web, request, job, focus="not-added" if announce else "")
         return web.page(request, "progress.html" if job.state == "running" else "results.html", job=job, step=3)
 
     @app.post("/jobs/{job_id}/generate")

@@ -4,8 +4,9 @@
 (function () {
   "use strict";
   const base = document.body.dataset.base || "";
-  const summary = document.getElementById("error-summary");
-  if (summary) summary.focus();
+  // Focus goes to what the page has to say first: its errors, or the files an upload refused.
+  const first = document.getElementById("error-summary") || document.querySelector("[data-focus-on-load]");
+  if (first) first.focus();
   loadViewer();
   const job = document.getElementById("job");
   if (!job || job.dataset.state !== "running") return;

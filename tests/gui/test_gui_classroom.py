@@ -181,3 +181,69 @@ def test_focus_stays_on_update_and_the_page_passes_axe(server, browser):
     assert "printer-outputs" in described and "Print from the 3MF" in page.locator("#printer-outputs").inner_text()
     audit(page, "settings with the classroom controls")
     page.context.close()
+
+
+def _wait_done(client, job, timeout_s=240):
+    import time
+
+    deadline = time.monotonic() + timeout_s
+    while client.get(f"/jobs/{job}/status").json()["state"] != "done":
+        assert time.monotonic() < deadline
+        time.sleep(0.2)
+
+
+@pytest.mark.timeout(400)
+def test_a_job_is_made_again_for_another_printer_without_a_new_upload(server):
+    """Issue 33.7: after the MK4's prints, the same images with their captions for the A1, from the
+    results page; both rounds' files stay (the A1's named after it) and the zip holds both."""
+    with httpx.Client(base_url=server, timeout=120) as client:
+        job = _upload(client, [("sem.png", png_bytes((30, 40), 8))]).headers["location"].rsplit("/", 1)[1]
+        _generate(client, job, printer="Original Prusa MK4", formats=["3mf"], caption_0="gold", subject_0="gold particles")
+        page = client.get(f"/jobs/{job}").text
+        offered = page.split('id="again-printer"')[1].split("</select>")[0]
+        assert 'value="Bambu Lab A1"' in offered and 'value="Original Prusa MK4"' not in offered
+        token = form_token(client, f"/jobs/{job}")
+        assert client.post(f"/jobs/{job}/again", data={"token": "forged", "printer": "Bambu Lab A1"}).status_code == 403
+        r = client.post(f"/jobs/{job}/again", data={"token": token, "printer": "Bambu Lab A1"})
+        assert r.status_code == 303, r.text
+        _wait_done(client, job)
+        page = client.get(f"/jobs/{job}").text
+        assert "Your lithographs for Bambu Lab A1" in page and "Made before, for Original Prusa MK4" in page
+        assert "Done: 1 of 1 converted for Bambu Lab A1." in page
+        z = zipfile.ZipFile(io.BytesIO(client.get(f"/jobs/{job}/download.zip").content))
+        assert {"sem.3mf", "sem-bambu-lab-a1.3mf"} <= set(z.namelist()), z.namelist()
+        for name, model in (("sem.3mf", "Original Prusa MK4"), ("sem-bambu-lab-a1.3mf", "Bambu Lab A1")):
+            with zipfile.ZipFile(io.BytesIO(z.read(name))) as made:
+                settings = " ".join(made.read(n).decode() for n in made.namelist() if n.startswith("Metadata/") and n.endswith(".config"))
+            assert model in settings and (model == "Bambu Lab A1") == ("Bambu Lab A1" in settings), name
+        again = z.read("sem-bambu-lab-a1.description.txt").decode()
+        assert again.startswith("A tactile print of gold particles.") and "caption reads: gold." in again
+        assert re.search(r"^sem-bambu-lab-a1\.3mf: for your slicer", z.read("README.txt").decode(), re.M)
+        # a printer already made, or one not in the list, is refused in words on the results page
+        for printer, words in (("Original Prusa MK4", "already on this page"), ("no such printer", "choose a printer from the list")):
+            r = client.post(f"/jobs/{job}/again", data={"token": form_token(client, f"/jobs/{job}"), "printer": printer})
+            assert r.status_code == 400 and words in r.text.split('id="error-summary"')[1].split("</div>")[0]
+
+
+@pytest.mark.timeout(120)
+def test_a_finished_job_lives_while_its_page_is_open(server):
+    """Issue 33.7: after the zip is downloaded the job stays while its page asks for its status (the
+    page does, every third of the grace period); it goes a grace period (1 s here) after the page is left."""
+    import time
+
+    with httpx.Client(base_url=server, timeout=60) as client:
+        job = _upload(client, [("x.png", png_bytes((30, 40), 9))]).headers["location"].rsplit("/", 1)[1]
+        _generate(client, job, formats=["stl"])
+        page = client.get(f"/jobs/{job}").text
+        every_ms = int(re.search(rf'data-job-id="{job}" data-keepalive-ms="(\d+)"', page).group(1))
+        assert every_ms < 1000  # under the test server's 1 s grace period
+        assert client.get(f"/jobs/{job}/download.zip").status_code == 200
+        until = time.monotonic() + 4  # four grace periods with the page open
+        while time.monotonic() < until:
+            assert client.get(f"/jobs/{job}/status").status_code == 200
+            time.sleep(every_ms / 1000)
+        assert client.get(f"/jobs/{job}/files/x.stl").status_code == 200
+        deadline = time.monotonic() + 15  # the page is left: the job goes
+        while client.get(f"/jobs/{job}/status", headers={}).status_code == 200 and time.monotonic() < deadline:
+            time.sleep(3)
+        assert client.get(f"/jobs/{job}/status").status_code == 404

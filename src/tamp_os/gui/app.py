@@ -63,7 +63,9 @@ class Web:
     def page(self, request: Request, name: str, status: int = 200, **context) -> HTMLResponse:
         context.setdefault("errors", {})
         context.setdefault("summary", [])
-        context.update(limits=self.limits, base=self.base, token=self.guard.form_token)
+        # an open page of a job asks for its status this often, so the job lives while the page is open
+        keepalive_ms = max(300, int(self.store.grace_s * 1000 / 3))
+        context.update(limits=self.limits, base=self.base, token=self.guard.form_token, keepalive_ms=keepalive_ms)
         return self.templates.TemplateResponse(request, name, context, status_code=status)
 
     def message(self, status: int, title: str, text: str) -> HTMLResponse:

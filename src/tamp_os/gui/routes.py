@@ -91,7 +91,9 @@ def add_job_routes(app: FastAPI, web) -> None:
         if job.state == "added":  # files refused at upload: said once, where focus lands, on the first view
             announce, job.rejected_announced = bool(job.rejected) and not job.rejected_announced, True
             return settings_page(web, request, job, focus="not-added" if announce else "")
-        return web.page(request, "progress.html" if job.state == "running" else "results.html", job=job, step=3)
+        if job.state == "running":
+            return web.page(request, "progress.html", job=job, step=3)
+        return results_page(web, request, job)
 
     @app.post("/jobs/{job_id}/generate")
     async def generate(request: Request, job_id: str):
@@ -124,6 +126,29 @@ def add_job_routes(app: FastAPI, web) -> None:
             values["formats"] = list(params.formats)
             return settings_page(web, request, job, values=values, focus="update")
         web.store.start(job, params)
+        return RedirectResponse(f"{web.base}/jobs/{job.id}", status_code=303)
+
+    @app.post("/jobs/{job_id}/again")
+    async def again(request: Request, job_id: str):
+        """The same prints for another printer: the images, captions and settings the job has."""
+        from .forms import printer_choices
+
+        job = web.store.get(job_id)
+        if job is None:
+            return RedirectResponse(f"{web.base}/?message=That+job+has+ended+or+does+not+exist.", status_code=303)
+        form = await request.form()
+        only_text_fields(form)
+        if not web.guard.token_ok(form.get("token")):
+            return web.message(403, *NO_TOKEN)
+        if job.state != "done":
+            return RedirectResponse(f"{web.base}/jobs/{job.id}", status_code=303)
+        printer = form.get("printer") or ""
+        made = {job.params.printer, *(run.printer for run in job.earlier)}
+        if printer not in printer_choices() or printer in made:
+            error = ("Printer for the next round: choose a printer from the list." if printer not in printer_choices()
+                     else f"Printer for the next round: the prints for {printer} are already on this page; choose another printer.")
+            return results_page(web, request, job, 400, {"again-printer": error})
+        web.store.again(job, _formats_follow_printer(job.params, job.params.replace(printer=printer)))
         return RedirectResponse(f"{web.base}/jobs/{job.id}", status_code=303)
 
     @app.get("/jobs/{job_id}/status")
@@ -193,6 +218,16 @@ def settings_page(web, request, job: WebJob, status: int = 200, values=None, err
         multi_channel=any(u.channels > 1 for u in job.uploads), z_stack=any(u.z_slices > 1 for u in job.uploads),
         time_series=any(u.time_points > 1 for u in job.uploads), scenes=any(u.scenes > 1 for u in job.uploads),
     )
+
+
+def results_page(web, request, job: WebJob, status: int = 200, errors=None):
+    from .forms import printer_choices
+
+    errors = errors or {}
+    made = {job.params.printer, *(run.printer for run in job.earlier)}
+    others = {name: p for name, p in printer_choices().items() if name not in made}
+    return web.page(request, "results.html", status=status, job=job, step=3, errors=errors, summary=list(errors.items()),
+                    other_printers=others)
 
 
 PAGE_SIZES = (("plate", "The plate's own size"), ("a4", "A4, centred"), ("letter", "US Letter, centred"))

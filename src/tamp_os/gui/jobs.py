@@ -1,8 +1,8 @@
 """Jobs of the web app: each in its own temporary folder, converted in a small thread pool, made
 again for another printer on request (the same images, captions and settings), kept while its page
-is open (the page asks for the job's status now and then), and removed a grace period after its page
-was last seen once its zip is downloaded, an hour after it was last seen otherwise, or when the
-server stops.
+is open (the page asks for the job's status now and then), and removed LEFT_GRACES grace periods
+after its page was last seen once its zip is downloaded, an hour after it was last seen otherwise, or
+when the server stops.
 
 Every call into the library is `run_library` (convert.convert, which makes, saves and slices) and
 the report's own sentences (report.web_summary_lines), so the web app rebuilds no text itself.
@@ -30,6 +30,9 @@ from .uploads import Upload
 
 JOB_ID = re.compile(r"^[0-9a-f]{32}$")
 RENDER_LOCK = threading.Lock()  # VTK renders one scene at a time
+# A downloaded job goes this many grace periods after its page last asked for it: the page asks three
+# times a grace period, and a browser slows the timers of a tab in the background (to once a minute)
+LEFT_GRACES = 3
 PREVIEW_SUFFIX = ".preview.glb"  # the 3-D view's model, written whatever formats were chosen
 
 
@@ -102,7 +105,7 @@ class WebJob:
     message: str = ""
     params: LithoParams = field(default_factory=LithoParams)
     results: list[Result] = field(default_factory=list)
-    downloaded: bool = False  # its zip was downloaded: it goes grace_s after its page was last seen
+    downloaded: bool = False  # its zip was downloaded: it goes soon after its page was last seen
     last_seen: float = field(default_factory=time.time)  # any request for it: its pages, status, files
     earlier: list[Run] = field(default_factory=list)  # rounds made for other printers, the first first
     stem_suffix: str = ""  # a round after the first names its files after its printer ('-bambu-lab-a1')
@@ -180,7 +183,7 @@ class JobStore:
             now = time.time()
             with self.lock:
                 expired = [j.id for j in self.jobs.values() if j.state != "running"
-                           and (now - j.last_seen > self.ttl_s or (j.downloaded and now - j.last_seen > self.grace_s))]
+                           and (now - j.last_seen > self.ttl_s or (j.downloaded and now - j.last_seen > LEFT_GRACES * self.grace_s))]
             for job_id in expired:
                 self.remove(job_id)
 

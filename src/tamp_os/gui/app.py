@@ -117,6 +117,7 @@ def create_app(limits: Limits | None = None, store: JobStore | None = None) -> F
     _error_pages(app, web)
     routes.add_upload_routes(app, web)
     routes.add_job_routes(app, web)
+    routes.add_again_route(app, web)
     routes.add_file_routes(app, web)
     app.add_middleware(GuardMiddleware, guard=guard, refuse=web.message)
     return app

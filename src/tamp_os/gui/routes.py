@@ -128,6 +128,24 @@ def add_job_routes(app: FastAPI, web) -> None:
         web.store.start(job, params)
         return RedirectResponse(f"{web.base}/jobs/{job.id}", status_code=303)
 
+    @app.get("/jobs/{job_id}/status")
+    async def status(job_id: str):
+        job = web.store.get(job_id)
+        if job is None:
+            return JSONResponse({"state": "gone"}, status_code=404)
+        return {"state": job.state, "done": job.done, "total": len(job.uploads), "message": job.message}
+
+    @app.post("/jobs/{job_id}/delete")
+    async def delete(request: Request, job_id: str):
+        form = await request.form()
+        only_text_fields(form)
+        if not web.guard.token_ok(form.get("token")):
+            return web.message(403, *NO_TOKEN)
+        web.store.remove(job_id)
+        return RedirectResponse(f"{web.base}/?message=Your+files+were+deleted.", status_code=303)
+
+
+def add_again_route(app: FastAPI, web) -> None:
     @app.post("/jobs/{job_id}/again")
     async def again(request: Request, job_id: str):
         """The same prints for another printer: the images, captions and settings the job has."""
@@ -150,22 +168,6 @@ def add_job_routes(app: FastAPI, web) -> None:
             return results_page(web, request, job, 400, {"again-printer": error})
         web.store.again(job, _formats_follow_printer(job.params, job.params.replace(printer=printer)))
         return RedirectResponse(f"{web.base}/jobs/{job.id}", status_code=303)
-
-    @app.get("/jobs/{job_id}/status")
-    async def status(job_id: str):
-        job = web.store.get(job_id)
-        if job is None:
-            return JSONResponse({"state": "gone"}, status_code=404)
-        return {"state": job.state, "done": job.done, "total": len(job.uploads), "message": job.message}
-
-    @app.post("/jobs/{job_id}/delete")
-    async def delete(request: Request, job_id: str):
-        form = await request.form()
-        only_text_fields(form)
-        if not web.guard.token_ok(form.get("token")):
-            return web.message(403, *NO_TOKEN)
-        web.store.remove(job_id)
-        return RedirectResponse(f"{web.base}/?message=Your+files+were+deleted.", status_code=303)
 
 
 CHOICE_FIELDS = ("braille_table", "page_size")  # chosen from a list (forms.py checks the value)

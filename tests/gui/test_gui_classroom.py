@@ -326,3 +326,22 @@ def test_the_teachers_keyboard_flow_from_upload_to_a_second_printer(patient_serv
     assert "caption reads: fibres." in described
     audit(page, "results of a second printer")
     page.context.close()
+
+
+@pytest.mark.timeout(400)
+def test_two_printers_chosen_at_once(server):
+    """Issue 33.7: a second printer chosen on the settings page makes the same prints for it in the
+    same job (its files named after it); the same printer twice is refused by name."""
+    with httpx.Client(base_url=server, timeout=120) as client:
+        job = _upload(client, [("pair.png", png_bytes((30, 40), 10))]).headers["location"].rsplit("/", 1)[1]
+        page = client.get(f"/jobs/{job}").text
+        assert 'id="also_printer"' in page and '<option value="">None</option>' in page
+        token = form_token(client, f"/jobs/{job}")
+        r = client.post(f"/jobs/{job}/generate", data={"token": token, "preset": "low", "printer": "Bambu Lab A1",
+                                                       "also_printer": "Bambu Lab A1", "formats": ["3mf"]})
+        assert r.status_code == 400 and "Second printer: choose another printer than the first" in r.text
+        _generate(client, job, printer="Original Prusa MK4", also_printer="Bambu Lab A1", formats=["3mf"], caption_0="pair")
+        page = client.get(f"/jobs/{job}").text
+        assert "Your lithographs for Bambu Lab A1" in page and "Made before, for Original Prusa MK4" in page
+        names = set(zipfile.ZipFile(io.BytesIO(client.get(f"/jobs/{job}/download.zip").content)).namelist())
+        assert {"pair.3mf", "pair-bambu-lab-a1.3mf", "pair.description.txt", "pair-bambu-lab-a1.description.txt"} <= names, names

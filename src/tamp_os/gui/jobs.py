@@ -109,6 +109,7 @@ class WebJob:
     last_seen: float = field(default_factory=time.time)  # any request for it: its pages, status, files
     earlier: list[Run] = field(default_factory=list)  # rounds made for other printers, the first first
     stem_suffix: str = ""  # a round after the first names its files after its printer ('-bambu-lab-a1')
+    queued: list = field(default_factory=list)  # LithoParams of the rounds still to make (a second printer)
     rejected: list[str] = field(default_factory=list)  # uploads that were not added, each with its reason
     rejected_announced: bool = False  # the settings page has said them (role alert, focus) once
 
@@ -195,29 +196,34 @@ class JobStore:
         close_shared_pool()
         shutil.rmtree(self.root, ignore_errors=True)
 
-    def start(self, job: WebJob, params: LithoParams) -> None:
-        job.params, job.state, job.done, job.results = params, "running", 0, []
+    def start(self, job: WebJob, params: LithoParams, then: tuple[LithoParams, ...] = ()) -> None:
+        """Convert the job's images with `params`, then again with each of `then` (other printers)."""
+        job.params, job.state, job.done, job.results, job.queued = params, "running", 0, [], list(then)
         job.message = f"Converting {len(job.uploads)} image{'s' if len(job.uploads) != 1 else ''}{self._for(job)}."
         self.pool.submit(self._run, job)
 
     def again(self, job: WebJob, params: LithoParams) -> None:
         """Make the job's prints again with `params` (another printer): the same images, captions and
         settings; the earlier round's files stay, and the new ones carry the printer in their names."""
-        job.earlier.append(Run(job.params.printer, job.results))
-        job.stem_suffix = f"-{printer_slug(params.printer)}"
+        _next_round(job, params.printer)
         self.start(job, params)
 
     @staticmethod
     def _for(job: WebJob) -> str:
-        return f" for {job.params.printer}" if job.earlier else ""
+        return f" for {job.params.printer}" if job.earlier or job.queued else ""
 
     def _run(self, job: WebJob) -> None:
-        for upload in job.uploads:
-            job.message = f"Converting {job.done + 1} of {len(job.uploads)}{self._for(job)}: {upload.name}."
-            if self.slow_s:
-                time.sleep(self.slow_s)  # test hook: keeps the running state visible long enough to audit
-            job.results.append(convert(job, upload))
-            job.done += 1
+        while True:
+            for upload in job.uploads:
+                job.message = f"Converting {job.done + 1} of {len(job.uploads)}{self._for(job)}: {upload.name}."
+                if self.slow_s:
+                    time.sleep(self.slow_s)  # test hook: keeps the running state visible long enough to audit
+                job.results.append(convert(job, upload))
+                job.done += 1
+            if not job.queued:
+                break
+            _next_round(job, job.queued[0].printer)  # a second printer chosen with the first: the same images again
+            job.params, job.done, job.results = job.queued.pop(0), 0, []
         ok = sum(r.ok for r in job.results)
         job.message = f"Done: {ok} of {len(job.uploads)} converted{self._for(job)}." + (" Some failed; see below." if ok < len(job.uploads) else "")
         job.state = "done"
@@ -232,6 +238,12 @@ class JobStore:
             z.writestr("README.txt", readme_text(names, where))
         job.downloaded = True
         return buf.getvalue()
+
+
+def _next_round(job: WebJob, printer: str) -> None:
+    """Keep this round's prints as an earlier round's; the next round's files carry its `printer`."""
+    job.earlier.append(Run(job.params.printer, job.results))
+    job.stem_suffix = f"-{printer_slug(printer)}"
 
 
 def run_library(path: Path, params: LithoParams, out: Path, stem: str):

@@ -13,7 +13,7 @@ from ..errors import ParameterError, TampError
 from ..formats import GRAPHIC_FORMATS
 from ..params import FORMATS, LithoParams
 from ..printing.printers import PRESETS
-from .forms import FIELDS, FLAGS, NUMBER_FIELDS, STYLE_CHOICES, TEXT_FIELDS, params_from_form
+from .forms import FIELDS, FLAGS, NUMBER_FIELDS, STYLE_CHOICES, TEXT_FIELDS, params_from_form, printer_choices
 from .jobs import WebJob, safe_name
 from .panel_choice import choice_errors, chosen_panels, global_panel_error
 from .security import only_text_fields
@@ -116,6 +116,10 @@ def add_job_routes(app: FastAPI, web) -> None:
         mode = params.panels if params else (form.get("panels") or "").strip().lower() or "auto"
         # Page order in the summary: the figures' checkboxes come before the customize fields.
         by_field = {**choice_errors(job.uploads, mode), **(errors.by_field if params is None else {})}
+        also = (form.get("also_printer") or "").strip()
+        if also and (also not in printer_choices() or also == form.get("printer")):
+            by_field["also_printer"] = ("Second printer: choose a printer from the list, or None." if also not in printer_choices()
+                                        else "Second printer: choose another printer than the first, or None.")
         by_field.update({k: v for k, v in global_panel_error(mode, (form.get("panel") or "").strip()).items() if k not in by_field})
         if by_field:
             return settings_page(web, request, job, 400, form_values(job.params, form), by_field)
@@ -125,7 +129,8 @@ def add_job_routes(app: FastAPI, web) -> None:
             values = form_values(params, form)
             values["formats"] = list(params.formats)
             return settings_page(web, request, job, values=values, focus="update")
-        web.store.start(job, params)
+        then = (_formats_follow_printer(params, params.replace(printer=also)),) if also else ()
+        web.store.start(job, params, then)  # with a second printer, the same prints again for it
         return RedirectResponse(f"{web.base}/jobs/{job.id}", status_code=303)
 
     @app.get("/jobs/{job_id}/status")
@@ -149,8 +154,6 @@ def add_again_route(app: FastAPI, web) -> None:
     @app.post("/jobs/{job_id}/again")
     async def again(request: Request, job_id: str):
         """The same prints for another printer: the images, captions and settings the job has."""
-        from .forms import printer_choices
-
         job = web.store.get(job_id)
         if job is None:
             return RedirectResponse(f"{web.base}/?message=That+job+has+ended+or+does+not+exist.", status_code=303)
@@ -200,7 +203,7 @@ def form_values(params: LithoParams, form=None) -> dict:
     values["relief_style"] = params.relief_style
     values.update({name: getattr(params, name) for name in CHOICE_FIELDS})
     if form is not None:
-        for key in (*TEXT_FIELDS, *NUMBER_FIELDS, *CHOICE_FIELDS, "printer", "preset", "relief_style"):
+        for key in (*TEXT_FIELDS, *NUMBER_FIELDS, *CHOICE_FIELDS, "printer", "also_printer", "preset", "relief_style"):
             values[key] = form.get(key, "")
         values.update({key: form.get(key) == "on" for key in FLAGS})
         values["formats"] = form.getlist("formats")
@@ -209,7 +212,7 @@ def form_values(params: LithoParams, form=None) -> dict:
 
 def settings_page(web, request, job: WebJob, status: int = 200, values=None, errors=None, focus: str = ""):
     from .cards import detail_cards
-    from .forms import braille_table_choices, printer_choices
+    from .forms import braille_table_choices
 
     errors = errors or {}
     return web.page(
@@ -223,8 +226,6 @@ def settings_page(web, request, job: WebJob, status: int = 200, values=None, err
 
 
 def results_page(web, request, job: WebJob, status: int = 200, errors=None):
-    from .forms import printer_choices
-
     errors = errors or {}
     made = {job.params.printer, *(run.printer for run in job.earlier)}
     others = {name: p for name, p in printer_choices().items() if name not in made}

@@ -77,6 +77,7 @@ class Result:
     prints: list = field(default_factory=list)  # a figure's prints (panel_choice.PrintShown), the overview first
     figure_files: list[OutputFile] = field(default_factory=list)  # a figure's own files (all pages, its recipe)
     left_out: list[str] = field(default_factory=list)  # a figure's panels found but not printed on their own
+    stem: str = ""  # its files' common name: the upload's, with a later round's printer ('cells-bambu-lab-a1')
 
 
 @dataclass
@@ -234,7 +235,7 @@ class JobStore:
             names = job.download_names()
             for name in names:
                 z.write(job.out / name, name)
-            where = {f"{Path(r.name).stem}.{p.key}": p.where for r in job.all_results() for p in r.prints if p.where}
+            where = {f"{r.stem or Path(r.name).stem}.{p.key}": p.where for r in job.all_results() for p in r.prints if p.where}
             z.writestr("README.txt", readme_text(names, where))
         job.downloaded = True
         return buf.getvalue()
@@ -321,6 +322,7 @@ def convert(job: WebJob, upload: Upload) -> Result:
                               *(f"Panel {each.suffix[7:]}: {each.litho.metadata()['description']}" for each in made.panels)]), heightmap_png=f"{stem}.heightmap.png",
         model_glb=f"{stem}{PREVIEW_SUFFIX}", summary=web_summary_lines(report, label_of),
         relief_style=report.relief_style, relief_reason=report.relief_reason, touch=[web_words(v) for v in made.touch()],
+        stem=stem,
     )
     result.prints = figure_prints(made, upload.panels, lambda p: OutputFile(p.name, p.stat().st_size))
     result.figure_files = [OutputFile(p.name, p.stat().st_size) for p in made.figure_files]

@@ -293,23 +293,6 @@ def _largest_piece(mask: np.ndarray) -> np.ndarray:
     return pieces == int(np.argmax(sizes))
 
 
-@dataclass
-class _Placed:
-    """The regions a page has placed so far: id -> (kind, layer label, description), who keeps a
-    contested pin, and each layer's counts."""
-
-    info: dict = field(default_factory=dict)
-    rank: dict = field(default_factory=dict)
-    counts: dict = field(default_factory=dict)
-    next_id: int = 1
-
-    def add(self, mask: np.ndarray, placed: np.ndarray, kind: str, label: str, desc: str, rank: float) -> None:
-        placed[mask] = self.next_id
-        self.info[self.next_id] = (kind, label, desc)
-        self.rank[self.next_id] = rank
-        self.next_id += 1
-
-
 def render_picture_page(source: PinSource, device: PinDevice, window, s: float, name: str) -> PinPage:
     """The part `window` (r0, r1, c0, c1) of the picture at s pins per picture pixel, with the
     marker and, when the scale is known, a scale bar."""
@@ -358,6 +341,23 @@ def render_picture_page(source: PinSource, device: PinDevice, window, s: float, 
     plain = ". ".join(words) + "."
     return PinPage(name, pins, plain, _braille(plain, source.braille_table), um_pin, window, (oy, ox, s), regions, bar,
                    done.counts)
+
+
+@dataclass
+class _Placed:
+    """The regions a page has placed so far: id -> (kind, layer label, description), who keeps a
+    contested pin, and each layer's counts."""
+
+    info: dict = field(default_factory=dict)
+    rank: dict = field(default_factory=dict)
+    counts: dict = field(default_factory=dict)
+    next_id: int = 1
+
+    def add(self, mask: np.ndarray, placed: np.ndarray, kind: str, label: str, desc: str, rank: float) -> None:
+        placed[mask] = self.next_id
+        self.info[self.next_id] = (kind, label, desc)
+        self.rank[self.next_id] = rank
+        self.next_id += 1
 
 
 def _place_lines(layer, window, grid, placed: np.ndarray, done: _Placed) -> None:

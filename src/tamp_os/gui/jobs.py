@@ -93,6 +93,12 @@ def printer_slug(printer: str) -> str:
     return re.sub(r"[^a-z0-9]+", "-", printer.lower()).strip("-") or "printer"
 
 
+def _next_round(job: WebJob, printer: str) -> None:
+    """Keep this round's prints as an earlier round's; the next round's files carry its `printer`."""
+    job.earlier.append(Run(job.params.printer, job.results))
+    job.stem_suffix = f"-{printer_slug(printer)}"
+
+
 @dataclass
 class WebJob:
     """A web-app job (not to be confused with batch.py's jobs): uploads, settings, results."""
@@ -239,12 +245,6 @@ class JobStore:
             z.writestr("README.txt", readme_text(names, where))
         job.downloaded = True
         return buf.getvalue()
-
-
-def _next_round(job: WebJob, printer: str) -> None:
-    """Keep this round's prints as an earlier round's; the next round's files carry its `printer`."""
-    job.earlier.append(Run(job.params.printer, job.results))
-    job.stem_suffix = f"-{printer_slug(printer)}"
 
 
 def run_library(path: Path, params: LithoParams, out: Path, stem: str):

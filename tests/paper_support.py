@@ -21,7 +21,7 @@ def _mul(a, b):
             a[4] * b[0] + a[5] * b[2] + b[4], a[4] * b[1] + a[5] * b[3] + b[5]]
 
 
-def filled_round_dots_mm(pdf_path, page: int = 0, offset_mm=(0.0, 0.0)) -> list[tuple[float, float, float]]:
+def filled_round_dots_mm(pdf_path, *, page: int = 0, offset_mm=(0.0, 0.0)) -> list[tuple[float, float, float]]:
     """(x, y, diameter) in mm of every filled round dot (four curves, as wide as high) on a page."""
     import pypdf
 
@@ -69,7 +69,7 @@ class DotCover:
     share_within_reach: float
 
 
-def dot_cover(region: np.ndarray, mm_per_px: float, origin_mm, dots_mm: np.ndarray, reach_mm: float = 3.0) -> DotCover:
+def dot_cover(region: np.ndarray, mm_per_px: float, origin_mm, dots_mm: np.ndarray, *, reach_mm: float = 3.0) -> DotCover:
     """The cover of `region` (a bool map whose top row is at the far edge) by the dots that lie in it."""
     from scipy import ndimage
     from scipy.spatial import cKDTree

@@ -168,7 +168,7 @@ def add_again_route(app: FastAPI, web) -> None:
         if printer not in printer_choices() or printer in made:
             error = ("Printer for the next round: choose a printer from the list." if printer not in printer_choices()
                      else f"Printer for the next round: the prints for {printer} are already on this page; choose another printer.")
-            return results_page(web, request, job, 400, {"again-printer": error})
+            return results_page(web, request, job, status=400, errors={"again-printer": error})
         web.store.again(job, _formats_follow_printer(job.params, job.params.replace(printer=printer)))
         return RedirectResponse(f"{web.base}/jobs/{job.id}", status_code=303)
 
@@ -225,7 +225,7 @@ def settings_page(web, request, job: WebJob, status: int = 200, values=None, err
     )
 
 
-def results_page(web, request, job: WebJob, status: int = 200, errors=None):
+def results_page(web, request, job: WebJob, *, status: int = 200, errors=None):
     errors = errors or {}
     made = {job.params.printer, *(run.printer for run in job.earlier)}
     others = {name: p for name, p in printer_choices().items() if name not in made}

@@ -53,34 +53,6 @@ def safe_name(name: str, taken: set[str]) -> str:
 
 
 @dataclass
-class OutputFile:
-    name: str
-    size_bytes: int
-
-
-@dataclass
-class Result:
-    """One image's outcome, in the words and files the results page shows."""
-
-    name: str
-    ok: bool
-    error: str = ""
-    files: list[OutputFile] = field(default_factory=list)
-    description: str = ""  # the plain-language description; also the previews' text alternative
-    heightmap_png: str = ""
-    render_png: str = ""
-    model_glb: str = ""
-    summary: list[str] = field(default_factory=list)
-    relief_style: str = ""
-    relief_reason: str = ""
-    touch: list[str] = field(default_factory=list)  # what a finger will find
-    prints: list = field(default_factory=list)  # a figure's prints (panel_choice.PrintShown), the overview first
-    figure_files: list[OutputFile] = field(default_factory=list)  # a figure's own files (all pages, its recipe)
-    left_out: list[str] = field(default_factory=list)  # a figure's panels found but not printed on their own
-    stem: str = ""  # its files' common name: the upload's, with a later round's printer ('cells-bambu-lab-a1')
-
-
-@dataclass
 class Run:
     """The prints of one earlier round of a job, for one printer (kept when it is made again)."""
 
@@ -97,6 +69,34 @@ def _next_round(job: WebJob, printer: str) -> None:
     """Keep this round's prints as an earlier round's; the next round's files carry its `printer`."""
     job.earlier.append(Run(job.params.printer, job.results))
     job.stem_suffix = f"-{printer_slug(printer)}"
+
+
+@dataclass
+class OutputFile:
+    name: str
+    size_bytes: int
+
+
+@dataclass
+class Result:
+    """One image's outcome, in the words and files the results page shows."""
+
+    name: str
+    ok: bool
+    error: str = ""
+    stem: str = ""  # its files' common name: the upload's, with a later round's printer ('cells-bambu-lab-a1')
+    files: list[OutputFile] = field(default_factory=list)
+    description: str = ""  # the plain-language description; also the previews' text alternative
+    heightmap_png: str = ""
+    render_png: str = ""
+    model_glb: str = ""
+    summary: list[str] = field(default_factory=list)
+    relief_style: str = ""
+    relief_reason: str = ""
+    touch: list[str] = field(default_factory=list)  # what a finger will find
+    prints: list = field(default_factory=list)  # a figure's prints (panel_choice.PrintShown), the overview first
+    figure_files: list[OutputFile] = field(default_factory=list)  # a figure's own files (all pages, its recipe)
+    left_out: list[str] = field(default_factory=list)  # a figure's panels found but not printed on their own
 
 
 @dataclass

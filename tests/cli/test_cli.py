@@ -201,6 +201,35 @@ def test_info_says_what_convert_does_with_the_channels(fixture, capsys, name):
 
 
 @pytest.mark.timeout(120)
+def test_aperio_slide_edge_is_no_arrow(fixture, capsys):
+    """Issue 33.10: the flat glass rows at the Aperio slide's bottom edge are no arrow burnt into its
+    red channel; info (which says what convert will do with the channels) names no mark removed."""
+    assert main(["info", str(fixture("real/aperio_cmu1_he_skin.svs"))]) == 0
+    out = capsys.readouterr().out
+    assert "stained brightfield" in out and "arrow" not in out and "Removed from the channel" not in out, out
+
+
+@pytest.mark.timeout(180)
+def test_touching_members_are_counted_once_in_the_description(fixture, tmp_path, capsys):
+    """Issue 33.10: a population whose touching members the layout groups (36 groups of 83 particles)
+    says one count in its description: no 'N raised groups' beside 'Found M members'."""
+    import re
+
+    from tamp_os.lithograph.pipeline import make_lithograph
+
+    path = fixture("real/sem_fei_sio2_particles_35kx.tif")
+    report = make_lithograph(path).report
+    members = report.legibility.object_count
+    assert report.content_kind == "members" and 0 < len(report.layout.pieces) < members  # the grouped case
+    assert main(["convert", str(path), "-o", str(tmp_path), "--formats", "stl"]) == 0
+    text = (tmp_path / "sem_fei_sio2_particles_35kx.description.txt").read_text()
+    counts = {int(n) for n in re.findall(r"(\d+) (?:members|domes|raised groups|raised shapes|groups)\b", text)}
+    assert counts == {members}, text
+    spelled = re.findall(r"\b(?:[A-Z][a-z]+|[a-z]+-[a-z]+) (?:raised groups|domes|raised shapes) stand", text)
+    assert not spelled, spelled
+
+
+@pytest.mark.timeout(120)
 def test_an_option_that_does_not_fit_the_file_fails_the_file_in_info_as_in_convert(fixture, tmp_path, capsys):
     """Issue 33.8: one exit-code rule everywhere (docs/command-line.md): a channel the file does not
     have fails that input (1) in info and convert alike; a malformed value is a usage error (2)."""

@@ -229,8 +229,12 @@ def test_textures_stay_inside_their_region(r0, c0, h, w, p):
     def room(x, y):
         return min(x - x0, x1 - x, y - y0, y1 - y)
 
-    for x, y in tx.texture_dots_mm(mask, p, origin):
-        assert room(x, y) >= tx.INSET_MM + tx.DOT_DIAMETER_MM / 2 - p
+    dots = tx.texture_dots_mm(mask, p, origin)
+    for x, y in dots:  # a thin part's dot sits nearer the outline, with paper still clear between them
+        assert room(x, y) >= tx.THIN_INSET_MM + tx.DOT_DIAMETER_MM / 2 - p
+    if len(dots) >= 2:
+        gaps = np.hypot(*(dots[:, None, :] - dots[None, :, :]).transpose(2, 0, 1))
+        assert gaps[~np.eye(len(dots), dtype=bool)].min() >= tx.DOT_PITCH_MM - 1e-6
     for a, b in tx.texture_lines_mm(mask, p, origin):
         assert np.hypot(*(b - a)) >= tx.MIN_SEGMENT_MM - 1e-9
         for point in (a, b):
@@ -258,3 +262,70 @@ def test_small_specks_merge_into_their_surroundings():
     merged = tx.merge_small_regions(regions, 0.5)
     assert merged[10, 10] == 1
     assert (merged[20:35, 20:35] == 2).all() and (merged == 3).sum() == 0
+
+
+def _cells_in_cytoplasm(mm_per_px=0.25):
+    """Nuclei (discs 5 mm across, outline texture) each in a ring of cytoplasm 3 mm wide (dots):
+    a channel print's thin region, where no dot fits INSET_MM from both of its outlines."""
+    rows = cols = 240
+    yy, xx = np.mgrid[:rows, :cols] * mm_per_px
+    regions = np.zeros((rows, cols), np.int32)
+    for cy in (10.0, 25.0, 40.0, 55.0):
+        for cx in (10.0, 25.0, 40.0, 55.0):
+            d = np.hypot(yy - cy, xx - cx)
+            regions[(d < 5.5) & (regions == 0)] = 2
+            regions[d < 2.5] = 1
+    return regions
+
+
+@pytest.mark.timeout(60)
+def test_thin_dotted_region_keeps_its_dots_on_the_pdf(tmp_path):
+    """Dots read back from the PDF: a 3 mm ring of cytoplasm carries dots along it, none in the
+    nuclei or the background, every two at least 3 mm apart (BANA), each clear of the outline,
+    and most of the ring within 3 mm of a dot; no black blob wide enough to blister."""
+    _cairo_ok()
+    from paper_support import dot_cover, filled_round_dots_mm
+    from tamp_os.export.tactile2d import save_graphic
+
+    p = 0.25
+    regions = _cells_in_cytoplasm(p)
+    g = layout_graphic(regions, p, Furniture(), textures={1: "outline", 2: "dots"})
+    pdf = save_graphic(g, tmp_path / "cells.pdf")
+    dots = np.array([(x, y) for x, y, d in filled_round_dots_mm(pdf) if abs(d - tx.DOT_DIAMETER_MM) < 0.05])
+    ring, nuclei = dot_cover(regions == 2, p, g.picture_origin_mm, dots), dot_cover(regions == 1, p, g.picture_origin_mm, dots)
+    background = dot_cover(regions == 0, p, g.picture_origin_mm, dots)
+    assert nuclei.dots == 0 and background.dots == 0
+    assert ring.dots == len(dots) >= 16  # at least one per cell; the grid alone placed none here
+    assert ring.min_spacing_mm >= tx.DOT_PITCH_MM - 0.01
+    assert ring.share_within_reach >= 0.9, ring
+    room = ndimage.distance_transform_edt(np.pad(regions == 2, 1))[1:-1, 1:-1] * p
+    rows = regions.shape[0]
+    for x, y in dots:
+        r, c = rows - 1 - int((y - g.picture_origin_mm[1]) / p), int((x - g.picture_origin_mm[0]) / p)
+        assert room[r, c] - p / 2 >= tx.THIN_INSET_MM + tx.DOT_DIAMETER_MM / 2 - p
+    black = _render_gray(pdf, tmp_path, 200)
+    assert 2 * ndimage.distance_transform_edt(black).max() / (200 / 25.4) <= 2.2
+
+
+@pytest.mark.timeout(120)
+def test_two_channel_czi_pdf_tells_its_channels_apart(tmp_path, capsys, fixture):
+    """The swell-paper PDF of a two-channel CZI (nuclei and a cytoplasm marker between them), read
+    back: the dotted channel carries dots over most of its thin strips, 3 mm apart or more; the
+    outlined channel none."""
+    _cairo_ok()
+    from conftest import run_cli
+    from paper_support import dot_cover, filled_round_dots_mm
+    from tamp_os.lithograph.outputs import tactile_graphic
+    from tamp_os.lithograph.pipeline import make_lithograph
+
+    path = fixture("real/zeiss_dapi_gfp_2ch.czi")
+    code, _, err = run_cli(capsys, "convert", path, "-o", tmp_path, "--formats", "pdf")
+    assert code == 0, err
+    g = tactile_graphic(make_lithograph(path))
+    regions = tx.merge_small_regions(g.regions, g.mm_per_px)
+    dots = np.array([(x, y) for x, y, d in filled_round_dots_mm(tmp_path / "zeiss_dapi_gfp_2ch.pdf") if abs(d - tx.DOT_DIAMETER_MM) < 0.05])
+    cover = {g.textures[v]: dot_cover(regions == v, g.mm_per_px, g.picture_origin_mm, dots) for v in g.textures}
+    assert cover["outline"].dots == 0
+    dotted = cover["dots"]
+    assert dotted.per_100_mm2 >= 2.0 and dotted.share_within_reach >= 0.45, dotted  # was 0.2 per 100 mm², 6 %
+    assert dotted.min_spacing_mm >= tx.DOT_PITCH_MM - 0.01

@@ -267,6 +267,30 @@ def test_drawn_arrows_are_removed(fill, points):
     assert mask[drawn].mean() > 0.99 and mask.sum() < 3 * drawn.sum()
 
 
+@pytest.mark.timeout(30)
+@pytest.mark.parametrize("side", ["bottom", "left"])
+def test_a_strip_along_the_edge_is_no_arrow(side):
+    """A bright strip lying along the picture's edge and widening at one end (an Aperio slide's flat
+    glass rows at its bottom edge) is no drawn arrow; the same shape inside the picture is one."""
+    from tamp_os.clean.annotations import detect_annotations
+
+    rng = np.random.default_rng(1)
+    image = (90 + 40 * rng.random((480, 640))).astype(np.float32)
+    strip = np.zeros((24, 320), bool)
+    strip[-6:, :300] = True  # a shaft 6 pixels high, then a head 24 high
+    strip[:, 300:] = np.arange(24)[:, None] >= np.linspace(0, 20, 20)[None, :]
+    inside = image.copy()
+    inside[200:224, 100:420][strip] = 255
+    assert [a.kind for a in detect_annotations(inside)[1]] == ["arrow"]  # the shape is an arrow
+    edge = image.copy()
+    if side == "bottom":
+        edge[-24:, 100:420][strip] = 255
+    else:
+        edge[100:420, :24][strip.T[:, ::-1]] = 255
+    mask, found = detect_annotations(edge)
+    assert found == [] and not mask.any()
+
+
 def test_no_false_annotations_on_natural_pictures(fixture):
     import skimage.data
 

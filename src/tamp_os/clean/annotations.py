@@ -56,6 +56,19 @@ def is_arrow(solid: np.ndarray, image_size_px: int) -> bool:
     return head >= 2.0 * shaft_width and tail <= 1.5 * shaft_width + 1
 
 
+def _along_edge(solid: np.ndarray, sl: tuple, shape: tuple[int, int]) -> bool:
+    """Whether a blob lies along the picture's edge, its long side on the border for at least half
+    its length: a slide's flat glass margin or a scan's padding, not a mark drawn on the picture
+    (a drawn arrow points into the picture; at most its tail or head touches the edge)."""
+    h, w = shape
+    bh, bw = solid.shape
+    if bw >= bh:
+        sides = ([solid[0]] if sl[0].start == 0 else []) + ([solid[-1]] if sl[0].stop == h else [])
+    else:
+        sides = ([solid[:, 0]] if sl[1].start == 0 else []) + ([solid[:, -1]] if sl[1].stop == w else [])
+    return any(side.mean() >= 0.5 for side in sides)
+
+
 def detect_annotations(values: np.ndarray, arrows: bool = True) -> tuple[np.ndarray, list[Annotation]]:
     """Mask of burned-in annotations inside the picture, and what they are (`arrows`: look for
     drawn arrows too; a diagram's arrows and strokes are its content, not marks on it).
@@ -85,7 +98,7 @@ def detect_annotations(values: np.ndarray, arrows: bool = True) -> tuple[np.ndar
             if bh * bw < 60 or bh * bw > 0.08 * h * w or bh >= 0.5 * h or bw >= 0.9 * w:
                 continue
             solid = labels[sl] == i
-            if arrows and is_arrow(solid, max(h, w)):
+            if arrows and not _along_edge(solid, sl, (h, w)) and is_arrow(solid, max(h, w)):
                 found.append(Annotation("arrow", (sl[0].start, sl[0].stop), (sl[1].start, sl[1].stop)))
                 mask[sl] |= solid
                 continue

@@ -871,10 +871,9 @@ def _file_axes_lines(s) -> list[str]:
 def cmd_info(args) -> int:
     from ..clean.stage import clean_picture
     from ..errors import TampError
-    from ..lithograph.report import instrument_words
     from ..params import parse_field
     from ..read.image import read_image
-    from ..units import format_length, parse_length_m
+    from ..units import parse_length_m
 
     pixel_size_m = parse_length_m(args.pixel_size, "pixel_size") if args.pixel_size else None
     scene = parse_field("scene", args.scene) if args.scene is not None else None  # a number, or a series name
@@ -887,9 +886,19 @@ def cmd_info(args) -> int:
             raise
         print(f"error: {cli_words(exc)}", file=sys.stderr)
         return EXIT_FAILED
+    plan = _channel_plan(args, scene)
+    facts = _info_facts(picture, cleaned, plan)
+    if args.json:
+        print(json.dumps(facts, indent=2, ensure_ascii=False))
+        return EXIT_OK
+    _print_info(args, picture.file, cleaned, facts, plan)
+    return EXIT_OK
+
+
+def _info_facts(picture, cleaned, plan) -> dict:
+    """What info says about a file, as the JSON it prints with --json."""
     s = picture.file
     scale, crop, found = cleaned.pixel_size, cleaned.band.as_dict(), cleaned.annotations_with_text
-    meta_found = sorted(k for k in s.metadata if not k.startswith("_"))
     facts = {
         "file": s.path,
         "format": s.format,
@@ -906,7 +915,7 @@ def cmd_info(args) -> int:
         "reader": s.reader,
         "pages": s.pages,
         "sha256": s.sha256,
-        "metadata_found": meta_found,
+        "metadata_found": sorted(k for k in s.metadata if not k.startswith("_")),
         "pixel_size_m": scale.metres,
         "pixel_size_xy_m": _pixel_xy(s, scale),
         "pixel_size_source": scale.provenance,
@@ -919,14 +928,20 @@ def cmd_info(args) -> int:
         "notes": s.notes + list(scale.warnings),
         "instrument": cleaned.instrument.as_dict() if cleaned.instrument else None,
     }
-    plan = _channel_plan(args, scene)
     if plan is not None:  # convert prints the channels, not the channel the reader names
         facts["notes"] = [n for n in facts["notes"] if "using channel 0" not in str(n)]
         facts["convert_channels"] = {"why": plan.why, "key": [{"label": e.label, "encoding": e.encoding} for e in plan.key],
                                      "notes": [str(n) for n in plan.notes]}
-    if args.json:
-        print(json.dumps(facts, indent=2, ensure_ascii=False))
-        return EXIT_OK
+    return facts
+
+
+def _print_info(args, s, cleaned, facts: dict, plan) -> None:
+    """info's plain text: one line per fact, notes last."""
+    from ..lithograph.report import instrument_words
+    from ..units import format_length
+
+    scale, crop, found = cleaned.pixel_size, facts["crop"], cleaned.annotations_with_text
+    meta_found = facts["metadata_found"]
     print(f"{Path(args.image).name}: {s.format}, {s.width} × {s.height} pixels, {s.bit_depth}-bit {s.dtype}, "
           f"{s.channel_count} channel{'s' if s.channel_count != 1 else ''}, {s.pages} page{'s' if s.pages != 1 else ''}")
     for line in _file_axes_lines(s):
@@ -952,7 +967,6 @@ def cmd_info(args) -> int:
             print(f"convert: {cli_words(note)}")
     for note in facts["notes"]:
         print(f"note: {cli_words(note)}")
-    return EXIT_OK
 
 
 _ENCODING_WORDS = {"domes": "domes", "ridges": "ridges", "dots": "dots", "plateau": "a plateau"}

@@ -296,62 +296,21 @@ def _largest_piece(mask: np.ndarray) -> np.ndarray:
 def render_picture_page(source: PinSource, device: PinDevice, window, *, s: float, name: str) -> PinPage:
     """The part `window` (r0, r1, c0, c1) of the picture at s pins per picture pixel, with the
     marker and, when the scale is known, a scale bar."""
-    from skimage.measure import label as cc_label
-
     R, C = device.rows, device.cols
-    area_rows = R - BAR_ROWS
     r0, r1, c0, c1 = window
-    ph, pw = min(area_rows, int(math.floor((r1 - r0) * s + 1e-9))), min(C, int(math.floor((c1 - c0) * s + 1e-9)))
+    ph, pw = min(R - BAR_ROWS, int(math.floor((r1 - r0) * s + 1e-9))), min(C, int(math.floor((c1 - c0) * s + 1e-9)))
     ph, pw = max(ph, 1), max(pw, 1)
     oy, ox = 0, (C - pw) // 2
-    yi, xi, n = _samples(window, source.shape, s, ph, pw)
+    grid = (_samples(window, source.shape, s, ph, pw), (oy, ox, ph, pw))
     region_id = np.zeros((R, C), np.int64)
-    info: dict[int, tuple[str, str, str]] = {}  # id -> (kind, layer label, description)
-    rank: dict[int, float] = {}
-    next_id = 1
-    counts = {}
-    um_pin = source.um_per_px / s if source.um_per_px else None
-    keep_out = _keep_out(device)
     areas = np.zeros((R, C), np.int64)
+    done = _Placed()
     for layer in source.layers:
-        sub = layer.data[r0:r1, c0:c1]
         placed = np.zeros((R, C), np.int64)
         if layer.kind == "lines":
-            skeleton = skeleton_of(layer.data.astype(bool))
-            hit = _pooled(skeleton, yi, xi, n, ph, pw).any(axis=2)
-            thin = skeleton_of(hit)
-            # a thinned line keeps its topology; endpoints that thinning shortened are not lost
-            pieces = cc_label(thin, connectivity=2)
-            found = int(cc_label(skeleton[r0:r1, c0:c1], connectivity=2).max())
-            counts[layer.label] = {"found": found}
-            for k in range(1, pieces.max() + 1):
-                block = np.zeros((R, C), bool)
-                block[oy : oy + ph, ox : ox + pw] = pieces == k
-                placed[block] = next_id
-                info[next_id] = (layer.kind, layer.label, f"a line of {int(block.sum())} pins")
-                rank[next_id] = RANK_OF["lines"] + 1e-6 * block.sum()  # a long line keeps its pins
-                next_id += 1
+            _place_lines(layer, window, grid, placed, done)
         else:
-            ids = [int(v) for v in np.unique(sub) if v > 0]
-            counts[layer.label] = {"found": len(ids)}
-            best, share = _label_coverage(layer.data, yi, xi, n, ph, pw)
-            for v in ids:
-                pins = np.zeros((R, C), bool)
-                pins[oy : oy + ph, ox : ox + pw] = (best == v) & (share >= 0.4)
-                area_px = float((layer.data == v).sum())
-                if layer.kind in ("members", "dots") and pins.sum() < MIN_REGION_PINS and area_px * s * s >= 1.0:
-                    pins = _block_at(layer.data == v, window, s, oy, ox, ph, pw, R, C)
-                pins &= placed == 0
-                if not pins.any():
-                    continue
-                if layer.kind == "areas" and device.levels == 1:
-                    pins = _outline(pins)  # a large solid field of raised pins reads as one blur
-                placed[pins] = next_id
-                diameter = 2 * math.sqrt(area_px / math.pi) * (source.um_per_px or 0)
-                desc = f"{layer.label}, about {length_words(diameter)} across" if source.um_per_px else layer.label
-                info[next_id] = (layer.kind, layer.label, desc)
-                rank[next_id] = RANK_OF[layer.kind] - 1e-6 * pins.sum()
-                next_id += 1
+            _place_labels(layer, source, device, window, s, grid, placed, done)
         if layer.kind == "areas":
             areas[placed > 0] = placed[placed > 0]
         else:
@@ -359,39 +318,109 @@ def render_picture_page(source: PinSource, device: PinDevice, window, *, s: floa
             region_id[free & (placed > 0)] = placed[free & (placed > 0)]
     # members and lines first settle among themselves; areas then take the pins left (so a plateau
     # is not shredded by footprints that lose to their neighbours), and all are separated again
-    region_id = _settle(region_id, rank, keep_out)
+    keep_out = _keep_out(device)
+    region_id = _settle(region_id, done.rank, keep_out)
     region_id[(region_id == 0) & (areas > 0)] = areas[(region_id == 0) & (areas > 0)]
-    region_id = _settle(region_id, rank, keep_out)
+    region_id = _settle(region_id, done.rank, keep_out)
     pins = np.zeros((R, C), np.uint8)
     regions = []
-    for rid, (kind, label, desc) in info.items():
+    for rid, (kind, label, desc) in done.info.items():
         mask = region_id == rid
         if not mask.any():
             continue
         pins[mask] = device.level(kind)
         regions.append(PinRegion(kind, label, desc, mask))
-        counts[label]["kept"] = counts[label].get("kept", 0) + 1
-    marker = _marker(device)
-    pins[marker] = device.level("furniture")
-    regions.append(PinRegion("furniture", "orientation marker", "top right corner, as the plate's cut corner", marker))
-    bar = None
-    if um_pin:
-        bar = _scale_bar(device, um_pin)
-        if bar is not None:
-            row, col, length, metres = bar
-            mask = np.zeros((R, C), bool)
-            mask[row, col : col + length] = True
-            mask[row - 1 : row + 2, col] = True
-            mask[row - 1 : row + 2, col + length - 1] = True
-            pins[mask] = device.level("furniture")
-            regions.append(PinRegion("furniture", "scale bar", f"{length_words(metres * 1e6)} long", mask))
+        done.counts[label]["kept"] = done.counts[label].get("kept", 0) + 1
+    um_pin = source.um_per_px / s if source.um_per_px else None
+    bar = _page_furniture(device, um_pin, pins, regions)
     words = [source.caption if name == "overview" else name]
     if um_pin:
         words.append(f"1 pin = {length_words(um_pin)}")
         if bar:
             words.append(f"bar {length_words(bar[3] * 1e6)}")
     plain = ". ".join(words) + "."
-    return PinPage(name, pins, plain, _braille(plain, source.braille_table), um_pin, window, (oy, ox, s), regions, bar, counts)
+    return PinPage(name, pins, plain, _braille(plain, source.braille_table), um_pin, window, (oy, ox, s), regions, bar,
+                   done.counts)
+
+
+@dataclass
+class _Placed:
+    """The regions a page has placed so far: id -> (kind, layer label, description), who keeps a
+    contested pin, and each layer's counts."""
+
+    info: dict = field(default_factory=dict)
+    rank: dict = field(default_factory=dict)
+    counts: dict = field(default_factory=dict)
+    next_id: int = 1
+
+    def add(self, mask: np.ndarray, placed: np.ndarray, kind: str, label: str, desc: str, rank: float) -> None:
+        placed[mask] = self.next_id
+        self.info[self.next_id] = (kind, label, desc)
+        self.rank[self.next_id] = rank
+        self.next_id += 1
+
+
+def _place_lines(layer, window, grid, placed: np.ndarray, done: _Placed) -> None:
+    """A line layer: skeletonised at the source, max-pooled onto the pins, one region per line."""
+    from skimage.measure import label as cc_label
+
+    r0, r1, c0, c1 = window
+    (yi, xi, n), (oy, ox, ph, pw) = grid
+    skeleton = skeleton_of(layer.data.astype(bool))
+    hit = _pooled(skeleton, yi, xi, n, ph, pw).any(axis=2)
+    thin = skeleton_of(hit)
+    # a thinned line keeps its topology; endpoints that thinning shortened are not lost
+    pieces = cc_label(thin, connectivity=2)
+    done.counts[layer.label] = {"found": int(cc_label(skeleton[r0:r1, c0:c1], connectivity=2).max())}
+    for k in range(1, pieces.max() + 1):
+        block = np.zeros(placed.shape, bool)
+        block[oy : oy + ph, ox : ox + pw] = pieces == k
+        # a long line keeps its pins
+        done.add(block, placed, layer.kind, layer.label, f"a line of {int(block.sum())} pins",
+                 RANK_OF["lines"] + 1e-6 * block.sum())
+
+
+def _place_labels(layer, source: PinSource, device: PinDevice, window, s: float, grid, placed: np.ndarray,
+                  done: _Placed) -> None:
+    """A labelled layer (members, dots, areas): each label the pins it covers for the most part."""
+    r0, r1, c0, c1 = window
+    (yi, xi, n), (oy, ox, ph, pw) = grid
+    R, C = placed.shape
+    ids = [int(v) for v in np.unique(layer.data[r0:r1, c0:c1]) if v > 0]
+    done.counts[layer.label] = {"found": len(ids)}
+    best, share = _label_coverage(layer.data, yi, xi, n, ph, pw)
+    for v in ids:
+        pins = np.zeros((R, C), bool)
+        pins[oy : oy + ph, ox : ox + pw] = (best == v) & (share >= 0.4)
+        area_px = float((layer.data == v).sum())
+        if layer.kind in ("members", "dots") and pins.sum() < MIN_REGION_PINS and area_px * s * s >= 1.0:
+            pins = _block_at(layer.data == v, window, s, oy, ox, ph, pw, R, C)
+        pins &= placed == 0
+        if not pins.any():
+            continue
+        if layer.kind == "areas" and device.levels == 1:
+            pins = _outline(pins)  # a large solid field of raised pins reads as one blur
+        diameter = 2 * math.sqrt(area_px / math.pi) * (source.um_per_px or 0)
+        desc = f"{layer.label}, about {length_words(diameter)} across" if source.um_per_px else layer.label
+        done.add(pins, placed, layer.kind, layer.label, desc, RANK_OF[layer.kind] - 1e-6 * pins.sum())
+
+
+def _page_furniture(device: PinDevice, um_pin, pins: np.ndarray, regions: list) -> tuple | None:
+    """The orientation marker and, when the scale is known, the scale bar; returns the bar."""
+    R, C = pins.shape
+    marker = _marker(device)
+    pins[marker] = device.level("furniture")
+    regions.append(PinRegion("furniture", "orientation marker", "top right corner, as the plate's cut corner", marker))
+    bar = _scale_bar(device, um_pin) if um_pin else None
+    if bar is not None:
+        row, col, length, metres = bar
+        mask = np.zeros((R, C), bool)
+        mask[row, col : col + length] = True
+        mask[row - 1 : row + 2, col] = True
+        mask[row - 1 : row + 2, col + length - 1] = True
+        pins[mask] = device.level("furniture")
+        regions.append(PinRegion("furniture", "scale bar", f"{length_words(metres * 1e6)} long", mask))
+    return bar
 
 
 def _block_at(member: np.ndarray, window, s, oy, ox, ph, pw, R, C) -> np.ndarray:

@@ -136,20 +136,7 @@ def picture_regions(layers, shape: tuple[int, int], graphic: Graphic2D, *, um_pe
     def to_page(r, c):
         return px0 + c * sx, top + r * sy
 
-    pieces = _pieces(layers, shape)
-    raised_by_others = {kind: np.zeros(shape, bool) for kind in ("areas",)}
-    for p in pieces:
-        if p.kind != "areas":
-            raised_by_others["areas"] |= p.mask
-    for p in pieces:  # a plateau holds the domes on it: its own part is what is left around them
-        if p.kind == "areas":
-            p.area_px = int((p.mask & ~raised_by_others["areas"]).sum())
-    pieces = [p for p in pieces if p.area_px * sx * sy >= MIN_REGION_MM2]
-    left_out = 0
-    if len(pieces) > MAX_PICTURE_REGIONS:
-        pieces.sort(key=lambda p: -p.area_px)
-        left_out = len(pieces) - MAX_PICTURE_REGIONS
-        pieces = pieces[:MAX_PICTURE_REGIONS]
+    pieces, left_out = _kept_pieces(layers, shape, (sx, sy))
     placed = []
     for piece in pieces:
         ys, xs = np.nonzero(piece.mask)
@@ -157,20 +144,7 @@ def picture_regions(layers, shape: tuple[int, int], graphic: Graphic2D, *, um_pe
         band = min(2, int(cy * 3))
         placed.append((band, cx, cy, piece, ys, xs))
     placed.sort(key=lambda t: (t[0], t[1], t[2]))
-    # who lies above whom when drawn: areas under lines under members; a touch point avoids what is above
-    above = np.zeros(shape, bool)
-    touch_of = {}
-    for index in sorted(range(len(placed)), key=lambda i: -DRAW_ORDER.get(placed[i][3].kind, 2)):
-        piece = placed[index][3]
-        point, depth = _inner_point(piece.mask & ~above)
-        if depth < MIN_TOUCH_DEPTH_PX:
-            if piece.kind == "areas":  # a thin rim around the domes on it: felt as the domes, not a stop of its own
-                continue
-            point, depth = _inner_point(piece.mask)
-        touch_of[index] = point
-        above |= piece.mask
-    placed = [p for i, p in enumerate(placed) if i in touch_of]
-    touch_of = {new: touch_of[old] for new, old in enumerate(sorted(touch_of))}
+    placed, touch_of, above = _touch_points(placed, shape)
     counts: dict[tuple[str, str], int] = {}
     for _, _, _, piece, _, _ in placed:
         counts[(piece.kind, piece.label)] = counts.get((piece.kind, piece.label), 0) + 1
@@ -188,6 +162,45 @@ def picture_regions(layers, shape: tuple[int, int], graphic: Graphic2D, *, um_pe
             _contour_path(piece.mask, to_page), to_page(r + 0.5, c + 0.5), (x0, y0, x1, y1)))
     ground, _ = _inner_point(~above)
     return regions, left_out, (to_page(ground[0] + 0.5, ground[1] + 0.5) if ground else None)
+
+
+def _kept_pieces(layers, shape: tuple[int, int], mm_per_px: tuple[float, float]) -> tuple[list[_Piece], int]:
+    """The pieces large enough to be regions (a plateau counted without the domes on it), at most
+    MAX_PICTURE_REGIONS of them, the largest first when there are more; and how many were left out."""
+    pieces = _pieces(layers, shape)
+    raised_by_others = np.zeros(shape, bool)
+    for p in pieces:
+        if p.kind != "areas":
+            raised_by_others |= p.mask
+    for p in pieces:  # a plateau holds the domes on it: its own part is what is left around them
+        if p.kind == "areas":
+            p.area_px = int((p.mask & ~raised_by_others).sum())
+    sx, sy = mm_per_px
+    pieces = [p for p in pieces if p.area_px * sx * sy >= MIN_REGION_MM2]
+    left_out = 0
+    if len(pieces) > MAX_PICTURE_REGIONS:
+        pieces.sort(key=lambda p: -p.area_px)
+        left_out = len(pieces) - MAX_PICTURE_REGIONS
+        pieces = pieces[:MAX_PICTURE_REGIONS]
+    return pieces, left_out
+
+
+def _touch_points(placed: list, shape: tuple[int, int]) -> tuple[list, dict, np.ndarray]:
+    """Each placed piece's touch point (row, col), the pieces kept (in their order) and what all of
+    them cover. Areas lie under lines under members when drawn: a touch point avoids what is above."""
+    above = np.zeros(shape, bool)
+    touch_of = {}
+    for index in sorted(range(len(placed)), key=lambda i: -DRAW_ORDER.get(placed[i][3].kind, 2)):
+        piece = placed[index][3]
+        point, depth = _inner_point(piece.mask & ~above)
+        if depth < MIN_TOUCH_DEPTH_PX:
+            if piece.kind == "areas":  # a thin rim around the domes on it: felt as the domes, not a stop of its own
+                continue
+            point, depth = _inner_point(piece.mask)
+        touch_of[index] = point
+        above |= piece.mask
+    kept = [p for i, p in enumerate(placed) if i in touch_of]
+    return kept, {new: touch_of[old] for new, old in enumerate(sorted(touch_of))}, above
 
 
 def _piece_label(piece: _Piece, number: int, total: int) -> str:

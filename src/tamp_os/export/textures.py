@@ -5,6 +5,11 @@ the far edge). Textures keep INSET_MM from their region's outline so a finger fe
 as its own line; regions too small to feel are merged into their neighbours first. Three
 textures that differ by touch: outline only, outline + dots, outline + parallel lines. No solid
 fills: on swell paper large black areas blister.
+
+Dots fill a region's wide parts on a plate-aligned grid; its thin parts (a cytoplasm's strips
+between nuclei, where the grid finds no room) take dots along their middle, nearer the outline
+(THIN_INSET_MM) but still with clear paper between dot and line. Dots of one pattern keep
+DOT_PITCH_MM apart, centre to centre, wherever they lie.
 """
 
 from __future__ import annotations
@@ -20,6 +25,8 @@ LINE_PITCH_MM = 2.5  # centre to centre, perpendicular to the lines
 LINE_ANGLE_DEG = 45.0  # diagonal, so texture lines are not mistaken for outline edges
 MIN_SEGMENT_MM = 2.0
 INSET_MM = 1.5  # clear gap between an outline and the texture inside it
+MIN_DOT_GAP_MM = 0.4  # clear paper between a thin part's dot and the outline's stroke, so each is felt apart
+THIN_INSET_MM = OUTLINE_MM / 2 + MIN_DOT_GAP_MM  # from a region's edge to a thin part's dot (the outline is centred on the edge)
 MIN_AREA_MM2 = 6.0  # smaller regions are merged into the nearest larger one
 TEXTURES = ("outline", "dots", "lines")
 
@@ -87,15 +94,51 @@ def _lookup(field: np.ndarray, x: np.ndarray, y: np.ndarray, mm_per_px: float, o
 
 
 def texture_dots_mm(mask: np.ndarray, mm_per_px: float, origin_mm) -> np.ndarray:
-    """(N, 2) centres (mm) of texture dots on a plate-aligned grid, each wholly INSET_MM inside the region."""
+    """(N, 2) centres (mm) of texture dots: on a plate-aligned grid where a dot lies wholly INSET_MM
+    inside the region, then along the parts the grid leaves bare, THIN_INSET_MM inside; every two
+    dots at least DOT_PITCH_MM apart."""
     rows, cols = mask.shape
     x0, y0 = origin_mm
+    room_px = _inner_distance_mm(mask, mm_per_px)
     xs = np.arange(np.ceil(x0 / DOT_PITCH_MM), np.floor((x0 + cols * mm_per_px) / DOT_PITCH_MM) + 1) * DOT_PITCH_MM
     ys = np.arange(np.ceil(y0 / DOT_PITCH_MM), np.floor((y0 + rows * mm_per_px) / DOT_PITCH_MM) + 1) * DOT_PITCH_MM
     gx, gy = np.meshgrid(xs, ys)
-    room = _lookup(_inner_distance_mm(mask, mm_per_px), gx, gy, mm_per_px, origin_mm)
+    room = _lookup(room_px, gx, gy, mm_per_px, origin_mm)
     keep = room >= INSET_MM + DOT_DIAMETER_MM / 2
-    return np.column_stack([gx[keep], gy[keep]])
+    grid = np.column_stack([gx[keep], gy[keep]])
+    return np.vstack([grid, _dots_along_thin_parts(room_px, grid, mm_per_px, origin_mm)])
+
+
+def _dots_along_thin_parts(room_mm: np.ndarray, placed_mm: np.ndarray, mm_per_px: float, origin_mm) -> np.ndarray:
+    """(N, 2) dot centres (mm) at pixel centres with room for a dot THIN_INSET_MM inside the region
+    and DOT_PITCH_MM from every dot placed before: the deepest first, so dots run along a strip's
+    middle; every such pixel ends within DOT_PITCH_MM of a dot."""
+    rows, cols = room_mm.shape
+    reach_px = DOT_PITCH_MM / mm_per_px
+    span = int(np.ceil(reach_px)) + 1  # one more than the disk: a window centred a pixel off still holds it
+    dr, dc = np.mgrid[-span : span + 1, -span : span + 1]
+    blocked = np.zeros((rows + 2 * span, cols + 2 * span), bool)  # padded: a disk near the edge needs no clipping
+
+    def block(r: float, c: float) -> None:
+        r0, c0 = min(max(int(round(r)), 0), rows - 1), min(max(int(round(c)), 0), cols - 1)
+        near = (dr + r0 - r) ** 2 + (dc + c0 - c) ** 2 < reach_px**2 - 1e-6
+        blocked[r0 : r0 + 2 * span + 1, c0 : c0 + 2 * span + 1] |= near
+
+    for x, y in placed_mm:  # pixel (r, c) has its centre at c + 0.5, rows - r - 0.5 pixels from the origin
+        block(rows - 0.5 - (y - origin_mm[1]) / mm_per_px, (x - origin_mm[0]) / mm_per_px - 0.5)
+    ok = room_mm >= THIN_INSET_MM + DOT_DIAMETER_MM / 2 - 1e-9
+    ok &= ~blocked[span : span + rows, span : span + cols]
+    rr, cc = np.nonzero(ok)
+    order = np.lexsort((cc, rr, -room_mm[rr, cc]))
+    chosen = []
+    for r, c in zip(rr[order], cc[order]):
+        if not blocked[r + span, c + span]:
+            chosen.append((r, c))
+            block(float(r), float(c))
+    if not chosen:
+        return np.zeros((0, 2))
+    r, c = np.array(chosen).T
+    return _to_mm(r, c, rows, mm_per_px, origin_mm)
 
 
 def texture_lines_mm(mask: np.ndarray, mm_per_px: float, origin_mm) -> list[tuple[np.ndarray, np.ndarray]]:

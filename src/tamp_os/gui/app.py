@@ -63,7 +63,9 @@ class Web:
     def page(self, request: Request, name: str, status: int = 200, **context) -> HTMLResponse:
         context.setdefault("errors", {})
         context.setdefault("summary", [])
-        context.update(limits=self.limits, base=self.base, token=self.guard.form_token)
+        # an open page of a job asks for its status this often, so the job lives while the page is open
+        keepalive_ms = max(300, int(self.store.grace_s * 1000 / 3))
+        context.update(limits=self.limits, base=self.base, token=self.guard.form_token, keepalive_ms=keepalive_ms)
         return self.templates.TemplateResponse(request, name, context, status_code=status)
 
     def message(self, status: int, title: str, text: str) -> HTMLResponse:
@@ -115,6 +117,7 @@ def create_app(limits: Limits | None = None, store: JobStore | None = None) -> F
     _error_pages(app, web)
     routes.add_upload_routes(app, web)
     routes.add_job_routes(app, web)
+    routes.add_again_route(app, web)
     routes.add_file_routes(app, web)
     app.add_middleware(GuardMiddleware, guard=guard, refuse=web.message)
     return app

@@ -1,6 +1,8 @@
-"""Jobs of the web app: each in its own temporary folder, converted in a small thread pool,
-removed after its zip is downloaded (after a grace period), when it expires, or when the server
-stops.
+"""Jobs of the web app: each in its own temporary folder, converted in a small thread pool, made
+again for another printer on request (the same images, captions and settings), kept while its page
+is open (the page asks for the job's status now and then), and removed LEFT_GRACES grace periods
+after its page was last seen once its zip is downloaded, an hour after it was last seen otherwise, or
+when the server stops.
 
 Every call into the library is `run_library` (convert.convert, which makes, saves and slices) and
 the report's own sentences (report.web_summary_lines), so the web app rebuilds no text itself.
@@ -28,6 +30,9 @@ from .uploads import Upload
 
 JOB_ID = re.compile(r"^[0-9a-f]{32}$")
 RENDER_LOCK = threading.Lock()  # VTK renders one scene at a time
+# A downloaded job goes this many grace periods after its page last asked for it: the page asks three
+# times a grace period, and a browser slows the timers of a tab in the background (to once a minute)
+LEFT_GRACES = 3
 PREVIEW_SUFFIX = ".preview.glb"  # the 3-D view's model, written whatever formats were chosen
 
 
@@ -48,6 +53,25 @@ def safe_name(name: str, taken: set[str]) -> str:
 
 
 @dataclass
+class Run:
+    """The prints of one earlier round of a job, for one printer (kept when it is made again)."""
+
+    printer: str
+    results: list[Result]
+
+
+def printer_slug(printer: str) -> str:
+    """'Bambu Lab A1' -> 'bambu-lab-a1': the part of a file name that tells a printer's prints apart."""
+    return re.sub(r"[^a-z0-9]+", "-", printer.lower()).strip("-") or "printer"
+
+
+def _next_round(job: WebJob, printer: str) -> None:
+    """Keep this round's prints as an earlier round's; the next round's files carry its `printer`."""
+    job.earlier.append(Run(job.params.printer, job.results))
+    job.stem_suffix = f"-{printer_slug(printer)}"
+
+
+@dataclass
 class OutputFile:
     name: str
     size_bytes: int
@@ -60,6 +84,7 @@ class Result:
     name: str
     ok: bool
     error: str = ""
+    stem: str = ""  # its files' common name: the upload's, with a later round's printer ('cells-bambu-lab-a1')
     files: list[OutputFile] = field(default_factory=list)
     description: str = ""  # the plain-language description; also the previews' text alternative
     heightmap_png: str = ""
@@ -88,8 +113,13 @@ class WebJob:
     message: str = ""
     params: LithoParams = field(default_factory=LithoParams)
     results: list[Result] = field(default_factory=list)
-    delete_after: float | None = None
+    downloaded: bool = False  # its zip was downloaded: it goes soon after its page was last seen
+    last_seen: float = field(default_factory=time.time)  # any request for it: its pages, status, files
+    earlier: list[Run] = field(default_factory=list)  # rounds made for other printers, the first first
+    stem_suffix: str = ""  # a round after the first names its files after its printer ('-bambu-lab-a1')
+    queued: list = field(default_factory=list)  # LithoParams of the rounds still to make (a second printer)
     rejected: list[str] = field(default_factory=list)  # uploads that were not added, each with its reason
+    rejected_announced: bool = False  # the settings page has said them (role alert, focus) once
 
     @property
     def out(self) -> Path:
@@ -99,12 +129,16 @@ class WebJob:
     def thumbs(self) -> Path:
         return self.folder / "thumbs"
 
+    def all_results(self) -> list[Result]:
+        return [r for run in self.earlier for r in run.results] + self.results
+
     def output_names(self) -> set[str]:
-        names = {f.name for r in self.results for f in r.files}
-        return names | {n for r in self.results for n in (r.heightmap_png, r.render_png, r.model_glb) if n}
+        results = self.all_results()
+        names = {f.name for r in results for f in r.files}
+        return names | {n for r in results for n in (r.heightmap_png, r.render_png, r.model_glb) if n}
 
     def download_names(self) -> list[str]:
-        return sorted(f.name for r in self.results for f in r.files)
+        return sorted(f.name for r in self.all_results() for f in r.files)
 
 
 class JobStore:
@@ -142,7 +176,10 @@ class JobStore:
         if not JOB_ID.match(job_id or ""):
             return None
         with self.lock:
-            return self.jobs.get(job_id)
+            job = self.jobs.get(job_id)
+        if job is not None:
+            job.last_seen = time.time()  # its page is open (it asks for the status) or was just visited
+        return job
 
     def remove(self, job_id: str) -> None:
         with self.lock:
@@ -154,8 +191,8 @@ class JobStore:
         while not self._stop.wait(min(5.0, self.grace_s / 2)):
             now = time.time()
             with self.lock:
-                expired = [j.id for j in self.jobs.values()
-                           if j.state != "running" and (now - j.created > self.ttl_s or (j.delete_after and now > j.delete_after))]
+                expired = [j.id for j in self.jobs.values() if j.state != "running"
+                           and (now - j.last_seen > self.ttl_s or (j.downloaded and now - j.last_seen > LEFT_GRACES * self.grace_s))]
             for job_id in expired:
                 self.remove(job_id)
 
@@ -167,20 +204,36 @@ class JobStore:
         close_shared_pool()
         shutil.rmtree(self.root, ignore_errors=True)
 
-    def start(self, job: WebJob, params: LithoParams) -> None:
-        job.params, job.state, job.done, job.results = params, "running", 0, []
-        job.message = f"Converting {len(job.uploads)} image{'s' if len(job.uploads) != 1 else ''}."
+    def start(self, job: WebJob, params: LithoParams, then: tuple[LithoParams, ...] = ()) -> None:
+        """Convert the job's images with `params`, then again with each of `then` (other printers)."""
+        job.params, job.state, job.done, job.results, job.queued = params, "running", 0, [], list(then)
+        job.message = f"Converting {len(job.uploads)} image{'s' if len(job.uploads) != 1 else ''}{self._for(job)}."
         self.pool.submit(self._run, job)
 
+    def again(self, job: WebJob, params: LithoParams) -> None:
+        """Make the job's prints again with `params` (another printer): the same images, captions and
+        settings; the earlier round's files stay, and the new ones carry the printer in their names."""
+        _next_round(job, params.printer)
+        self.start(job, params)
+
+    @staticmethod
+    def _for(job: WebJob) -> str:
+        return f" for {job.params.printer}" if job.earlier or job.queued else ""
+
     def _run(self, job: WebJob) -> None:
-        for upload in job.uploads:
-            job.message = f"Converting {job.done + 1} of {len(job.uploads)}: {upload.name}."
-            if self.slow_s:
-                time.sleep(self.slow_s)  # test hook: keeps the running state visible long enough to audit
-            job.results.append(convert(job, upload))
-            job.done += 1
+        while True:
+            for upload in job.uploads:
+                job.message = f"Converting {job.done + 1} of {len(job.uploads)}{self._for(job)}: {upload.name}."
+                if self.slow_s:
+                    time.sleep(self.slow_s)  # test hook: keeps the running state visible long enough to audit
+                job.results.append(convert(job, upload))
+                job.done += 1
+            if not job.queued:
+                break
+            _next_round(job, job.queued[0].printer)  # a second printer chosen with the first: the same images again
+            job.params, job.done, job.results = job.queued.pop(0), 0, []
         ok = sum(r.ok for r in job.results)
-        job.message = f"Done: {ok} of {len(job.uploads)} converted." + (" Some failed; see below." if ok < len(job.uploads) else "")
+        job.message = f"Done: {ok} of {len(job.uploads)} converted{self._for(job)}." + (" Some failed; see below." if ok < len(job.uploads) else "")
         job.state = "done"
 
     def zip_bytes(self, job: WebJob) -> bytes:
@@ -189,9 +242,9 @@ class JobStore:
             names = job.download_names()
             for name in names:
                 z.write(job.out / name, name)
-            where = {f"{Path(r.name).stem}.{p.key}": p.where for r in job.results for p in r.prints if p.where}
+            where = {f"{r.stem or Path(r.name).stem}.{p.key}": p.where for r in job.all_results() for p in r.prints if p.where}
             z.writestr("README.txt", readme_text(names, where))
-        job.delete_after = time.time() + self.grace_s
+        job.downloaded = True
         return buf.getvalue()
 
 
@@ -311,7 +364,7 @@ def convert(job: WebJob, upload: Upload) -> Result:
         params = params.replace(**texts)
     if upload.panels and params.panels == "auto":  # this figure's own panels, as ticked on the settings page
         params = params.replace(panel=panel_parameter(upload.panels, upload.panel_choice))
-    stem = Path(upload.name).stem
+    stem = Path(upload.name).stem + job.stem_suffix
     params = volume_params(params, upload)
     if params.volume:
         return _volume_result(job, upload, params, stem)
@@ -330,6 +383,7 @@ def convert(job: WebJob, upload: Upload) -> Result:
                               *(f"Panel {each.suffix[7:]}: {each.litho.metadata()['description']}" for each in made.panels)]), heightmap_png=f"{stem}.heightmap.png",
         model_glb=f"{stem}{PREVIEW_SUFFIX}", summary=web_summary_lines(report, label_of),
         relief_style=report.relief_style, relief_reason=report.relief_reason, touch=[web_words(v) for v in made.touch()],
+        stem=stem,
     )
     result.prints = figure_prints(made, upload.panels, lambda p: OutputFile(p.name, p.stat().st_size))
     result.figure_files = [OutputFile(p.name, p.stat().st_size) for p in made.figure_files]

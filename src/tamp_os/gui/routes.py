@@ -13,7 +13,7 @@ from ..errors import ParameterError, TampError
 from ..formats import GRAPHIC_FORMATS
 from ..params import FORMATS, LithoParams
 from ..printing.printers import PRESETS
-from .forms import FIELDS, FLAGS, NUMBER_FIELDS, STYLE_CHOICES, TEXT_FIELDS, params_from_form
+from .forms import FIELDS, FLAGS, NUMBER_FIELDS, STYLE_CHOICES, TEXT_FIELDS, params_from_form, printer_choices
 from .jobs import WebJob, safe_name
 from .panel_choice import choice_errors, chosen_panels, global_panel_error
 from .security import only_text_fields
@@ -50,13 +50,14 @@ def add_upload_routes(app: FastAPI, web) -> None:
         problems = await store_uploads(web, job, files)
         if problems and not job.uploads:
             web.store.remove(job.id)
-            return upload_error(request, problems + ["Nothing was added; choose image files and try again."], 400)
+            return upload_error(request, problems, 400, note="Nothing was added; choose image files and try again.")
         job.rejected = problems  # the good files stay; the settings page lists the others with their reasons
         return RedirectResponse(f"{web.base}/jobs/{job.id}", status_code=303)
 
-    def upload_error(request, messages: list[str], status: int):
-        return web.page(request, "index.html", status=status, errors={"images": " ".join(messages)},
-                        summary=[("images", m) for m in messages])
+    def upload_error(request, messages: list[str], status: int, note: str = ""):
+        """The first page again, each problem listed once (what to do next is a note, not a problem)."""
+        return web.page(request, "index.html", status=status, errors={"images": " ".join(messages + [note] * bool(note))},
+                        summary=[("images", m) for m in messages], summary_note=note)
 
 
 async def store_uploads(web, job: WebJob, files) -> list[str]:
@@ -87,9 +88,12 @@ def add_job_routes(app: FastAPI, web) -> None:
         job = web.store.get(job_id)
         if job is None:
             return RedirectResponse(f"{web.base}/?message=That+job+has+ended+or+does+not+exist.", status_code=303)
-        if job.state == "added":
-            return settings_page(web, request, job)
-        return web.page(request, "progress.html" if job.state == "running" else "results.html", job=job, step=3)
+        if job.state == "added":  # files refused at upload: said once, where focus lands, on the first view
+            announce, job.rejected_announced = bool(job.rejected) and not job.rejected_announced, True
+            return settings_page(web, request, job, focus="not-added" if announce else "")
+        if job.state == "running":
+            return web.page(request, "progress.html", job=job, step=3)
+        return results_page(web, request, job)
 
     @app.post("/jobs/{job_id}/generate")
     async def generate(request: Request, job_id: str):
@@ -102,16 +106,13 @@ def add_job_routes(app: FastAPI, web) -> None:
             return web.message(403, *NO_TOKEN)
         if job.state == "running":
             return RedirectResponse(f"{web.base}/jobs/{job.id}", status_code=303)
-        for i, upload in enumerate(job.uploads):
-            choice = form.get(f"override_{i}", "")
-            upload.override = choice if choice in PRESETS else ""
-            upload.caption = (form.get(f"caption_{i}") or "").strip()[:MAX_TEXT_CHARS]
-            upload.subject = (form.get(f"subject_{i}") or "").strip()[:MAX_TEXT_CHARS]
-            upload.panel_choice = chosen_panels(form, i, upload.panels)  # this figure's own panels
+        _take_upload_fields(job, form)
         params, errors = params_from_form(form)
         mode = params.panels if params else (form.get("panels") or "").strip().lower() or "auto"
         # Page order in the summary: the figures' checkboxes come before the customize fields.
         by_field = {**choice_errors(job.uploads, mode), **(errors.by_field if params is None else {})}
+        also = (form.get("also_printer") or "").strip()
+        by_field.update(_second_printer_error(also, form.get("printer")))
         by_field.update({k: v for k, v in global_panel_error(mode, (form.get("panel") or "").strip()).items() if k not in by_field})
         if by_field:
             return settings_page(web, request, job, status=400, values=form_values(job.params, form), errors=by_field)
@@ -121,7 +122,8 @@ def add_job_routes(app: FastAPI, web) -> None:
             values = form_values(params, form)
             values["formats"] = list(params.formats)
             return settings_page(web, request, job, values=values, focus="update")
-        web.store.start(job, params)
+        then = (_formats_follow_printer(params, params.replace(printer=also)),) if also else ()
+        web.store.start(job, params, then)  # with a second printer, the same prints again for it
         return RedirectResponse(f"{web.base}/jobs/{job.id}", status_code=303)
 
     @app.get("/jobs/{job_id}/status")
@@ -139,6 +141,50 @@ def add_job_routes(app: FastAPI, web) -> None:
             return web.message(403, *NO_TOKEN)
         web.store.remove(job_id)
         return RedirectResponse(f"{web.base}/?message=Your+files+were+deleted.", status_code=303)
+
+
+def _take_upload_fields(job, form) -> None:
+    """Each image's own fields (preset override, caption, subject, chosen panels) from the settings form."""
+    for i, upload in enumerate(job.uploads):
+        choice = form.get(f"override_{i}", "")
+        upload.override = choice if choice in PRESETS else ""
+        upload.caption = (form.get(f"caption_{i}") or "").strip()[:MAX_TEXT_CHARS]
+        upload.subject = (form.get(f"subject_{i}") or "").strip()[:MAX_TEXT_CHARS]
+        upload.panel_choice = chosen_panels(form, i, upload.panels)  # this figure's own panels
+
+
+def _second_printer_error(also: str, printer: str | None) -> dict[str, str]:
+    """The second printer's field error, if any: it must be one of the list and not the first printer."""
+    if not also:
+        return {}
+    if also not in printer_choices():
+        return {"also_printer": "Second printer: choose a printer from the list, or None."}
+    if also == printer:
+        return {"also_printer": "Second printer: choose another printer than the first, or None."}
+    return {}
+
+
+def add_again_route(app: FastAPI, web) -> None:
+    @app.post("/jobs/{job_id}/again")
+    async def again(request: Request, job_id: str):
+        """The same prints for another printer: the images, captions and settings the job has."""
+        job = web.store.get(job_id)
+        if job is None:
+            return RedirectResponse(f"{web.base}/?message=That+job+has+ended+or+does+not+exist.", status_code=303)
+        form = await request.form()
+        only_text_fields(form)
+        if not web.guard.token_ok(form.get("token")):
+            return web.message(403, *NO_TOKEN)
+        if job.state != "done":
+            return RedirectResponse(f"{web.base}/jobs/{job.id}", status_code=303)
+        printer = form.get("printer") or ""
+        made = {job.params.printer, *(run.printer for run in job.earlier)}
+        if printer not in printer_choices() or printer in made:
+            error = ("Printer for the next round: choose a printer from the list." if printer not in printer_choices()
+                     else f"Printer for the next round: the prints for {printer} are already on this page; choose another printer.")
+            return results_page(web, request, job, status=400, errors={"again-printer": error})
+        web.store.again(job, _formats_follow_printer(job.params, job.params.replace(printer=printer)))
+        return RedirectResponse(f"{web.base}/jobs/{job.id}", status_code=303)
 
 
 CHOICE_FIELDS = ("braille_table", "page_size")  # chosen from a list (forms.py checks the value)
@@ -171,7 +217,7 @@ def form_values(params: LithoParams, form=None) -> dict:
     values["relief_style"] = params.relief_style
     values.update({name: getattr(params, name) for name in CHOICE_FIELDS})
     if form is not None:
-        for key in (*TEXT_FIELDS, *NUMBER_FIELDS, *CHOICE_FIELDS, "printer", "preset", "relief_style"):
+        for key in (*TEXT_FIELDS, *NUMBER_FIELDS, *CHOICE_FIELDS, "printer", "also_printer", "preset", "relief_style"):
             values[key] = form.get(key, "")
         values.update({key: form.get(key) == "on" for key in FLAGS})
         values["formats"] = form.getlist("formats")
@@ -180,7 +226,7 @@ def form_values(params: LithoParams, form=None) -> dict:
 
 def settings_page(web, request, job: WebJob, *, status: int = 200, values=None, errors=None, focus: str = ""):
     from .cards import detail_cards
-    from .forms import braille_table_choices, printer_choices
+    from .forms import braille_table_choices
 
     errors = errors or {}
     return web.page(
@@ -191,6 +237,14 @@ def settings_page(web, request, job: WebJob, *, status: int = 200, values=None, 
         multi_channel=any(u.channels > 1 for u in job.uploads), z_stack=any(u.z_slices > 1 for u in job.uploads),
         time_series=any(u.time_points > 1 for u in job.uploads), scenes=any(u.scenes > 1 for u in job.uploads),
     )
+
+
+def results_page(web, request, job: WebJob, *, status: int = 200, errors=None):
+    errors = errors or {}
+    made = {job.params.printer, *(run.printer for run in job.earlier)}
+    others = {name: p for name, p in printer_choices().items() if name not in made}
+    return web.page(request, "results.html", status=status, job=job, step=3, errors=errors, summary=list(errors.items()),
+                    other_printers=others)
 
 
 PAGE_SIZES = (("plate", "The plate's own size"), ("a4", "A4, centred"), ("letter", "US Letter, centred"))

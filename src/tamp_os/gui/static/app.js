@@ -4,9 +4,11 @@
 (function () {
   "use strict";
   const base = document.body.dataset.base || "";
-  const summary = document.getElementById("error-summary");
-  if (summary) summary.focus();
+  // Focus goes to what the page has to say first: its errors, or the files an upload refused.
+  const first = document.getElementById("error-summary") || document.querySelector("[data-focus-on-load]");
+  if (first) first.focus();
   loadViewer();
+  keepAlive();
   const job = document.getElementById("job");
   if (!job || job.dataset.state !== "running") return;
   const status = document.getElementById("job-status");
@@ -14,6 +16,15 @@
   const note = document.getElementById("progress-note");
   if (check) check.hidden = true;  // the page updates itself now
   if (note) note.textContent = "This page updates by itself; you can stay here.";
+
+  // A job's files stay while its page is open: the page asks for the job's status now and then.
+  function keepAlive() {
+    const id = document.body.dataset.jobId, every = Number(document.body.dataset.keepaliveMs);
+    if (!id || !every) return;
+    setInterval(function () {
+      fetch(base + "/jobs/" + id + "/status", { cache: "no-store" }).catch(function () { /* the server is gone */ });
+    }, every);
+  }
 
   function loadViewer() {
     if (document.querySelector("model-viewer") && !customElements.get("model-viewer")) {

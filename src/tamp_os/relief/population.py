@@ -7,7 +7,9 @@ bright one on a glow both stand out of their own surroundings. Each local maximu
 least `h` above its neck (h from the noise) seeds a member, the watershed splits touching
 members, and each member is cut at half its own peak (its full width at half maximum), so dim
 and bright members get their true size. A member must show object evidence: compact, not a
-streak, and darker ground all round it; a glow of shading has none of these.
+streak, and darker ground all round it; a glow of shading has none of these. Objects wider than
+the ground (measured by their outline, in print mm) would be hollowed by it: they are found again
+on a ground wide enough for them, joined across every border that is no neck of their outline.
 """
 
 from __future__ import annotations

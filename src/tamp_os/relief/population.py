@@ -114,7 +114,7 @@ def find_members(bright01: np.ndarray, *, pitch_mm: float, noise: float | None =
 
 def object_width_mm(image: np.ndarray, labels: np.ndarray, pitch_mm: float) -> float:
     """The median inscribed diameter (mm) of the solid bright objects (Otsu's foreground, pieces at
-    least MIN_SOLIDITY solid) that hold members: how wide the objects are whatever their shading,
+    least MIN_SOLIDITY solid and at most MAX_MEMBER_SHARE of the picture) that hold members: how wide the objects are whatever their shading,
     from the outline only (0 when none)."""
     from skimage import filters
 
@@ -124,6 +124,7 @@ def object_width_mm(image: np.ndarray, labels: np.ndarray, pitch_mm: float) -> f
     held = np.zeros(n + 1, bool)
     held[objects[labels > 0]] = True
     held[0] = False
+    held &= np.bincount(objects.ravel(), minlength=n + 1) <= MAX_MEMBER_SHARE * objects.size  # larger: a specimen, not a member
     held = solid_enough(objects, held, MIN_SOLIDITY)
     if not held.any():
         return 0.0

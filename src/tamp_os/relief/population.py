@@ -7,7 +7,9 @@ bright one on a glow both stand out of their own surroundings. Each local maximu
 least `h` above its neck (h from the noise) seeds a member, the watershed splits touching
 members, and each member is cut at half its own peak (its full width at half maximum), so dim
 and bright members get their true size. A member must show object evidence: compact, not a
-streak, and darker ground all round it; a glow of shading has none of these.
+streak, and darker ground all round it; a glow of shading has none of these. Objects wider than
+the ground (measured by their outline, in print mm) would be hollowed by it: they are found again
+on a ground wide enough for them, joined across every border that is no neck of their outline.
 """
 
 from __future__ import annotations
@@ -42,6 +44,8 @@ CRACK_SHARE = 1.5  # a border this many times the smaller one's inscribed diamet
 CHIP_SHARE = 0.5  # when the smaller piece is at most this share of the larger (a chip of it; touching particles are alike)
 CRACK_MIN_MM = 4.0  # the shading rule joins pieces at least this wide (inscribed, on the print): a large particle's shading varies across it
 NECK_SADDLE = 0.8  # and their shading has no groove between them: the saddle stands this share of the lower peak
+OUTLINE_NECK = 0.8  # a border where the joint outline is this share of the narrower side's inscribed radius wide is no neck
+WIDER_GROUND = 1.5  # objects wider than the local ground are found again on a ground this many times their width
 
 
 @dataclass(frozen=True)
@@ -97,6 +101,39 @@ def find_members(bright01: np.ndarray, *, pitch_mm: float, noise: float | None =
     """
     image = ndimage.gaussian_filter(bright01.astype(np.float32), 0.6, mode="nearest")
     noise = noise_level(bright01.astype(np.float32)) if noise is None else noise
+    found = _members_on_ground(image, pitch_mm=pitch_mm, noise=noise, background_mm=background_mm)
+    # One object, one dome (issue 32): objects wider than the local ground are hollowed by it (the
+    # ground's opening fits inside them) and crack into several members; measured on the print, a
+    # ground wide enough for the objects the first members lie in finds them whole.
+    width_mm = object_width_mm(image, found.labels, pitch_mm)
+    if width_mm > background_mm:
+        found = _members_on_ground(image, pitch_mm=pitch_mm, noise=noise, background_mm=WIDER_GROUND * width_mm,
+                                   wide_objects=True)
+    return found
+
+
+def object_width_mm(image: np.ndarray, labels: np.ndarray, pitch_mm: float) -> float:
+    """The median inscribed diameter (mm) of the solid bright objects (Otsu's foreground, pieces at
+    least MIN_SOLIDITY solid and at most MAX_MEMBER_SHARE of the picture) that hold members: how wide the objects are whatever their shading,
+    from the outline only (0 when none)."""
+    from skimage import filters
+
+    if labels.max() == 0 or float(np.ptp(image)) <= 0:
+        return 0.0
+    objects, n = ndimage.label(image > filters.threshold_otsu(image))
+    held = np.zeros(n + 1, bool)
+    held[objects[labels > 0]] = True
+    held[0] = False
+    held &= np.bincount(objects.ravel(), minlength=n + 1) <= MAX_MEMBER_SHARE * objects.size  # larger: a specimen, not a member
+    held = solid_enough(objects, held, MIN_SOLIDITY)
+    if not held.any():
+        return 0.0
+    radius = label_max(ndimage.distance_transform_edt(objects > 0), objects, n)
+    return float(np.median(2.0 * radius[np.flatnonzero(held)] * pitch_mm))
+
+
+def _members_on_ground(image: np.ndarray, *, pitch_mm: float, noise: float, background_mm: float,
+                       wide_objects: bool = False) -> Members:
     top = local_tophat(image, pitch_mm, background_mm)
     h = max(NOISE_SIGMAS * noise, MIN_CONTRAST)
     seeds, n = ndimage.label(morphology.h_maxima(top, h) & (top >= h))
@@ -111,8 +148,10 @@ def find_members(bright01: np.ndarray, *, pitch_mm: float, noise: float | None =
     labels = np.where((basins > 0) & (top >= 0.5 * peak[basins]), basins, 0)
     # Shading's cracks joined first (merge_without_neck), then parted again where the outline has a
     # neck (_split_touching): one object, one dome.
-    labels = _split_touching(merge_without_neck(_filled(_merge_shallow(_largest_parts(labels), top)), top,
-                                                large_px=CRACK_MIN_MM / pitch_mm), NECK_MM / pitch_mm)
+    labels = merge_without_neck(_filled(_merge_shallow(_largest_parts(labels), top)), top, large_px=CRACK_MIN_MM / pitch_mm)
+    if wide_objects:  # objects wider than the ground: their shading's cracks are joined by the outline alone
+        labels = merge_across_no_neck(labels)
+    labels = _split_touching(labels, NECK_MM / pitch_mm)
     labels = _with_evidence(labels, top, pitch_mm, h)
     labels = _solid(_above_texture(labels, top))
     labels, _, _ = segmentation.relabel_sequential(labels)
@@ -299,6 +338,36 @@ def merge_without_neck(labels: np.ndarray, top: np.ndarray | None = None, rounds
             break
         labels = joined
     return labels
+
+
+def merge_across_no_neck(labels: np.ndarray) -> np.ndarray:
+    """Touching members joined where the border between them is no neck of their joint outline:
+    the joint foreground's half-width along the border (its distance transform, the most across
+    the border) reaches OUTLINE_NECK of the narrower side's inscribed radius. A crack of shading
+    through one object, or a chip of its rim, runs where the object is as wide as anywhere; two
+    touching or sintered particles meet at a waist. Decided by the outline alone, not by shading."""
+    n = int(labels.max())
+    if n < 2:
+        return labels
+    dist = ndimage.distance_transform_edt(labels > 0).astype(np.float32)
+    keys, levels = [], []
+    for a, b, da, db in ((labels[:, 1:], labels[:, :-1], dist[:, 1:], dist[:, :-1]), (labels[1:], labels[:-1], dist[1:], dist[:-1])):
+        touch = (a != b) & (a > 0) & (b > 0)
+        if touch.any():
+            pa, pb = a[touch].astype(np.int64), b[touch].astype(np.int64)
+            keys.append(np.minimum(pa, pb) * (n + 1) + np.maximum(pa, pb))
+            levels.append(np.minimum(da[touch], db[touch]))
+    if not keys:
+        return labels
+    pair, where = np.unique(np.concatenate(keys), return_inverse=True)
+    across = label_max(np.concatenate(levels), where.reshape(-1), pair.size - 1, initial=-1.0)
+    radius = label_max(dist, labels, n)
+    a, b = pair // (n + 1), pair % (n + 1)
+    join = across >= OUTLINE_NECK * np.minimum(radius[a], radius[b])
+    if not join.any():
+        return labels
+    roots = joined_roots(n, a[join].tolist(), b[join].tolist())
+    return segmentation.relabel_sequential(roots[labels])[0].astype(labels.dtype)
 
 
 def _merge_once(labels: np.ndarray, top: np.ndarray | None, large_px: float = 0.0) -> np.ndarray:

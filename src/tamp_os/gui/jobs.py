@@ -289,7 +289,7 @@ def _volume_result(job: WebJob, upload: Upload, params: LithoParams, stem: str) 
     from .workers import read_memory_gb, shared_pool
 
     try:
-        done = shared_pool().run(upload.name, run_volume, upload.path, params.replace(max_memory_gb=read_memory_gb()), job.out, stem)
+        done = shared_pool().run(upload.name, run_volume, upload.path, params.replace(max_memory_gb=read_memory_gb()), job.out, stem=stem)
     except TampError as exc:
         return Result(upload.name, False, web_words(exc).replace(str(upload.path), upload.name))
     except Exception as exc:  # keep the server alive and say what happened

@@ -211,12 +211,39 @@ def surface_deviation(reference: Mesh, other: Mesh, samples: int = 10_000) -> fl
 
 def wall_thickness(solid, points: np.ndarray, normals: np.ndarray, *, reach_mm: float) -> np.ndarray:
     """The wall behind each surface point: the distance along the inward normal to the first surface
-    met (manifold3d's ray cast), or `reach_mm` when none is met within it."""
-    out = np.full(len(points), float(reach_mm))
-    start = points - normals * 1e-4
-    end = points - normals * reach_mm
-    for i in range(len(points)):
+    met, or `reach_mm` when none is met within it.
+
+    Embree (embreex, through trimesh) casts all rays in one call: 5,000 rays on a 124,000-triangle
+    model take 0.1 s, where manifold3d's exact ray cast, one Python call a point, takes 13 s; without
+    embreex that cast is the fallback. Embree works in single precision on the model scaled to a
+    unit box (about 1e-5 mm on a 100 mm model), far below any wall that matters.
+    """
+    start = points - normals * RAY_START_MM
+    try:
+        from trimesh.ray.ray_pyembree import RayMeshIntersector
+    except ImportError:  # embreex not installed (a platform without its wheels)
+        return _wall_by_manifold(solid, start, normals, reach_mm)
+    import trimesh
+
+    mesh = from_manifold(solid)
+    shape = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
+    hits, rays, _ = RayMeshIntersector(shape).intersects_location(start, -normals, multiple_hits=True)
+    distance = np.linalg.norm(hits - start[rays], axis=1)
+    out = np.full(len(points), np.inf)
+    ahead = distance > RAY_SELF_MM  # the ray's own triangle, met again at the start, is no wall
+    np.minimum.at(out, rays[ahead], distance[ahead])
+    return np.minimum(out + RAY_START_MM, float(reach_mm))
+
+
+RAY_START_MM = 1e-4  # rays start this far inside the surface, off the point's own triangle
+RAY_SELF_MM = 1e-5  # a hit this close to a ray's start is its own triangle (Embree's precision on a 100 mm model)
+
+
+def _wall_by_manifold(solid, start: np.ndarray, normals: np.ndarray, reach_mm: float) -> np.ndarray:
+    out = np.full(len(start), float(reach_mm))
+    end = start - normals * (reach_mm - RAY_START_MM)
+    for i in range(len(start)):
         hits = solid.ray_cast(tuple(start[i]), tuple(end[i]))
         if hits:
-            out[i] = 1e-4 + hits[0].distance * (reach_mm - 1e-4)
+            out[i] = RAY_START_MM + hits[0].distance * (reach_mm - RAY_START_MM)
     return out

@@ -92,10 +92,13 @@ def finish(page, js: bool):
         page.wait_for_selector("h1:has-text('Your lithographs')", timeout=60000)
         return
     for _ in range(120):  # bounded: the job takes a few seconds
+        page.wait_for_load_state()  # the page a click asked for, loaded (not the one it leaves)
         if page.locator("h1:has-text('Your lithographs')").count():
             return
         page.wait_for_timeout(500)
-        page.get_by_role("link", name="Check progress").click()
+        link = page.get_by_role("link", name="Check progress")
+        if link.count():
+            link.click()
     raise AssertionError("the job did not finish")
 
 

@@ -317,6 +317,7 @@ def test_info_lists_the_series_by_name_and_scene_takes_a_name(tmp_path, capsys):
     assert code == 0, err
     assert ("scenes: 0 'xy overview', 1 'lambda scan' (this one), 2 'excitation scan', 3 'time lambda z'; "
             "choose one with --scene, a number or a name") in out, out
+    assert "page" not in out.splitlines()[0] and "axes: 4 scenes" in out, out  # the scenes said once, as scenes (issue 33)
     assert json.loads(run_cli(capsys, "info", path, "--scene", "time lambda z", "--json")[1])["chosen"]["scene"] == 3
 
 

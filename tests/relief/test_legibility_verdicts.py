@@ -53,7 +53,7 @@ def test_a_channel_print_is_not_advised_options_that_do_not_reach_its_textures()
     would not change them (and the style would drop the key): the verdict says what they are."""
     rough, narrow = _verdicts(fine_share=0.3, narrow_share=0.1, narrow_area_mm2=1694, style="channels")[0:3:2]
     assert rough == ("30% of this relief's height variation is finer than a fingertip resolves (about 1 mm): it is the "
-                     "channels' textures (ridges, dots), drawn so on purpose and named in the key.")
+                     "edges of the channels' textures, drawn so on purpose and named in the key.")
     assert "detail_mm" not in narrow and "channels' textures" in narrow, narrow
 
 

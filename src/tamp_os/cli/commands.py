@@ -942,8 +942,10 @@ def _print_info(args, s, cleaned, facts: dict, plan) -> None:
 
     scale, crop, found = cleaned.pixel_size, facts["crop"], cleaned.annotations_with_text
     meta_found = facts["metadata_found"]
+    # A vendor file's scenes are said on the axes line (a reader's "pages" are its scenes); a TIFF's pages here.
+    pages = "" if "vendor" in s.metadata else f", {s.pages} page{'s' if s.pages != 1 else ''}"
     print(f"{Path(args.image).name}: {s.format}, {s.width} × {s.height} pixels, {s.bit_depth}-bit {s.dtype}, "
-          f"{s.channel_count} channel{'s' if s.channel_count != 1 else ''}, {s.pages} page{'s' if s.pages != 1 else ''}")
+          f"{s.channel_count} channel{'s' if s.channel_count != 1 else ''}{pages}")
     for line in _file_axes_lines(s):
         print(line)
     print(f"metadata found: {', '.join(meta_found) if meta_found else 'none'}")

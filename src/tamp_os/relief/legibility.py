@@ -239,7 +239,7 @@ def _fine_verdict(f: dict, style: str | None) -> str:
         # the channels' textures (ridges, dots) are drawn at a set spacing on purpose; detail_mm and the
         # relief style do not reach them, so there is nothing to advise
         return (f"{share:.0%} of this relief's height variation is finer than a fingertip resolves (about 1 mm): it is "
-                f"the channels' textures (ridges, dots), drawn so on purpose and named in the key.")
+                f"the edges of the channels' textures, drawn so on purpose and named in the key.")
     if share > FINE_SHARE_WARN:
         return Text(
             f"{share:.0%} of this relief's height variation is finer than a fingertip resolves (about 1 mm), so it is "

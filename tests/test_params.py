@@ -46,3 +46,15 @@ def test_the_parameters_check_themselves_without_importing_a_stage():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60, check=True).stdout
     stages = {"read", "clean", "relief", "mesh", "tactile", "export", "lithograph"}
     assert not stages & set(eval(out)), out
+
+
+def test_read_options_are_what_read_image_takes_with_the_parameters_values():
+    import inspect
+
+    from tamp_os.read.image import read_image
+
+    p = LithoParams(page=2, scene="xz", max_megapixels=7.0)
+    options = p.read_options(z_slice=0)
+    assert set(options) <= set(inspect.signature(read_image).parameters)
+    assert options["page"] == 2 and options["scene"] == "xz" and options["max_megapixels"] == 7.0 and options["z_slice"] == 0
+    assert options["max_memory_gb"] == p.max_memory_gb and options["channel"] == "luminance"

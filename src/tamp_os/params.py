@@ -220,6 +220,15 @@ class LithoParams:
             raise ParameterError(f"no section {title!r}; the sections are {', '.join(t for t, _ in SECTIONS)}.")
         return {name: getattr(self, name) for name in names}
 
+    def read_options(self, **overrides) -> dict[str, Any]:
+        """What `read.read_image` is asked for, from these parameters: the page, plane, time point, scene
+        and channel, and the limits (the one place they are passed on); `overrides` replace some (a
+        z-stack's model reads its first plane to learn the stack's size)."""
+        options = {"page": self.page, "z_slice": self.z_slice, "time": self.time, "scene": self.scene,
+                   "channel": self.channel, "max_megapixels": self.max_megapixels,
+                   "max_decoded_gb": self.max_decoded_gb, "max_memory_gb": self.max_memory_gb}
+        return {**options, **overrides}
+
     def braille_spec(self) -> BrailleSpec:
         return BrailleSpec(self.dot_diameter_mm, self.dot_height_mm, self.dot_spacing_mm, self.cell_spacing_mm, self.line_spacing_mm)
 

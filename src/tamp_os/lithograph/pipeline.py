@@ -340,9 +340,7 @@ def read_source(source, params: LithoParams, keep_colour: bool = False) -> Pictu
     if isinstance(source, Picture):
         return source
     if isinstance(source, (str, Path)):
-        return read_image(source, page=params.page, channel=params.channel, max_megapixels=params.max_megapixels,
-                          z_slice=params.z_slice, max_decoded_gb=params.max_decoded_gb, max_memory_gb=params.max_memory_gb,
-                          time=params.time, scene=params.scene, target_px=_pyramid_target_px(params), keep_colour=keep_colour)
+        return read_image(source, **params.read_options(target_px=_pyramid_target_px(params), keep_colour=keep_colour))
     return read_array(source, channel=params.channel)
 
 

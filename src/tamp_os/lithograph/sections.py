@@ -47,7 +47,7 @@ def convert_sections(source, params: LithoParams, out_dir, *, stem: str | None =
     if not count:
         raise ParameterError("`sections`: give the number of slices to print (2 or more).", parameter="sections")
     path = Path(source)
-    picture = read_image(path, page=params.page, time=params.time, scene=params.scene)
+    picture = read_image(path, **params.read_options(z_slice=None, channel="luminance"))
     planes = int(picture.file.axes.get("Z", 1))
     if planes < 2:
         raise InputError(f"{path}: the image has one plane, so there is no series of sections to print; leave `sections` "

@@ -161,9 +161,7 @@ def make_volume(source, params: LithoParams | None = None, *, printer=None) -> V
     notes: list[str] = []
     warnings: list[str] = []
     limits = Limits(params.max_megapixels, params.max_decoded_gb, params.max_memory_gb)
-    picture = read_image(path, z_slice=0, channel=params.channel, time=params.time, scene=params.scene,
-                         max_megapixels=params.max_megapixels, max_decoded_gb=params.max_decoded_gb,
-                         max_memory_gb=params.max_memory_gb)
+    picture = read_image(path, **params.read_options(z_slice=0, page=None))  # its first plane: the stack's size
     nz = int(picture.file.axes.get("Z", 1))
     if nz < 2:
         raise InputError(f"{path}: holds a single plane ({picture.file.width}×{picture.file.height} pixels, no z axis); `volume` "

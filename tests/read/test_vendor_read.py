@@ -584,7 +584,8 @@ def test_info_text_and_json_agree(real, capsys, name, module):
     code_text, text, _ = run_cli(capsys, "info", path)
     assert code == code_text == 0
     n = facts["channels"]
-    assert f"{n} channel{'s' if n != 1 else ''}," in text.splitlines()[0]
+    first = text.splitlines()[0]
+    assert first.endswith(f"{n} channel{'s' if n != 1 else ''}") and "page" not in first, first  # scenes are said on the axes line
     if facts["channel_names"]:
         assert len(facts["channel_names"]) == n
     if n > 1:  # the reader's note names the same count, or info says which channels convert prints (issue 33.1)

@@ -282,18 +282,28 @@ def volume_params(params: LithoParams, upload: Upload) -> LithoParams:
     return params.replace(formats=meshes or ("stl",), z_slice=None)
 
 
-def _volume_result(job: WebJob, upload: Upload, params: LithoParams, stem: str) -> Result:
-    """A z-stack as a 3-D model: its files, description, facts and a rendered picture."""
-    from ..lithograph.volume import describe_volume
+def _in_worker(job: WebJob, upload: Upload, fn, params: LithoParams, stem: str):
+    """`fn(path, params, out, stem=)` in the shared worker pool: (its result, None), or (None, the Result
+    that says why it failed). One bad upload costs one message, never the server."""
     from .forms import web_words
     from .workers import read_memory_gb, shared_pool
 
     try:
-        done = shared_pool().run(upload.name, run_volume, upload.path, params.replace(max_memory_gb=read_memory_gb()), job.out, stem=stem)
+        return shared_pool().run(upload.name, fn, upload.path, params.replace(max_memory_gb=read_memory_gb()), job.out, stem=stem), None
     except TampError as exc:
-        return Result(upload.name, False, web_words(exc).replace(str(upload.path), upload.name))
+        return None, Result(upload.name, False, web_words(exc).replace(str(upload.path), upload.name))
     except Exception as exc:  # keep the server alive and say what happened
-        return Result(upload.name, False, f"{upload.name}: unexpected error ({exc.__class__.__name__}); please report it.")
+        return None, Result(upload.name, False, f"{upload.name}: unexpected error ({exc.__class__.__name__}); please report it.")
+
+
+def _volume_result(job: WebJob, upload: Upload, params: LithoParams, stem: str) -> Result:
+    """A z-stack as a 3-D model: its files, description, facts and a rendered picture."""
+    from ..lithograph.volume import describe_volume
+    from .forms import web_words
+
+    done, failed = _in_worker(job, upload, run_volume, params, stem)
+    if failed is not None:
+        return failed
     v = done.model
     result = Result(upload.name, True, files=[OutputFile(p.name, p.stat().st_size) for p in done.written],
                     description=describe_volume(v), model_glb=f"{stem}{PREVIEW_SUFFIX}", volume=True,
@@ -368,14 +378,9 @@ def convert(job: WebJob, upload: Upload) -> Result:
     params = volume_params(params, upload)
     if params.volume:
         return _volume_result(job, upload, params, stem)
-    try:
-        from .workers import read_memory_gb, shared_pool  # one bad upload costs one message, never the server
-
-        made = shared_pool().run(upload.name, run_library, upload.path, params.replace(max_memory_gb=read_memory_gb()), job.out, stem=stem)
-    except TampError as exc:
-        return Result(upload.name, False, web_words(exc).replace(str(upload.path), upload.name))
-    except Exception as exc:  # keep the server alive and say what happened
-        return Result(upload.name, False, f"{upload.name}: unexpected error ({exc.__class__.__name__}); please report it.")
+    made, failed = _in_worker(job, upload, run_library, params, stem)
+    if failed is not None:
+        return failed
     report, mesh = made.report, made.litho.mesh
     result = Result(
         upload.name, True, files=[OutputFile(p.name, p.stat().st_size) for p in made.all_written],

@@ -97,13 +97,9 @@ def add_job_routes(app: FastAPI, web) -> None:
 
     @app.post("/jobs/{job_id}/generate")
     async def generate(request: Request, job_id: str):
-        job = web.store.get(job_id)
-        if job is None:
-            return RedirectResponse(f"{web.base}/?message=That+job+has+ended+or+does+not+exist.", status_code=303)
-        form = await request.form()
-        only_text_fields(form)
-        if not web.guard.token_ok(form.get("token")):
-            return web.message(403, *NO_TOKEN)
+        job, form, refused = await _posted_job(web, request, job_id)
+        if refused is not None:
+            return refused
         if job.state == "running":
             return RedirectResponse(f"{web.base}/jobs/{job.id}", status_code=303)
         _take_upload_fields(job, form)
@@ -143,6 +139,19 @@ def add_job_routes(app: FastAPI, web) -> None:
         return RedirectResponse(f"{web.base}/?message=Your+files+were+deleted.", status_code=303)
 
 
+async def _posted_job(web, request: Request, job_id: str):
+    """(job, form, None) for a form posted to a job, or (None, None, the response that refuses it):
+    the job has ended, or the form lacks this page's token."""
+    job = web.store.get(job_id)
+    if job is None:
+        return None, None, RedirectResponse(f"{web.base}/?message=That+job+has+ended+or+does+not+exist.", status_code=303)
+    form = await request.form()
+    only_text_fields(form)
+    if not web.guard.token_ok(form.get("token")):
+        return None, None, web.message(403, *NO_TOKEN)
+    return job, form, None
+
+
 def _take_upload_fields(job, form) -> None:
     """Each image's own fields (preset override, caption, subject, chosen panels) from the settings form."""
     for i, upload in enumerate(job.uploads):
@@ -168,13 +177,9 @@ def add_again_route(app: FastAPI, web) -> None:
     @app.post("/jobs/{job_id}/again")
     async def again(request: Request, job_id: str):
         """The same prints for another printer: the images, captions and settings the job has."""
-        job = web.store.get(job_id)
-        if job is None:
-            return RedirectResponse(f"{web.base}/?message=That+job+has+ended+or+does+not+exist.", status_code=303)
-        form = await request.form()
-        only_text_fields(form)
-        if not web.guard.token_ok(form.get("token")):
-            return web.message(403, *NO_TOKEN)
+        job, form, refused = await _posted_job(web, request, job_id)
+        if refused is not None:
+            return refused
         if job.state != "done":
             return RedirectResponse(f"{web.base}/jobs/{job.id}", status_code=303)
         printer = form.get("printer") or ""

@@ -249,20 +249,11 @@ def _merge_shallow(labels: np.ndarray, top: np.ndarray) -> np.ndarray:
         return labels
     peak = label_max(top, labels, n)
 
-    # The saddle of each touching pair: the highest of min(top) over the pixel pairs joining them
-    # (one sort over pair keys, not a loop over pixels).
-    keys, levels = [], []
-    for a, b, ta, tb in ((labels[:, 1:], labels[:, :-1], top[:, 1:], top[:, :-1]), (labels[1:], labels[:-1], top[1:], top[:-1])):
-        touch = (a != b) & (a > 0) & (b > 0)
-        if touch.any():
-            pa, pb = a[touch].astype(np.int64), b[touch].astype(np.int64)
-            keys.append(np.minimum(pa, pb) * (n + 1) + np.maximum(pa, pb))
-            levels.append(np.minimum(ta[touch], tb[touch]))
-    if not keys:
+    # The saddle of each touching pair: the highest of min(top) over the pixel pairs joining them.
+    touching = border_levels(labels, top, n)
+    if touching is None:
         return labels
-    pair, where = np.unique(np.concatenate(keys), return_inverse=True)
-    saddle = label_max(np.concatenate(levels), where.reshape(-1), pair.size - 1, initial=-1.0)
-    x_of, y_of = pair // (n + 1), pair % (n + 1)
+    x_of, y_of, saddle = touching
     shallow = saddle >= SADDLE_SHARE * np.minimum(peak[x_of], peak[y_of])
     roots = joined_roots(n, x_of[shallow].tolist(), y_of[shallow].tolist())
     return roots[labels].astype(labels.dtype)
@@ -328,6 +319,24 @@ def neckless_pairs(labels: np.ndarray, top: np.ndarray | None = None, large_px: 
     return a[wide], b[wide]
 
 
+def border_levels(labels: np.ndarray, values: np.ndarray, n: int):
+    """For each pair of labels that touch (4-connected): (first labels, second labels, the highest of
+    min(values) over the pixel pairs joining them), or None when none touch. One sort over pair keys,
+    not a loop over pixels."""
+    keys, levels = [], []
+    for a, b, va, vb in ((labels[:, 1:], labels[:, :-1], values[:, 1:], values[:, :-1]), (labels[1:], labels[:-1], values[1:], values[:-1])):
+        touch = (a != b) & (a > 0) & (b > 0)
+        if touch.any():
+            pa, pb = a[touch].astype(np.int64), b[touch].astype(np.int64)
+            keys.append(np.minimum(pa, pb) * (n + 1) + np.maximum(pa, pb))
+            levels.append(np.minimum(va[touch], vb[touch]))
+    if not keys:
+        return None
+    pair, where = np.unique(np.concatenate(keys), return_inverse=True)
+    level = label_max(np.concatenate(levels), where.reshape(-1), pair.size - 1, initial=-1.0)
+    return pair // (n + 1), pair % (n + 1), level
+
+
 def merge_without_neck(labels: np.ndarray, top: np.ndarray | None = None, rounds: int = 1, *, large_px: float = 0.0) -> np.ndarray:
     """Members split where their outline has no neck (neckless_pairs) joined again, renumbered;
     again on the joined ones (a particle cracked in many pieces joins piece by piece), up to
@@ -350,19 +359,11 @@ def merge_across_no_neck(labels: np.ndarray) -> np.ndarray:
     if n < 2:
         return labels
     dist = ndimage.distance_transform_edt(labels > 0).astype(np.float32)
-    keys, levels = [], []
-    for a, b, da, db in ((labels[:, 1:], labels[:, :-1], dist[:, 1:], dist[:, :-1]), (labels[1:], labels[:-1], dist[1:], dist[:-1])):
-        touch = (a != b) & (a > 0) & (b > 0)
-        if touch.any():
-            pa, pb = a[touch].astype(np.int64), b[touch].astype(np.int64)
-            keys.append(np.minimum(pa, pb) * (n + 1) + np.maximum(pa, pb))
-            levels.append(np.minimum(da[touch], db[touch]))
-    if not keys:
+    touching = border_levels(labels, dist, n)
+    if touching is None:
         return labels
-    pair, where = np.unique(np.concatenate(keys), return_inverse=True)
-    across = label_max(np.concatenate(levels), where.reshape(-1), pair.size - 1, initial=-1.0)
+    a, b, across = touching
     radius = label_max(dist, labels, n)
-    a, b = pair // (n + 1), pair % (n + 1)
     join = across >= OUTLINE_NECK * np.minimum(radius[a], radius[b])
     if not join.any():
         return labels

@@ -23,14 +23,6 @@ SAID = """() => [...document.querySelectorAll('[role=status], [role=alert]')].ma
   .filter(Boolean).map(t => t.slice(0, 160))"""
 
 
-def tabs_to(page, predicate, limit=80) -> int:
-    for pressed in range(1, limit + 1):
-        page.keyboard.press("Tab")
-        if predicate(page.evaluate("() => ({id: document.activeElement.id, text: document.activeElement.textContent.trim()})")):
-            return pressed
-    raise SystemExit("could not reach the control by Tab")
-
-
 def main() -> int:
     from gui_support import CHROMIUM, LAUNCH_ARGS, png_bytes, start_server, stop_server
     from playwright.sync_api import sync_playwright
@@ -70,6 +62,8 @@ class Said:
 
 def first_round(page, files: list[str]) -> None:
     """Upload, captions, the MK4, Update, Generate and the zip."""
+    from gui_support import tabs_to  # Tab presses to a control, its focus checked visible
+
     say = Said()
     print(f"Page: {page.title()}")
     n = tabs_to(page, lambda i: i["id"] == "images")
@@ -114,6 +108,8 @@ def first_round(page, files: list[str]) -> None:
 
 def second_round(page) -> None:
     """The same prints for the Bambu Lab A1, from the results page."""
+    from gui_support import tabs_to  # Tab presses to a control, its focus checked visible
+
     say = Said()
     n = tabs_to(page, lambda i: i["id"] == "again-printer")
     page.select_option("#again-printer", "Bambu Lab A1")

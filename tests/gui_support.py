@@ -124,12 +124,21 @@ def browser():
 
 def tab_to(page, predicate, limit=120):
     """Press Tab until the focused element satisfies `predicate` (its id, text and outline style),
-    checking that focus is visible there; fail when `limit` presses do not reach it."""
-    for _ in range(limit):
+    checking that focus is visible there; fail when `limit` presses do not reach it. Returns its info."""
+    return _tab_until(page, predicate, limit)[0]
+
+
+def tabs_to(page, predicate, limit=60) -> int:
+    """As `tab_to`, but returns how many Tab presses it took (a flow's keyboard cost)."""
+    return _tab_until(page, predicate, limit)[1]
+
+
+def _tab_until(page, predicate, limit: int) -> tuple[dict, int]:
+    for pressed in range(1, limit + 1):
         page.keyboard.press("Tab")
         info = page.evaluate("() => ({id: document.activeElement.id, text: document.activeElement.textContent.trim(),"
                              " outline: getComputedStyle(document.activeElement).outlineStyle})")
         if predicate(info):
             assert info["outline"] != "none", f"no visible focus on {info}"
-            return info
+            return info, pressed
     raise AssertionError("could not reach the control by Tab")

@@ -12,7 +12,7 @@ import zipfile
 import httpx
 import pytest
 
-from gui_support import audit, browser, form_token, png_bytes, start_server, stop_server  # noqa: F401 (fixture)
+from gui_support import audit, browser, form_token, png_bytes, start_server, stop_server, tabs_to  # noqa: F401 (fixture)
 
 
 @pytest.fixture(scope="module")
@@ -247,18 +247,6 @@ def test_a_finished_job_lives_while_its_page_is_open(server):
         assert client.get(f"/jobs/{job}/status").status_code == 404
 
 
-def _tabs_to(page, predicate, limit=60) -> int:
-    """Tab presses until the focused element satisfies `predicate` (id, text); focus visible there."""
-    for pressed in range(1, limit + 1):
-        page.keyboard.press("Tab")
-        info = page.evaluate("() => ({id: document.activeElement.id, text: document.activeElement.textContent.trim(),"
-                             " outline: getComputedStyle(document.activeElement).outlineStyle})")
-        if predicate(info):
-            assert info["outline"] != "none", f"no visible focus on {info}"
-            return pressed
-    raise AssertionError("could not reach the control by Tab")
-
-
 @pytest.fixture(scope="module")
 def patient_server(tmp_path_factory):
     """A server whose jobs outlast a page busy for seconds (the 3-D view's loading stalls timers in
@@ -281,42 +269,42 @@ def test_the_teachers_keyboard_flow_from_upload_to_a_second_printer(patient_serv
     (tmp_path / "notes.png").write_text("my notes, not an image")
     page = browser.new_context(accept_downloads=True).new_page()
     page.goto(patient_server)
-    tabs = _tabs_to(page, lambda i: i["id"] == "images")
+    tabs = tabs_to(page, lambda i: i["id"] == "images")
     page.set_input_files("#images", [*paths, str(tmp_path / "notes.png")])
-    tabs += _tabs_to(page, lambda i: i["text"] == "Add images")
+    tabs += tabs_to(page, lambda i: i["text"] == "Add images")
     page.keyboard.press("Enter")
     page.wait_for_selector("h1:has-text('Step 2 of 3')", timeout=60000)
     page.wait_for_function("document.activeElement.id === 'not-added'", timeout=10000)  # the refused file, said first
     assert page.locator("#not-added").get_attribute("role") == "alert"
     audit(page, "settings after a partly failed upload")
     for i, caption in enumerate(("cells", "fibres")):
-        tabs += _tabs_to(page, lambda info, i=i: info["id"] == f"caption_{i}")
+        tabs += tabs_to(page, lambda info, i=i: info["id"] == f"caption_{i}")
         page.keyboard.type(caption)
-    tabs += _tabs_to(page, lambda i: i["id"] == "printer")
+    tabs += tabs_to(page, lambda i: i["id"] == "printer")
     page.select_option("#printer", "Original Prusa MK4")
-    tabs += _tabs_to(page, lambda i: i["id"] == "update")
+    tabs += tabs_to(page, lambda i: i["id"] == "update")
     with page.expect_navigation():
         page.keyboard.press("Enter")
     assert page.evaluate("document.activeElement.id") == "update"
     assert page.locator("#caption_1").input_value() == "fibres"  # typed captions survive Update
-    tabs += _tabs_to(page, lambda i: i["text"] == "Generate")
+    tabs += tabs_to(page, lambda i: i["text"] == "Generate")
     page.keyboard.press("Enter")
     page.wait_for_selector("h1:has-text('Your lithographs')", timeout=180000)
     page.wait_for_function("document.activeElement.id === 'page-title'", timeout=10000)
-    tabs += _tabs_to(page, lambda i: i["text"].startswith("Download everything"))
+    tabs += tabs_to(page, lambda i: i["text"].startswith("Download everything"))
     assert tabs <= 60, f"{tabs} Tab presses from the first page to the download"
     with page.expect_download(timeout=60000) as download:
         page.keyboard.press("Enter")
     assert "cells.3mf" in zipfile.ZipFile(download.value.path()).namelist()
     audit(page, "results with the form for another printer")
-    _tabs_to(page, lambda i: i["id"] == "again-printer", limit=5)
+    tabs_to(page, lambda i: i["id"] == "again-printer", limit=5)
     page.select_option("#again-printer", "Bambu Lab A1")
-    _tabs_to(page, lambda i: i["id"] == "again", limit=3)
+    tabs_to(page, lambda i: i["id"] == "again", limit=3)
     page.keyboard.press("Enter")
     page.wait_for_selector("h1:has-text('Your lithographs for Bambu Lab A1')", timeout=180000)
     page.wait_for_function("document.activeElement.id === 'page-title'", timeout=10000)
     assert "Made before, for Original Prusa MK4" in page.content()
-    _tabs_to(page, lambda i: i["text"].startswith("Download everything"), limit=3)
+    tabs_to(page, lambda i: i["text"].startswith("Download everything"), limit=3)
     # Chromium holds a page's second download for a permission prompt: the zip is fetched by its link
     href = page.evaluate("document.activeElement.href")
     archive = zipfile.ZipFile(io.BytesIO(page.request.get(href).body()))

@@ -507,14 +507,14 @@ def test_stale_part_files_are_swept_by_the_next_convert(tmp_path, capsys):
 @pytest.mark.timeout(300)
 @pytest.mark.parametrize("signame", ["SIGTERM", "SIGHUP"])
 def test_a_signal_during_convert_leaves_no_temporary_file(tmp_path, signame):
-    side = 800  # the print grid's own size: a bigger source only costs reading and resampling
+    side = 500  # the print grid's own size: a bigger source only costs reading and resampling
     img = tmp_path / "big.png"
     rng = np.random.default_rng(7)
     Image.fromarray((rng.random((side, side)) * 255).astype(np.uint8)).save(img, compress_level=1)
     out = tmp_path / "out"
     env = {**os.environ, "PYTHONPATH": SRC}
     cmd = [PYTHON, "-m", "tamp_os.cli.commands", "convert", str(img), "-o", str(out), "--formats", "stl,3mf,glb,obj,ply",
-           "--resolution-px", "800", "--mesher", "grid"]
+           "--resolution-px", str(side), "--mesher", "grid"]
     proc = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 240
     while time.monotonic() < deadline and proc.poll() is None and not list(out.glob(".*.part")):

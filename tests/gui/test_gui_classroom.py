@@ -238,12 +238,12 @@ def test_a_finished_job_lives_while_its_page_is_open(server):
         every_ms = int(re.search(rf'data-job-id="{job}" data-keepalive-ms="(\d+)"', page).group(1))
         assert every_ms < 1000  # under the test server's 1 s grace period
         assert client.get(f"/jobs/{job}/download.zip").status_code == 200
-        until = time.monotonic() + 5  # five grace periods with the page open
+        until = time.monotonic() + 3.5  # past the three grace periods a left job has, with the page open
         while time.monotonic() < until:
             assert client.get(f"/jobs/{job}/status").status_code == 200
             time.sleep(every_ms / 1000)
         assert client.get(f"/jobs/{job}/files/x.stl").status_code == 200
-        time.sleep(6)  # the page is left (no request for the job): it goes after three grace periods
+        time.sleep(4.5)  # the page is left (no request for the job): it goes after three grace periods (the sweeper looks every half)
         assert client.get(f"/jobs/{job}/status").status_code == 404
 
 

@@ -110,9 +110,12 @@ def test_overrides_recursive_include_and_name_collisions(tmp_path, capsys):
     assert code == 1 and "line 2" in err and "relief_mm" in err
 
 
-@pytest.mark.slow
-def test_unreachable_dask_scheduler_is_a_clear_usage_error(tmp_path, capsys):
+@pytest.mark.timeout(60)
+def test_unreachable_dask_scheduler_is_a_clear_usage_error(tmp_path, capsys, monkeypatch):
+    from tamp_os.cli import commands
     from tamp_os.gui import free_port
+
+    monkeypatch.setattr(commands, "DASK_CONNECT_S", 1.0)  # nothing listens there: no need to wait 10 s
 
     src = make_inputs(tmp_path / "in", good=1, hostile=0)
     code, _, err = run(capsys, "batch", src, "-o", tmp_path / "out", "--dask-scheduler", f"tcp://127.0.0.1:{free_port()}")

@@ -476,6 +476,9 @@ def cmd_batch(args) -> int:
     return EXIT_FAILED if failed else EXIT_OK
 
 
+DASK_CONNECT_S = 10.0  # how long a scheduler that does not answer is waited for
+
+
 def _dask_client(address: str):
     from ..errors import InputError, require_extra
 
@@ -483,7 +486,7 @@ def _dask_client(address: str):
     from distributed import Client
 
     try:
-        return Client(address, timeout="10s")
+        return Client(address, timeout=f"{DASK_CONNECT_S}s")
     except (OSError, TimeoutError) as exc:
         raise InputError(
             f"--dask-scheduler: cannot reach a Dask scheduler at {address} ({exc}); check the address, "

@@ -199,8 +199,11 @@ def write_meshes(mesh, folder: Path, stem: str, *, formats: list[str], meta: dic
     # Large meshes: the writers spend their time in NumPy and lib3mf's C code, which release
     # the GIL, so writing the formats side by side uses both cores. Small ones: threads cost more.
     if mesh.n_triangles > PARALLEL_WRITE_TRIANGLES and len(formats) > 1:
-        with ThreadPoolExecutor(max_workers=min(len(formats), os.cpu_count() or 1)) as pool:
+        pool = ThreadPoolExecutor(max_workers=min(len(formats), os.cpu_count() or 1))
+        try:
             return dict(pool.map(write, formats))
+        finally:  # stopped (Ctrl-C, SIGTERM): the formats not begun are not begun; those begun remove their parts
+            pool.shutdown(wait=True, cancel_futures=True)
     return dict(write(fmt) for fmt in formats)
 
 

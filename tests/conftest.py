@@ -28,10 +28,10 @@ def examples(n: int) -> int:
 
 # Test tiers, applied from what a test uses, so that no one has to remember to mark it:
 # `browser` (headless Chromium), `slicer` (PrusaSlicer), `real` (the real microscope files in
-# ../shared/fixtures), `napari` (a napari viewer, headless: tests/napari/conftest.py); `slow` for a test of the web app's real server (fixture `server`), and by
+# ../shared/fixtures), `napari` (a napari viewer, headless: tests/napari/conftest.py); `slow` for a test of the web app's real server (fixtures `server`, `slow_server`, `patient_server`), and by
 # hand on the few synthetic tests that take more than about 5 s.
 # `make test-fast` leaves all five out; `make test` and CI run everything.
-TIER_BY_FIXTURE = {"browser": "browser", "slicer_present": "slicer", "fixture": "real", "fixtures_dir": "real", "server": "slow",
+TIER_BY_FIXTURE = {"browser": "browser", "slicer_present": "slicer", "fixture": "real", "fixtures_dir": "real", "server": "slow", "slow_server": "slow", "patient_server": "slow",
                    "elid_bomb": "slow", "napari_viewer": "napari", "napari_plugin": "napari"}
 
 

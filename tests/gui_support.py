@@ -28,7 +28,7 @@ WCAG_TAGS = ["wcag2a", "wcag2aa", "wcag21a", "wcag21aa", "wcag22aa"]
 SCREENS = Path(os.environ["TAMP_SCREENSHOTS"]) if os.environ.get("TAMP_SCREENSHOTS") else None
 
 
-def start_server(root: Path, *extra: str, slow_s: float = 0.8, grace_s: float = 1.0):
+def start_server(root: Path, *extra: str, slow_s: float = 0.0, grace_s: float = 1.0):
     """Start `tamp-os gui` for real; returns (process, url). Waits at most 20 s."""
     from tamp_os.gui import free_port
 

@@ -28,7 +28,16 @@ VIEWPORTS = {  # name: (browser context options)
 @pytest.fixture(scope="module")
 def server(tmp_path_factory):
     root = tmp_path_factory.mktemp("gui-jobs")
-    proc, url = start_server(root, "--max-file-mb", "2")
+    proc, url = start_server(root, "--max-file-mb", "2", slow_s=0.0)
+    yield url, root
+    stop_server(proc)
+
+
+@pytest.fixture(scope="module")
+def slow_server(tmp_path_factory):
+    """A server whose jobs wait 0.8 s before each image, so the progress page can be audited and watched."""
+    root = tmp_path_factory.mktemp("gui-slow-jobs")
+    proc, url = start_server(root, "--max-file-mb", "2", slow_s=0.8)
     yield url, root
     stop_server(proc)
 
@@ -104,11 +113,11 @@ def finish(page, js: bool):
 
 @pytest.mark.timeout(300)
 @pytest.mark.parametrize("js", [True, False], ids=["js", "nojs"])
-def test_every_state_passes_axe_and_reflows_in_every_viewport(server, browser, tmp_path, js):
+def test_every_state_passes_axe_and_reflows_in_every_viewport(slow_server, browser, tmp_path, js):
     """One job through every state, each state audited and checked for reflow in every viewport
     (the page resized in place: 200 % zoom is the 640 CSS px viewport, which is what reflow and
     axe see; a job per viewport would only repeat the conversion)."""
-    url, _ = server
+    url, _ = slow_server
     mode = "js" if js else "nojs"
     context = browser.new_context(java_script_enabled=js, **VIEWPORTS["1280"])
     page = context.new_page()
@@ -196,8 +205,8 @@ def test_results_describe_each_image_in_words(server, page, tmp_path):
 
 
 @pytest.mark.timeout(180)
-def test_the_same_flow_by_keyboard_alone_keeps_focus_on_the_progress_page(server, page, fixture):
-    url, _ = server
+def test_the_same_flow_by_keyboard_alone_keeps_focus_on_the_progress_page(slow_server, page, fixture):
+    url, _ = slow_server
     page.goto(url)
 
     tab_to(page, lambda i: i["id"] == "images", limit=80)

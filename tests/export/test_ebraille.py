@@ -6,6 +6,7 @@ back-translates to its print; every tour item resolves to a labelled SVG region.
 from __future__ import annotations
 
 import io
+import os
 import re
 import shutil
 import subprocess
@@ -197,8 +198,11 @@ def _epubcheck(data: bytes, folder: Path) -> list[tuple[str, str, str]]:
     jar = shutil.which("epubcheck")
     target = folder / "check.epub"
     target.write_bytes(data)
-    command = ["java", "-jar", jar] if Path(jar).resolve().suffix == ".jar" else [jar]
-    done = subprocess.run([*command, str(target)], capture_output=True, text=True, timeout=150)
+    # A short run: the JIT's first tier only and the serial collector start the JVM in under half the time.
+    quick = ["-XX:TieredStopAtLevel=1", "-XX:+UseSerialGC"]
+    command = ["java", *quick, "-jar", jar] if Path(jar).resolve().suffix == ".jar" else [jar]
+    env = {**os.environ, "JAVA_TOOL_OPTIONS": " ".join(quick)} if command == [jar] else None
+    done = subprocess.run([*command, str(target)], capture_output=True, text=True, timeout=150, env=env)
     return re.findall(r"^(FATAL|ERROR|WARNING)\((\S+)\): (.*)$", done.stdout + done.stderr, re.M)
 
 

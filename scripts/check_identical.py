@@ -175,6 +175,11 @@ def main() -> int:
         convert_all(ROOT / "src", images, tmp / "actual", real)
         n_files = sum(1 for p in (tmp / "expected").rglob("*") if p.is_file())
         problems = compare(tmp / "actual", tmp / "expected", args.threemf_as_read)
+        if args.keep:
+            import shutil
+
+            for run in ("actual", "expected"):
+                shutil.copytree(tmp / run, args.keep / run, dirs_exist_ok=True)
     for line in problems:
         print(line)
     print(f"{n_files} files compared with {args.ref}: " + ("all identical" if not problems else f"{len(problems)} differ"))

@@ -322,7 +322,7 @@ def _inlaid(relief: Mesh, plan: Plan, base_mm: float, spec: BrailleSpec, top_mm:
     plate_w, plate_d = plan.placed.plate_mm
     plate_top = base_mm - min(SEAM_MM, base_mm / 10)
     plate = _extrude([_rect((0, 0, plate_w, plate_d))], 0.0, plate_top) - _extrude([_rect(footprint)], plate_top / 2, plate_top + 1.0)
-    pocketed = fuse_solid([plate] + build_raised(plan, base_mm, spec), plan.placed, top_mm)
+    pocketed = to_mesh(fuse_solid([plate] + build_raised(plan, base_mm, spec), plan.placed, top_mm))
     return inlaid(relief, pocketed, (ox, oy), plate_top_mm=plate_top, pocket_floor_mm=plate_top / 2)
 
 

@@ -23,15 +23,11 @@ from ..mesh.solid import INDEX, Mesh
 SNAP_MM = 1e-4  # a pocket vertex this close to the footprint's outline lies on it (Clipper's rounding)
 
 
-def inlaid(relief: Mesh, pocketed, origin_mm: tuple[float, float], *, plate_top_mm: float, pocket_floor_mm: float) -> Mesh | None:
-    """The relief (its outline [0, w] × [0, d], bottom at z = 0) at `origin_mm` on `pocketed`: the
-    furnished plate (manifold3d solid, the corner already cut) with a pocket under the relief's
-    footprint from `pocket_floor_mm` up through its top at `plate_top_mm`. None when they do not
-    fit together."""
-    from .furniture import to_mesh
-
+def inlaid(relief: Mesh, plate: Mesh, origin_mm: tuple[float, float], *, plate_top_mm: float, pocket_floor_mm: float) -> Mesh | None:
+    """The relief (its outline [0, w] × [0, d], bottom at z = 0) at `origin_mm` on `plate`: the
+    furnished plate (the corner already cut) with a pocket under the relief's footprint from
+    `pocket_floor_mm` up through its top at `plate_top_mm`. None when they do not fit together."""
     box = _footprint(relief, origin_mm)
-    plate = to_mesh(pocketed)
     vertices = plate.vertices.astype(np.float32)
     top = np.float32(plate_top_mm)
     faces = _without_pocket(vertices, plate.faces, box, (np.float32(pocket_floor_mm), top))

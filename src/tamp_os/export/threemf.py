@@ -17,7 +17,6 @@ import hashlib
 import io
 import uuid
 import zipfile
-from xml.sax.saxutils import escape
 
 import numpy as np
 
@@ -38,8 +37,8 @@ def xml_text(value) -> str:
 
 
 def _attr(value) -> str:
-    """`value` escaped for an XML attribute or element text."""
-    return escape(xml_text(value), {'"': "&quot;"})
+    """`value` escaped for an XML attribute or element text (xml.sax's escape would import urllib)."""
+    return xml_text(value).replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;").replace('"', "&quot;")
 
 
 def write_3mf(mesh, fh, metadata: dict) -> None:

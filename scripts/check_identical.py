@@ -161,6 +161,7 @@ def main() -> int:
     parser.add_argument("--ref", required=True, help="git commit whose code gives the expected outputs")
     parser.add_argument("--real", nargs="*", default=[], metavar="NAME", help="files of fixtures/real to convert too (default and furniture variants)")
     parser.add_argument("--3mf-as-read", dest="threemf_as_read", action="store_true", help="compare 3MF files as their readers see them, not byte for byte")
+    parser.add_argument("--keep", type=Path, help="copy both runs' outputs into this folder (to study the differences)")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory(prefix="tamp-identical-") as tmp:
         tmp = Path(tmp)
@@ -175,6 +176,11 @@ def main() -> int:
         convert_all(ROOT / "src", images, tmp / "actual", real)
         n_files = sum(1 for p in (tmp / "expected").rglob("*") if p.is_file())
         problems = compare(tmp / "actual", tmp / "expected", args.threemf_as_read)
+        if args.keep:
+            import shutil
+
+            for run in ("actual", "expected"):
+                shutil.copytree(tmp / run, args.keep / run, dirs_exist_ok=True)
         if args.keep:
             import shutil
 

@@ -64,3 +64,16 @@ def test_inlaid_relief_is_the_boolean_solid(frame_mm):
     np.testing.assert_allclose(heights, expected, atol=1e-5)
     assert heights[len(plan.dot_centres)] == pytest.approx(BASE_MM + BAR_HEIGHT_MM, abs=1e-5)
     assert np.all(heights[: len(plan.dot_centres)] == pytest.approx(BASE_MM + furniture.spec.dot_height_mm, abs=1e-3))
+
+
+@pytest.mark.timeout(60)
+def test_a_relief_down_at_the_plate_top_takes_the_boolean():
+    """A relief whose top comes down to the plate's top (base 0) cannot stand on the pocket's rim:
+    the boolean makes it, and the result is still one closed solid."""
+    relief = adaptive_solid(np.zeros((41, 61), np.float32) + 0.001, 60.0, 40.0, max_error_mm=0.06)
+    furniture = Furniture(caption="Test", spec=BrailleSpec())
+    mesh, _ = add_furniture(relief, 60.0, 40.0, base_mm=BASE_MM, furniture=furniture)
+    plan = plan_furniture(60.0, 40.0, furniture)
+    fused = to_mesh(fuse_solid(build_parts(relief, plan, BASE_MM, spec=furniture.spec), plan.placed, BASE_MM + 2.0))
+    assert np.array_equal(mesh.faces, fused.faces) and np.array_equal(mesh.vertices, fused.vertices)
+    assert closed_and_oriented(np.asarray(mesh.faces))

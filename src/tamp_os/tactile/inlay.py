@@ -34,6 +34,8 @@ def inlaid(relief: Mesh, plate: Mesh, origin_mm: tuple[float, float], *, plate_t
     if faces is None:
         return None
     vertices = _snapped(vertices, box, top)
+    if (relief.vertices[relief.vertices[:, 2] > 0.0, 2] <= plate_top_mm + SNAP_MM).any():
+        return None  # a top surface down at the plate's top: its walls would not stand on the rim
     relief_vertices, relief_faces, foot = _relief_above(relief, origin_mm, top)
     rim_points = relief_vertices[foot, :2]
     split = _rim_split(vertices, faces, rim_points, box, top)

@@ -73,8 +73,10 @@ def _snapped(vertices: np.ndarray, box: np.ndarray, top: np.float32) -> np.ndarr
     out = vertices.copy()
     on_top = out[:, 2] == top
     for axis, values in ((0, box[[0, 2]]), (1, box[[1, 3]])):
+        other = out[:, 1 - axis]
+        along = (other >= box[1 - axis] - SNAP_MM) & (other <= box[3 - axis] + SNAP_MM)  # within the side's span
         for value in values:
-            near = on_top & (np.abs(out[:, axis] - value) <= SNAP_MM)
+            near = on_top & along & (np.abs(out[:, axis] - value) <= SNAP_MM)
             out[near, axis] = value
     return out
 

@@ -167,23 +167,115 @@ def _merge_text(found: list[Annotation]) -> list[Annotation]:
     return boxes
 
 
+# The fast solve of a boxed mask stops when the residual is this share of the right-hand side:
+# the fill then agrees with the direct solve to about 1e-9 of the picture's range, far below a
+# float32 step (6e-8 of it), so at most a last float32 digit differs.
+BOX_TOLERANCE = 1e-11
+BOX_FILL = 0.95  # the mask covers at least this share of its bounding box
+BOX_ITERATIONS = 50  # more: the box's holes are too many for the preconditioner; the direct solve takes it
+
+
 def inpaint(values: np.ndarray, mask: np.ndarray) -> np.ndarray:
     """Fill masked pixels with the smooth (harmonic) surface that meets their surroundings.
 
     Solves Laplace's equation on the masked pixels only, with the unmasked neighbours as
-    boundary values: one sparse solve, about 10x faster than scikit-image's biharmonic
-    inpainting on a scale-bar box and free of its overshoot.
+    boundary values, about 10x faster than scikit-image's biharmonic inpainting on a scale-bar
+    box and free of its overshoot. A mask that is nearly its bounding box (a databar box, a
+    label's box) away from the picture's edge is solved by conjugate gradients preconditioned
+    with the box's own Laplacian, inverted by a sine transform (_fill_box: 5-10x faster than
+    the sparse direct solve, which every other mask gets).
     """
     if not mask.any():
         return values
+    finite = np.isfinite(values)
+    known = values.astype(np.float64) if finite.all() else np.where(finite, values, np.nanmedian(values))
+    out = values.astype(np.float32, copy=True)
+    box = _inner_box(mask)
+    filled = None if box is None else _fill_box(known[box[0] - 1 : box[1] + 1, box[2] - 1 : box[3] + 1], mask[box[0] : box[1], box[2] : box[3]])
+    if filled is not None:
+        out[box[0] : box[1], box[2] : box[3]][mask[box[0] : box[1], box[2] : box[3]]] = filled
+        return out
+    rows, cols = np.nonzero(mask)
+    out[rows, cols] = _fill_sparse(known, mask, rows, cols)
+    return out
+
+
+def _inner_box(mask: np.ndarray) -> tuple[int, int, int, int] | None:
+    """(r0, r1, c0, c1) of the mask's bounding box when the mask fills BOX_FILL of it and a
+    ring of known pixels lies around it inside the picture; else None."""
+    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
+    r0, r1, c0, c1 = int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1
+    if r0 < 1 or c0 < 1 or r1 > mask.shape[0] - 1 or c1 > mask.shape[1] - 1:
+        return None
+    return (r0, r1, c0, c1) if np.count_nonzero(mask[r0:r1, c0:c1]) >= BOX_FILL * (r1 - r0) * (c1 - c0) else None
+
+
+def _fill_box(framed: np.ndarray, piece: np.ndarray) -> np.ndarray | None:
+    """The harmonic fill of the `piece` pixels of a box, `framed` being the known values of the
+    box and a one-pixel ring around it; None when it does not converge. Unknown pixels are the
+    piece; the box's other pixels (holes) and the ring are boundary values. Conjugate gradients
+    on the exact five-point system, preconditioned by the whole box's Dirichlet Laplacian (a
+    sine transform): the two differ only at the holes, so a few iterations suffice."""
+    import scipy.fft
+
+    h, w = piece.shape
+    eig = (4.0 - 2.0 * np.cos(np.pi * np.arange(1, h + 1) / (h + 1)))[:, None] - 2.0 * np.cos(np.pi * np.arange(1, w + 1) / (w + 1))[None, :]
+
+    def solve_box(r):  # the whole box's Laplacian inverted, restricted to the piece
+        return np.where(piece, scipy.fft.idstn(scipy.fft.dstn(r, type=1, norm="ortho") / eig, type=1, norm="ortho"), 0.0)
+
+    def apply(u):  # the five-point operator on the piece (u is zero off it)
+        return np.where(piece, 4.0 * u - (_shifted(u, 1, 0) + _shifted(u, -1, 0) + _shifted(u, 0, 1) + _shifted(u, 0, -1)), 0.0)
+
+    boundary = np.where(piece, 0.0, framed[1:-1, 1:-1])
+    ring = np.zeros_like(framed)
+    ring[1:-1, 1:-1] = boundary
+    ring[0, :], ring[-1, :], ring[:, 0], ring[:, -1] = framed[0, :], framed[-1, :], framed[:, 0], framed[:, -1]
+    rhs = np.where(piece, ring[:-2, 1:-1] + ring[2:, 1:-1] + ring[1:-1, :-2] + ring[1:-1, 2:], 0.0)
+    return _conjugate_gradients(apply, solve_box, rhs, piece)
+
+
+def _shifted(u: np.ndarray, dr: int, dc: int) -> np.ndarray:
+    """u moved by (dr, dc), zeros shifted in: the neighbour in that direction of every pixel."""
+    out = np.zeros_like(u)
+    h, w = u.shape
+    out[max(dr, 0) : h + min(dr, 0), max(dc, 0) : w + min(dc, 0)] = u[max(-dr, 0) : h + min(-dr, 0), max(-dc, 0) : w + min(-dc, 0)]
+    return out
+
+
+def _conjugate_gradients(apply, precondition, rhs: np.ndarray, piece: np.ndarray) -> np.ndarray | None:
+    """Preconditioned conjugate gradients for apply(x) = rhs on the piece; x[piece], or None.
+    Inner products by NumPy's own sums, not BLAS: OpenBLAS's threads spin beside the OCR thread
+    (10 ms of CPU per dot product on a busy machine for 25,000 numbers)."""
+
+    def dot(a, b) -> float:
+        return float(np.multiply(a, b).sum())
+
+    x = precondition(rhs)
+    r = rhs - apply(x)
+    z = precondition(r)
+    p, rz = z, dot(r, z)
+    goal = (BOX_TOLERANCE**2) * dot(rhs, rhs)  # squared norms
+    for _ in range(BOX_ITERATIONS):
+        if dot(r, r) <= goal:
+            return x[piece]
+        q = apply(p)
+        alpha = rz / dot(p, q)
+        x, r = x + alpha * p, r - alpha * q
+        z = precondition(r)
+        rz, rz_old = dot(r, z), rz
+        p = z + (rz / rz_old) * p
+    return x[piece] if dot(r, r) <= goal else None
+
+
+def _fill_sparse(known: np.ndarray, mask: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+    """The harmonic fill of the masked pixels (rows, cols) by one sparse direct solve; pixels at
+    the picture's edge have no neighbour beyond it (zero flux)."""
     from scipy.sparse import coo_matrix
     from scipy.sparse.linalg import spsolve
 
-    h, w = values.shape
-    finite = np.isfinite(values)
-    known = values.astype(np.float64) if finite.all() else np.where(finite, values, np.nanmedian(values))
-    rows, cols = np.nonzero(mask)
-    index = np.full(values.shape, -1, np.int64)
+    h, w = mask.shape
+    index = np.full(mask.shape, -1, np.int64)
     index[rows, cols] = np.arange(rows.size)
     diag = np.zeros(rows.size)
     rhs = np.zeros(rows.size)
@@ -201,10 +293,10 @@ def inpaint(values: np.ndarray, mask: np.ndarray) -> np.ndarray:
     r = np.concatenate([np.arange(rows.size)] + entries_r)
     c = np.concatenate([np.arange(rows.size)] + entries_c)
     data = np.concatenate([diag] + [-np.ones(len(e)) for e in entries_r])
-    solution = spsolve(coo_matrix((data, (r, c)), shape=(rows.size, rows.size)).tocsr(), rhs)
-    out = values.astype(np.float32, copy=True)
-    out[rows, cols] = solution
-    return out
+    # The matrix is symmetric: minimum degree on A + A^T orders it with less fill than SuperLU's
+    # default (COLAMD), about 1.3-1.5x faster on a databar box, and CSC is SuperLU's own layout.
+    matrix = coo_matrix((data, (r, c)), shape=(rows.size, rows.size)).tocsc()
+    return spsolve(matrix, rhs, permc_spec="MMD_AT_PLUS_A")
 
 
 @dataclass(frozen=True)

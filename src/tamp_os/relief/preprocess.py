@@ -58,18 +58,24 @@ def _content_extreme(values, usable, sample_size, tail_of, pct):
     return float(np.percentile(values[tail], pct))
 
 
-def _distinct_tails(values, usable, sample, low_pct, high_pct, low, high):
+def _subsample_step(sample_size: int, row_px: int) -> int:
+    """Every how many pixels the ground's statistics look (see _distinct_tails)."""
+    step = max(1, sample_size // SUBSAMPLE_PX)
+    while step > 1 and math.gcd(step, row_px) != 1:
+        step += 1
+    return step
+
+
+def _distinct_tails(values, usable, sample, low_pct, high_pct, low, high, quartiles=None):
     """(low, high) with each end that fell in the ground's noise while a distinct population lies
     beyond it moved to that population's own percentile (see stretch). The ground's median and
     spread, and a first look at each tail, come from at most SUBSAMPLE_PX evenly spaced pixels
     (a statistic of the noise needs no more); a tail that passes is measured on every pixel.
     The step between them shares no factor with the row length, so every column is visited
-    (a one-pixel vertical stroke is not stepped over)."""
-    step = max(1, sample.size // SUBSAMPLE_PX)
-    while step > 1 and math.gcd(step, values.shape[-1]) != 1:
-        step += 1
-    sub = sample[::step]
-    q1, median, q3 = np.percentile(sub, [25.0, 50.0, 75.0])
+    (a one-pixel vertical stroke is not stepped over). `quartiles`: those of that subsample,
+    when the caller has them."""
+    sub = sample[:: _subsample_step(sample.size, values.shape[-1])]
+    q1, median, q3 = np.percentile(sub, [25.0, 50.0, 75.0]) if quartiles is None else quartiles
     noise_sd = _noise_sd(np.array([q1, q3]), low, high)
     far, very_far = DISTINCT_SIGMAS * noise_sd, DISTINCT_MEDIAN_SIGMAS * noise_sd
 
@@ -110,11 +116,14 @@ def stretch(values: np.ndarray, alpha: np.ndarray | None, low_pct: float, *, hig
         sample = values[usable]
     if sample.size == 0:
         return np.zeros(values.shape, np.float32), (0.0, 0.0), True
-    low, high = np.percentile(sample, [low_pct, high_pct])
+    # A picture of up to SUBSAMPLE_PX pixels is its own subsample: its quartiles come from the
+    # same partition as the stretch's percentiles (the same order statistics, one pass fewer).
+    whole = _subsample_step(sample.size, values.shape[-1]) == 1
+    low, high, *quartiles = np.percentile(sample, [low_pct, high_pct] + ([25.0, 50.0, 75.0] if whole else []))
     if not high > low:  # percentiles can coincide in mostly flat images: fall back to the full range
         low, high = float(sample.min()), float(sample.max())
     else:
-        low, high = _distinct_tails(values, usable, sample, low_pct, high_pct, float(low), float(high))
+        low, high = _distinct_tails(values, usable, sample, low_pct, high_pct, float(low), float(high), quartiles if whole else None)
     if not high > low:
         return np.zeros(values.shape, np.float32), (float(low), float(high)), True
     out = (values - np.float32(low)) / np.float32(high - low)
@@ -247,5 +256,4 @@ def prepare(
         image = image * np.clip(resample(alpha, rows, cols), 0.0, 1.0)
     if flip_x:
         image = image[:, ::-1]
-    return Prepared(np.ascontiguousarray(image, dtype=np.float32), (low, high), uniform, fitted_width_px,
-                    fitted, fitted_alpha, invert, flip_x)
+    return Prepared(np.ascontiguousarray(image, dtype=np.float32), (low, high), uniform, fitted_width_px, fitted, fitted_alpha, invert, flip_x)

@@ -82,9 +82,7 @@ class Liblouis:
                 raise ParameterError(f"braille table {table!r}: liblouis cannot use it ({exc}); see 'lou_checktable'.") from None
         if self.command is None:
             raise MissingDependencyError(INSTALL_HINT)
-        done = subprocess.run(
-            [self.command, "--forward", table], input=text, capture_output=True, text=True, encoding="utf-8", errors="replace", timeout=30
-        )
+        done = subprocess.run([self.command, "--forward", table], input=text, capture_output=True, text=True, encoding="utf-8", errors="replace", timeout=30)
         if done.returncode != 0:
             raise ParameterError(f"braille table {table!r}: lou_translate failed ({done.stderr.strip()}).")
         out = done.stdout.rstrip("\n")
@@ -149,8 +147,7 @@ def check_table_name(table: str) -> None:
     if table_exists(table) is False:
         close = closest_tables(table)
         hint = f" The closest are: {'; '.join(t.line() for t in close)}." if close else ""
-        raise ParameterError(f"`braille_table`: liblouis has no table called {table!r}.{hint} "
-                             f"Give a table's file name, such as {DEFAULT_TABLE}.")
+        raise ParameterError(f"`braille_table`: liblouis has no table called {table!r}.{hint} Give a table's file name, such as {DEFAULT_TABLE}.")
 
 
 def _fold(ch: str) -> str:

@@ -70,8 +70,9 @@ def installed_tables() -> tuple[BrailleTable, ...]:
 def tables_for_language(language: str) -> list[BrailleTable]:
     """Tables whose language is `language` ('fr' also finds 'fr-FR'), uncontracted (grade 1) first."""
     lang = language.strip().lower()
-    return sorted((t for t in installed_tables() if t.language.lower() == lang or t.language.lower().startswith(lang + "-")),
-                  key=lambda t: (t.grade != "1", t.name))
+    return sorted(
+        (t for t in installed_tables() if t.language.lower() == lang or t.language.lower().startswith(lang + "-")), key=lambda t: (t.grade != "1", t.name)
+    )
 
 
 def table_exists(name: str) -> bool | None:

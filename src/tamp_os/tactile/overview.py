@@ -42,8 +42,18 @@ class Overview:
     notes: list[str]
 
 
-def overview_heights(figure_px: tuple[int, int], panels: list[OverviewPanel], cols: int, *, rows: int, width_mm: float,
-                     depth_mm: float, base_mm: float, spec: BrailleSpec, table: str) -> tuple[np.ndarray, dict, list[tuple[float, float]], list[str]]:
+def overview_heights(
+    figure_px: tuple[int, int],
+    panels: list[OverviewPanel],
+    cols: int,
+    *,
+    rows: int,
+    width_mm: float,
+    depth_mm: float,
+    base_mm: float,
+    spec: BrailleSpec,
+    table: str,
+) -> tuple[np.ndarray, dict, list[tuple[float, float]], list[str]]:
     """The overview's heightmap, the braille per label, the letters' dot centres in relief mm
     (x right, y up from the relief's bottom edge) and notes."""
     W, H = figure_px
@@ -56,13 +66,15 @@ def overview_heights(figure_px: tuple[int, int], panels: list[OverviewPanel], co
         c0, c1 = int(round(x * sx)), int(round((x + w) * sx))
         r0, r1 = int(round(y * sy)), int(round((y + h) * sy))
         if min(c1 - c0, r1 - r0) * mm < MIN_FRAME_MM:
-            notes.append(f"panel {panel.label} is {min(c1 - c0, r1 - r0) * mm:.0f} mm on the overview, too small for a frame and its letter "
-                         f"(at least {MIN_FRAME_MM:g} mm); it is left flat there")
+            notes.append(
+                f"panel {panel.label} is {min(c1 - c0, r1 - r0) * mm:.0f} mm on the overview, too small for a frame and its letter "
+                f"(at least {MIN_FRAME_MM:g} mm); it is left flat there"
+            )
             continue
         fw = max(1, int(round(FRAME_WIDTH_MM / mm)))
         top = base_mm + FRAME_MM
-        heights[r0:r1, c0:c0 + fw] = heights[r0:r1, c1 - fw:c1] = top
-        heights[r0:r0 + fw, c0:c1] = heights[r1 - fw:r1, c0:c1] = top
+        heights[r0:r1, c0 : c0 + fw] = heights[r0:r1, c1 - fw : c1] = top
+        heights[r0 : r0 + fw, c0:c1] = heights[r1 - fw : r1, c0:c1] = top
         gap = fw + max(1, int(round(HINT_GAP_MM / mm)))
         inner = (r0 + gap, r1 - gap, c0 + gap, c1 - gap)
         braille = to_braille(panel.label, table, what="panel letter")
@@ -74,14 +86,15 @@ def overview_heights(figure_px: tuple[int, int], panels: list[OverviewPanel], co
         pad_r1 = int(np.ceil((ly_mm + bh + CLEARANCE_MM) / mm))
         if pad_c1 > c1 - fw or pad_r1 > r1 - fw:  # the braille would touch the frame: leave it out, and say so
             del letters[panel.label]
-            notes.append(f"panel {panel.label}'s label ({len(braille)} braille cells) does not fit inside its frame on the overview; "
-                         f"the frame is there without it")
+            notes.append(
+                f"panel {panel.label}'s label ({len(braille)} braille cells) does not fit inside its frame on the overview; the frame is there without it"
+            )
             braille = None
         if inner[1] > inner[0] and inner[3] > inner[2]:
             hint = _hint(panel.values, inner[1] - inner[0], inner[3] - inner[2], mm)
-            heights[inner[0]:inner[1], inner[2]:inner[3]] = base_mm + HINT_MM * hint
+            heights[inner[0] : inner[1], inner[2] : inner[3]] = base_mm + HINT_MM * hint
             if braille:
-                heights[r0 + fw:min(pad_r1, r1 - fw), c0 + fw:min(pad_c1, c1 - fw)] = base_mm
+                heights[r0 + fw : min(pad_r1, r1 - fw), c0 + fw : min(pad_c1, c1 - fw)] = base_mm
         if braille:
             dots += dot_centres([braille], spec, lx_mm, top_mm=depth_mm - ly_mm)  # y up from the relief's bottom edge
     return heights, letters, dots, notes
@@ -101,15 +114,27 @@ def _hint(values: np.ndarray, rows: int, cols: int, mm_per_px: float) -> np.ndar
     return np.clip(ndimage.gaussian_filter(small, HINT_BLUR_MM / mm_per_px), 0, 1)
 
 
-def build_overview(figure_px, panels: list[OverviewPanel], cols: int, *, rows: int, width_mm: float, depth_mm: float,
-                   base_mm: float, furniture: Furniture, mesher: str, max_error_mm: float) -> Overview:
+def build_overview(
+    figure_px,
+    panels: list[OverviewPanel],
+    cols: int,
+    *,
+    rows: int,
+    width_mm: float,
+    depth_mm: float,
+    base_mm: float,
+    furniture: Furniture,
+    mesher: str,
+    max_error_mm: float,
+) -> Overview:
     """The overview as one closed solid: the heightmap on its plate, the furniture (caption,
     cut corner) and each panel's letter in braille inside its frame."""
     from ..mesh.adaptive import adaptive_solid
     from ..mesh.solid import grid_solid
 
-    heights, letters, dots, notes = overview_heights(figure_px, panels, cols, rows=rows, width_mm=width_mm, depth_mm=depth_mm, base_mm=base_mm,
-                                                     spec=furniture.spec, table=furniture.braille_table)
+    heights, letters, dots, notes = overview_heights(
+        figure_px, panels, cols, rows=rows, width_mm=width_mm, depth_mm=depth_mm, base_mm=base_mm, spec=furniture.spec, table=furniture.braille_table
+    )
     relief = adaptive_solid(heights, width_mm, depth_mm, max_error_mm=max_error_mm) if mesher == "adaptive" else grid_solid(heights, width_mm, depth_mm)
     plan = plan_furniture(width_mm, depth_mm, furniture)
     ox, oy = plan.placed.relief_origin_mm

@@ -10,8 +10,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from .furniture import (BAR_HEIGHT_MM, FRAME_HEIGHT_MM, Furniture, Placed, relief_part, build_base, build_raised,
-                        fuse_solid, plan_furniture, to_mesh)
+from .furniture import BAR_HEIGHT_MM, FRAME_HEIGHT_MM, Furniture, Placed, relief_part, build_base, build_raised, fuse_solid, plan_furniture, to_mesh
 from ..mesh.solid import Mesh
 
 # Colours a reader with low vision tells apart best on a light plate: white base, black raised.
@@ -48,8 +47,9 @@ def key_overlay_meshes(heights_mm, overlay_mm, base_mm: float, *, mesh_of) -> tu
     return mesh_of(plain), mesh_of(raised)
 
 
-def two_colour_parts(relief: Mesh, width_mm: float, depth_mm: float, *, base_mm: float, furniture: Furniture,
-                     overlay: Mesh | None = None) -> tuple[list[Part], Placed]:
+def two_colour_parts(
+    relief: Mesh, width_mm: float, depth_mm: float, *, base_mm: float, furniture: Furniture, overlay: Mesh | None = None
+) -> tuple[list[Part], Placed]:
     """The print split into a base part (plate and relief) and a raised part (the furniture).
 
     Parameters
@@ -82,8 +82,10 @@ def two_colour_parts(relief: Mesh, width_mm: float, depth_mm: float, *, base_mm:
         top = max(float(relief.vertices[:, 2].max()), float(overlay.vertices[:, 2].max()))
         base = fuse_solid([relief_part(relief, (0.0, 0.0), 0.0)], placed, top)
         raised = fuse_solid([relief_part(overlay, (0.0, 0.0), 0.0)], placed, top) - base
-        return [Part("base", "plate and relief", to_mesh(base), BASE_COLOUR_RGB),
-                Part("raised", "the key's braille and outlines", to_mesh(raised), RAISED_COLOUR_RGB)], placed
+        return [
+            Part("base", "plate and relief", to_mesh(base), BASE_COLOUR_RGB),
+            Part("raised", "the key's braille and outlines", to_mesh(raised), RAISED_COLOUR_RGB),
+        ], placed
     placed = plan.placed
     raised_parts = build_raised(plan, base_mm, furniture.spec)
     top = max(float(relief.vertices[:, 2].max()), base_mm + max(BAR_HEIGHT_MM, FRAME_HEIGHT_MM, furniture.spec.dot_height_mm))

@@ -167,8 +167,7 @@ class RaisedMap:
         hi_i = np.clip(np.floor(hi).astype(int) + 1, 0, size - 1)
         diff = np.zeros((size[1] + 1, size[0] + 1))
         # Each box adds 1 over its squares: four corner updates, then two cumulative sums.
-        for (ys, xs), sign in (((lo_i[:, 1], lo_i[:, 0]), 1), ((lo_i[:, 1], hi_i[:, 0]), -1),
-                               ((hi_i[:, 1], lo_i[:, 0]), -1), ((hi_i[:, 1], hi_i[:, 0]), 1)):
+        for (ys, xs), sign in (((lo_i[:, 1], lo_i[:, 0]), 1), ((lo_i[:, 1], hi_i[:, 0]), -1), ((hi_i[:, 1], lo_i[:, 0]), -1), ((hi_i[:, 1], hi_i[:, 0]), 1)):
             np.add.at(diff, (ys, xs), sign)
         marked = diff.cumsum(axis=0).cumsum(axis=1)[:-1, :-1] > 0
         table = np.zeros((marked.shape[0] + 1, marked.shape[1] + 1))
@@ -209,8 +208,7 @@ def _label_solid(mesh: Mesh, box: Box, on_margin: bool, label: str, base_mm: flo
     stand = base_mm if on_margin else _top_within(mesh, box)
     parts = []
     if not on_margin:  # the pad reaches down into the base, so it overlaps instead of touching
-        parts.append(m3.Manifold.extrude(m3.CrossSection([[(x0, y0), (x1, y0), (x1, y1), (x0, y1)]]), stand - base_mm / 2)
-                     .translate((0, 0, base_mm / 2)))
+        parts.append(m3.Manifold.extrude(m3.CrossSection([[(x0, y0), (x1, y0), (x1, y1), (x0, y1)]]), stand - base_mm / 2).translate((0, 0, base_mm / 2)))
     dome = braille_dome(spec, min(0.4, base_mm / 2))
     parts += [dome.translate((x, y, stand)) for x, y in dot_centres([label], spec, x0, top_mm=y1)]
     return m3.Manifold.batch_boolean(parts, m3.OpType.Add)
@@ -234,12 +232,12 @@ def _region(cell: Box, row: int, col: int, joints: list[Joint]):
 def _solid(mesh: Mesh):
     import manifold3d as m3
 
-    return m3.Manifold(m3.Mesh(vert_properties=np.ascontiguousarray(mesh.vertices, dtype=np.float32),
-                               tri_verts=np.ascontiguousarray(mesh.faces, dtype=np.uint32)))
+    return m3.Manifold(
+        m3.Mesh(vert_properties=np.ascontiguousarray(mesh.vertices, dtype=np.float32), tri_verts=np.ascontiguousarray(mesh.faces, dtype=np.uint32))
+    )
 
 
-def make_tiles(mesh: Mesh, bed_mm: tuple[float, float], base_mm: float, *, spec: BrailleSpec,
-               keep_clear: list[Box] = ()) -> Tiling | None:
+def make_tiles(mesh: Mesh, bed_mm: tuple[float, float], base_mm: float, *, spec: BrailleSpec, keep_clear: list[Box] = ()) -> Tiling | None:
     """Split the plate `mesh` (mm, outline from (0, 0)) into tiles that fit a bed of `bed_mm`.
 
     Parameters
@@ -281,8 +279,11 @@ def make_tiles(mesh: Mesh, bed_mm: tuple[float, float], base_mm: float, *, spec:
             piece = piece + _label_solid(mesh, box, on_margin, label, base_mm, spec)
             # a cut through a fine relief can leave faces of no area once written as float32
             tiles.append(Tile(r + 1, c + 1, cell, as_written(to_mesh(piece)), label, box, on_margin))
-    notes = [f"tiles: the label of tile {t.row}-{t.col} stands on a small pad over the picture (no bare margin in that tile)."
-             for t in tiles if not t.label_on_margin]
+    notes = [
+        f"tiles: the label of tile {t.row}-{t.col} stands on a small pad over the picture (no bare margin in that tile)."
+        for t in tiles
+        if not t.label_on_margin
+    ]
     return Tiling(rows, cols, bed_mm, tiles, joints, rotated, notes)
 
 
@@ -306,8 +307,7 @@ def describe_tiles(tiling: Tiling) -> str:
     )
 
 
-def tiles_for(mesh: Mesh, bed_mm: tuple[float, float], base_mm: float, *, spec: BrailleSpec,
-              picture_box: Box, corner_legs_mm: float = 0.0) -> Tiling | None:
+def tiles_for(mesh: Mesh, bed_mm: tuple[float, float], base_mm: float, *, spec: BrailleSpec, picture_box: Box, corner_legs_mm: float = 0.0) -> Tiling | None:
     """make_tiles for a finished print, keeping the labels off the picture and the cut corner.
 
     `picture_box` is the relief's outline on the plate (mm); `corner_legs_mm` the cut corner's legs.

@@ -1,0 +1,166 @@
+"""The 3MF writer (export/threemf.py) writes its package once; its files read, in lib3mf and
+trimesh, as those lib3mf itself wrote (the writer before): the same vertices by position, the
+same triangles, metadata, attachments and colours, and no relationship that points nowhere."""
+
+from __future__ import annotations
+
+import io
+import zipfile
+from xml.etree import ElementTree as ET
+
+import lib3mf
+import numpy as np
+import pytest
+import trimesh
+
+from tamp_os.export.threemf import write_3mf, write_3mf_parts
+from tamp_os.lithograph.pipeline import make_lithograph
+from tamp_os.tactile.parts import Part
+from threemf_support import SLIC3R_REL, one_mesh_object, parts_by_material, read_3mf
+
+# Both print six decimals of the float32 coordinates; lib3mf rounds some last digits the other
+# way, so a reader's float32 may differ by 1e-6 mm and two float32 steps (2.4e-7 of the value).
+POSITION_MM, POSITION_REL = 1e-6, 2.4e-7
+
+
+@pytest.fixture(scope="module")
+def litho():
+    image = np.random.default_rng(5).random((40, 60))
+    image[10:25, 15:40] += 2.0
+    return make_lithograph(image, width_mm=50, formats=("3mf",), caption="Test", pixel_size=0.5e-6)
+
+
+def _lib3mf_package(mesh, metadata: dict, tmp_path, *, materials=None) -> bytes:
+    """The same mesh written by lib3mf itself, with the same metadata and attachments (the old writer)."""
+    wrapper = lib3mf.get_wrapper()
+    model = wrapper.CreateModel()
+    model.SetUnit(lib3mf.ModelUnit.MilliMeter)
+    obj = model.AddMeshObject()
+    obj.SetName(metadata.get("title", "TAMP-OS lithograph"))
+    obj.SetGeometry(
+        [lib3mf.Position(tuple(float(x) for x in v)) for v in np.asarray(mesh.vertices, np.float32)],
+        [lib3mf.Triangle(tuple(int(i) for i in f)) for f in mesh.faces],
+    )
+    if materials is not None:
+        group = model.AddBaseMaterialGroup()
+        ids = [group.AddMaterial(name, wrapper.RGBAToColor(*rgb, 255)) for name, rgb, _ in materials]
+        obj.SetObjectLevelProperty(group.GetResourceID(), ids[0])
+        per_face = np.repeat(ids, [count for *_, count in materials])
+        obj.SetAllTriangleProperties([lib3mf.TriangleProperties(group.GetResourceID(), (int(m),) * 3) for m in per_face])
+    model.AddBuildItem(obj, wrapper.GetIdentityTransform())
+    group = model.GetMetaDataGroup()
+    for key in ("Title", "Description", "Designer", "Application"):
+        if metadata.get(key.lower()):
+            group.AddMetaData("", key, metadata[key.lower()], "string", True)
+    model.AddCustomContentType("config", "text/plain")
+    for name, data in _attachments(metadata):
+        model.AddAttachment("/" + name, SLIC3R_REL).ReadFromBuffer(list(data))
+    path = tmp_path / "lib3mf.3mf"
+    model.QueryWriter("3mf").WriteToFile(str(path))
+    return path.read_bytes()
+
+
+def _attachments(metadata: dict) -> list[tuple[str, bytes]]:
+    settings = metadata.get("print_settings")
+    if settings is None:
+        return []
+    return [("Metadata/Slic3r_PE.config", settings.prusa_config()), ("Metadata/project_settings.config", settings.bambu_project_settings())]
+
+
+def _read(data: bytes, tmp_path, name: str):
+    path = tmp_path / name
+    path.write_bytes(data)
+    wrapper, model = read_3mf(path)
+    obj = one_mesh_object(model)
+    vertices = np.array([v.Coordinates[:] for v in obj.GetVertices()], dtype=np.float64)
+    faces = np.array([t.Indices[:] for t in obj.GetTriangleIndices()], dtype=np.int64)
+    group = model.GetMetaDataGroup()
+    meta = {group.GetMetaData(i).GetName(): group.GetMetaData(i).GetValue() for i in range(group.GetMetaDataCount())}
+    return path, model, obj, vertices, faces, meta
+
+
+@pytest.mark.timeout(120)
+def test_one_object_reads_as_lib3mf_wrote_it(litho, tmp_path):
+    meta = dict(litho.metadata(), title='Gecko "setae" µm & <Ünïcode>')
+    assert meta.get("print_settings") is not None  # the attachments are part of what is compared
+    fh = io.BytesIO()
+    write_3mf(litho.mesh, fh, meta)
+    new = _read(fh.getvalue(), tmp_path, "new.3mf")
+    old = _read(_lib3mf_package(litho.mesh, meta, tmp_path), tmp_path, "old.3mf")
+    np.testing.assert_array_equal(new[4], old[4])
+    np.testing.assert_allclose(new[3], old[3], rtol=POSITION_REL, atol=POSITION_MM)
+    # and the new text is the better rounding of the mesh's own coordinates
+    assert np.abs(new[3] - litho.mesh.vertices).max() <= np.abs(old[3] - litho.mesh.vertices).max()
+    assert new[5] == old[5] and new[5]["Title"] == meta["title"]
+    assert new[1].GetUnit() == lib3mf.ModelUnit.MilliMeter and new[2].GetName() == meta["title"]
+    assert new[2].IsManifoldAndOriented()
+    a, b = (trimesh.load(p[0], force="mesh", process=True) for p in (new, old))
+    assert a.is_watertight and a.volume == pytest.approx(b.volume, rel=1e-6)
+    np.testing.assert_allclose(a.bounds, b.bounds, rtol=POSITION_REL, atol=POSITION_MM)
+    with zipfile.ZipFile(io.BytesIO(fh.getvalue())) as archive:
+        for name, data in _attachments(meta):
+            assert archive.read(name) == data
+
+
+@pytest.mark.timeout(60)
+def test_parts_read_with_their_materials_as_lib3mf_wrote_them(tmp_path):
+    plate = trimesh.creation.box(extents=(30, 20, 2), transform=trimesh.transformations.translation_matrix((15, 10, 1)))
+    bump = trimesh.creation.box(extents=(8, 8, 2), transform=trimesh.transformations.translation_matrix((15, 10, 3.1)))
+    parts = [Part("base", "plate & <co>", plate, (245, 245, 240)), Part("raised", "bump", bump, (20, 30, 40))]
+    fh = io.BytesIO()
+    write_3mf_parts(parts, fh, {"title": "two boxes"})
+    _, model, obj, vertices, faces, meta = _read(fh.getvalue(), tmp_path, "parts.3mf")
+    assert meta["Application"].endswith("(volumes in PrusaSlicer 3MF layout)")
+    by_material = parts_by_material(obj)
+    assert len(by_material) == 2
+    group = model.GetBaseMaterialGroupByID(obj.GetObjectLevelProperty()[0])
+    for (mesh_read, idx), part, start in zip((by_material[k] for k in sorted(by_material)), parts, (0, len(plate.faces))):
+        assert idx[0] == start and len(idx) == len(part.mesh.faces)
+        assert mesh_read.volume == pytest.approx(part.mesh.volume, rel=1e-6)
+    names = [group.GetName(p) for p in group.GetAllPropertyIDs()]
+    colours = [group.GetDisplayColor(p) for p in group.GetAllPropertyIDs()]
+    assert names == ["plate & <co>", "bump"]
+    assert [(c.Red, c.Green, c.Blue, c.Alpha) for c in colours] == [(245, 245, 240, 255), (20, 30, 40, 255)]
+    volumes = ET.fromstring(zipfile.ZipFile(io.BytesIO(fh.getvalue())).read("Metadata/Slic3r_PE_model.config")).iter("volume")
+    assert [(v.get("firstid"), v.get("lastid")) for v in volumes] == [("0", "11"), ("12", "23")]
+
+
+def _relationship_targets(archive: zipfile.ZipFile) -> list[str]:
+    targets = []
+    for name in archive.namelist():
+        if name.endswith(".rels"):
+            targets += [r.get("Target").lstrip("/") for r in ET.fromstring(archive.read(name))]
+    return targets
+
+
+@pytest.mark.timeout(60)
+def test_package_is_valid_opc_with_no_dangling_relationship(litho):
+    fh = io.BytesIO()
+    write_3mf(litho.mesh, fh, litho.metadata())
+    with zipfile.ZipFile(io.BytesIO(fh.getvalue())) as archive:
+        assert archive.testzip() is None
+        names = archive.namelist()
+        assert "3D/_rels/3dmodel.model.rels" not in names  # the slicers' attachments are found by name
+        targets = _relationship_targets(archive)
+        assert targets == ["3D/3dmodel.model"] and all(t in names for t in targets)
+        ns = "{http://schemas.openxmlformats.org/package/2006/content-types}"
+        types = ET.fromstring(archive.read("[Content_Types].xml"))
+        extensions = {d.get("Extension") for d in types.iter(f"{ns}Default")}
+        assert all(n.rsplit(".", 1)[-1] in extensions for n in names if n != "[Content_Types].xml")
+        assert all(info.date_time == (1980, 1, 1, 0, 0, 0) for info in archive.infolist())
+
+
+@pytest.mark.timeout(120)
+def test_size_close_to_the_old_writer_and_bytes_reproducible(litho, tmp_path):
+    """Written once at zlib level 4 instead of lib3mf's package recompressed at level 6: at most 5 % larger."""
+    meta = litho.metadata()
+    fh, again = io.BytesIO(), io.BytesIO()
+    write_3mf(litho.mesh, fh, meta)
+    write_3mf(litho.mesh, again, meta)
+    assert fh.getvalue() == again.getvalue()
+    old = io.BytesIO()
+    with zipfile.ZipFile(io.BytesIO(_lib3mf_package(litho.mesh, meta, tmp_path))) as src, zipfile.ZipFile(old, "w") as dst:
+        for info in src.infolist():
+            if info.filename != "3D/_rels/3dmodel.model.rels":  # what the old writer's second pass did
+                dst.writestr(info, src.read(info), compress_type=zipfile.ZIP_DEFLATED)
+    assert len(fh.getvalue()) <= 1.05 * len(old.getvalue())

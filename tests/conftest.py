@@ -136,3 +136,16 @@ def _disable_qt_warnings():
 @pytest.fixture
 def _clean_themes():
     return None
+
+
+@pytest.fixture(autouse=True)
+def _locale_kept():
+    """lib3mf (the independent 3MF reader of many tests) sets the process's locale to "C" and leaves
+    it so, which turns Python's default text encoding into ASCII for every later test in the worker
+    (a child's UTF-8 output then fails to decode). Each test gets the locale it started with back."""
+    import locale
+
+    saved = locale.setlocale(locale.LC_ALL)
+    yield
+    if locale.setlocale(locale.LC_ALL) != saved:
+        locale.setlocale(locale.LC_ALL, saved)

@@ -196,7 +196,7 @@ def write_meshes(mesh, folder: Path, stem: str, *, formats: list[str], meta: dic
         path = save_mesh(mesh, folder / f"{stem}.{fmt}", meta, checked=True)
         return fmt, (path, time.perf_counter() - start)
 
-    # Large meshes: the writers spend their time in NumPy and lib3mf's C code, which release
+    # Large meshes: the writers spend their time in NumPy's and zlib's C code, which release
     # the GIL, so writing the formats side by side uses both cores. Small ones: threads cost more.
     if mesh.n_triangles > PARALLEL_WRITE_TRIANGLES and len(formats) > 1:
         pool = ThreadPoolExecutor(max_workers=min(len(formats), os.cpu_count() or 1))
@@ -212,7 +212,7 @@ def dependency_versions() -> dict[str, str]:
     from importlib.metadata import PackageNotFoundError, distribution
 
     out = {}
-    for name in ("numpy", "scipy", "scikit-image", "tifffile", "pillow", "trimesh", "lib3mf"):
+    for name in ("numpy", "scipy", "scikit-image", "tifffile", "pillow", "trimesh", "manifold3d"):
         try:
             out[name] = _version_of(distribution(name))
         except PackageNotFoundError:

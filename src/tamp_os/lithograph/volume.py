@@ -512,7 +512,7 @@ def _fused(path, simplified, width_mm, depth_mm, base_mm, furniture, stand_model
     """(the Stand, its mesh as written): with posts under floating parts, or, when their union leaves
     faces of no area that cannot be repaired, without them; InputError when neither is a sound solid."""
     from ..mesh.budget import from_manifold
-    from ..mesh.repair import remove_slivers
+    from ..mesh.repair import part_pinches, remove_slivers
     from ..mesh.validate import check_as_written
     import manifold3d as m3
 
@@ -524,9 +524,11 @@ def _fused(path, simplified, width_mm, depth_mm, base_mm, furniture, stand_model
             continue
         mesh = from_manifold(stand.solid)
         check = check_as_written(mesh)
-        if not check.ok:
-            mesh = remove_slivers(mesh)
-            check = check_as_written(mesh)
+        for repair in (remove_slivers, part_pinches, lambda m: remove_slivers(part_pinches(m))):
+            if check.ok:
+                break
+            repaired = repair(from_manifold(stand.solid))
+            check, mesh = check_as_written(repaired), repaired
         if check.ok:
             return stand, mesh
         problems = check.problems

@@ -58,3 +58,27 @@ def remove_slivers(mesh: Mesh, passes: int = 6) -> Mesh:
             faces[j] = (c, d, b)
             touched.update((i, j))
     return Mesh(vertices, faces.astype(INDEX))
+
+
+PINCH_NUDGE_MM = 1e-3  # far under a layer; far over float32's step at 1000 mm (61 nm)
+
+
+def part_pinches(mesh: Mesh, *, nudge_mm: float = PINCH_NUDGE_MM) -> Mesh:
+    """`mesh` with the copies of each pinch parted: a solid that touches itself along an edge or at
+    a point holds several vertices at one position (manifold3d keeps them apart by index), which a
+    reader merging by position (every slicer) sees as one, with an edge of four faces. Each copy
+    moves `nudge_mm` toward the middle of its own faces, into its own sheet of the surface."""
+    _, inverse, counts = np.unique(mesh.vertices.astype(np.float32), axis=0, return_inverse=True, return_counts=True)
+    shared = counts[inverse.ravel()] > 1
+    if not shared.any():
+        return mesh
+    faces = np.asarray(mesh.faces, dtype=np.int64)
+    centres = np.repeat(mesh.vertices[faces].mean(axis=1), 3, axis=0)
+    middle = np.zeros_like(mesh.vertices)
+    np.add.at(middle, faces.ravel(), centres)
+    middle /= np.maximum(np.bincount(faces.ravel(), minlength=len(mesh.vertices)), 1)[:, None]
+    toward = middle[shared] - mesh.vertices[shared]
+    length = np.linalg.norm(toward, axis=1, keepdims=True)
+    vertices = mesh.vertices.astype(np.float64, copy=True)
+    vertices[shared] += toward / np.where(length == 0, 1.0, length) * nudge_mm
+    return Mesh(vertices, mesh.faces)

@@ -453,3 +453,19 @@ def test_batch_does_not_make_a_relief_of_a_volume_silently(tmp_path):
 
     with pytest.raises(ParameterError, match="volume"):
         convert(np.zeros((8, 8)), LithoParams(volume=True), tmp_path)
+
+
+@pytest.mark.timeout(120)
+def test_a_budget_the_base_alone_exceeds_is_said_with_the_budget_that_fits(tmp_path):
+    """The whole file counts: when the plate, its braille and scale bar alone take more than
+    `max_triangles`, the model still prints and the warning says how many the file has and what to give."""
+    import re
+
+    stack = write_stack(tmp_path / "ball.tif", lambda x, y, z: 5 - np.sqrt((x - 8) ** 2 + (y - 8) ** 2 + (z - 8) ** 2), (20, 20, 20))
+    done = convert_volume(stack, LithoParams(volume=True, size_mm=30.0, max_triangles=1000), tmp_path)
+    check_solid_file(done.written[0])
+    said = " ".join(str(w) for w in done.model.warnings)
+    found = re.search(r"the file has ([\d,]+) triangles, over max_triangles 1,000: .* alone takes ([\d,]+)\. Give max_triangles at least ([\d,]+)", said)
+    assert found, said
+    total, base, enough = (int(g.replace(",", "")) for g in found.groups())
+    assert total == done.model.mesh.n_triangles > 1000 and base < total and enough > base

@@ -474,6 +474,10 @@ def _stand(out: VolumeModel, path, surface: _Surface, params, per_mm) -> None:
             and params.max_triangles > 2 * extra):
         _leave_room(out, surface, params.max_triangles - extra)
         stand, out.mesh = _fused(path, surface.solid, x, y, params.base_mm, furniture, stand_model)
+    if out.mesh.n_triangles > params.max_triangles:
+        out.warnings.append(Text(f"the file has {out.mesh.n_triangles:,} triangles, over `max_triangles` {params.max_triangles:,}: "
+                                 f"the base with its braille and scale bar alone takes {extra:,}. Give `max_triangles` at least "
+                                 f"{2 * extra + 1:,}, or `volume_stand` none for the bare model."))
     out.floating, out.posts = stand.floating, stand.posts
     out.plate_mm = stand.placed.plate_mm
     out.scale_label = stand.placed.scale_label

@@ -14,6 +14,7 @@ import contextlib
 import csv
 import dataclasses
 import fnmatch
+import functools
 import io
 import json
 import logging
@@ -132,6 +133,7 @@ def convert_one(source: str, out_dir: str, params_json: str, *, stem: str) -> di
     from .outputs import RECIPE_SUFFIX, recipe_outputs_if_current
 
     start = time.perf_counter()
+    reuse_freed_arrays()  # a worker that was not started by warm_worker (a Dask cluster's)
     src, out = Path(source), Path(out_dir)
     params = LithoParams.from_json(params_json)
     done = recipe_outputs_if_current(out / f"{stem}{RECIPE_SUFFIX}", src, params)
@@ -232,11 +234,34 @@ def one_core() -> None:
                     break
 
 
+MMAP_THRESHOLD_BYTES = 32 << 20  # glibc's own upper bound for its sliding threshold
+
+
+@functools.lru_cache(maxsize=1)  # once per process: every worker's first picture (a Dask worker's too)
+def reuse_freed_arrays() -> None:
+    """Let glibc keep freed blocks up to 32 MB for reuse instead of mapping each array afresh.
+
+    A conversion allocates and frees many arrays of 0.1-30 MB. glibc raises its mmap threshold
+    as such blocks are freed, unless MALLOC_TRIM_THRESHOLD_ or MALLOC_MMAP_THRESHOLD_ is set:
+    Dask's nanny sets the first for its workers, and then every array over 128 KB is a new
+    mapping whose pages the kernel zeroes again (measured: the same 18 conversions took 10.2 s
+    of CPU instead of 7.0 s). Setting the threshold here gives back glibc's usual behaviour."""
+    import ctypes
+    import platform
+
+    if platform.libc_ver()[0] != "glibc":
+        return
+    with contextlib.suppress(OSError, AttributeError):
+        M_MMAP_THRESHOLD = -3
+        ctypes.CDLL(None).mallopt(ctypes.c_int(M_MMAP_THRESHOLD), ctypes.c_int(MMAP_THRESHOLD_BYTES))
+
+
 def warm_worker() -> None:
     """Initializer of the batch's worker processes: end with the parent, keep to one core, and import
     the conversion once, before the first picture (the pool keeps the worker, and so its imports)."""
     exit_with_parent()
     one_core()
+    reuse_freed_arrays()
     from . import convert  # noqa: F401  (imported for its side effect: every later picture finds it loaded)
 
 

@@ -62,7 +62,7 @@ def _read_tiff_once(path: Path, page, limits: Limits, z_slice, channel, target_p
     if cache is None:
         return _read_tiff(path, page, limits, z_slice, channel, target_px)
     st = path.stat()
-    key = (str(path), st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns, page, limits, z_slice, target_px)
+    key = (str(path), st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns, st.st_ctime_ns, page, limits, z_slice, target_px)
     asked, decoded = cache.get(key, (None, None))
     if decoded is None or (decoded.channel_chosen and asked != channel):  # a channel picked among planes: its own read
         decoded = _read_tiff(path, page, limits, z_slice, channel, target_px)

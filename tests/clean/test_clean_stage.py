@@ -236,3 +236,27 @@ def test_a_diagrams_strokes_stay_and_its_words_go():
     assert not cleaned.mask[truth.lines].any()
     assert cleaned.mask[truth.text].all()
     assert np.median(cleaned.values[truth.text]) > 200  # inpainted with the paper around them
+
+
+@pytest.mark.timeout(120)
+def test_one_core_reads_the_scale_bar_in_place_with_the_same_result(fixture, monkeypatch):
+    """TAMP_THREADS=1 (a batch worker with one core to itself): the scale bar's label is read before
+    clean_picture returns, on this thread, and gives what the reading beside the relief gives."""
+    import threading
+    from concurrent.futures import Future
+
+    from tamp_os.clean import stage
+
+    need(shutil.which("tesseract") is not None, "Tesseract OCR (apt-get install tesseract-ocr)")
+    picture = read_image(fixture("fept_spheres_sem.png"))
+    beside = clean_picture(picture, pixel_size_m=None, remove_annotations=True).pixel_size
+    monkeypatch.setenv("TAMP_THREADS", "1")
+    stage._reader.cache_clear()
+    try:
+        threads = {t.name for t in threading.enumerate()}
+        found = clean_picture(picture, pixel_size_m=None, remove_annotations=True)
+        assert not isinstance(found.pixel_size_found, Future) or found.pixel_size_found.done()
+        assert {t.name for t in threading.enumerate()} <= threads
+    finally:
+        stage._reader.cache_clear()
+    assert found.pixel_size == beside and beside.provenance == "scale bar label"

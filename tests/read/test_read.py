@@ -227,3 +227,32 @@ def test_the_limits_hints_say_the_option_as_it_is_typed(tmp_path):
     with pytest.raises(InputError) as info:
         read_image(png, max_megapixels=0.5)
     assert "--max-megapixels 2." in cli_words(info.value) and "= " not in cli_words(info.value), cli_words(info.value)
+
+
+def test_a_tiff_is_decoded_once_within_a_conversion_and_again_when_it_changes(tmp_path):
+    """decoded_once(): the reads of one conversion share the decoded pixels (read-only), give what
+    separate reads give, and a file rewritten in between is read anew; its hash follows its bytes."""
+    import os
+
+    from tamp_os.read.image import decoded_once
+
+    rng = np.random.default_rng(1)
+    rgb = rng.integers(0, 256, (40, 50, 3), dtype=np.uint8)
+    path = tmp_path / "rgb.tif"
+    tifffile.imwrite(path, rgb, photometric="rgb")
+    alone = [read_image(path, keep_colour=True), read_image(path, channel="red")]
+    with decoded_once():
+        first, red = read_image(path, keep_colour=True), read_image(path, channel="red")
+        again = read_image(path, keep_colour=True)
+        assert np.shares_memory(first.colour, again.colour) and not np.shares_memory(alone[0].colour, first.colour)
+        with pytest.raises(ValueError):
+            first.colour[0, 0, 0] = 1  # shared: nobody may change it
+        assert np.array_equal(first.values, alone[0].values) and np.array_equal(red.values, alone[1].values)
+        assert first.file.sha256 == alone[0].file.sha256
+        changed = rgb.copy()
+        changed[0, 0] ^= 255
+        tifffile.imwrite(path, changed, photometric="rgb")  # the same size, other bytes
+        os.utime(path, ns=(1, 1))  # even with an older time stamp
+        after = read_image(path, keep_colour=True)
+    assert np.array_equal(after.colour, changed) and after.file.sha256 != first.file.sha256
+    assert read_image(path).file.sha256 == after.file.sha256

@@ -122,10 +122,26 @@ def clean_picture(picture: Picture, *, pixel_size_m: float | None, remove_annota
 
 
 @functools.lru_cache(maxsize=1)
-def _reader() -> ThreadPoolExecutor:
+def _reader() -> ThreadPoolExecutor | _InPlace:
     """One thread for reading scale bars: Tesseract is a separate process, so it overlaps the
-    relief and mesh work of this one (the pipeline needs the scale only for the furniture)."""
+    relief and mesh work of this one (the pipeline needs the scale only for the furniture).
+    A batch worker that has one core to itself (TAMP_THREADS=1) reads them in place instead:
+    its neighbour worker already uses the other core, and a second thread would only compete."""
+    if os.environ.get("TAMP_THREADS") == "1":
+        return _InPlace()
     return ThreadPoolExecutor(max_workers=1, thread_name_prefix="tamp-scalebar")
+
+
+class _InPlace:
+    """`submit` that runs the call at once and returns its finished future (the same result, no thread)."""
+
+    def submit(self, fn, /, *args, **kwargs) -> Future:
+        future: Future = Future()
+        try:
+            future.set_result(fn(*args, **kwargs))
+        except BaseException as exc:  # handed to whoever asks for the result, as a thread's would be
+            future.set_exception(exc)
+        return future
 
 
 os.register_at_fork(after_in_child=_reader.cache_clear)  # a forked worker starts its own thread, not the parent's

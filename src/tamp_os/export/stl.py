@@ -8,6 +8,7 @@ cores for large meshes.
 
 from __future__ import annotations
 
+import os
 from collections import deque
 from concurrent.futures import ThreadPoolExecutor
 
@@ -40,7 +41,7 @@ def write_stl(mesh, fh, metadata: dict) -> None:
     fh.write(np.uint32(mesh.n_triangles).tobytes())
     vertices = mesh.vertices.astype(np.float32)
     starts = range(0, mesh.n_triangles, CHUNK)
-    if len(starts) <= 1:
+    if len(starts) <= 1 or os.environ.get("TAMP_THREADS") == "1":  # one core (a batch worker): no helper threads
         for start in starts:
             fh.write(memoryview(_records(vertices, mesh.faces[start : start + CHUNK])).cast("B"))
         return

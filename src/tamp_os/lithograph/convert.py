@@ -113,6 +113,7 @@ def convert(source, params: LithoParams | None, out_dir, *, stem: str | None = N
     >>> done.names
     ['ramp.stl', 'ramp.description.txt', 'ramp.tamp.json']
     """
+    from ..read.image import decoded_once
     from .figure import make_figure
 
     if params is not None and params.volume:  # lithograph/volume.py makes those; a relief here would ignore it silently
@@ -127,7 +128,8 @@ def convert(source, params: LithoParams | None, out_dir, *, stem: str | None = N
         raise ParameterError("`sections`: a series of sections is made by `tamp-os convert` (lithograph.sections.convert_sections); "
                              "batch, sweep and the web app do not make them yet. Leave `sections` out for one relief.",
                              parameter="sections", value=params.sections)
-    figure = make_figure(source, params or LithoParams(), printer_profile=printer_profile)
+    with decoded_once():  # the file's pixels decoded once for the figure, the print and its colour channels
+        figure = make_figure(source, params or LithoParams(), printer_profile=printer_profile)
     out = Path(out_dir)
     base = stem or figure.prints[0][1].name
     prints = []

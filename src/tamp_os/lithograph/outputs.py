@@ -198,7 +198,8 @@ def write_meshes(mesh, folder: Path, stem: str, *, formats: list[str], meta: dic
 
     # Large meshes: the writers spend their time in NumPy's and zlib's C code, which release
     # the GIL, so writing the formats side by side uses both cores. Small ones: threads cost more.
-    if mesh.n_triangles > PARALLEL_WRITE_TRIANGLES and len(formats) > 1:
+    # A batch worker with one core to itself (TAMP_THREADS=1) writes them one after the other.
+    if mesh.n_triangles > PARALLEL_WRITE_TRIANGLES and len(formats) > 1 and os.environ.get("TAMP_THREADS") != "1":
         pool = ThreadPoolExecutor(max_workers=min(len(formats), os.cpu_count() or 1))
         try:
             return dict(pool.map(write, formats))

@@ -173,7 +173,7 @@ def test_size_close_to_the_old_writer_and_bytes_reproducible(litho, tmp_path):
 
 # Any text: control characters, lone surrogates, XML's own characters, emoji, right-to-left.
 HOSTILE_TEXT = st.text(st.characters(codec=None, exclude_categories=()), max_size=30) | st.sampled_from(
-    ['& < > " \' &amp; ]]> <!--', "\x00\x01\x07\x1b\ufffe\uffff", "😀🧬 שלום مرحبا", "x" * 5000, "\ud800 lone"]
+    ["& < > \" ' &amp; ]]> <!--", "\x00\x01\x07\x1b\ufffe\uffff", "😀🧬 שלום مرحبا", "x" * 5000, "\ud800 lone"]
 )
 
 

@@ -184,24 +184,49 @@ def _random_mesh(seed: int, count: int, scale_mm: float):
     return trimesh.Trimesh(vertices, faces, process=False)
 
 
+def _as_read(text: str, *, attribute: bool = False) -> str:
+    """What an XML reader reads of `text` written as element text or an attribute: characters
+    XML cannot hold as U+FFFD, a carriage return as a newline; in an attribute, tab and newline as spaces."""
+    read = xml_text(text).replace("\r\n", "\n").replace("\r", "\n")
+    return read.replace("\t", " ").replace("\n", " ") if attribute else read
+
+
 @pytest.mark.timeout(120)
 @settings(max_examples=examples(40), deadline=None)
 @given(title=HOSTILE_TEXT, description=HOSTILE_TEXT, count=st.integers(3, 20), seed=st.integers(0, 2**31), scale_mm=st.sampled_from([1e-3, 1.0, 400.0]))
 def test_any_metadata_and_mesh_read_back_intact(tmp_path_factory, title, description, count, seed, scale_mm):
-    """lib3mf reads every mesh and metadata text exactly (characters XML cannot hold as U+FFFD),
-    without a warning, and the model part is well-formed XML for any other reader."""
+    """lib3mf reads every mesh exactly and every metadata text as an XML reader (ElementTree, and
+    PrusaSlicer's expat) reads it, without a warning: the readers agree."""
     mesh = _random_mesh(seed, count, scale_mm)
     fh = io.BytesIO()
     write_3mf(mesh, fh, {"title": title, "description": description})
     _, model, obj, vertices, faces, meta = _read(fh.getvalue(), tmp_path_factory.mktemp("h"), "h.3mf")
     np.testing.assert_array_equal(faces, mesh.faces)
     np.testing.assert_allclose(vertices, mesh.vertices.astype(np.float32), rtol=POSITION_REL, atol=POSITION_MM)
-    assert meta.get("Title", "") == xml_text(title) and meta.get("Description", "") == xml_text(description)
-    assert obj.GetName() == xml_text(title)
+    assert meta.get("Title", "") == _as_read(title) and meta.get("Description", "") == _as_read(description)
+    assert obj.GetName() == _as_read(title, attribute=True)
     with zipfile.ZipFile(io.BytesIO(fh.getvalue())) as archive:
         root = ET.fromstring(archive.read("3D/3dmodel.model"))
     ns = "{http://schemas.microsoft.com/3dmanufacturing/core/2015/02}"
+    assert {e.get("name"): e.text for e in root.findall(f"{ns}metadata")} == {k: v for k, v in meta.items() if k in ("Title", "Description")}
+    assert root.find(f"{ns}resources/{ns}object").get("name") == obj.GetName()
     assert len(root.findall(f"{ns}resources/{ns}object/{ns}mesh/{ns}triangles/{ns}triangle")) == len(mesh.faces)
+
+
+@pytest.mark.timeout(60)
+def test_line_breaks_and_tabs_read_the_same_in_lib3mf_and_an_xml_reader(tmp_path):
+    """A carriage return, CR LF, tab and newline in the title: lib3mf (which does not normalise
+    XML's line ends or attribute values) reads what ElementTree and PrusaSlicer read."""
+    title = "a\r\nb\tc\nd\re"
+    fh = io.BytesIO()
+    write_3mf(trimesh.creation.box(), fh, {"title": title, "description": title})
+    _, _, obj, _, _, meta = _read(fh.getvalue(), tmp_path, "breaks.3mf")
+    assert meta["Title"] == meta["Description"] == "a\nb\tc\nd\ne"
+    assert obj.GetName() == "a b c d e"
+    root = ET.fromstring(zipfile.ZipFile(io.BytesIO(fh.getvalue())).read("3D/3dmodel.model"))
+    ns = "{http://schemas.microsoft.com/3dmanufacturing/core/2015/02}"
+    assert [e.text for e in root.findall(f"{ns}metadata")] == [meta["Title"], meta["Description"]]
+    assert root.find(f"{ns}resources/{ns}object").get("name") == obj.GetName()
 
 
 def _two_parts():

@@ -263,3 +263,16 @@ def test_one_part_is_one_volume_on_extruder_1(tmp_path):
 def test_multicolour_with_tiles_is_refused():
     with pytest.raises(ParameterError, match="multicolour and bed_mm"):
         LithoParams(multicolour=True, bed_mm="120")
+
+
+@pytest.mark.timeout(120)
+def test_a_file_name_picks_the_format_of_a_two_colour_print_or_is_refused_clearly(two_colour, tmp_path):
+    """NAME.stp (step's other suffix) writes the fused solid; a name whose suffix no format has
+    (a folder meant as out/run1.5) is refused with one sentence naming it, before any file is
+    written (both were an unexpected KeyError in the two-colour writer)."""
+    litho = two_colour[0]
+    written = litho.save(tmp_path / "print.stp")
+    assert [p.name for p in written if p.suffix == ".stp"] == ["print.stp"]
+    with pytest.raises(ParameterError, match=r"run1\.5.*no format is written as '\.5'.*\.3mf.*folder"):
+        litho.save(tmp_path / "out" / "run1.5")
+    assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())

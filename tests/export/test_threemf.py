@@ -5,6 +5,8 @@ same triangles, metadata, attachments and colours, and no relationship that poin
 from __future__ import annotations
 
 import io
+import shutil
+import subprocess
 import zipfile
 from xml.etree import ElementTree as ET
 
@@ -12,8 +14,11 @@ import lib3mf
 import numpy as np
 import pytest
 import trimesh
+from conftest import examples, need
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
-from tamp_os.export.threemf import write_3mf, write_3mf_parts
+from tamp_os.export.threemf import SLIC3R_MODEL_CONFIG, write_3mf, write_3mf_parts, xml_text
 from tamp_os.lithograph.pipeline import make_lithograph
 from tamp_os.tactile.parts import Part
 from threemf_support import SLIC3R_REL, one_mesh_object, parts_by_material, read_3mf
@@ -164,3 +169,106 @@ def test_size_close_to_the_old_writer_and_bytes_reproducible(litho, tmp_path):
             if info.filename != "3D/_rels/3dmodel.model.rels":  # what the old writer's second pass did
                 dst.writestr(info, src.read(info), compress_type=zipfile.ZIP_DEFLATED)
     assert len(fh.getvalue()) <= 1.05 * len(old.getvalue())
+
+
+# Any text: control characters, lone surrogates, XML's own characters, emoji, right-to-left.
+HOSTILE_TEXT = st.text(st.characters(codec=None, exclude_categories=()), max_size=30) | st.sampled_from(
+    ["& < > \" ' &amp; ]]> <!--", "\x00\x01\x07\x1b\ufffe\uffff", "😀🧬 שלום مرحبا", "x" * 5000, "\ud800 lone"]
+)
+
+
+def _random_mesh(seed: int, count: int, scale_mm: float):
+    rng = np.random.default_rng(seed)
+    vertices = rng.normal(size=(count, 3)) * scale_mm
+    faces = np.array([rng.choice(count, 3, replace=False) for _ in range(count)])
+    return trimesh.Trimesh(vertices, faces, process=False)
+
+
+def _as_read(text: str, *, attribute: bool = False) -> str:
+    """What an XML reader reads of `text` written as element text or an attribute: characters
+    XML cannot hold as U+FFFD, a carriage return as a newline; in an attribute, tab and newline as spaces."""
+    read = xml_text(text).replace("\r\n", "\n").replace("\r", "\n")
+    return read.replace("\t", " ").replace("\n", " ") if attribute else read
+
+
+@pytest.mark.timeout(120)
+@settings(max_examples=examples(40), deadline=None)
+@given(title=HOSTILE_TEXT, description=HOSTILE_TEXT, count=st.integers(3, 20), seed=st.integers(0, 2**31), scale_mm=st.sampled_from([1e-3, 1.0, 400.0]))
+def test_any_metadata_and_mesh_read_back_intact(tmp_path_factory, title, description, count, seed, scale_mm):
+    """lib3mf reads every mesh exactly and every metadata text as an XML reader (ElementTree, and
+    PrusaSlicer's expat) reads it, without a warning: the readers agree."""
+    mesh = _random_mesh(seed, count, scale_mm)
+    fh = io.BytesIO()
+    write_3mf(mesh, fh, {"title": title, "description": description})
+    _, model, obj, vertices, faces, meta = _read(fh.getvalue(), tmp_path_factory.mktemp("h"), "h.3mf")
+    np.testing.assert_array_equal(faces, mesh.faces)
+    np.testing.assert_allclose(vertices, mesh.vertices.astype(np.float32), rtol=POSITION_REL, atol=POSITION_MM)
+    assert meta.get("Title", "") == _as_read(title) and meta.get("Description", "") == _as_read(description)
+    assert obj.GetName() == _as_read(title, attribute=True)
+    with zipfile.ZipFile(io.BytesIO(fh.getvalue())) as archive:
+        root = ET.fromstring(archive.read("3D/3dmodel.model"))
+    ns = "{http://schemas.microsoft.com/3dmanufacturing/core/2015/02}"
+    assert {e.get("name"): e.text for e in root.findall(f"{ns}metadata")} == {k: v for k, v in meta.items() if k in ("Title", "Description")}
+    assert root.find(f"{ns}resources/{ns}object").get("name") == obj.GetName()
+    assert len(root.findall(f"{ns}resources/{ns}object/{ns}mesh/{ns}triangles/{ns}triangle")) == len(mesh.faces)
+
+
+@pytest.mark.timeout(60)
+def test_line_breaks_and_tabs_read_the_same_in_lib3mf_and_an_xml_reader(tmp_path):
+    """A carriage return, CR LF, tab and newline in the title: lib3mf (which does not normalise
+    XML's line ends or attribute values) reads what ElementTree and PrusaSlicer read."""
+    title = "a\r\nb\tc\nd\re"
+    fh = io.BytesIO()
+    write_3mf(trimesh.creation.box(), fh, {"title": title, "description": title})
+    _, _, obj, _, _, meta = _read(fh.getvalue(), tmp_path, "breaks.3mf")
+    assert meta["Title"] == meta["Description"] == "a\nb\tc\nd\ne"
+    assert obj.GetName() == "a b c d e"
+    root = ET.fromstring(zipfile.ZipFile(io.BytesIO(fh.getvalue())).read("3D/3dmodel.model"))
+    ns = "{http://schemas.microsoft.com/3dmanufacturing/core/2015/02}"
+    assert [e.text for e in root.findall(f"{ns}metadata")] == [meta["Title"], meta["Description"]]
+    assert root.find(f"{ns}resources/{ns}object").get("name") == obj.GetName()
+
+
+def _two_parts():
+    plate = trimesh.creation.box(extents=(30, 20, 2), transform=trimesh.transformations.translation_matrix((15, 10, 1)))
+    bump = trimesh.creation.box(extents=(8, 8, 2), transform=trimesh.transformations.translation_matrix((15, 10, 3)))
+    return [Part("base", 'plate & <co> "x"\n', plate, (245, 245, 240)), Part("raised", "\x01 bump 😀", bump, (20, 30, 40))]
+
+
+@pytest.mark.timeout(60)
+@pytest.mark.parametrize("kind", ["one mesh", "parts"])
+def test_every_package_part_has_a_content_type_and_every_relationship_a_target(litho, kind):
+    meta = dict(litho.metadata(), title='A & <b> "c"')
+    fh = io.BytesIO()
+    (write_3mf(litho.mesh, fh, meta) if kind == "one mesh" else write_3mf_parts(_two_parts(), fh, meta))
+    with zipfile.ZipFile(io.BytesIO(fh.getvalue())) as archive:
+        names = archive.namelist()
+        assert len(names) == len(set(names)) and {"3D/3dmodel.model", "[Content_Types].xml", "_rels/.rels"} <= set(names)
+        ns = "{http://schemas.openxmlformats.org/package/2006/content-types}"
+        types = ET.fromstring(archive.read("[Content_Types].xml"))
+        extensions = {d.get("Extension").lower() for d in types.iter(f"{ns}Default")}
+        assert all(n.rsplit(".", 1)[-1].lower() in extensions for n in names if n != "[Content_Types].xml")
+        assert all(t in names for t in _relationship_targets(archive))
+        for name in names:
+            if name.endswith((".rels", ".model", ".xml")) or name == SLIC3R_MODEL_CONFIG:
+                ET.fromstring(archive.read(name))  # well-formed
+    expected = 2 + (kind == "parts")
+    assert sum(n.startswith("Metadata/") for n in names) == expected  # the print settings (Prusa and Bambu) and the volumes
+
+
+@pytest.mark.timeout(300)
+def test_prusaslicer_reads_parts_with_hostile_names_and_slices_them(litho, tmp_path):
+    """PrusaSlicer's own reader (--info) and its slicer take a two-part file with XML-hostile names."""
+    need(shutil.which("prusa-slicer") is not None, "PrusaSlicer (apt-get install prusa-slicer)")
+    parts = _two_parts()
+    path = tmp_path / "hostile.3mf"
+    with path.open("wb") as fh:
+        write_3mf_parts(parts, fh, dict(litho.metadata(), title='A & <b> "c" \x02 😀 שלום', description="x" * 5000))
+    done = subprocess.run(["prusa-slicer", "--info", str(path)], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr[-2000:]
+    info = dict(tuple(s.strip() for s in line.split("=", 1)) for line in done.stdout.splitlines() if "=" in line)
+    assert info["manifold"] == "yes" and int(info["number_of_facets"]) == sum(len(p.mesh.faces) for p in parts)
+    assert float(info["size_x"]) == pytest.approx(30.0) and float(info["max_z"]) == pytest.approx(4.0)
+    gcode = tmp_path / "hostile.gcode"
+    done = subprocess.run(["prusa-slicer", "--export-gcode", "--output", str(gcode), str(path)], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0 and gcode.stat().st_size > 0, done.stderr[-2000:]

@@ -13,15 +13,18 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from . import check_export, save_mesh
+from . import check_export, format_of, save_mesh
 from .files import write_atomic
 
 
 def split_formats(formats: list[str]) -> tuple[list[str], list[str]]:
     """(formats written per part, formats written as the fused solid) for a two-colour print."""
-    from ..formats import BY_NAME
+    from ..formats import by_suffix
 
-    per_part = [f for f in formats if BY_NAME[f].holds_parts]
+    for f in formats:  # a format named by a file's suffix ('stp' is step); what no one writes is refused
+        if by_suffix(f) is None:
+            format_of(Path(f"print.{f}"))
+    per_part = [f for f in formats if by_suffix(f).holds_parts]
     return per_part, [f for f in formats if f not in per_part]
 
 

@@ -36,9 +36,18 @@ def xml_text(value) -> str:
     return "".join(ch if ch in "\t\n\r" or ("\x20" <= ch <= "\ud7ff") or ("\ue000" <= ch <= "\ufffd") or ch >= "\U00010000" else "\ufffd" for ch in str(value))
 
 
+def _text(value) -> str:
+    """`value` escaped for XML element text (xml.sax's escape would import urllib). A carriage
+    return (and CR LF) becomes a newline, as an XML reader such as PrusaSlicer's expat reads it;
+    lib3mf does not normalise line ends and refuses the character reference that would keep
+    one, so only this way do all readers read the same text."""
+    return xml_text(value).replace("\r\n", "\n").replace("\r", "\n").replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;").replace('"', "&quot;")
+
+
 def _attr(value) -> str:
-    """`value` escaped for an XML attribute or element text (xml.sax's escape would import urllib)."""
-    return xml_text(value).replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;").replace('"', "&quot;")
+    """`value` escaped for a double-quoted XML attribute: as _text, and tab and newline become
+    spaces, as an XML reader normalises an attribute (lib3mf does not: see _text)."""
+    return _text(value).replace("\t", " ").replace("\n", " ")
 
 
 def write_3mf(mesh, fh, metadata: dict) -> None:
@@ -89,7 +98,7 @@ def _model_xml(geometry: Geometry, metadata: dict, *, resources: str = "", objec
     for key in ("Title", "Description", "Designer", "Application"):
         value = metadata.get(key.lower())
         if value:
-            head.append(f'<metadata name="{key}" type="string" preserve="1">{_attr(value)}</metadata>')
+            head.append(f'<metadata name="{key}" type="string" preserve="1">{_text(value)}</metadata>')
     head += ["<resources>", resources] if resources else ["<resources>"]
     head.append(f'<object id="{geometry.object_id}" name="{_attr(geometry.title)}" type="model" p:UUID="{geometry.uuid("object")}"{object_extra}>')
     head.append("<mesh>\n<vertices>\n")

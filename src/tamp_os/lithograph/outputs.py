@@ -20,7 +20,7 @@ import numpy as np
 from ..errors import ExportError, InputError, ParameterError
 from ..export import check_export, save_mesh
 from ..export.files import to_uint8, write_png, write_text
-from ..formats import BY_NAME, DOCUMENT_FORMATS, GRAPHIC_FORMATS, PIN_FORMATS
+from ..formats import BY_NAME, DOCUMENT_FORMATS, GRAPHIC_FORMATS, PIN_FORMATS, by_suffix
 from ..params import LithoParams
 from ..printing.printers import PrinterProfile
 from .report import Printing, describe
@@ -131,6 +131,11 @@ def _target(litho, target: Path, formats, stem) -> tuple[Path, str, list[str]]:
     if document and not target.is_dir():  # NAME.ebrl, NAME.tour.html (a suffix of two parts)
         folder, stem, formats = target.parent, target.name[: -len(BY_NAME[document].suffix)], [document]
     elif target.suffix and not target.is_dir():
+        if by_suffix(target.suffix) is None:  # else a two-colour or tiled print would fail deep in the writers
+            raise ParameterError(
+                f"{target}: no format is written as '{target.suffix}'; name a file ending in one of "
+                f"{', '.join(sorted({x for f in BY_NAME.values() for x in f.suffixes}))}, or give a folder (one that exists, or a name without a dot)."
+            )
         folder, stem, formats = target.parent, target.stem, [target.suffix.lstrip(".").lower()]
     else:
         folder, stem = target, stem or litho.name

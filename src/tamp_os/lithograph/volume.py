@@ -526,13 +526,13 @@ def _fused(path, simplified, width_mm, depth_mm, base_mm, furniture, stand_model
         if stand.solid.status() != m3.Error.NoError:
             problems = [str(stand.solid.status())]
             continue
-        mesh = from_manifold(stand.solid)
+        raw = mesh = from_manifold(stand.solid)
         check = check_as_written(mesh)
         for repair in (remove_slivers, part_pinches, lambda m: remove_slivers(part_pinches(m))):
             if check.ok:
                 break
-            repaired = repair(from_manifold(stand.solid))
-            check, mesh = check_as_written(repaired), repaired
+            mesh = repair(raw)  # each repair from the solid as made (neither changes its input)
+            check = check_as_written(mesh)
         if check.ok:
             return stand, mesh
         problems = check.problems

@@ -154,7 +154,7 @@ def thicken(mask: np.ndarray, spacing_mm, min_wall_mm: float, *, report: MaskRep
     radius = min_wall_mm / 2
     if not mask.any() or radius <= 0:
         return mask
-    margin = int(np.ceil((radius + float(spacing.max())) / float(spacing.min()))) + 6  # > _Growth.pad + a clear shell
+    margin = _growth_pad(spacing, radius) + 3  # wider than a part's growth box, and a clear shell beyond it
     along = [np.flatnonzero(mask.any(axis=tuple(a for a in range(3) if a != k))) for k in range(3)]
     crop = tuple(slice(max(int(e[0]) - margin, 0), min(int(e[-1]) + 1 + margin, n)) for e, n in zip(along, mask.shape))
     inner = _thicken_box(mask[crop], spacing, min_wall_mm, report=report, offset=tuple(c.start for c in crop), shape=mask.shape)
@@ -162,7 +162,7 @@ def thicken(mask: np.ndarray, spacing_mm, min_wall_mm: float, *, report: MaskRep
         return mask
     out = mask.copy()
     out[crop] = inner
-    field_ = np.full(mask.shape, -np.float32(radius + 0.25 * float(spacing.max())), np.float32)  # _Growth's "not grown"
+    field_ = np.full(mask.shape, -np.float32(_ridge_reach(spacing, radius)), np.float32)  # _Growth's "not grown"
     field_[crop] = report.grow_field
     report.grow_field = field_
     return out
@@ -191,7 +191,7 @@ def _thicken_box(mask: np.ndarray, spacing: np.ndarray, min_wall_mm: float, *, r
     # within half a voxel whether the wall is an odd or an even number of voxels across.
     thinnest = np.maximum(2 * np.asarray(ndimage.median(inside, np.where(centres, parts, 0), index), float).reshape(-1) - 0.5 * vox, 0.0)
     del inside
-    report.grown_mm = radius + 0.25 * vox
+    report.grown_mm = _ridge_reach(spacing, radius)
     growth = _Growth(mask, parts, centres, boxes, spacing, radius, thinnest)
     bad = growth.grow(range(1, n + 1))
     merging = _merging_parts(mask, parts, growth.owner, n)
@@ -215,6 +215,16 @@ def _thicken_box(mask: np.ndarray, spacing: np.ndarray, min_wall_mm: float, *, r
     return out
 
 
+def _ridge_reach(spacing: np.ndarray, radius: float) -> float:
+    """The radius of the balls a thin part grows on its ridge (mm): the wall's, and a quarter voxel spare."""
+    return radius + 0.25 * float(spacing.max())
+
+
+def _growth_pad(spacing: np.ndarray, radius: float) -> int:
+    """Voxels around a thin part's box that its growth (and the neighbourhood its Euler number is counted in) may reach."""
+    return int(np.ceil((radius + float(spacing.max())) / float(spacing.min()))) + 3
+
+
 class _Growth:
     """The thin parts' growth, part by part in its own box: `field` (mm, ≥ 0 where grown) and
     `owner` (the part each grown voxel grew from)."""
@@ -222,9 +232,8 @@ class _Growth:
     def __init__(self, mask, parts, centres, boxes, spacing, radius: float, thinnest):
         self.mask, self.parts, self.centres, self.boxes = mask, parts, centres, boxes
         self.spacing, self.radius, self.thinnest = spacing, radius, thinnest
-        vox = float(spacing.max())
-        self.reach = radius + 0.25 * vox  # the balls on the ridge: a quarter voxel spare
-        self.pad = int(np.ceil((radius + vox) / float(spacing.min()))) + 3
+        self.reach = _ridge_reach(spacing, radius)
+        self.pad = _growth_pad(spacing, radius)
         self.field = self.owner = None
 
     def grow(self, which) -> dict[int, str]:

@@ -181,11 +181,6 @@ def main() -> int:
 
             for run in ("actual", "expected"):
                 shutil.copytree(tmp / run, args.keep / run, dirs_exist_ok=True)
-        if args.keep:
-            import shutil
-
-            for run in ("actual", "expected"):
-                shutil.copytree(tmp / run, args.keep / run, dirs_exist_ok=True)
     for line in problems:
         print(line)
     print(f"{n_files} files compared with {args.ref}: " + ("all identical" if not problems else f"{len(problems)} differ"))

@@ -48,6 +48,7 @@ from .lines import (
 )
 from .dense import BlobScale, blob_scale, scale_stack
 from .objects import ObjectMap, dome_profile, label_max, label_median
+from .scales import wide_gaussian
 from .population import (
     BACKGROUND_MM,
     Members,
@@ -247,7 +248,7 @@ def lattice_spectrum(work: np.ndarray, pitch_mm: float) -> Spectrum:
     the detail's power, how peaked it is, and whether it peaks in two directions. One FFT serves
     the content style, the legibility check (on the heights) and the content word of a panel."""
     rows, cols = work.shape
-    detail = work - ndimage.gaussian_filter(work, 4.0 / pitch_mm, mode="nearest")
+    detail = work - wide_gaussian(work, 4.0 / pitch_mm)
     window = np.outer(np.hanning(rows), np.hanning(cols)).astype(np.float32)
     # scipy.fft keeps float32 (numpy's FFT works in float64): half the work, the same peak.
     spectrum = scipy.fft.rfft2((detail * window).astype(np.float32))

@@ -45,6 +45,32 @@ def coarse_gaussian_mm(image: np.ndarray, sigma_mm: float, pitch_mm: float) -> n
     return resize_to(blurred, (rows, cols), nearest=False)
 
 
+def wide_gaussian(image: np.ndarray, sigma_px: float, *, truncate: float = 4.0) -> np.ndarray:
+    """ndimage.gaussian_filter(image, sigma_px, mode="nearest") in float32, to float32 rounding
+    (measured: 2.4e-7 at most on 0..1 pictures), by FFT of the picture extended by its edge pixels.
+    A kernel of 4 sigma each side costs O(sigma) per pixel directly: at sigma 20 px (a 4 mm blur
+    on a fine grid) 15 ms against 3.6 ms here. For wide kernels whose result is only measured
+    (the lattice spectrum's detail), not printed."""
+    import scipy.fft
+
+    radius = int(truncate * sigma_px + 0.5)
+    offsets = np.arange(-radius, radius + 1, dtype=np.float64)
+    kernel = np.exp(-0.5 * (offsets / sigma_px) ** 2)
+    kernel /= kernel.sum()
+    rows, cols = image.shape
+    shape = (scipy.fft.next_fast_len(rows + 2 * radius, real=True), scipy.fft.next_fast_len(cols + 2 * radius, real=True))
+
+    def centred(n: int) -> np.ndarray:  # the kernel wrapped around index 0: its transform is real
+        line = np.zeros(n)
+        line[: radius + 1], line[n - radius :] = kernel[radius:], kernel[:radius]
+        return line
+
+    spectrum = scipy.fft.rfft2(np.pad(image.astype(np.float32, copy=False), radius, mode="edge"), s=shape)
+    spectrum *= scipy.fft.fft(centred(shape[0])).real.astype(np.float32)[:, None]
+    spectrum *= scipy.fft.rfft(centred(shape[1])).real.astype(np.float32)[None, :]
+    return scipy.fft.irfft2(spectrum, s=shape)[radius : radius + rows, radius : radius + cols]
+
+
 def disk(radius_px: float) -> np.ndarray:
     """Boolean disk footprint of the given radius in pixels (at least the 3×3 cross)."""
     r = max(1, int(round(radius_px)))

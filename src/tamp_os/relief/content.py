@@ -25,6 +25,7 @@ the print with what was found ("found 10 members, all raised at least 1.0 mm").
 
 from __future__ import annotations
 
+import functools
 import logging
 from dataclasses import dataclass
 
@@ -248,17 +249,15 @@ def lattice_spectrum(work: np.ndarray, pitch_mm: float) -> Spectrum:
     the detail's power, how peaked it is, and whether it peaks in two directions. One FFT serves
     the content style, the legibility check (on the heights) and the content word of a panel."""
     rows, cols = work.shape
+    grid = _frequencies(rows, cols)
     detail = work - wide_gaussian(work, 4.0 / pitch_mm)
-    window = np.outer(np.hanning(rows), np.hanning(cols)).astype(np.float32)
     # scipy.fft keeps float32 (numpy's FFT works in float64): half the work, the same peak.
-    spectrum = scipy.fft.rfft2((detail * window).astype(np.float32))
+    spectrum = scipy.fft.rfft2((detail * grid.window).astype(np.float32))
     power = spectrum.real**2 + spectrum.imag**2
-    fy = np.fft.fftfreq(rows)[:, None]
-    fx = np.fft.rfftfreq(cols)[None, :]
-    freq = np.hypot(fy, fx) / pitch_mm  # cycles per mm
+    freq = grid.cycles_per_px / pitch_mm  # cycles per mm
     # Wavelengths under 12 mm that repeat at least six times across the picture in their own
     # direction (a thin strip's one step between two layers is no period).
-    band = (freq > 1 / 12.0) & (freq < 0.5 / pitch_mm) & (np.hypot(fy * rows, fx * cols) >= 6.0)
+    band = (freq > 1 / 12.0) & (freq < 0.5 / pitch_mm) & grid.repeats_six
     inside = power[band]
     total = float(inside.sum())
     if total <= 0 or inside.size <= PEAK_BINS:
@@ -270,12 +269,38 @@ def lattice_spectrum(work: np.ndarray, pitch_mm: float) -> Spectrum:
     share = float(power[near].sum() / total)
     # A second direction: the strongest peak at least LATTICE_ANGLE_DEG from the first (angles
     # modulo 180 degrees: the half-plane spectrum holds each direction once), within an octave.
-    angle = np.degrees(np.arctan2(np.broadcast_to(fy, power.shape), np.broadcast_to(fx, power.shape)))
-    turn = np.abs((angle - angle[at] + 90.0) % 180.0 - 90.0)
+    turn = np.abs((grid.angle_deg - grid.angle_deg[at] + 90.0) % 180.0 - 90.0)
     other = band & (turn >= LATTICE_ANGLE_DEG) & (freq >= 0.5 * freq[at]) & (freq <= 2.0 * freq[at])
     two_way = bool(other.any()) and float(banded[other].max()) >= SECOND_PEAK * float(banded[at])
     period = Period(float(1.0 / freq[at]), share) if share >= 0.35 else None
     return Spectrum(period, peaked, two_way)
+
+
+@dataclass(frozen=True)
+class _Frequencies:
+    """For a (rows, cols) picture: its Hann window, and the frequency of every bin of its
+    half-plane spectrum (rfft2) in cycles per grid point, whether it repeats at least six times
+    across the picture in its own direction, and its direction in degrees."""
+
+    window: np.ndarray
+    cycles_per_px: np.ndarray
+    repeats_six: np.ndarray
+    angle_deg: np.ndarray
+
+
+@functools.lru_cache(maxsize=8)
+def _frequencies(rows: int, cols: int) -> _Frequencies:
+    """The same few grid shapes recur (the working grid, the fine grid, the heights): the window
+    and each bin's frequency and direction computed once per shape (2.5 ms at 375 x 499)."""
+    fy = np.fft.fftfreq(rows)[:, None]
+    fx = np.fft.rfftfreq(cols)[None, :]
+    shape = (rows, cols // 2 + 1)
+    angle = np.degrees(np.arctan2(np.broadcast_to(fy, shape), np.broadcast_to(fx, shape)))
+    window = np.outer(np.hanning(rows), np.hanning(cols)).astype(np.float32)
+    grid = _Frequencies(window, np.hypot(fy, fx), np.hypot(fy * rows, fx * cols) >= 6.0, angle)
+    for array in (grid.window, grid.cycles_per_px, grid.repeats_six, grid.angle_deg):
+        array.flags.writeable = False  # shared between calls
+    return grid
 
 
 def lattice_period(work: np.ndarray, pitch_mm: float) -> Period | None:

@@ -14,6 +14,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import ndimage
 
+from .order import percentiles
+
 
 # A tail of the picture is a distinct population (sparse content: ink strokes on paper, a few
 # beads on an empty ground) when its pixels lie over DISTINCT_SIGMAS noise deviations from the
@@ -55,7 +57,7 @@ def _content_extreme(values, usable, sample_size, tail_of, pct):
         tail &= usable
     if np.count_nonzero(tail) < DISTINCT_MIN_SHARE * sample_size or tail.ndim != 2 or _clustered_share(tail) < DISTINCT_MIN_CLUSTERED:
         return None
-    return float(np.percentile(values[tail], pct))
+    return float(percentiles(values[tail], [pct])[0])
 
 
 def _subsample_step(sample_size: int, row_px: int) -> int:
@@ -75,7 +77,7 @@ def _distinct_tails(values, usable, sample, low_pct, high_pct, low, high, quarti
     (a one-pixel vertical stroke is not stepped over). `quartiles`: those of that subsample,
     when the caller has them."""
     sub = sample[:: _subsample_step(sample.size, values.shape[-1])]
-    q1, median, q3 = np.percentile(sub, [25.0, 50.0, 75.0]) if quartiles is None else quartiles
+    q1, median, q3 = percentiles(sub, [25.0, 50.0, 75.0]) if quartiles is None else quartiles
     noise_sd = _noise_sd(np.array([q1, q3]), low, high)
     far, very_far = DISTINCT_SIGMAS * noise_sd, DISTINCT_MEDIAN_SIGMAS * noise_sd
 
@@ -119,7 +121,7 @@ def stretch(values: np.ndarray, alpha: np.ndarray | None, low_pct: float, *, hig
     # A picture of up to SUBSAMPLE_PX pixels is its own subsample: its quartiles come from the
     # same partition as the stretch's percentiles (the same order statistics, one pass fewer).
     whole = _subsample_step(sample.size, values.shape[-1]) == 1
-    low, high, *quartiles = np.percentile(sample, [low_pct, high_pct] + ([25.0, 50.0, 75.0] if whole else []))
+    low, high, *quartiles = percentiles(sample, [low_pct, high_pct] + ([25.0, 50.0, 75.0] if whole else []))
     if not high > low:  # percentiles can coincide in mostly flat images: fall back to the full range
         low, high = float(sample.min()), float(sample.max())
     else:

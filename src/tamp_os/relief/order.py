@@ -1,0 +1,69 @@
+"""Percentiles of a large sample, the same numbers as NumPy's, found without partitioning it all.
+
+`np.percentile` partitions the whole sample around every rank it needs: 7.5 ms for the five
+percentiles the stretch takes of a 1024 x 768 picture. The ranks' values lie in narrow brackets
+that a sorted subsample predicts; counting the pixels below a bracket and partitioning only the
+few inside it gives the same order statistics (checked: when a bracket misses its rank, the whole
+sample is partitioned as before), and NumPy's own interpolation between them gives the same bits.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+# Below this many values, np.percentile's one partition is as cheap as the brackets.
+MIN_BRACKETED = 1 << 16
+SUBSAMPLE = 1 << 16  # values in the sorted subsample that predicts each rank's bracket
+# A bracket reaches this many deviations of a subsample rank (at most half its square root) each side.
+BRACKET_DEVIATIONS = 4.0
+
+
+def percentiles(sample: np.ndarray, pcts) -> np.ndarray:
+    """`np.percentile(sample, pcts)` (method "linear", float64) of a 1-D float sample without NaN."""
+    n = sample.size
+    if n < MIN_BRACKETED:
+        return np.percentile(sample, pcts)
+    # NumPy's virtual indexes and neighbours (numpy/lib/_function_base_impl.py, method "linear").
+    virtual = (n - 1) * np.true_divide(np.asarray(pcts, dtype=np.float64), 100)
+    previous = np.floor(virtual)
+    following = previous + 1
+    top = virtual >= n - 1
+    previous[top] = following[top] = n - 1
+    bottom = virtual < 0
+    previous[bottom] = following[bottom] = 0
+    gamma = virtual - previous
+    ranks = np.unique(np.concatenate([previous, following]).astype(np.intp))
+    values = dict(zip(ranks.tolist(), order_statistics(sample, ranks)))
+    a = np.array([values[k] for k in previous.astype(np.intp).tolist()], dtype=sample.dtype)
+    b = np.array([values[k] for k in following.astype(np.intp).tolist()], dtype=sample.dtype)
+    # NumPy's _lerp: the difference in the sample's type, the interpolation in float64, from the
+    # nearer end (b - diff * (1 - gamma) from gamma 0.5 on).
+    diff = b - a
+    return np.where(gamma >= 0.5, b - diff * (1 - gamma), a + diff * gamma)
+
+
+def order_statistics(sample: np.ndarray, ranks: np.ndarray) -> list:
+    """The k-th smallest value of `sample` for each k in `ranks` (0-based, sorted, unique).
+    Neighbouring ranks (a percentile's two neighbours) share one bracket."""
+    n = sample.size
+    step = max(1, n // SUBSAMPLE)
+    sub = np.sort(sample[::step])
+    margin = int(BRACKET_DEVIATIONS * 0.5 * np.sqrt(sub.size)) + 2
+    groups = np.split(ranks, np.flatnonzero(np.diff(ranks) > 1) + 1)
+    out = []
+    for group in groups:
+        first, last = int(group[0]), int(group[-1])
+        low = sub[max(0, first * sub.size // n - margin)]
+        high = sub[min(sub.size - 1, last * sub.size // n + margin)]
+        below = int(np.count_nonzero(sample < low))
+        inside = sample[(sample >= low) & (sample <= high)]
+        if not (below <= first and last < below + inside.size):
+            return whole_partition(sample, ranks)
+        out += np.partition(inside, group - below)[group - below].tolist()
+    return out
+
+
+def whole_partition(sample: np.ndarray, ranks: np.ndarray) -> list:
+    """The plain way, for a bracket that missed its rank (a sample whose strided subsample is
+    unlike the whole)."""
+    return np.partition(sample, ranks)[ranks].tolist()

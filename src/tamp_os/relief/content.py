@@ -48,7 +48,7 @@ from .lines import (
     hessian_ridges,
 )
 from .dense import BlobScale, blob_scale, scale_stack
-from .objects import ObjectMap, dome_profile, label_max, label_median
+from .objects import ObjectMap, dome_profile, label_max, label_median, sequential_labels
 from .scales import wide_gaussian
 from .population import (
     BACKGROUND_MM,
@@ -879,7 +879,7 @@ def _without_fibre_pieces(made: ContentMade, slender: np.ndarray, fibres: np.nda
     if not dropped.any():
         return made.labels, made.relief01
     gone = dropped[made.labels]
-    labels = segmentation.relabel_sequential(np.where(gone, 0, made.labels))[0].astype(np.int32)
+    labels = sequential_labels(np.where(gone, 0, made.labels)).astype(np.int32)
     return labels, np.where(gone | (ndimage.binary_dilation(gone, iterations=2) & (labels == 0)), 0.0, made.relief01)
 
 
@@ -956,7 +956,7 @@ def _as_dense_field(blobs: BlobScale, picture: np.ndarray, pitch_mm: float, reli
     # down to a quarter of the lift.
     seeds, _ = ndimage.label(morphology.h_maxima(relief01, min(FELT_MM / relief_mm, 1.0) if relief_mm > 0 else 1.0))
     labels = segmentation.watershed(-relief01, seeds, mask=relief01 >= 0.25).astype(np.int32)
-    labels = segmentation.relabel_sequential(labels)[0].astype(np.int32)
+    labels = sequential_labels(labels).astype(np.int32)
     reason = (f"content: a dense field of small members ({blobs.words()}: one size, as particles have and texture has "
               f"not); each point raised by its local contrast over {width_mm:.1f} mm, so every member is a small dome and "
               f"the gaps stay low; {polarity.reason}{extra}")
@@ -1124,7 +1124,7 @@ def _with_interior(labels: np.ndarray) -> np.ndarray:
     has = np.zeros(n + 1, bool)
     has[labels[(labels > 0) & ~inner_outline(labels)]] = True
     out = np.where(has[labels], labels, 0)
-    return segmentation.relabel_sequential(out)[0].astype(np.int32)
+    return sequential_labels(out).astype(np.int32)
 
 
 def _as_lines(lines: Lines, pitch_mm, relief_mm, width_mm, polarity, extra, kind, what: str = "") -> ContentMade:

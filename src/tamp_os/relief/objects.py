@@ -74,7 +74,7 @@ def find_objects(image01: np.ndarray, *, pitch_mm: float, min_area_mm2: float, n
         method = "bright"
     if labels.max() == 0 or (labels > 0).mean() > MAX_COVER:
         return ObjectMap(np.zeros(image01.shape, np.int32), 0, "none")
-    labels, count, _ = segmentation.relabel_sequential(labels)
+    labels = sequential_labels(labels)
     return ObjectMap(labels.astype(np.int32), int(labels.max()), method)
 
 
@@ -333,6 +333,28 @@ def _perimeters(labels: np.ndarray, n: int) -> np.ndarray:
         differ = a != b
         counts += np.bincount(a[differ] + 1, minlength=n + 2) + np.bincount(b[differ] + 1, minlength=n + 2)
     return counts[1:] * np.pi / 4
+
+
+def sequential_labels(labels: np.ndarray) -> np.ndarray:
+    """The labels renumbered 1..k in their order, 0 kept, in `labels`' dtype: what
+    skimage.segmentation.relabel_sequential gives, by a lookup table (a third of its time on a
+    working grid; it maps through a general hash table)."""
+    present = np.zeros(int(labels.max(initial=0)) + 1, bool)
+    present[labels.ravel()] = True
+    present[0] = False
+    return (np.cumsum(present) * present)[labels].astype(labels.dtype, copy=False)
+
+
+def dense_ranks(keys: np.ndarray) -> np.ndarray:
+    """Each non-negative integer key's rank among the distinct keys (np.unique's inverse), by a
+    lookup table when the keys are no larger than a few times their count (a fifth of the sort's
+    time), else by np.unique."""
+    top = int(keys.max(initial=0))
+    if top > 4 * keys.size + 1024:
+        return np.unique(keys, return_inverse=True)[1].reshape(keys.shape)
+    present = np.zeros(top + 1, bool)
+    present[keys.ravel()] = True
+    return (np.cumsum(present) - 1)[keys]
 
 
 def label_max(values: np.ndarray, labels: np.ndarray, n: int, *, initial: float = 0.0) -> np.ndarray:

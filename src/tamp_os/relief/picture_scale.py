@@ -21,7 +21,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from skimage import segmentation
 
 from .scales import resize_to
 
@@ -80,8 +79,10 @@ class PictureScale:
         (a member smaller than a working pixel may vanish on a coarser grid)."""
         if self.identity:
             return labels
+        from .objects import sequential_labels
+
         back = resize_to(labels.astype(np.float32), self.work_shape, nearest=True).astype(np.int32)
-        return segmentation.relabel_sequential(back)[0].astype(np.int32)
+        return sequential_labels(back).astype(np.int32)
 
 
 def find_objects_in_picture(work: np.ndarray, *, pitch_mm: float, min_area_mm2: float, nozzle_mm: float = 0.4):

@@ -21,7 +21,7 @@ from scipy import ndimage
 from skimage import morphology, segmentation
 
 from .hull import solid_enough
-from .objects import sparse_h_maxima, inner_outline, label_max, label_median, sorted_by_label
+from .objects import dense_ranks, inner_outline, label_max, label_median, sequential_labels, sorted_by_label, sparse_h_maxima
 
 BACKGROUND_MM = 12.0  # members up to about this wide are measured against the ground around them
 NOISE_SIGMAS = 3.0  # a member's peak stands this many noise deviations above its neck (swept on the benchmark: 3 or 5)
@@ -154,7 +154,7 @@ def _members_on_ground(image: np.ndarray, *, pitch_mm: float, noise: float, back
     labels = _split_touching(labels, NECK_MM / pitch_mm)
     labels = _with_evidence(labels, top, pitch_mm, h)
     labels = _solid(_above_texture(labels, top))
-    labels, _, _ = segmentation.relabel_sequential(labels)
+    labels = sequential_labels(labels)
     count = int(labels.max())
     if count == 0:
         return empty
@@ -368,7 +368,7 @@ def merge_across_no_neck(labels: np.ndarray) -> np.ndarray:
     if not join.any():
         return labels
     roots = joined_roots(n, a[join].tolist(), b[join].tolist())
-    return segmentation.relabel_sequential(roots[labels])[0].astype(labels.dtype)
+    return sequential_labels(roots[labels]).astype(labels.dtype)
 
 
 def _merge_once(labels: np.ndarray, top: np.ndarray | None, large_px: float = 0.0) -> np.ndarray:
@@ -376,7 +376,7 @@ def _merge_once(labels: np.ndarray, top: np.ndarray | None, large_px: float = 0.
     if a.size == 0:
         return labels
     roots = joined_roots(int(labels.max()), a.tolist(), b.tolist())
-    return segmentation.relabel_sequential(roots[labels])[0].astype(labels.dtype)
+    return sequential_labels(roots[labels]).astype(labels.dtype)
 
 
 def _filled(labels: np.ndarray) -> np.ndarray:
@@ -426,8 +426,7 @@ def _split_touching(labels: np.ndarray, depth_px: float) -> np.ndarray:
     parts = segmentation.watershed(-dist, np.where(split, markers, 0), mask=split)
     # A new label for every (member, basin) pair; pixels no basin reached keep their member.
     pair = labels.astype(np.int64) * (n + 1) + parts
-    _, out = np.unique(pair, return_inverse=True)
-    out = out.reshape(labels.shape).astype(np.int32) + (0 if (labels == 0).any() else 1)  # ground is pair 0
+    out = dense_ranks(pair).astype(np.int32) + (0 if (labels == 0).any() else 1)  # ground is pair 0
     return np.where(labels > 0, out, 0)
 
 

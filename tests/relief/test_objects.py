@@ -4,9 +4,10 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from scipy import ndimage
 from skimage import segmentation
 
-from tamp_os.relief.objects import dense_ranks, sequential_labels
+from tamp_os.relief.objects import dense_ranks, scipy_label_median, sequential_labels
 
 pytestmark = pytest.mark.timeout(120)
 
@@ -30,3 +31,17 @@ def test_dense_ranks_are_uniques_inverse(size, top, seed):
     keys = np.random.default_rng(seed).integers(0, top + 1, (size // 30 + 1, 30)).astype(np.int64)
     expected = np.unique(keys, return_inverse=True)[1].reshape(keys.shape)
     np.testing.assert_array_equal(dense_ranks(keys), expected)
+
+
+@settings(max_examples=80, deadline=None)
+@given(rows=st.integers(1, 30), cols=st.integers(1, 30), n=st.integers(1, 12), ground=st.floats(0.0, 1.0),
+       seed=st.integers(0, 2**16), dtype=st.sampled_from([np.float32, np.float64, np.int32, np.uint8]))
+def test_scipy_label_median_is_ndimage_median(rows, cols, n, ground, seed, dtype):
+    # Labels 1..n with some empty, with or without ground pixels; ties among values.
+    rng = np.random.default_rng(seed)
+    labels = np.where(rng.random((rows, cols)) < ground, 0, rng.integers(1, n + 1, (rows, cols)))
+    values = (rng.integers(0, 20, (rows, cols)) * (0.37 if np.issubdtype(dtype, np.floating) else 1)).astype(dtype)
+    expected = np.asarray(ndimage.median(values, labels, np.arange(1, n + 1)))
+    got = scipy_label_median(values, labels, n)
+    assert got.dtype == expected.dtype
+    np.testing.assert_array_equal(got, expected)

@@ -17,6 +17,7 @@ from skimage import measure
 
 from ..errors import Text
 from ..facts import Facts
+from .objects import scipy_label_median
 from .scales import WORK_MAX_POINTS, WorkGrid, disk
 
 FINGERTIP_SIGMA_MM = 1.0
@@ -199,9 +200,8 @@ def _lifts(h: np.ndarray, objects, mm_per_px: float) -> tuple[int, float | None,
     # Each ground pixel belongs to its nearest object.
     _, (iy, ix) = ndimage.distance_transform_edt(~mask, return_indices=True)
     owner = np.where(ground, labels[iy, ix], 0)
-    index = np.arange(1, n + 1)
-    inside = np.asarray(ndimage.median(h, labels, index))
-    around = np.asarray(ndimage.median(h, owner, index), dtype=np.float64)
+    inside = scipy_label_median(h, labels, n)
+    around = scipy_label_median(h, owner, n).astype(np.float64)
     around = np.where(np.isfinite(around), around, np.median(h[~mask]) if (~mask).any() else 0.0)
     lifts = inside - around
     return n, float(np.median(lifts)), float(lifts.min())

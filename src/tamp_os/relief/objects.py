@@ -380,6 +380,28 @@ def label_median(values: np.ndarray, labels: np.ndarray, n: int) -> np.ndarray:
     return out
 
 
+def scipy_label_median(values: np.ndarray, labels: np.ndarray, n: int) -> np.ndarray:
+    """ndimage.median(values, labels, 1..n), the same numbers from one sort of the labelled
+    pixels only (SciPy sorts every pixel, the ground too, by label and value: 5x slower on a
+    dense field). As in SciPy: the middle pair averaged in the values' type (float64 for
+    integers), and a label without pixels given the first value of that sort, the smallest of
+    the lowest label present."""
+    val, starts, counts = sorted_by_label(values, labels, n)
+    if np.issubdtype(val.dtype, np.integer) or val.dtype == bool:
+        val = val.astype(np.float64)
+    empty = counts == 0
+    lo = np.where(empty, 0, starts + (counts - 1) // 2)
+    hi = np.where(empty, 0, starts + counts // 2)
+    if not val.size:
+        val = np.zeros(1, val.dtype)
+    out = (val[lo] + val[hi]) / 2.0
+    if empty.any():
+        ground = labels == 0
+        first = values[ground].min() if ground.any() else val[0]
+        out[empty] = first
+    return out
+
+
 def sorted_by_label(values: np.ndarray, labels: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The values inside labels 1..n grouped by label, each group sorted by value; with each
     group's start and count (the order statistics of every label in one sort)."""

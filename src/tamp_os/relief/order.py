@@ -55,8 +55,10 @@ def order_statistics(sample: np.ndarray, ranks: np.ndarray) -> list:
         first, last = int(group[0]), int(group[-1])
         low = sub[max(0, first * sub.size // n - margin)]
         high = sub[min(sub.size - 1, last * sub.size // n + margin)]
-        below = int(np.count_nonzero(sample < low))
-        inside = sample[(sample >= low) & (sample <= high)]
+        within = sample >= low
+        below = n - int(np.count_nonzero(within))
+        within &= sample <= high
+        inside = sample[within]
         if not (below <= first and last < below + inside.size):
             return whole_partition(sample, ranks)
         out += np.partition(inside, group - below)[group - below].tolist()

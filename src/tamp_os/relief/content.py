@@ -48,6 +48,7 @@ from .lines import (
     hessian_ridges,
 )
 from .dense import BlobScale, blob_scale, scale_stack
+from .extrema import h_maxima
 from .objects import ObjectMap, dome_profile, label_max, label_median, sequential_labels
 from .scales import wide_gaussian
 from .population import (
@@ -954,7 +955,7 @@ def _as_dense_field(blobs: BlobScale, picture: np.ndarray, pitch_mm: float, reli
     relief01 = np.tanh(texture / scale).astype(np.float32) if scale > 0 else np.zeros_like(texture)
     # The members a finger finds: each dome standing FELT_MM over the saddle to a higher one,
     # down to a quarter of the lift.
-    seeds, _ = ndimage.label(morphology.h_maxima(relief01, min(FELT_MM / relief_mm, 1.0) if relief_mm > 0 else 1.0))
+    seeds, _ = ndimage.label(h_maxima(relief01, min(FELT_MM / relief_mm, 1.0) if relief_mm > 0 else 1.0))
     labels = segmentation.watershed(-relief01, seeds, mask=relief01 >= 0.25).astype(np.int32)
     labels = sequential_labels(labels).astype(np.int32)
     reason = (f"content: a dense field of small members ({blobs.words()}: one size, as particles have and texture has "

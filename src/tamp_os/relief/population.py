@@ -18,9 +18,10 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy import ndimage
-from skimage import morphology, segmentation
+from skimage import segmentation
 
 from .hull import solid_enough
+from .extrema import h_maxima
 from .objects import dense_ranks, inner_outline, label_max, label_median, sequential_labels, sorted_by_label, sparse_h_maxima
 
 BACKGROUND_MM = 12.0  # members up to about this wide are measured against the ground around them
@@ -136,7 +137,7 @@ def _members_on_ground(image: np.ndarray, *, pitch_mm: float, noise: float, back
                        wide_objects: bool = False) -> Members:
     top = local_tophat(image, pitch_mm, background_mm)
     h = max(NOISE_SIGMAS * noise, MIN_CONTRAST)
-    seeds, n = ndimage.label(morphology.h_maxima(top, h) & (top >= h))
+    seeds, n = ndimage.label(h_maxima(top, h) & (top >= h))
     empty = Members(np.zeros(image.shape, np.int32), 0, np.zeros(0), noise)
     if n == 0:
         return empty

@@ -30,6 +30,35 @@ def test_help_imports_no_heavy_libraries():
     assert out.stdout.strip() == "[]"
 
 
+# The tamp-os program (commands.run) or main() called by a program: converts, then reports the
+# exit code, how many objects the cycle collector holds frozen, and whether it still collects.
+ENTRY = """
+import gc, sys
+from tamp_os.cli import commands
+entry, argv = sys.argv[1], sys.argv[2:]
+sys.argv = ["tamp-os"] + argv
+code = commands.run() if entry == "run" else commands.main(argv)
+print(code, gc.get_freeze_count(), gc.isenabled())
+"""
+
+
+def test_program_freezes_its_imports_and_writes_what_main_writes(fixture, tmp_path):
+    picture = fixture("fept_spheres_sem.png")
+    results = {}
+    for entry in ("run", "main"):
+        argv = ["convert", str(picture), "-o", str(tmp_path / entry), "--formats", "stl,3mf,glb"]
+        out = subprocess.run([sys.executable, "-c", ENTRY, entry, *argv], capture_output=True, text=True, check=True, timeout=240)
+        results[entry] = [int(word == "True") if word in ("True", "False") else int(word) for word in out.stdout.split()[-3:]]
+    (run_code, run_frozen, run_collects), (main_code, main_frozen, main_collects) = results["run"], results["main"]
+    assert run_code == main_code == 0 and run_collects and main_collects  # the collector is back on after the imports
+    assert run_frozen > 50_000  # NumPy's, SciPy's and scikit-image's objects, kept out of collections
+    assert main_frozen == 0  # a program calling main() keeps its own objects collectable
+    names = sorted(p.name for p in (tmp_path / "run").iterdir())
+    assert names == sorted(p.name for p in (tmp_path / "main").iterdir()) and len(names) >= 5
+    for name in names:
+        assert (tmp_path / "run" / name).read_bytes() == (tmp_path / "main" / name).read_bytes(), name
+
+
 def test_convert_prints_one_plain_line_per_file(tmp_path, image, capsys):
     code = main(["convert", str(image), "-o", str(tmp_path / "out"), "--formats", "stl,3mf,glb,obj,ply", "--preset", "low"])
     out = capsys.readouterr().out.strip().splitlines()

@@ -30,33 +30,45 @@ def test_help_imports_no_heavy_libraries():
     assert out.stdout.strip() == "[]"
 
 
-# The tamp-os program (commands.run) or main() called by a program: converts, then reports the
-# exit code, how many objects the cycle collector holds frozen, and whether it still collects.
+# The tamp-os program (commands.run) or main() called by a program, in a child process whose
+# atexit handler reports how many objects the cycle collector holds frozen and whether it collects.
 ENTRY = """
-import gc, sys
+import atexit, gc, sys
 from tamp_os.cli import commands
 entry, argv = sys.argv[1], sys.argv[2:]
 sys.argv = ["tamp-os"] + argv
-code = commands.run() if entry == "run" else commands.main(argv)
-print(code, gc.get_freeze_count(), gc.isenabled())
+atexit.register(lambda: print("collector", gc.get_freeze_count(), gc.isenabled()))
+sys.exit(commands.run() if entry == "run" else commands.main(argv))
 """
 
 
-def test_program_freezes_its_imports_and_writes_what_main_writes(fixture, tmp_path):
+def test_program_exits_as_python_does_and_writes_what_main_writes(fixture, tmp_path):
     picture = fixture("fept_spheres_sem.png")
-    results = {}
+    reports = {}
     for entry in ("run", "main"):
+        temp = tmp_path / f"tmp-{entry}"
+        temp.mkdir()
         argv = ["convert", str(picture), "-o", str(tmp_path / entry), "--formats", "stl,3mf,glb"]
-        out = subprocess.run([sys.executable, "-c", ENTRY, entry, *argv], capture_output=True, text=True, check=True, timeout=240)
-        results[entry] = [int(word == "True") if word in ("True", "False") else int(word) for word in out.stdout.split()[-3:]]
-    (run_code, run_frozen, run_collects), (main_code, main_frozen, main_collects) = results["run"], results["main"]
-    assert run_code == main_code == 0 and run_collects and main_collects  # the collector is back on after the imports
-    assert run_frozen > 50_000  # NumPy's, SciPy's and scikit-image's objects, kept out of collections
-    assert main_frozen == 0  # a program calling main() keeps its own objects collectable
+        done = subprocess.run([sys.executable, "-c", ENTRY, entry, *argv], capture_output=True, text=True, timeout=240,
+                              env={**{k: v for k, v in os.environ.items() if k != "PYTHONUNBUFFERED"}, "TMPDIR": str(temp)})
+        assert done.returncode == 0, done.stderr
+        lines = done.stdout.splitlines()  # a pipe: block-buffered, so the result line shows the output was flushed
+        assert lines[0].startswith("fept_spheres_sem.png: ") and lines[-1].startswith("collector "), lines
+        reports[entry] = lines[-1].split()[1:]
+        assert not list(temp.iterdir()), entry  # temporary files removed, as at any exit
+    assert reports["run"][1] == reports["main"][1] == "True"  # the collector is back on after the imports
+    assert int(reports["run"][0]) > 50_000  # NumPy's, SciPy's and scikit-image's objects, kept out of collections
+    assert int(reports["main"][0]) == 0  # a program calling main() keeps its own objects collectable
     names = sorted(p.name for p in (tmp_path / "run").iterdir())
     assert names == sorted(p.name for p in (tmp_path / "main").iterdir()) and len(names) >= 5
     for name in names:
         assert (tmp_path / "run" / name).read_bytes() == (tmp_path / "main" / name).read_bytes(), name
+
+
+def test_program_exit_code_and_messages_survive_the_quick_exit(tmp_path):
+    done = subprocess.run([sys.executable, "-m", "tamp_os.cli", "convert", str(tmp_path / "missing.png"), "-o", str(tmp_path / "out")],
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 1 and done.stderr.startswith("error: ") and "missing.png" in done.stderr, done.stderr
 
 
 def test_convert_prints_one_plain_line_per_file(tmp_path, image, capsys):

@@ -25,10 +25,33 @@ _ONE_COMMAND = False  # set by run(): this process runs one command, then exits
 
 def run() -> int:
     """The `tamp-os` program (the console script, `python -m tamp_os.cli`): main() in a process
-    of its own, which may keep what it imports out of the cycle collector (see _loading)."""
+    of its own, which may keep what it imports out of the cycle collector (see _loading) and
+    ends without tearing its modules down (see _exit_now)."""
     global _ONE_COMMAND
     _ONE_COMMAND = True
-    return main()
+    return _exit_now(main())
+
+
+def _exit_now(code: int) -> int:
+    """Python's own exit less the teardown of every module and object, ~30 ms after a conversion
+    spent freeing what the process is about to lose: as at any exit, other threads are waited
+    for and the atexit handlers run (temporary folders, logging, worker processes), and the
+    output is flushed; then the process ends. Returns `code` (a normal exit follows) where this
+    Python lacks the two functions its own exit uses for that."""
+    import atexit
+    import threading
+
+    wait_for_threads, run_atexit = getattr(threading, "_shutdown", None), getattr(atexit, "_run_exitfuncs", None)
+    if wait_for_threads is None or run_atexit is None:
+        return code
+    wait_for_threads()
+    run_atexit()
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):  # a closed or full output: Python's exit would say so with 120
+            code = code or 120
+    os._exit(code)
 
 
 @contextlib.contextmanager

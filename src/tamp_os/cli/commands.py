@@ -8,12 +8,14 @@ from __future__ import annotations
 import argparse
 import contextlib
 import dataclasses
+import functools
 import gc
 import json
 import logging
 import os
 import sys
 from pathlib import Path
+from types import MappingProxyType
 
 EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
 # Options named otherwise than their parameter (z_slice -> --slice); the rest are --name-with-dashes.
@@ -94,11 +96,12 @@ def _param_options(parser: argparse.ArgumentParser) -> None:
             group.add_argument(*flags, dest=f.name, default=None, metavar=m["unit"].upper() or "VALUE", help=help_text)
 
 
-def _flags() -> dict[str, str]:
+@functools.cache  # read for every help text: building the parser asked for it ~375 times (~10 ms of each command)
+def _flags() -> MappingProxyType[str, str]:
     """Each LithoParams field and its option here (width_mm -> --width-mm, z_slice -> --slice)."""
     from ..params import LithoParams
 
-    return {f.name: OPTION_NAMES.get(f.name, "--" + f.name.replace("_", "-")) for f in dataclasses.fields(LithoParams)}
+    return MappingProxyType({f.name: OPTION_NAMES.get(f.name, "--" + f.name.replace("_", "-")) for f in dataclasses.fields(LithoParams)})
 
 
 def cli_words(message) -> str:

@@ -31,6 +31,11 @@ def run() -> int:
     ends without tearing its modules down (see _exit_now)."""
     global _ONE_COMMAND
     _ONE_COMMAND = True
+    # One OpenBLAS thread unless the user set another number (before NumPy loads OpenBLAS, and
+    # SciPy its own copy): each copy starts a thread per extra core that spins after loading and
+    # after every BLAS call (~70 ms of CPU per conversion on 2 cores, taken from the OCR thread
+    # and the machine's other work), while the pipeline makes no BLAS call large enough to share.
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     return _exit_now(main())
 
 

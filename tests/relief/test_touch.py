@@ -26,3 +26,20 @@ def test_a_large_picture_with_an_empty_centre_is_not_noise_and_a_flat_one_is_no_
     assert noise_share(picture, (0.1, 0.9)) < 0.3
     assert noise_share(np.full((50, 60), 0.3), (0.3, 0.3)) == 0.0
     assert noise_share(np.full((50, 60), 0.3), (0.0, 1.0)) == 0.0
+
+
+def test_unknown_pixels_count_as_the_low_end_and_the_range_clips():
+    # Noise with a NaN block and infinite pixels, against the definition: the picture mapped to
+    # 0..1 by the stretch's range (NaN as the low end, infinities clipped), the spread of that,
+    # and the noise of the same mapping on the centre crop.
+    from tamp_os.relief.touch import NOISE_SAMPLE_PX, noise_sigma
+
+    rng = np.random.default_rng(5)
+    values = rng.normal(100, 10, (300, 400)).astype(np.float32)
+    values[:40, :40] = np.nan
+    values[200, 100], values[250, 300] = np.inf, -np.inf
+    lo, hi = 80.0, 120.0
+    mapped = np.clip((np.where(np.isnan(values), lo, np.clip(values.astype(np.float64), -1e300, 1e300)) - lo) / (hi - lo), 0, 1)
+    top, left = max(0, (300 - NOISE_SAMPLE_PX) // 2), max(0, (400 - NOISE_SAMPLE_PX) // 2)
+    expected = noise_sigma(mapped[top : top + NOISE_SAMPLE_PX, left : left + NOISE_SAMPLE_PX]) / mapped.std()
+    assert abs(noise_share(values, (lo, hi)) - expected) <= 1e-9 * expected

@@ -16,11 +16,11 @@ import numpy as np
 
 def h_maxima(image: np.ndarray, h: float) -> np.ndarray:
     """skimage.morphology.h_maxima(image, h) (uint8) for a 2-D float `image` and the default
-    footprint (all eight neighbours)."""
+    footprint (all eight neighbours); other pictures, and h <= 0 (an error there), go to scikit-image."""
     from skimage import morphology
 
     loop = _reconstruction_loop()
-    if loop is None or image.ndim != 2 or not np.issubdtype(image.dtype, np.floating) or h == 0:
+    if loop is None or image.ndim != 2 or not np.issubdtype(image.dtype, np.floating) or not h > 0:
         return morphology.h_maxima(image, h)
     if h > np.ptp(image):
         return np.zeros(image.shape, dtype=np.uint8)

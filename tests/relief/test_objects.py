@@ -45,3 +45,21 @@ def test_scipy_label_median_is_ndimage_median(rows, cols, n, ground, seed, dtype
     got = scipy_label_median(values, labels, n)
     assert got.dtype == expected.dtype
     np.testing.assert_array_equal(got, expected)
+
+
+def test_inside_distance_is_remembered_for_the_same_labels_only():
+    from tamp_os.relief.objects import InsideDistance, inner_outline
+
+    labels = np.zeros((20, 30), np.int32)
+    labels[2:12, 3:15], labels[5:18, 15:28] = 1, 2  # two touching members
+    memo = InsideDistance()
+    inside, dist = memo(labels)
+    expected_inside = (labels > 0) & ~inner_outline(labels)
+    np.testing.assert_array_equal(inside, expected_inside)
+    np.testing.assert_array_equal(dist, ndimage.distance_transform_edt(expected_inside))
+    assert memo(labels)[1] is dist  # the same labels: not computed again
+    with pytest.raises(ValueError):
+        dist[0, 0] = 1.0  # shared: read-only
+    other = labels.copy()
+    other[labels == 2] = 0  # another array (same values until changed): its own distances
+    assert memo(other)[1] is not dist and memo(other)[0].sum() < inside.sum()

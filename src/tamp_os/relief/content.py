@@ -49,7 +49,7 @@ from .lines import (
 )
 from .dense import BlobScale, blob_scale, scale_stack
 from .extrema import h_maxima
-from .objects import ObjectMap, dome_profile, label_max, label_median, sequential_labels
+from .objects import InsideDistance, ObjectMap, dome_profile, label_max, label_median, sequential_labels
 from .scales import wide_gaussian
 from .population import (
     BACKGROUND_MM,
@@ -728,7 +728,9 @@ def _as_members(labels: np.ndarray, pitch_mm, relief_mm, polarity, extra, what, 
     # No pins: a member's dome stands at most PIN_ASPECT times its inscribed radius (a member a grid
     # point or two wide, raised the full relief, is 0.4-0.8 mm wide and 3 mm tall: it prints badly
     # and a finger finds a prick, not a dome).
-    domes = dome_profile(labels, pitch_mm=pitch_mm, round_mm=MEMBER_ROUND_MM, pin_aspect=PIN_ASPECT, relief_mm=relief_mm)
+    inside_distance = InsideDistance()  # the domes and the count of neckless pairs below measure the same members
+    domes = dome_profile(labels, pitch_mm=pitch_mm, round_mm=MEMBER_ROUND_MM, pin_aspect=PIN_ASPECT, relief_mm=relief_mm,
+                         inside_distance=inside_distance)
     count = int(labels.max())
     cover = float((labels > 0).mean())
     if picture is not None and count > FEW_MEMBERS and (cover >= DENSE_COVER or dense_field):
@@ -743,7 +745,8 @@ def _as_members(labels: np.ndarray, pitch_mm, relief_mm, polarity, extra, what, 
             notes.append(Decision(f"content: a dense field ({count} members over {cover:.0%} of the picture): the members not "
                                   f"parted from their neighbours rise by their local contrast, as a texture of small domes."))
     reason = f"content: {what}; each raised as a dome by the same lift, touching ones apart by a groove; {polarity.reason}{extra}"
-    split = 0 if picture is None else int(neckless_pairs(labels, local_tophat(picture.astype(np.float32), pitch_mm))[0].size)
+    split = 0 if picture is None else int(neckless_pairs(labels, local_tophat(picture.astype(np.float32), pitch_mm),
+                                                         inside_distance=inside_distance)[0].size)
     return ContentMade(domes, "members", labels, reason, tuple(notes), split_pairs=split)
 
 

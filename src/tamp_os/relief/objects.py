@@ -336,6 +336,25 @@ def _perimeters(labels: np.ndarray, n: int) -> np.ndarray:
     return counts[1:] * np.pi / 4
 
 
+class InsideDistance:
+    """The members' insides (each less its outline pixels) and their distance to anything not
+    themselves, for the last labels asked, by identity (label arrays are never changed in place
+    here). Merging and then splitting members, or doming them and counting their necks, ask
+    for it of the same labels: one distance transform instead of two."""
+
+    def __init__(self):
+        self._labels: np.ndarray | None = None
+        self._value: tuple[np.ndarray, np.ndarray] | None = None
+
+    def __call__(self, labels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        if labels is not self._labels or self._value is None:
+            inside = (labels > 0) & ~inner_outline(labels)
+            dist = ndimage.distance_transform_edt(inside)
+            inside.flags.writeable = dist.flags.writeable = False  # shared by the callers
+            self._labels, self._value = labels, (inside, dist)
+        return self._value
+
+
 def sequential_labels(labels: np.ndarray) -> np.ndarray:
     """The labels renumbered 1..k in their order, 0 kept, in `labels`' dtype: what
     skimage.segmentation.relabel_sequential gives, by a lookup table (a third of its time on a
@@ -423,7 +442,7 @@ def sorted_by_label(values: np.ndarray, labels: np.ndarray, n: int) -> tuple[np.
 
 
 def dome_profile(labels: np.ndarray, *, pitch_mm: float, round_mm: float, pin_aspect: float | None = None,
-                 relief_mm: float | None = None) -> np.ndarray:
+                 relief_mm: float | None = None, inside_distance: InsideDistance | None = None) -> np.ndarray:
     """Height profile 0..1 of each object: a circular-arc dome, flattened into a plateau
     with rounded shoulders when the object is wider than 2 × round_mm.
 
@@ -445,8 +464,8 @@ def dome_profile(labels: np.ndarray, *, pitch_mm: float, round_mm: float, pin_as
         return np.zeros(labels.shape, np.float32)
     # Distance to the nearest pixel of another label or the background, so touching objects
     # get a groove between them instead of merging into one hill.
-    inside = (labels > 0) & ~inner_outline(labels)
-    dist = ndimage.distance_transform_edt(inside) + inside  # +1 px: the outline pixel itself
+    inside, dist = (inside_distance or InsideDistance())(labels)
+    dist = dist + inside  # +1 px: the outline pixel itself
     reach = label_max(dist, labels, n)  # one pass; ndimage.maximum sorts per label
     radius = np.minimum(reach[1:], round_mm / pitch_mm)
     r = np.concatenate([[1.0], np.maximum(radius, 1.0)])[labels]

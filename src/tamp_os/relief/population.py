@@ -22,7 +22,7 @@ from skimage import segmentation
 
 from .hull import solid_enough
 from .extrema import h_maxima
-from .objects import dense_ranks, inner_outline, label_max, label_median, sequential_labels, sorted_by_label, sparse_h_maxima
+from .objects import InsideDistance, dense_ranks, label_max, label_median, sequential_labels, sorted_by_label, sparse_h_maxima
 
 BACKGROUND_MM = 12.0  # members up to about this wide are measured against the ground around them
 NOISE_SIGMAS = 3.0  # a member's peak stands this many noise deviations above its neck (swept on the benchmark: 3 or 5)
@@ -149,10 +149,12 @@ def _members_on_ground(image: np.ndarray, *, pitch_mm: float, noise: float, back
     labels = np.where((basins > 0) & (top >= 0.5 * peak[basins]), basins, 0)
     # Shading's cracks joined first (merge_without_neck), then parted again where the outline has a
     # neck (_split_touching): one object, one dome.
-    labels = merge_without_neck(_filled(_merge_shallow(_largest_parts(labels), top)), top, large_px=CRACK_MIN_MM / pitch_mm)
+    inside_distance = InsideDistance()  # asked by the merge and the split of the same members when nothing merged
+    labels = merge_without_neck(_filled(_merge_shallow(_largest_parts(labels), top)), top, large_px=CRACK_MIN_MM / pitch_mm,
+                                inside_distance=inside_distance)
     if wide_objects:  # objects wider than the ground: their shading's cracks are joined by the outline alone
         labels = merge_across_no_neck(labels)
-    labels = _split_touching(labels, NECK_MM / pitch_mm)
+    labels = _split_touching(labels, NECK_MM / pitch_mm, inside_distance=inside_distance)
     labels = _with_evidence(labels, top, pitch_mm, h)
     labels = _solid(_above_texture(labels, top))
     labels = sequential_labels(labels)
@@ -278,7 +280,8 @@ def joined_roots(n: int, xs, ys) -> np.ndarray:
     return np.array([root(k) for k in range(n + 1)])
 
 
-def neckless_pairs(labels: np.ndarray, top: np.ndarray | None = None, large_px: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+def neckless_pairs(labels: np.ndarray, top: np.ndarray | None = None, large_px: float = 0.0, *,
+                   inside_distance: InsideDistance | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Touching members (a, b arrays) whose shared border is wider than NECK_SHARE of the smaller
     one's inscribed diameter: no neck between them, so one object was split (by shading, not by
     its outline). The border's width counts the 4-neighbour pixel pairs across it (per row or
@@ -301,8 +304,7 @@ def neckless_pairs(labels: np.ndarray, top: np.ndarray | None = None, large_px: 
         return np.zeros(0, np.int64), np.zeros(0, np.int64)
     pair, where, width = np.unique(np.concatenate(keys), return_inverse=True, return_counts=True)
     # Each member's inscribed diameter: twice its largest distance to anything not itself.
-    inside = (labels > 0) & ~inner_outline(labels)
-    dist = ndimage.distance_transform_edt(inside)
+    _, dist = (inside_distance or InsideDistance())(labels)
     diameter = 2.0 * (label_max(dist, labels, n) + 0.5)
     a, b = pair // (n + 1), pair % (n + 1)
     ratio = width / np.minimum(diameter[a], diameter[b])
@@ -338,12 +340,13 @@ def border_levels(labels: np.ndarray, values: np.ndarray, n: int):
     return pair // (n + 1), pair % (n + 1), level
 
 
-def merge_without_neck(labels: np.ndarray, top: np.ndarray | None = None, rounds: int = 1, *, large_px: float = 0.0) -> np.ndarray:
+def merge_without_neck(labels: np.ndarray, top: np.ndarray | None = None, rounds: int = 1, *, large_px: float = 0.0,
+                       inside_distance: InsideDistance | None = None) -> np.ndarray:
     """Members split where their outline has no neck (neckless_pairs) joined again, renumbered;
     again on the joined ones (a particle cracked in many pieces joins piece by piece), up to
     `rounds` times."""
     for _ in range(rounds):
-        joined = _merge_once(labels, top, large_px)
+        joined = _merge_once(labels, top, large_px, inside_distance=inside_distance)
         if joined is labels:
             break
         labels = joined
@@ -372,8 +375,9 @@ def merge_across_no_neck(labels: np.ndarray) -> np.ndarray:
     return sequential_labels(roots[labels]).astype(labels.dtype)
 
 
-def _merge_once(labels: np.ndarray, top: np.ndarray | None, large_px: float = 0.0) -> np.ndarray:
-    a, b = neckless_pairs(labels, top, large_px)
+def _merge_once(labels: np.ndarray, top: np.ndarray | None, large_px: float = 0.0, *,
+                inside_distance: InsideDistance | None = None) -> np.ndarray:
+    a, b = neckless_pairs(labels, top, large_px, inside_distance=inside_distance)
     if a.size == 0:
         return labels
     roots = joined_roots(int(labels.max()), a.tolist(), b.tolist())
@@ -402,14 +406,13 @@ def _filled(labels: np.ndarray) -> np.ndarray:
     return out
 
 
-def _split_touching(labels: np.ndarray, depth_px: float) -> np.ndarray:
+def _split_touching(labels: np.ndarray, depth_px: float, *, inside_distance: InsideDistance | None = None) -> np.ndarray:
     """Split members whose tops merged (touching beads, both saturated) at their necks: a
     watershed of the distance to the outside, one basin per maximum `depth_px` above its neck.
     Only members holding two maxima or more are flooded (most hold one: nothing to split)."""
     if labels.max() == 0:
         return labels
-    inside = (labels > 0) & ~inner_outline(labels)
-    dist = ndimage.distance_transform_edt(inside)
+    inside, dist = (inside_distance or InsideDistance())(labels)
     # sparse_h_maxima marks every second pixel of a plateau: a 3x3 dilation joins those marks again.
     marks = ndimage.binary_dilation(sparse_h_maxima(dist, max(depth_px, 0.5)), structure=np.ones((3, 3)))
     markers, n = ndimage.label(marks & inside)

@@ -63,3 +63,24 @@ def test_inside_distance_is_remembered_for_the_same_labels_only():
     other = labels.copy()
     other[labels == 2] = 0  # another array (same values until changed): its own distances
     assert memo(other)[1] is not dist and memo(other)[0].sum() < inside.sum()
+
+
+def test_the_nearest_member_is_ndimages_and_kept_for_the_same_mask_only(monkeypatch):
+    from tamp_os.relief import objects
+    from tamp_os.relief.objects import nearest_member
+
+    rng = np.random.default_rng(2)
+    mask = rng.random((40, 50)) < 0.05
+    dist, (iy, ix) = nearest_member(mask)
+    expected, (ey, ex) = ndimage.distance_transform_edt(~mask, return_indices=True)
+    np.testing.assert_array_equal(dist, expected)
+    np.testing.assert_array_equal(iy, ey)
+    np.testing.assert_array_equal(ix, ex)
+    assert nearest_member(mask.copy())[0] is dist  # the same members, another array: kept
+    with pytest.raises(ValueError):
+        dist[0, 0] = 0.0  # shared: read-only
+    moved = mask.copy()
+    moved[0, 0] = ~moved[0, 0]
+    np.testing.assert_array_equal(nearest_member(moved)[0], ndimage.distance_transform_edt(~moved))  # changed: its own
+    monkeypatch.setattr(objects, "NEAREST_REMEMBERED_PX", 10)  # a grid too large to keep is computed each time
+    assert nearest_member(mask)[0] is not nearest_member(mask)[0]

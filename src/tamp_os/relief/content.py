@@ -49,7 +49,7 @@ from .lines import (
 )
 from .dense import BlobScale, blob_scale, scale_stack
 from .extrema import h_maxima
-from .objects import InsideDistance, ObjectMap, dome_profile, label_max, label_median, sequential_labels
+from .objects import InsideDistance, ObjectMap, dome_profile, label_max, label_median, nearest_member, sequential_labels
 from .scales import wide_gaussian
 from .population import (
     BACKGROUND_MM,
@@ -1324,7 +1324,7 @@ def member_tops(heights_mm: np.ndarray, labels: np.ndarray, mm_per_px: float, *,
     wide around it (ring pixels belong to their nearest member)."""
     n = int(labels.max())
     mask = labels > 0
-    dist, (iy, ix) = ndimage.distance_transform_edt(~mask, return_indices=True)
+    dist, (iy, ix) = nearest_member(mask)
     owner = np.where((~mask) & (dist * mm_per_px <= ring_mm), labels[iy, ix], 0)
     top = label_max(heights_mm, labels, n, initial=-np.inf)[1:]
     ring = label_median(heights_mm, owner, n)

@@ -17,7 +17,7 @@ from skimage import measure
 
 from ..errors import Text
 from ..facts import Facts
-from .objects import scipy_label_median
+from .objects import nearest_member, scipy_label_median
 from .scales import WORK_MAX_POINTS, WorkGrid, disk
 
 FINGERTIP_SIGMA_MM = 1.0
@@ -198,7 +198,7 @@ def _lifts(h: np.ndarray, objects, mm_per_px: float) -> tuple[int, float | None,
     near = ndimage.binary_dilation(mask, iterations=max(1, round(3 / mm_per_px)))
     ground = near & ~ndimage.binary_dilation(mask, iterations=max(1, round(1 / mm_per_px)))
     # Each ground pixel belongs to its nearest object.
-    _, (iy, ix) = ndimage.distance_transform_edt(~mask, return_indices=True)
+    _, (iy, ix) = nearest_member(mask)
     owner = np.where(ground, labels[iy, ix], 0)
     inside = scipy_label_median(h, labels, n)
     around = scipy_label_median(h, owner, n).astype(np.float64)

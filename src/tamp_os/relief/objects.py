@@ -9,6 +9,8 @@ Where nothing is enclosed, bright compact blobs (an Otsu threshold) are the fall
 
 from __future__ import annotations
 
+import hashlib
+import threading
 from dataclasses import dataclass
 
 import numpy as np
@@ -334,6 +336,35 @@ def _perimeters(labels: np.ndarray, n: int) -> np.ndarray:
         differ = a != b
         counts += np.bincount(a[differ] + 1, minlength=n + 2) + np.bincount(b[differ] + 1, minlength=n + 2)
     return counts[1:] * np.pi / 4
+
+
+# The relief's check of its members' lifts and the legibility check ask for the ground's nearest
+# member of the same members on the same grid; grids up to this size are remembered (one).
+NEAREST_REMEMBERED_PX = 1 << 21
+_nearest_last: tuple[tuple, tuple] | None = None
+_nearest_lock = threading.Lock()
+
+
+def nearest_member(mask: np.ndarray) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray]]:
+    """ndimage.distance_transform_edt(~mask, return_indices=True) of a bool (rows, cols) mask of
+    members: each pixel's distance to the nearest member pixel and that pixel's (rows, cols).
+    The last grid's answer is kept (by the mask's content, read-only), so two checks of the
+    same members pay for one transform."""
+    global _nearest_last
+    key = None
+    if mask.size <= NEAREST_REMEMBERED_PX:
+        key = (mask.shape, hashlib.blake2b(np.packbits(mask, axis=None).tobytes(), digest_size=16).digest())
+        with _nearest_lock:
+            last = _nearest_last
+        if last is not None and last[0] == key:
+            return last[1]
+    dist, (iy, ix) = ndimage.distance_transform_edt(~mask, return_indices=True)
+    for array in (dist, iy, ix):
+        array.flags.writeable = False  # shared by the callers
+    if key is not None:
+        with _nearest_lock:
+            _nearest_last = (key, (dist, (iy, ix)))
+    return dist, (iy, ix)
 
 
 class InsideDistance:

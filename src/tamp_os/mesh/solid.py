@@ -43,8 +43,14 @@ class Mesh:
 
         np.bincount does the scatter-add; trimesh's vertex_normals takes ~30x longer here.
         """
-        tri = self.vertices[self.faces]
-        n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])  # length = 2 × area
+        # np.take gathers rows several times faster than fancy indexing; the cross product by
+        # components is np.cross's own arithmetic (a1·b2 − a2·b1, ...) without its copies.
+        corners = [np.take(self.vertices, self.faces[:, k], axis=0) for k in range(3)]
+        u, w = corners[1] - corners[0], corners[2] - corners[0]
+        n = np.empty_like(u)  # length = 2 × area
+        n[:, 0] = u[:, 1] * w[:, 2] - u[:, 2] * w[:, 1]
+        n[:, 1] = u[:, 2] * w[:, 0] - u[:, 0] * w[:, 2]
+        n[:, 2] = u[:, 0] * w[:, 1] - u[:, 1] * w[:, 0]
         flat = self.faces.ravel()
         out = np.empty_like(self.vertices)
         for k in range(3):

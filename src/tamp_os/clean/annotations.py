@@ -108,7 +108,7 @@ def detect_annotations(values: np.ndarray, arrows: bool = True) -> tuple[np.ndar
             # Only a component whose four edges are mostly its own colour is taken so: a
             # rectangle's border, not a bright disc on a dark ground (its corners are the ground).
             framed = min(solid[0].mean(), solid[-1].mean(), solid[:, 0].mean(), solid[:, -1].mean()) >= 0.6
-            region = ndimage.binary_fill_holes(solid | other[sl] if framed else solid)
+            region = filled_holes(solid | other[sl] if framed else solid)
             fill = region.sum() / (bh * bw)
             if fill < 0.95 or min(bh, bw) < 3:
                 continue
@@ -143,6 +143,18 @@ def _grown(mask: np.ndarray, box: tuple[slice, slice], *, iterations: int) -> np
     out = np.zeros_like(mask)
     out[box] = ndimage.binary_dilation(mask[box], iterations=iterations)
     return out
+
+
+def filled_holes(solid: np.ndarray) -> np.ndarray:
+    """ndimage.binary_fill_holes(solid) (2-D, its default structure), by one labelling of the
+    background instead of a dilation repeated until nothing changes (3x sooner on a label box):
+    a hole is a background part (4-connected, as that dilation grows) that touches no edge."""
+    background, n = ndimage.label(~solid)
+    outside = np.zeros(n + 1, bool)
+    for edge in (background[0], background[-1], background[:, 0], background[:, -1]):
+        outside[edge] = True
+    outside[0] = False  # label 0 is `solid` itself
+    return ~outside[background]
 
 
 def _mark_glyphs(saturated: np.ndarray, mask: np.ndarray, labelled: list[Annotation]) -> list[Annotation]:
@@ -210,13 +222,17 @@ def inpaint(values: np.ndarray, mask: np.ndarray) -> np.ndarray:
     if not mask.any():
         return values
     finite = np.isfinite(values)
-    known = values.astype(np.float64) if finite.all() else np.where(finite, values, np.nanmedian(values))
+    # A picture finite everywhere is known as it is: only the box needs converting for its fill.
+    known = None if finite.all() else np.where(finite, values, np.nanmedian(values))
     out = values.astype(np.float32, copy=True)
     box = _inner_box(mask)
-    filled = None if box is None else _fill_box(known[box[0] - 1 : box[1] + 1, box[2] - 1 : box[3] + 1], mask[box[0] : box[1], box[2] : box[3]])
-    if filled is not None:
-        out[box[0] : box[1], box[2] : box[3]][mask[box[0] : box[1], box[2] : box[3]]] = filled
-        return out
+    if box is not None:
+        frame = (slice(box[0] - 1, box[1] + 1), slice(box[2] - 1, box[3] + 1))
+        filled = _fill_box(values[frame].astype(np.float64) if known is None else known[frame], mask[box[0] : box[1], box[2] : box[3]])
+        if filled is not None:
+            out[box[0] : box[1], box[2] : box[3]][mask[box[0] : box[1], box[2] : box[3]]] = filled
+            return out
+    known = values.astype(np.float64) if known is None else known
     rows, cols = np.nonzero(mask)
     out[rows, cols] = _fill_sparse(known, mask, rows, cols)
     return out

@@ -28,6 +28,10 @@ def is_arrow(solid: np.ndarray, image_size_px: int) -> bool:
     """Whether a saturated blob is a drawn arrow: a straight shaft of even width ending in a head
     at least twice as wide. Natural bright or dark features are rarely straight and of constant
     width, so this rejects sphere rims, cracks and highlights."""
+    # No blob is longer than its box's diagonal: one too small for the shortest arrow needs no SVD
+    # (by a margin far above the rounding of the length measured below).
+    if np.hypot(solid.shape[0] - 1, solid.shape[1] - 1) < 0.03 * image_size_px - 1e-6:
+        return False
     rows, cols = np.nonzero(solid)
     if rows.size < 40:
         return False

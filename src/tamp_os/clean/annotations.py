@@ -83,7 +83,8 @@ def detect_annotations(values: np.ndarray, arrows: bool = True) -> tuple[np.ndar
     boxes and bars (small saturated glyphs within a box height) goes with them.
     """
     finite = np.isfinite(values)
-    lo, hi = float(values[finite].min()), float(values[finite].max())
+    # min and max of every pixel when all are finite: the same numbers, without copying the picture
+    lo, hi = (float(values.min()), float(values.max())) if finite.all() else (float(values[finite].min()), float(values[finite].max()))
     mask = np.zeros(values.shape, bool)
     found: list[Annotation] = []
     if hi <= lo:

@@ -111,10 +111,11 @@ def rectangle_boundary_edges(vertices: np.ndarray, faces: np.ndarray, width_mm: 
     No edge inside the rectangle joins two points of one side (it would run along that side, over
     the points between them), so these are the same edges in the same order, found without the
     sort that matching each edge with its reverse needs (2 s of a 1000 mm plate's 22 s at High)."""
-    edges = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]).astype(np.int64)
     x, y = vertices[:, 0], vertices[:, 1]
     side = ((x == 0) * 1 | (x == width_mm) * 2 | (y == 0) * 4 | (y == depth_mm) * 8).astype(np.uint8)
-    return edges[(side[edges[:, 0]] & side[edges[:, 1]]) != 0]
+    corner = np.take(side, faces)  # each face's corners' sides; only the few edges kept are gathered
+    # the edges a->b, then b->c, then c->a of every face, in face order, as the (3M, 2) edge list holds them
+    return np.concatenate([faces[(corner[:, i] & corner[:, j]) != 0][:, [i, j]] for i, j in ((0, 1), (1, 2), (2, 0))]).astype(np.int64)
 
 
 def close_top(top_vertices: np.ndarray, top_faces: np.ndarray, boundary: np.ndarray, *, width_mm: float, depth_mm: float) -> Mesh:

@@ -167,10 +167,10 @@ def _joined(plate: tuple[np.ndarray, np.ndarray], relief: tuple[np.ndarray, np.n
     renumber = np.arange(len(relief_vertices)) + len(plate_vertices)
     renumber[foot] = feet
     vertices = np.concatenate([plate_vertices, relief_vertices])
-    faces = np.concatenate([plate_faces, renumber[relief_faces]])
+    faces = np.concatenate([plate_faces, np.take(renumber, relief_faces)])  # np.take: renumber[relief_faces], sooner
     used = np.zeros(len(vertices), bool)
     used[faces.ravel()] = True
-    return vertices[used], (np.cumsum(used) - 1)[faces]
+    return vertices[used], np.take(np.cumsum(used) - 1, faces)
 
 
 def closed_and_oriented(faces: np.ndarray) -> bool:

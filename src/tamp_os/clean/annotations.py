@@ -230,24 +230,32 @@ def inpaint(values: np.ndarray, mask: np.ndarray) -> np.ndarray:
     # A picture finite everywhere is known as it is: only the box needs converting for its fill.
     known = None if finite.all() else np.where(finite, values, np.nanmedian(values))
     out = values.astype(np.float32, copy=True)
-    box = _inner_box(mask)
+    bounds = _bounds(mask)
+    box = _inner_box(mask, bounds)
     if box is not None:
         frame = (slice(box[0] - 1, box[1] + 1), slice(box[2] - 1, box[3] + 1))
         filled = _fill_box(values[frame].astype(np.float64) if known is None else known[frame], mask[box[0] : box[1], box[2] : box[3]])
         if filled is not None:
             out[box[0] : box[1], box[2] : box[3]][mask[box[0] : box[1], box[2] : box[3]]] = filled
             return out
-    known = values.astype(np.float64) if known is None else known
-    rows, cols = np.nonzero(mask)
-    out[rows, cols] = _fill_sparse(known, mask, rows, cols)
+    r0, r1, c0, c1 = bounds
+    rows, cols = np.nonzero(mask[r0:r1, c0:c1])  # within the bounds: the same pixels in the same (row-major) order
+    rows += r0
+    cols += c0
+    out[rows, cols] = _fill_sparse(values if known is None else known, mask, rows, cols)
     return out
 
 
-def _inner_box(mask: np.ndarray) -> tuple[int, int, int, int] | None:
-    """(r0, r1, c0, c1) of the mask's bounding box when the mask fills BOX_FILL of it and a
-    ring of known pixels lies around it inside the picture; else None."""
+def _bounds(mask: np.ndarray) -> tuple[int, int, int, int]:
+    """(r0, r1, c0, c1): the bounding box of a mask with some True pixel."""
     rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
-    r0, r1, c0, c1 = int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1
+    return int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1
+
+
+def _inner_box(mask: np.ndarray, bounds: tuple[int, int, int, int]) -> tuple[int, int, int, int] | None:
+    """The mask's bounds when the mask fills BOX_FILL of them and a ring of known pixels lies
+    around them inside the picture; else None."""
+    r0, r1, c0, c1 = bounds
     if r0 < 1 or c0 < 1 or r1 > mask.shape[0] - 1 or c1 > mask.shape[1] - 1:
         return None
     return (r0, r1, c0, c1) if np.count_nonzero(mask[r0:r1, c0:c1]) >= BOX_FILL * (r1 - r0) * (c1 - c0) else None
@@ -313,13 +321,16 @@ def _conjugate_gradients(apply, precondition, rhs: np.ndarray, piece: np.ndarray
 
 def _fill_sparse(known: np.ndarray, mask: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
     """The harmonic fill of the masked pixels (rows, cols) by one sparse direct solve; pixels at
-    the picture's edge have no neighbour beyond it (zero flux)."""
+    the picture's edge have no neighbour beyond it (zero flux). `known`: the picture's values,
+    read as float64."""
     from scipy.sparse import coo_matrix
     from scipy.sparse.linalg import spsolve
 
     h, w = mask.shape
-    index = np.full(mask.shape, -1, np.int64)
-    index[rows, cols] = np.arange(rows.size)
+    # Each pixel's unknown number, over the pixels and their neighbours only (not the whole picture)
+    top, left = max(int(rows.min()) - 1, 0), max(int(cols.min()) - 1, 0)
+    index = np.full((min(int(rows.max()) + 2, h) - top, min(int(cols.max()) + 2, w) - left), -1, np.int64)
+    index[rows - top, cols - left] = np.arange(rows.size)
     diag = np.zeros(rows.size)
     rhs = np.zeros(rows.size)
     entries_r, entries_c = [], []
@@ -328,11 +339,11 @@ def _fill_sparse(known: np.ndarray, mask: np.ndarray, rows: np.ndarray, cols: np
         inside = (nr >= 0) & (nr < h) & (nc >= 0) & (nc < w)
         diag += inside
         nr, nc, me = nr[inside], nc[inside], np.flatnonzero(inside)
-        other = index[nr, nc]
+        other = index[nr - top, nc - left]
         unknown = other >= 0
         entries_r.append(me[unknown])
         entries_c.append(other[unknown])
-        np.add.at(rhs, me[~unknown], known[nr[~unknown], nc[~unknown]])
+        np.add.at(rhs, me[~unknown], known[nr[~unknown], nc[~unknown]].astype(np.float64))
     r = np.concatenate([np.arange(rows.size)] + entries_r)
     c = np.concatenate([np.arange(rows.size)] + entries_c)
     data = np.concatenate([diag] + [-np.ones(len(e)) for e in entries_r])

@@ -148,6 +148,7 @@ def _body_bytes_max(geometry: Geometry, ranges: list[tuple[int, int, str]]) -> i
 
 
 def _model_pieces(head: bytes, geometry: Geometry, ranges: list[tuple[int, int, str]], tail: bytes) -> Iterator[bytes]:
+    """The model's bytes: `head`, the vertices and the triangles CHUNK_ROWS at a time, `tail`."""
     yield head
     vertices, faces = geometry.vertices, geometry.faces
     for start in range(0, len(vertices), CHUNK_ROWS):

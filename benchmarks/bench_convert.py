@@ -51,7 +51,9 @@ STAGED = """
 import json, sys, time
 start_wall, start_cpu = time.perf_counter(), time.thread_time()
 import tamp_os.cli.commands as cli
-import tamp_os.lithograph.pipeline as pipeline, tamp_os.lithograph.convert, tamp_os.lithograph.outputs
+cli._ONE_COMMAND = True  # as the tamp-os program (cli.run): its imports kept out of the cycle collector
+with cli._loading():
+    import tamp_os.lithograph.pipeline as pipeline, tamp_os.lithograph.convert, tamp_os.lithograph.outputs
 imported_wall, imported_cpu = time.perf_counter(), time.thread_time()
 stages = {}
 

@@ -11,7 +11,7 @@ Each picture is converted once to warm the process (imports, OCR model, caches o
 `--runs` times in two ways, alternating so both see the same load:
 
 - "new picture": the process's caches of this picture's content are emptied first (the OCR
-  cache, when the code has one), as for the next file of a batch;
+  cache and the furnished plate's, when the code has them), as for the next file of a batch;
 - "again": the same picture converted again (a sweep, the web app's second try of a setting).
 
 The stage table gives the median wall time of each stage, its share of the median total, and the
@@ -106,12 +106,15 @@ def _process_cpu() -> float:
 
 
 def forget_picture() -> None:
-    """Empty what a process keeps of a picture's content (none before the OCR cache existed)."""
+    """Empty what a process keeps of a picture's content (none before the OCR cache existed) and
+    of its print's shape (the furnished plate, kept since issue 37: a picture of another size or
+    scale bar gets a plate of its own)."""
     import tamp_os.clean.scalebar as scalebar
+    import tamp_os.tactile.furniture as furniture
 
-    clear = getattr(scalebar, "clear_ocr_cache", None)
-    if clear is not None:
-        clear()
+    for clear in (getattr(scalebar, "clear_ocr_cache", None), getattr(furniture, "clear_plate_cache", None)):
+        if clear is not None:
+            clear()
 
 
 PIPELINE = ("read", "annotations", "preprocess", "relief", "legibility", "mesh", "scale bar wait", "tactile", "agreement")

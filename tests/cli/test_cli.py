@@ -30,6 +30,59 @@ def test_help_imports_no_heavy_libraries():
     assert out.stdout.strip() == "[]"
 
 
+# The tamp-os program (commands.run) or main() called by a program, in a child process whose
+# atexit handler reports how many objects the cycle collector holds frozen, whether it collects,
+# the OpenBLAS thread setting and how many threads the process has left (0: not known here).
+ENTRY = """
+import atexit, gc, os, sys
+from tamp_os.cli import commands
+entry, argv = sys.argv[1], sys.argv[2:]
+sys.argv = ["tamp-os"] + argv
+threads = lambda: len(os.listdir("/proc/self/task")) if os.path.isdir("/proc/self/task") else 0
+atexit.register(lambda: print("collector", gc.get_freeze_count(), gc.isenabled(), os.environ.get("OPENBLAS_NUM_THREADS"), threads()))
+sys.exit(commands.run() if entry == "run" else commands.main(argv))
+"""
+
+
+def test_program_exits_as_python_does_and_writes_what_main_writes(fixture, tmp_path):
+    picture = fixture("fept_spheres_sem.png")
+    reports = {}
+    for entry in ("run", "main"):
+        temp = tmp_path / f"tmp-{entry}"
+        temp.mkdir()
+        argv = ["convert", str(picture), "-o", str(tmp_path / entry), "--formats", "stl,3mf,glb"]
+        env = {k: v for k, v in os.environ.items() if k not in ("PYTHONUNBUFFERED", "OPENBLAS_NUM_THREADS")}
+        done = subprocess.run([sys.executable, "-c", ENTRY, entry, *argv], capture_output=True, text=True, timeout=240,
+                              env={**env, "TMPDIR": str(temp)})
+        assert done.returncode == 0, done.stderr
+        lines = done.stdout.splitlines()  # a pipe: block-buffered, so the result line shows the output was flushed
+        assert lines[0].startswith("fept_spheres_sem.png: ") and lines[-1].startswith("collector "), lines
+        reports[entry] = lines[-1].split()[1:]
+        assert not list(temp.iterdir()), entry  # temporary files removed, as at any exit
+    assert reports["run"][1] == reports["main"][1] == "True"  # the collector is back on after the imports
+    assert reports["run"][2] == "1" and reports["main"][2] == "None"  # one OpenBLAS thread in the program only
+    if int(reports["main"][3]) and len(os.sched_getaffinity(0)) > 1:  # Linux, more than one core: OpenBLAS's threads
+        assert int(reports["run"][3]) < int(reports["main"][3])  # are not started in the program
+    assert int(reports["run"][0]) > 50_000  # NumPy's, SciPy's and scikit-image's objects, kept out of collections
+    assert int(reports["main"][0]) == 0  # a program calling main() keeps its own objects collectable
+    names = sorted(p.name for p in (tmp_path / "run").iterdir())
+    assert names == sorted(p.name for p in (tmp_path / "main").iterdir()) and len(names) >= 5
+    for name in names:
+        assert (tmp_path / "run" / name).read_bytes() == (tmp_path / "main" / name).read_bytes(), name
+
+
+def test_program_keeps_the_users_openblas_threads():
+    env = {**os.environ, "OPENBLAS_NUM_THREADS": "2"}
+    done = subprocess.run([sys.executable, "-c", ENTRY, "run", "--version"], capture_output=True, text=True, timeout=120, env=env)
+    assert done.returncode == 0 and done.stdout.splitlines()[-1].split()[3] == "2", done.stdout + done.stderr
+
+
+def test_program_exit_code_and_messages_survive_the_quick_exit(tmp_path):
+    done = subprocess.run([sys.executable, "-m", "tamp_os.cli", "convert", str(tmp_path / "missing.png"), "-o", str(tmp_path / "out")],
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 1 and done.stderr.startswith("error: ") and "missing.png" in done.stderr, done.stderr
+
+
 def test_convert_prints_one_plain_line_per_file(tmp_path, image, capsys):
     code = main(["convert", str(image), "-o", str(tmp_path / "out"), "--formats", "stl,3mf,glb,obj,ply", "--preset", "low"])
     out = capsys.readouterr().out.strip().splitlines()

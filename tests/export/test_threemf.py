@@ -272,3 +272,29 @@ def test_prusaslicer_reads_parts_with_hostile_names_and_slices_them(litho, tmp_p
     gcode = tmp_path / "hostile.gcode"
     done = subprocess.run(["prusa-slicer", "--export-gcode", "--output", str(gcode), str(path)], capture_output=True, text=True, timeout=300)
     assert done.returncode == 0 and gcode.stat().st_size > 0, done.stderr[-2000:]
+
+
+@pytest.mark.timeout(60)
+@pytest.mark.parametrize("one_thread", [False, True])
+def test_model_written_in_pieces_is_the_model_compressed_whole(monkeypatch, one_thread):
+    """The model is formatted and compressed a few rows at a time (with or without the helper
+    thread): the package is the same bytes, and its model the same text, as with one piece."""
+    from tamp_os.export import threemf
+
+    rng = np.random.default_rng(7)
+    vertices = rng.normal(size=(500, 3)) * 50
+    parts = [Part(name, name, trimesh.Trimesh(vertices, rng.integers(0, 500, (n, 3)), process=False), rgb)
+             for n, name, rgb in ((300, "base", (10, 20, 30)), (41, "dots", (200, 0, 0)), (5, "key", (0, 0, 255)))]
+    whole = io.BytesIO()
+    write_3mf_parts(parts, whole, {"title": "pieces"})
+    monkeypatch.setattr(threemf, "CHUNK_ROWS", 7)
+    if one_thread:
+        monkeypatch.setenv("TAMP_THREADS", "1")
+    pieces = io.BytesIO()
+    write_3mf_parts(parts, pieces, {"title": "pieces"})
+    assert pieces.getvalue() == whole.getvalue()
+    with zipfile.ZipFile(pieces) as archive:
+        model = archive.read("3D/3dmodel.model").decode()
+    written = np.array([[float(x) for x in line.split('"')[1:6:2]] for line in model.splitlines() if line.startswith("<vertex ")])
+    np.testing.assert_array_equal(written, np.round(np.concatenate([vertices] * 3).astype(np.float32).astype(np.float64), 6))
+    assert model.count("<triangle ") == 346 and model.count(' p1="2"') == 5

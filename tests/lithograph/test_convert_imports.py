@@ -34,6 +34,9 @@ NEVER = {
     "urllib.request": "nothing on this path",
     "skimage.color": "channels (opt-in)",
     "PIL.PdfImagePlugin": "Pillow's rarer formats",
+    "tamp_os.tactile.tiles": "a bed smaller than the plate",
+    "tamp_os.tactile.parts": "two-colour prints",
+    "tamp_os.lithograph.content_word": "the panels of a figure",
 }
 
 

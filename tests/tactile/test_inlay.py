@@ -167,3 +167,34 @@ def test_inlaid_plates_as_written_are_the_boolean_solid(monkeypatch, plate):
     assert new.volume_mm3 == pytest.approx(old.volume_mm3, rel=1e-6, abs=1e-4)
     np.testing.assert_allclose(new.bounds_mm, old.bounds_mm, atol=1e-4)
     assert _corners_inside_edges(mesh, base_mm - min(SEAM_MM, base_mm / 10)) == 0
+
+
+@pytest.mark.timeout(60)
+def test_furnished_plate_made_once_per_shape_and_the_same_solid(monkeypatch):
+    """The furnished plate is kept for the next print of the same shape: a second print is the
+    same solid as the first (and as one made after forgetting the plate), the kept plate cannot
+    be changed by a caller, and another caption gets a plate of its own."""
+    from tamp_os.tactile import furniture as module
+    from tamp_os.tactile import inlay
+
+    plates = []
+    join = inlay.inlaid
+    monkeypatch.setattr(inlay, "inlaid", lambda relief, plate, *args, **kwargs: plates.append(plate) or join(relief, plate, *args, **kwargs))
+    relief = _relief()
+
+    def furnished(caption):
+        furniture = Furniture(caption=caption, sample_m_per_print_mm=1e-6, auto_scale_bar=True, spec=BrailleSpec())
+        return add_furniture(relief, 60.0, 40.0, base_mm=BASE_MM, furniture=furniture)[0]
+
+    module.clear_plate_cache()
+    first, again = furnished("Test"), furnished("Test")
+    module.clear_plate_cache()
+    fresh = furnished("Test")
+    assert plates[1] is plates[0] and plates[2] is not plates[0]
+    for mesh in (again, fresh):
+        np.testing.assert_array_equal(mesh.vertices, first.vertices)
+        np.testing.assert_array_equal(mesh.faces, first.faces)
+    with pytest.raises(ValueError):
+        plates[0].vertices[0, 0] = -1.0
+    other = furnished("Other words")
+    assert plates[3] is not plates[2] and len(other.vertices) != len(first.vertices)

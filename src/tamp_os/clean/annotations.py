@@ -28,6 +28,10 @@ def is_arrow(solid: np.ndarray, image_size_px: int) -> bool:
     """Whether a saturated blob is a drawn arrow: a straight shaft of even width ending in a head
     at least twice as wide. Natural bright or dark features are rarely straight and of constant
     width, so this rejects sphere rims, cracks and highlights."""
+    # No blob is longer than its box's diagonal: one too small for the shortest arrow needs no SVD
+    # (by a margin far above the rounding of the length measured below).
+    if np.hypot(solid.shape[0] - 1, solid.shape[1] - 1) < 0.03 * image_size_px - 1e-6:
+        return False
     rows, cols = np.nonzero(solid)
     if rows.size < 40:
         return False
@@ -79,7 +83,8 @@ def detect_annotations(values: np.ndarray, arrows: bool = True) -> tuple[np.ndar
     boxes and bars (small saturated glyphs within a box height) goes with them.
     """
     finite = np.isfinite(values)
-    lo, hi = float(values[finite].min()), float(values[finite].max())
+    # min and max of every pixel when all are finite: the same numbers, without copying the picture
+    lo, hi = (float(values.min()), float(values.max())) if finite.all() else (float(values[finite].min()), float(values[finite].max()))
     mask = np.zeros(values.shape, bool)
     found: list[Annotation] = []
     if hi <= lo:
@@ -108,7 +113,7 @@ def detect_annotations(values: np.ndarray, arrows: bool = True) -> tuple[np.ndar
             # Only a component whose four edges are mostly its own colour is taken so: a
             # rectangle's border, not a bright disc on a dark ground (its corners are the ground).
             framed = min(solid[0].mean(), solid[-1].mean(), solid[:, 0].mean(), solid[:, -1].mean()) >= 0.6
-            region = ndimage.binary_fill_holes(solid | other[sl] if framed else solid)
+            region = filled_holes(solid | other[sl] if framed else solid)
             fill = region.sum() / (bh * bw)
             if fill < 0.95 or min(bh, bw) < 3:
                 continue
@@ -125,9 +130,36 @@ def detect_annotations(values: np.ndarray, arrows: bool = True) -> tuple[np.ndar
         labelled = [a for a in found[found_before:] if a.kind in ("box", "bar")]
         if labelled:
             found += _mark_glyphs(saturated, mask, labelled)
-    if mask.any():
-        mask = ndimage.binary_dilation(mask, iterations=2)  # JPEG halos around the edges
+    if found:  # every annotation found marked the mask within its box
+        mask = _grown(mask, _around(found, rows_px=2, cols_px=2), iterations=2)  # JPEG halos around the edges
     return mask, _merge_text(found)
+
+
+def _around(found: list[Annotation], *, rows_px: int, cols_px: int) -> tuple[slice, slice]:
+    """The box holding every annotation of `found` and that many pixels around (cut at the picture's top and left)."""
+    rows = slice(max(0, min(a.rows[0] for a in found) - rows_px), max(a.rows[1] for a in found) + rows_px)
+    return rows, slice(max(0, min(a.cols[0] for a in found) - cols_px), max(a.cols[1] for a in found) + cols_px)
+
+
+def _grown(mask: np.ndarray, box: tuple[slice, slice], *, iterations: int) -> np.ndarray:
+    """binary_dilation(mask, iterations=`iterations`), computed within `box`, which holds every
+    True pixel and `iterations` pixels around them: nothing grows further, and the picture's edge
+    stops the growth in both (nothing lies beyond it), so the result is the same, 5-10x sooner."""
+    out = np.zeros_like(mask)
+    out[box] = ndimage.binary_dilation(mask[box], iterations=iterations)
+    return out
+
+
+def filled_holes(solid: np.ndarray) -> np.ndarray:
+    """ndimage.binary_fill_holes(solid) (2-D, its default structure), by one labelling of the
+    background instead of a dilation repeated until nothing changes (3x sooner on a label box):
+    a hole is a background part (4-connected, as that dilation grows) that touches no edge."""
+    background, n = ndimage.label(~solid)
+    outside = np.zeros(n + 1, bool)
+    for edge in (background[0], background[-1], background[:, 0], background[:, -1]):
+        outside[edge] = True
+    outside[0] = False  # label 0 is `solid` itself
+    return ~outside[background]
 
 
 def _mark_glyphs(saturated: np.ndarray, mask: np.ndarray, labelled: list[Annotation]) -> list[Annotation]:
@@ -137,14 +169,21 @@ def _mark_glyphs(saturated: np.ndarray, mask: np.ndarray, labelled: list[Annotat
     for a in labelled:
         pad = max(4, a.rows[1] - a.rows[0])
         near[max(0, a.rows[0] - pad) : a.rows[1] + pad, max(0, a.cols[0] - 3 * pad) : a.cols[1] + 3 * pad] = True
-    labels, _ = ndimage.label(saturated & near & ~mask)
+    # Labelled within the box that holds every `near` pixel: nothing outside it is labelled, so
+    # the components, their order (by first pixel, row by row) and their extents are those of the
+    # whole picture, offset by the box's corner.
+    pad = max(max(4, a.rows[1] - a.rows[0]) for a in labelled)
+    box = _around(labelled, rows_px=pad, cols_px=3 * pad)
+    r0, c0 = box[0].start, box[1].start
+    labels, _ = ndimage.label(saturated[box] & near[box] & ~mask[box])
     glyphs = []
     for i, sl in enumerate(ndimage.find_objects(labels), start=1):
         bh, bw = sl[0].stop - sl[0].start, sl[1].stop - sl[1].start
         glyph = labels[sl] == i
         if bh <= 0.06 * h and bw <= 0.06 * w and glyph.sum() >= 6:  # letters, not noise specks
-            mask[sl] |= glyph
-            glyphs.append(Annotation("text", (sl[0].start, sl[0].stop), (sl[1].start, sl[1].stop)))
+            rows, cols = slice(sl[0].start + r0, sl[0].stop + r0), slice(sl[1].start + c0, sl[1].stop + c0)
+            mask[rows, cols] |= glyph
+            glyphs.append(Annotation("text", (rows.start, rows.stop), (cols.start, cols.stop)))
     return glyphs
 
 
@@ -188,23 +227,35 @@ def inpaint(values: np.ndarray, mask: np.ndarray) -> np.ndarray:
     if not mask.any():
         return values
     finite = np.isfinite(values)
-    known = values.astype(np.float64) if finite.all() else np.where(finite, values, np.nanmedian(values))
+    # A picture finite everywhere is known as it is: only the box needs converting for its fill.
+    known = None if finite.all() else np.where(finite, values, np.nanmedian(values))
     out = values.astype(np.float32, copy=True)
-    box = _inner_box(mask)
-    filled = None if box is None else _fill_box(known[box[0] - 1 : box[1] + 1, box[2] - 1 : box[3] + 1], mask[box[0] : box[1], box[2] : box[3]])
-    if filled is not None:
-        out[box[0] : box[1], box[2] : box[3]][mask[box[0] : box[1], box[2] : box[3]]] = filled
-        return out
-    rows, cols = np.nonzero(mask)
-    out[rows, cols] = _fill_sparse(known, mask, rows, cols)
+    bounds = _bounds(mask)
+    box = _inner_box(mask, bounds)
+    if box is not None:
+        frame = (slice(box[0] - 1, box[1] + 1), slice(box[2] - 1, box[3] + 1))
+        filled = _fill_box(values[frame].astype(np.float64) if known is None else known[frame], mask[box[0] : box[1], box[2] : box[3]])
+        if filled is not None:
+            out[box[0] : box[1], box[2] : box[3]][mask[box[0] : box[1], box[2] : box[3]]] = filled
+            return out
+    r0, r1, c0, c1 = bounds
+    rows, cols = np.nonzero(mask[r0:r1, c0:c1])  # within the bounds: the same pixels in the same (row-major) order
+    rows += r0
+    cols += c0
+    out[rows, cols] = _fill_sparse(values if known is None else known, mask, rows, cols)
     return out
 
 
-def _inner_box(mask: np.ndarray) -> tuple[int, int, int, int] | None:
-    """(r0, r1, c0, c1) of the mask's bounding box when the mask fills BOX_FILL of it and a
-    ring of known pixels lies around it inside the picture; else None."""
+def _bounds(mask: np.ndarray) -> tuple[int, int, int, int]:
+    """(r0, r1, c0, c1): the bounding box of a mask with some True pixel."""
     rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
-    r0, r1, c0, c1 = int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1
+    return int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1
+
+
+def _inner_box(mask: np.ndarray, bounds: tuple[int, int, int, int]) -> tuple[int, int, int, int] | None:
+    """The mask's bounds when the mask fills BOX_FILL of them and a ring of known pixels lies
+    around them inside the picture; else None."""
+    r0, r1, c0, c1 = bounds
     if r0 < 1 or c0 < 1 or r1 > mask.shape[0] - 1 or c1 > mask.shape[1] - 1:
         return None
     return (r0, r1, c0, c1) if np.count_nonzero(mask[r0:r1, c0:c1]) >= BOX_FILL * (r1 - r0) * (c1 - c0) else None
@@ -270,13 +321,16 @@ def _conjugate_gradients(apply, precondition, rhs: np.ndarray, piece: np.ndarray
 
 def _fill_sparse(known: np.ndarray, mask: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
     """The harmonic fill of the masked pixels (rows, cols) by one sparse direct solve; pixels at
-    the picture's edge have no neighbour beyond it (zero flux)."""
+    the picture's edge have no neighbour beyond it (zero flux). `known`: the picture's values,
+    read as float64."""
     from scipy.sparse import coo_matrix
     from scipy.sparse.linalg import spsolve
 
     h, w = mask.shape
-    index = np.full(mask.shape, -1, np.int64)
-    index[rows, cols] = np.arange(rows.size)
+    # Each pixel's unknown number, over the pixels and their neighbours only (not the whole picture)
+    top, left = max(int(rows.min()) - 1, 0), max(int(cols.min()) - 1, 0)
+    index = np.full((min(int(rows.max()) + 2, h) - top, min(int(cols.max()) + 2, w) - left), -1, np.int64)
+    index[rows - top, cols - left] = np.arange(rows.size)
     diag = np.zeros(rows.size)
     rhs = np.zeros(rows.size)
     entries_r, entries_c = [], []
@@ -285,11 +339,11 @@ def _fill_sparse(known: np.ndarray, mask: np.ndarray, rows: np.ndarray, cols: np
         inside = (nr >= 0) & (nr < h) & (nc >= 0) & (nc < w)
         diag += inside
         nr, nc, me = nr[inside], nc[inside], np.flatnonzero(inside)
-        other = index[nr, nc]
+        other = index[nr - top, nc - left]
         unknown = other >= 0
         entries_r.append(me[unknown])
         entries_c.append(other[unknown])
-        np.add.at(rhs, me[~unknown], known[nr[~unknown], nc[~unknown]])
+        np.add.at(rhs, me[~unknown], known[nr[~unknown], nc[~unknown]].astype(np.float64))
     r = np.concatenate([np.arange(rows.size)] + entries_r)
     c = np.concatenate([np.arange(rows.size)] + entries_c)
     data = np.concatenate([diag] + [-np.ones(len(e)) for e in entries_r])

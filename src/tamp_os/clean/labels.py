@@ -38,7 +38,8 @@ UNREADABLE = ""  # an Annotation's text when OCR could not read it with confiden
 
 def on_paper(values: np.ndarray) -> bool:
     """Whether the picture is drawn on empty bright paper (PAPER_SHARE of it near its lightest)."""
-    finite = values[np.isfinite(values)]
+    # The finite pixels; a picture finite everywhere is used as it is, without a copy.
+    finite = values if np.isfinite(values).all() else values[np.isfinite(values)]
     if finite.size == 0:
         return False
     lo, hi = float(finite.min()), float(finite.max())

@@ -72,8 +72,9 @@ class Cleaned:
         if self.mask is None and not (top or bottom):
             return None
         h, w = self.values.shape
-        full = np.full((top + h + bottom, w), BAND_SHADE, dtype=np.float32)
-        full[top : top + h] = 0.0 if self.mask is None else self.mask.astype(np.float32)
+        full = np.empty((top + h + bottom, w), dtype=np.float32)  # each row written once, the mask cast in place
+        full[:top], full[top + h :] = BAND_SHADE, BAND_SHADE
+        full[top : top + h] = 0.0 if self.mask is None else self.mask
         return full
 
 

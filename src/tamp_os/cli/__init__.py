@@ -1,3 +1,3 @@
 """The `tamp-os` command line: `main` parses the arguments and runs a command (commands.py)."""
 
-from .commands import main  # noqa: F401  (the console script's entry point)
+from .commands import main, run  # noqa: F401  (run: the console script's entry point; main: the same for callers)

@@ -15,8 +15,11 @@ from __future__ import annotations
 
 import hashlib
 import io
+import os
 import uuid
 import zipfile
+from collections.abc import Iterable, Iterator
+from concurrent.futures import Future, ThreadPoolExecutor
 
 import numpy as np
 
@@ -75,41 +78,84 @@ def _arrays(vertices, faces) -> tuple[np.ndarray, np.ndarray]:
     return np.ascontiguousarray(vertices, dtype=np.float32), np.ascontiguousarray(faces, dtype=np.uint32)
 
 
+# Rows of vertices or triangles formatted and compressed at a time: the model is never one
+# string (a 2000 x 2000 grid's would be 0.6 GB), and zlib compresses one piece while the next is formatted.
+CHUNK_ROWS = 1 << 15
+# Triangle indices are formatted from a table of each vertex index's digits (a copy, not a
+# conversion per corner: ~40 % faster) up to this many vertices; beyond, the table costs more memory than it saves.
+INDEX_TABLE_MAX = 1 << 21
+
+
 def _vertices_xml(vertices: np.ndarray) -> str:
     """<vertex> lines: six decimals of each float32 coordinate (lib3mf's precision), one format
     operation over the whole array."""
     return ('<vertex x="%.6f" y="%.6f" z="%.6f"/>\n' * len(vertices)) % tuple(vertices.astype(np.float64).ravel().tolist())
 
 
-def _triangles_xml(faces: np.ndarray, material: str = "") -> str:
+def _triangles_xml(faces: np.ndarray, material: str = "", *, names: np.ndarray | None = None) -> str:
     """<triangle> lines (0-based vertex indices); `material` is extra attributes for all of them
-    (pid and p1), empty for the object's default material."""
-    line = f'<triangle v1="%d" v2="%d" v3="%d"{material}/>\n'
-    return (line * len(faces)) % tuple(faces.ravel().tolist())
+    (pid and p1), empty for the object's default material; `names`: each vertex index as text
+    (object array), or None to format the numbers."""
+    if names is None:
+        return (f'<triangle v1="%d" v2="%d" v3="%d"{material}/>\n' * len(faces)) % tuple(faces.ravel().tolist())
+    return (f'<triangle v1="%s" v2="%s" v3="%s"{material}/>\n' * len(faces)) % tuple(names[faces.ravel()].tolist())
 
 
-def _model_xml(geometry: Geometry, metadata: dict, *, resources: str = "", object_extra: str = "", triangles: str | None = None) -> bytes:
-    """The 3D/3dmodel.model part: metadata, `resources` before the object (base materials), the
-    object (with `object_extra` attributes) and one build item, all with content-derived UUIDs."""
-    head = [
+def _index_names(n_vertices: int) -> np.ndarray | None:
+    """Every vertex index as text (what '%d' writes), or None for a mesh too large for the table."""
+    return np.array(list(map(str, range(n_vertices))), dtype=object) if n_vertices <= INDEX_TABLE_MAX else None
+
+
+def _model_xml(geometry: Geometry, metadata: dict, *, resources: str = "", object_extra: str = "",
+               triangle_ranges: list[tuple[int, int, str]] | None = None) -> tuple[int, Iterator[bytes]]:
+    """The 3D/3dmodel.model part: at most how many bytes long, and its bytes in pieces.
+    Metadata, `resources` before the object (base materials), the object (with `object_extra`
+    attributes) and one build item, all with content-derived UUIDs. `triangle_ranges`: (first,
+    stop, extra attributes of those triangles), in order over all of them (default: one range, no attributes)."""
+    lines = [
         '<?xml version="1.0" encoding="UTF-8"?>',
         f'<model xmlns="{CORE_NS}" xmlns:p="{PRODUCTION_NS}" unit="millimeter" xml:lang="en-US">',
     ]
     for key in ("Title", "Description", "Designer", "Application"):
         value = metadata.get(key.lower())
         if value:
-            head.append(f'<metadata name="{key}" type="string" preserve="1">{_text(value)}</metadata>')
-    head += ["<resources>", resources] if resources else ["<resources>"]
-    head.append(f'<object id="{geometry.object_id}" name="{_attr(geometry.title)}" type="model" p:UUID="{geometry.uuid("object")}"{object_extra}>')
-    head.append("<mesh>\n<vertices>\n")
+            lines.append(f'<metadata name="{key}" type="string" preserve="1">{_text(value)}</metadata>')
+    lines += ["<resources>", resources] if resources else ["<resources>"]
+    lines.append(f'<object id="{geometry.object_id}" name="{_attr(geometry.title)}" type="model" p:UUID="{geometry.uuid("object")}"{object_extra}>')
+    lines.append("<mesh>\n<vertices>\n")
+    head = "\n".join(lines).encode("utf-8")
     tail = (
         "</triangles>\n</mesh>\n</object>\n</resources>\n"
         f'<build p:UUID="{geometry.uuid("build")}">\n'
         f'<item objectid="{geometry.object_id}" p:UUID="{geometry.uuid("item")}"/>\n</build>\n</model>\n'
-    )
-    body = _vertices_xml(geometry.vertices) + "</vertices>\n<triangles>\n"
-    body += triangles if triangles is not None else _triangles_xml(geometry.faces)
-    return ("\n".join(head) + body + tail).encode("utf-8")
+    ).encode("utf-8")
+    ranges = triangle_ranges or [(0, len(geometry.faces), "")]
+    return len(head) + len(tail) + _body_bytes_max(geometry, ranges), _model_pieces(head, geometry, ranges, tail)
+
+
+def _body_bytes_max(geometry: Geometry, ranges: list[tuple[int, int, str]]) -> int:
+    """At most how long the <vertex> and <triangle> lines are: every number as wide as the widest."""
+    v, n = geometry.vertices, len(geometry.vertices)
+    widest = float(np.abs(v).max()) if n else 0.0
+    if not np.isfinite(widest):
+        return zipfile.ZIP64_LIMIT  # 'inf' or 'nan' in the text: measured exactly instead (see _write_package)
+    number = 1 + len(str(int(widest) + 1)) + 7  # sign, digits, point, six decimals
+    index = len(str(n))
+    triangles = sum((stop - first) * (len('<triangle v1="" v2="" v3=""/>\n') + len(extra) + 3 * index) for first, stop, extra in ranges)
+    return n * (len('<vertex x="" y="" z=""/>\n') + 3 * number) + len("</vertices>\n<triangles>\n") + triangles
+
+
+def _model_pieces(head: bytes, geometry: Geometry, ranges: list[tuple[int, int, str]], tail: bytes) -> Iterator[bytes]:
+    yield head
+    vertices, faces = geometry.vertices, geometry.faces
+    for start in range(0, len(vertices), CHUNK_ROWS):
+        yield _vertices_xml(vertices[start : start + CHUNK_ROWS]).encode("ascii")
+    yield b"</vertices>\n<triangles>\n"
+    names = _index_names(len(vertices)) if len(faces) and int(faces.max()) < len(vertices) else None
+    for first, stop, extra in ranges:
+        for start in range(first, stop, CHUNK_ROWS):
+            yield _triangles_xml(faces[start : min(start + CHUNK_ROWS, stop)], extra, names=names).encode("utf-8")
+    yield tail
 
 
 SLIC3R_MODEL_CONFIG = "Metadata/Slic3r_PE_model.config"
@@ -150,14 +196,14 @@ def write_3mf_parts(parts, fh, metadata: dict) -> None:
     bases = "".join(f'<base name="{_attr(p.label)}" displaycolor="#{"%02X%02X%02X" % tuple(p.colour_rgb)}FF"/>\n' for p in parts)
     # Part k's triangles name base material k; the object's default (k = 0) needs no attributes (3MF core).
     starts = np.cumsum([0] + face_counts)
-    triangles = "".join(_triangles_xml(faces[a:b], f' pid="1" p1="{k}"' if k else "") for k, (a, b) in enumerate(zip(starts, starts[1:])))
+    ranges = [(int(a), int(b), f' pid="1" p1="{k}"' if k else "") for k, (a, b) in enumerate(zip(starts, starts[1:]))]
     application = f"{metadata.get('application', 'TAMP-OS')} ({PRUSA_LAYOUT})"
     model = _model_xml(
         geometry,
         {**metadata, "application": application},
         resources=f'<basematerials id="1">\n{bases}</basematerials>',
         object_extra=' pid="1" pindex="0"',
-        triangles=triangles,
+        triangle_ranges=ranges,
     )
     config = slic3r_model_config(geometry.object_id, title, [p.label for p in parts], face_counts=face_counts)
     _write_package(fh, model, [(SLIC3R_MODEL_CONFIG, config)] + _print_settings(metadata))
@@ -214,13 +260,42 @@ def _root_relationships() -> bytes:
     ).encode()
 
 
-def _write_package(fh, model: bytes, attachments: list[tuple[str, bytes]]) -> None:
-    """The zip package into `fh`, in one pass (built in memory, so a failure writes nothing)."""
-    entries = [(MODEL_PATH, model), *attachments, ("[Content_Types].xml", _content_types(bool(attachments))), ("_rels/.rels", _root_relationships())]
+def _write_package(fh, model: tuple[int, Iterable[bytes]], attachments: list[tuple[str, bytes]]) -> None:
+    """The zip package into `fh`, in one pass (built in memory, so a failure writes nothing).
+    `model`: at most how long the model is, and its bytes in pieces. zlib's output does not
+    depend on how its input is cut, so the entry holds what compressing the model whole gives."""
+    entries = [*attachments, ("[Content_Types].xml", _content_types(bool(attachments))), ("_rels/.rels", _root_relationships())]
+    size_max, pieces = model
     buffer = io.BytesIO()
     with zipfile.ZipFile(buffer, "w", zipfile.ZIP_DEFLATED, compresslevel=COMPRESS_LEVEL) as archive:
+        if size_max * 1.05 <= zipfile.ZIP64_LIMIT:  # writestr would not take Zip64 either: the same entry
+            # By name: the archive's method and level, and ZipInfo's default date (ZIP_DATE).
+            with archive.open(MODEL_PATH, "w") as dest:
+                _write_pieces(dest, pieces)
+        else:  # writestr decides on Zip64 from the exact size
+            entries.insert(0, (MODEL_PATH, b"".join(pieces)))
         for name, data in entries:
             info = zipfile.ZipInfo(name, date_time=ZIP_DATE)
             info.compress_type = zipfile.ZIP_DEFLATED
             archive.writestr(info, data, compresslevel=COMPRESS_LEVEL)
     fh.write(buffer.getbuffer())
+
+
+def _write_pieces(dest, pieces: Iterable[bytes]) -> None:
+    """Write `pieces` to the zip entry `dest` in order. zlib releases the GIL, so a helper thread
+    compresses (and checksums) each piece while this one formats the next, one piece ahead at
+    most; a batch worker with one core to itself (TAMP_THREADS=1) does both here."""
+    if os.environ.get("TAMP_THREADS") == "1":
+        for piece in pieces:
+            dest.write(piece)
+        return
+    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="tamp-3mf") as pool:
+        pending: Future | None = None
+        try:
+            for piece in pieces:
+                if pending is not None:
+                    pending.result()
+                pending = pool.submit(dest.write, piece)
+        finally:  # the entry is closed only after its last write, even when formatting failed
+            if pending is not None:
+                pending.result()

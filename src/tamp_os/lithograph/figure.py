@@ -15,6 +15,7 @@ import functools
 import logging
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -25,8 +26,10 @@ from .pipeline import Lithograph, make_lithograph, read_source
 from .sizing import layout_for, resolve_printer
 from ..printing.printers import PrinterProfile
 from ..read.model import Picture
-from .content_word import ContentWord, content_word
 from .report import PanelFacts, Report, describe, plate_report
+
+if TYPE_CHECKING:  # a figure's panels only
+    from .content_word import ContentWord
 
 log = logging.getLogger(__name__)
 
@@ -274,6 +277,8 @@ def panel_contents(values: np.ndarray, layout: PanelLayout, colour: np.ndarray |
     `values` the figure's brightness, `colour` its colour pixels (figure_colour) or None; `params`
     and `printer_profile` the figure's (each panel's word is decided on the grid its print uses).
     Only the pixels and the parameters decide, never which panels a run prints."""
+    from .content_word import content_word
+
     out = {}
     params = params or LithoParams()
     for p in layout.panels:

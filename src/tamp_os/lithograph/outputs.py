@@ -57,11 +57,16 @@ def metadata(litho) -> dict:
 
 def multipart_sentences(litho) -> list[str]:
     """How the parts or tiles go together, for the description (tactile/parts.py, tiles.py)."""
-    from ..tactile.parts import describe_parts
-    from ..tactile.tiles import describe_tiles
+    out = []
+    if getattr(litho, "parts", None):
+        from ..tactile.parts import describe_parts
 
-    out = [describe_parts(litho.parts)] if getattr(litho, "parts", None) else []
-    return out + ([describe_tiles(litho.tiles)] if getattr(litho, "tiles", None) else [])
+        out.append(describe_parts(litho.parts))
+    if getattr(litho, "tiles", None):
+        from ..tactile.tiles import describe_tiles
+
+        out.append(describe_tiles(litho.tiles))
+    return out
 
 
 def save(litho, target, formats=None, *, stem: str | None = None) -> list[Path]:

@@ -13,7 +13,7 @@ from contextlib import contextmanager
 from contextvars import ContextVar
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
+from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
@@ -36,9 +36,10 @@ from ..relief.touch import MOSTLY_NOISE, noise_share
 from .report import Report, plate_report
 from .sizing import layout_for, resolve_printer
 from ..tactile.furniture import Furniture, Placed, add_furniture
-from ..tactile.parts import two_colour_parts
-from ..tactile.tiles import Tiling, tiles_for
 from .layout_words import ReliefLayout, find_layout
+
+if TYPE_CHECKING:  # tiles: a bed smaller than the plate only
+    from ..tactile.tiles import Tiling
 
 log = logging.getLogger(__name__)
 
@@ -237,10 +238,16 @@ def _tactile(relief_mesh: Mesh, layout: Layout, params: LithoParams, furniture: 
     if furniture.wanted or furniture.corner_cut:
         mesh, placed = add_furniture(relief_mesh, layout.width_mm, layout.depth_mm, base_mm=params.base_mm, furniture=furniture)
     plain, overlay = key_meshes if key_meshes else (relief_mesh, None)
-    parts = two_colour_parts(plain, layout.width_mm, layout.depth_mm, base_mm=params.base_mm, furniture=furniture, overlay=overlay)[0] if params.multicolour else None
+    parts = None
+    if params.multicolour:
+        from ..tactile.parts import two_colour_parts
+
+        parts = two_colour_parts(plain, layout.width_mm, layout.depth_mm, base_mm=params.base_mm, furniture=furniture, overlay=overlay)[0]
     tiles = None
     bed = params.bed_size_mm if params.bed_mm else (printer_bed_mm if not params.multicolour else None)
     if bed:
+        from ..tactile.tiles import tiles_for
+
         (ox, oy), legs = (placed.relief_origin_mm, placed.corner_cut_mm) if placed else ((0.0, 0.0), 0.0)
         picture_box = (ox, oy, ox + layout.width_mm, oy + layout.depth_mm)
         tiles = tiles_for(mesh, bed, params.base_mm, spec=furniture.spec, picture_box=picture_box, corner_legs_mm=legs)

@@ -16,11 +16,11 @@ from ..facts import Facts
 from .layout_words import ReliefLayout
 from ..params import LithoParams
 from ..printing.printers import height_levels
-from .content_word import ContentWord
 from ..relief.legibility import Legibility
 
-if TYPE_CHECKING:
+if TYPE_CHECKING:  # content_word: a figure's panels only
     from ..printing.slicer import SliceResult
+    from .content_word import ContentWord
     from ..tactile.furniture import Placed
 
 

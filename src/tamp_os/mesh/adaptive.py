@@ -47,14 +47,16 @@ def adaptive_top(heights: np.ndarray, width_mm: float, depth_mm: float, *, max_e
     if top_row == 0:
         peak[1] = depth_mm
     vertices, faces = _delatin_top(heights, width_mm, depth_mm, max_error_mm)
-    if (vertices == peak).all(axis=1).any():
+    # Column by column: .all(axis=1) over (N, 3) rows reduces three values at a time, ~10x slower.
+    if ((vertices[:, 0] == peak[0]) & (vertices[:, 1] == peak[1]) & (vertices[:, 2] == peak[2])).any():
         return vertices, faces
     # Inserting the peak changes the surface only inside the triangle(s) it falls in. Where the
     # error there stays within the bound, this triangulation serves; else (the peak lifts its
     # neighbours by up to the error there, which could double it) triangulate to half the bound,
     # then insert it. The check saves a second pass over the whole grid (4.5 s at 1000 mm, High).
     with_peak, with_peak_faces = insert_point(vertices, faces, peak)
-    around = with_peak_faces[(with_peak_faces == len(vertices)).any(axis=1)]
+    new = len(vertices)
+    around = with_peak_faces[(with_peak_faces[:, 0] == new) | (with_peak_faces[:, 1] == new) | (with_peak_faces[:, 2] == new)]
     if error_at_grid_points(with_peak, around, heights, width_mm=width_mm, depth_mm=depth_mm) <= max_error_mm:
         return with_peak, with_peak_faces
     vertices, faces = _delatin_top(heights, width_mm, depth_mm, max_error_mm / 2)
@@ -100,28 +102,29 @@ def insert_point(vertices: np.ndarray, faces: np.ndarray, point: np.ndarray):
     Inside a triangle: that triangle becomes three. On an edge: each triangle sharing the edge
     becomes two, so no T-junction appears. On a vertex: nothing to do.
     """
-    tri = vertices[faces][:, :, :2]
-    a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
+    a, b, c = (np.take(vertices, faces[:, k], axis=0) for k in range(3))  # np.take: vertices[faces]'s rows, sooner
     p = point[:2]
 
     def cross(u, v, w):  # twice the signed area of (u, v, w)
         return (v[..., 0] - u[..., 0]) * (w[..., 1] - u[..., 1]) - (v[..., 1] - u[..., 1]) * (w[..., 0] - u[..., 0])
 
     area = cross(a, b, c)
-    bary = np.stack([cross(p, b, c), cross(a, p, c), cross(a, b, p)], axis=1) / area[:, None]
     eps = 1e-9
-    hits = np.flatnonzero((bary >= -eps).all(axis=1))
+    # Each barycentric coordinate on its own, and the full (hits, 3) array only for the hits.
+    weights = [cross(p, b, c) / area, cross(a, p, c) / area, cross(a, b, p) / area]
+    hits = np.flatnonzero((weights[0] >= -eps) & (weights[1] >= -eps) & (weights[2] >= -eps))
     if len(hits) == 0:
         return vertices, faces
-    if (np.abs(bary[hits] - 1) <= eps).any():
+    bary = np.stack([w[hits] for w in weights], axis=1)
+    if (np.abs(bary - 1) <= eps).any():
         return vertices, faces  # already a vertex
     new = len(vertices)
     vertices = np.vstack([vertices, point])
     keep = np.ones(len(faces), bool)
     added = []
-    for f in hits:
+    for f, weight in zip(hits, bary):
         i, j, k = faces[f]
-        zero = np.flatnonzero(np.abs(bary[f]) <= eps)
+        zero = np.flatnonzero(np.abs(weight) <= eps)
         keep[f] = False
         if len(zero) == 0:
             added += [(i, j, new), (j, k, new), (k, i, new)]

@@ -43,8 +43,14 @@ class Mesh:
 
         np.bincount does the scatter-add; trimesh's vertex_normals takes ~30x longer here.
         """
-        tri = self.vertices[self.faces]
-        n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])  # length = 2 × area
+        # np.take gathers rows several times faster than fancy indexing; the cross product by
+        # components is np.cross's own arithmetic (a1·b2 − a2·b1, ...) without its copies.
+        corners = [np.take(self.vertices, self.faces[:, k], axis=0) for k in range(3)]
+        u, w = corners[1] - corners[0], corners[2] - corners[0]
+        n = np.empty_like(u)  # length = 2 × area
+        n[:, 0] = u[:, 1] * w[:, 2] - u[:, 2] * w[:, 1]
+        n[:, 1] = u[:, 2] * w[:, 0] - u[:, 0] * w[:, 2]
+        n[:, 2] = u[:, 0] * w[:, 1] - u[:, 1] * w[:, 0]
         flat = self.faces.ravel()
         out = np.empty_like(self.vertices)
         for k in range(3):
@@ -105,10 +111,11 @@ def rectangle_boundary_edges(vertices: np.ndarray, faces: np.ndarray, width_mm: 
     No edge inside the rectangle joins two points of one side (it would run along that side, over
     the points between them), so these are the same edges in the same order, found without the
     sort that matching each edge with its reverse needs (2 s of a 1000 mm plate's 22 s at High)."""
-    edges = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]]).astype(np.int64)
     x, y = vertices[:, 0], vertices[:, 1]
     side = ((x == 0) * 1 | (x == width_mm) * 2 | (y == 0) * 4 | (y == depth_mm) * 8).astype(np.uint8)
-    return edges[(side[edges[:, 0]] & side[edges[:, 1]]) != 0]
+    corner = np.take(side, faces)  # each face's corners' sides; only the few edges kept are gathered
+    # the edges a->b, then b->c, then c->a of every face, in face order, as the (3M, 2) edge list holds them
+    return np.concatenate([faces[(corner[:, i] & corner[:, j]) != 0][:, [i, j]] for i, j in ((0, 1), (1, 2), (2, 0))]).astype(np.int64)
 
 
 def close_top(top_vertices: np.ndarray, top_faces: np.ndarray, boundary: np.ndarray, *, width_mm: float, depth_mm: float) -> Mesh:

@@ -56,7 +56,9 @@ def _edge_problems(faces: np.ndarray, n_vertices: int) -> tuple[int, int]:
         part += np.maximum(a, b)
         part *= 2
         part += a < b
-    keys.sort(kind="stable")  # timsort: meshes list their edges in long sorted runs, so this is ~7× faster
+    # NumPy's default sort (SIMD quicksort): ~13x faster than timsort on an adaptive mesh's edges
+    # and no slower on a full grid's; equal keys are indistinguishable, so stability is moot.
+    keys.sort()
     if len(keys) % 2 == 0:
         pairs = keys.reshape(-1, 2)
         if (pairs[:, 0] % 2 == 0).all() and (pairs[:, 1] == pairs[:, 0] + 1).all() and (pairs[1:, 0] > pairs[:-1, 1]).all():
@@ -73,9 +75,10 @@ def _small_faces_and_volume(vertices: np.ndarray, faces: np.ndarray, min_area_mm
     small, six_volume = 0, 0.0
     for start in range(0, len(faces), chunk):
         f = faces[start:start + chunk]
-        p0 = vertices[f[:, 0]]
-        e1 = vertices[f[:, 1]] - p0
-        e2 = vertices[f[:, 2]] - p0
+        # np.take gathers rows several times faster than fancy indexing, with the same values.
+        p0 = np.take(vertices, f[:, 0], axis=0)
+        e1 = np.take(vertices, f[:, 1], axis=0) - p0
+        e2 = np.take(vertices, f[:, 2], axis=0) - p0
         # Cross product by components: np.cross is several times slower on long arrays.
         c = np.empty_like(e1)
         c[:, 0] = e1[:, 1] * e2[:, 2] - e1[:, 2] * e2[:, 1]
@@ -101,7 +104,7 @@ def _check(vertices: np.ndarray, faces: np.ndarray, min_area_mm2: float, collaps
     outward = volume > 0
     if not outward:
         problems.append(f"the volume is {volume:.3g} mm³: faces wind inward or enclose nothing")
-    bounds = [vertices.min(axis=0).tolist(), vertices.max(axis=0).tolist()] if len(vertices) else [[], []]
+    bounds = _bounds(vertices) if len(vertices) else [[], []]
     return SolidCheck(
         closed=open_edges == 0,
         manifold=repeated == 0 and open_edges == 0,
@@ -111,6 +114,13 @@ def _check(vertices: np.ndarray, faces: np.ndarray, min_area_mm2: float, collaps
         bounds_mm=bounds,
         problems=problems,
     )
+
+
+def _bounds(vertices: np.ndarray) -> list[list[float]]:
+    """[[min x, y, z], [max x, y, z]]: column by column, as min(axis=0) over an (N, 3) array
+    walks it with a stride of three and is ~20x slower (min and max are exact either way)."""
+    columns = range(vertices.shape[1])
+    return [[float(vertices[:, k].min()) for k in columns], [float(vertices[:, k].max()) for k in columns]]
 
 
 def check_solid(mesh: Mesh) -> SolidCheck:
@@ -131,7 +141,7 @@ def merge_float32(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, 
     key = bits[:, 0].astype(np.uint64) << np.uint64(32)
     key |= bits[:, 1]
     key ^= bits[:, 2].astype(np.uint64) * np.uint64(0x9E3779B97F4A7C15)
-    ordered = np.sort(key, kind="stable")
+    ordered = np.sort(key)  # only equal neighbours are looked for: NumPy's default (SIMD) sort serves
     if not np.any(ordered[1:] == ordered[:-1]):  # every position distinct (and so no collision): nothing merges
         return as_written.astype(np.float64), np.asarray(faces)
     _, first, inverse = np.unique(key, return_index=True, return_inverse=True)

@@ -300,10 +300,14 @@ COLOUR_SAMPLE_PX = 512
 def colour_sample(array: np.ndarray) -> np.ndarray:
     """Every k-th pixel of the colour samples (not alpha), at most COLOUR_SAMPLE_PX a side, 0..1."""
     step = max(1, -(-max(array.shape[:2]) // COLOUR_SAMPLE_PX))
-    rgb = np.nan_to_num(array[::step, ::step, :3].astype(np.float32), nan=0.0, posinf=0.0, neginf=0.0)
+    # One array, changed in place: the same numbers as a new array per step, without three more
+    # fresh megabytes to fault in (4 ms of a 5 ms sample on an 8-bit RGB picture).
+    rgb = array[::step, ::step, :3].astype(np.float32)
+    np.nan_to_num(rgb, copy=False, nan=0.0, posinf=0.0, neginf=0.0)
     # 8 bits: full scale; 16-bit and float colour often fills only part of its range (12-bit cameras)
     top = 255.0 if array.dtype == np.uint8 else float(rgb.max()) if rgb.size else 1.0
-    return np.clip(rgb / np.float32(top if top > 0 else 1.0), 0, 1)
+    rgb /= np.float32(top if top > 0 else 1.0)
+    return np.clip(rgb, 0, 1, out=rgb)
 
 
 def _weigh_unknown(file: ImageFile, values, alpha):

@@ -50,8 +50,8 @@ def inlaid(relief: Mesh, plate: Mesh, origin_mm: tuple[float, float], *, plate_t
 
 def _footprint(relief: Mesh, origin_mm) -> np.ndarray:
     """(x0, y0, x1, y1) of the relief's outline on the plate, in float32 (the meshes' precision)."""
-    lo, hi = relief.vertices[:, :2].min(axis=0), relief.vertices[:, :2].max(axis=0)
-    return np.array([lo[0] + origin_mm[0], lo[1] + origin_mm[1], hi[0] + origin_mm[0], hi[1] + origin_mm[1]], np.float32)
+    x, y = relief.vertices[:, 0], relief.vertices[:, 1]  # by column: min(axis=0) over (N, 3) rows is ~20x slower
+    return np.array([x.min() + origin_mm[0], y.min() + origin_mm[1], x.max() + origin_mm[0], y.max() + origin_mm[1]], np.float32)
 
 
 def _without_pocket(vertices: np.ndarray, faces: np.ndarray, box: np.ndarray, heights) -> np.ndarray | None:
@@ -88,7 +88,8 @@ def _relief_above(relief: Mesh, origin_mm, top: np.float32) -> tuple[np.ndarray,
     foot = relief.vertices[:, 2] <= 0.0  # close_top puts the bottom at exactly z = 0
     vertices[foot, 2] = top
     faces = np.asarray(relief.faces, dtype=np.int64)
-    faces = faces[~foot[faces].all(axis=1)]  # the floor: a fan of foot points around its centre
+    corners = np.take(foot, faces)  # (np.take and &: the same as foot[faces].all(axis=1), several times sooner)
+    faces = faces[~(corners[:, 0] & corners[:, 1] & corners[:, 2])]  # the floor: a fan of foot points around its centre
     used = np.zeros(len(vertices), bool)
     used[faces.ravel()] = True
     return vertices, faces, foot & used
@@ -115,15 +116,26 @@ def _rim_split(vertices: np.ndarray, faces: np.ndarray, points: np.ndarray, box:
         chain = [a] + [new_points.setdefault(p, len(vertices) + len(new_points)) for p in map(tuple, inner.tolist())] + [b]
         keep[k] = False
         added += [(chain[i], chain[i + 1], c) for i in range(len(chain) - 1)]
-    extra = np.array([[x, y, top] for x, y in new_points], dtype=np.float32).reshape(-1, 3)
+    extra = np.empty((len(new_points), 3), dtype=np.float32)
+    extra[:, :2] = np.array(list(new_points), dtype=np.float32).reshape(-1, 2)
+    extra[:, 2] = top
     return extra, np.concatenate([faces[keep], np.array(added, dtype=faces.dtype).reshape(-1, 3)])
 
 
 def _unpaired(edges: np.ndarray) -> np.ndarray:
     """Indices of the edges (rows of vertex pairs) no other edge shares."""
-    low, high = edges.min(axis=1).astype(np.int64), edges.max(axis=1).astype(np.int64)
-    _, inverse, counts = np.unique(low * (int(high.max()) + 1) + high, return_inverse=True, return_counts=True)
-    return np.flatnonzero(counts[inverse.ravel()] == 1)
+    low, high = (np.minimum(edges[:, 0], edges[:, 1]).astype(np.int64), np.maximum(edges[:, 0], edges[:, 1]).astype(np.int64))
+    keys = low * (int(high.max()) + 1) + high
+    # Sorted once (np.unique's inverse and counts cost several sorts' worth): a key is alone when neither neighbour equals it.
+    order = np.argsort(keys)
+    ordered = keys[order]
+    alone = np.ones(len(keys), bool)
+    same = ordered[1:] == ordered[:-1]
+    alone[1:] &= ~same
+    alone[:-1] &= ~same
+    single = np.zeros(len(keys), bool)
+    single[order[alone]] = True
+    return np.flatnonzero(single)
 
 
 def _on_outline(ends: np.ndarray, box: np.ndarray) -> np.ndarray:
@@ -155,20 +167,21 @@ def _joined(plate: tuple[np.ndarray, np.ndarray], relief: tuple[np.ndarray, np.n
     renumber = np.arange(len(relief_vertices)) + len(plate_vertices)
     renumber[foot] = feet
     vertices = np.concatenate([plate_vertices, relief_vertices])
-    faces = np.concatenate([plate_faces, renumber[relief_faces]])
+    faces = np.concatenate([plate_faces, np.take(renumber, relief_faces)])  # np.take: renumber[relief_faces], sooner
     used = np.zeros(len(vertices), bool)
     used[faces.ravel()] = True
-    return vertices[used], (np.cumsum(used) - 1)[faces]
+    return vertices[used], np.take(np.cumsum(used) - 1, faces)
 
 
 def closed_and_oriented(faces: np.ndarray) -> bool:
     """Every edge in exactly two faces, once in each direction, and no face with a repeated vertex."""
     if (faces[:, 0] == faces[:, 1]).any() or (faces[:, 1] == faces[:, 2]).any() or (faces[:, 0] == faces[:, 2]).any():
         return False
-    directed = np.stack([faces, np.roll(faces, -1, axis=1)], axis=2).reshape(-1, 2)
+    # Each face's edges a->b, b->c, c->a as keys from·n + to (their order is sorted away below).
+    a, b, c = (faces[:, k].astype(np.int64) for k in range(3))
     n = int(faces.max()) + 1
-    forward = directed[:, 0].astype(np.int64) * n + directed[:, 1]
-    backward = directed[:, 1].astype(np.int64) * n + directed[:, 0]
+    forward = np.concatenate([a * n + b, b * n + c, c * n + a])
+    backward = np.concatenate([b * n + a, c * n + b, a * n + c])
     forward.sort()
     backward.sort()
     return bool(np.array_equal(forward, backward)) and bool((np.diff(forward) > 0).all())

@@ -293,3 +293,14 @@ def test_an_option_that_does_not_fit_the_file_fails_the_file_in_info_as_in_conve
     convert_err = capsys.readouterr().err
     assert "--channel must be 0–1 (DAPI, GFP); got 7" in info_err and info_err == convert_err
     assert main(["info", czi, "--pixel-size", "not-a-length"]) == 2
+
+
+@pytest.mark.timeout(120)
+def test_program_started_with_its_output_closed_exits_as_python_does(tmp_path):
+    # `tamp-os --version >&-`: Python gives the program no sys.stdout (None); print() then writes
+    # nothing and Python's exit skips the stream, so the quick exit must too (not a traceback).
+    for entry in ("run", "main"):
+        done = subprocess.run([sys.executable, "-c", ENTRY, entry, "--version"], stdout=subprocess.DEVNULL,
+                              stderr=subprocess.PIPE, text=True, timeout=120, close_fds=True,
+                              preexec_fn=lambda: os.close(1))
+        assert done.returncode == 0 and "Traceback" not in done.stderr, (entry, done.stderr)

@@ -6,9 +6,10 @@ the model) and the slicers' attachments under Metadata/, which PrusaSlicer, Bamb
 OrcaSlicer read by name and so carry no relationship (see write_3mf_parts). Numbers are written
 the way lib3mf (the 3MF Consortium's library, which wrote these files before) writes them: six
 decimals of the float32 coordinates, so every reader gets the same vertices. Formatting the
-arrays in one string operation and compressing once is about 3x faster than lib3mf writing a
-package and a second pass dropping its attachment relationships. UUIDs are derived from the
-content, and every entry has a fixed date, so the same input gives the same bytes.
+arrays a block of rows per string operation and compressing once is about 3x faster than lib3mf
+writing a package and a second pass dropping its attachment relationships; zlib compresses one
+block on a helper thread while the next is formatted. UUIDs are derived from the content, and
+every entry has a fixed date, so the same input gives the same bytes.
 """
 
 from __future__ import annotations
@@ -79,8 +80,9 @@ def _arrays(vertices, faces) -> tuple[np.ndarray, np.ndarray]:
 
 
 # Rows of vertices or triangles formatted and compressed at a time: the model is never one
-# string (a 2000 x 2000 grid's would be 0.6 GB), and zlib compresses one piece while the next is formatted.
-CHUNK_ROWS = 1 << 15
+# string (a 2000 x 2000 grid's would be 0.6 GB), and zlib compresses one piece while the next is
+# formatted; small pieces (about 0.5 MB of text) hand the first to zlib sooner.
+CHUNK_ROWS = 1 << 13
 # Triangle indices are formatted from a table of each vertex index's digits (a copy, not a
 # conversion per corner: ~40 % faster) up to this many vertices; beyond, the table costs more memory than it saves.
 INDEX_TABLE_MAX = 1 << 21
@@ -146,6 +148,7 @@ def _body_bytes_max(geometry: Geometry, ranges: list[tuple[int, int, str]]) -> i
 
 
 def _model_pieces(head: bytes, geometry: Geometry, ranges: list[tuple[int, int, str]], tail: bytes) -> Iterator[bytes]:
+    """The model's bytes: `head`, the vertices and the triangles CHUNK_ROWS at a time, `tail`."""
     yield head
     vertices, faces = geometry.vertices, geometry.faces
     for start in range(0, len(vertices), CHUNK_ROWS):

@@ -320,8 +320,9 @@ def _inlaid(relief: Mesh, plan: Plan, base_mm: float, spec: BrailleSpec, top_mm:
     footprint = (ox, oy, ox + float(relief.vertices[:, 0].max()), oy + float(relief.vertices[:, 1].max()))
     if not _clear_of(plan, footprint, spec):
         return None
-    shape = _PlateShape(plan.placed.plate_mm, plan.placed.corner_cut_mm, footprint, base_mm, spec, top_mm,
-                        plan.frame_ring, tuple(plan.bar_outline), tuple(plan.dot_centres))
+    shape = _PlateShape(tuple(plan.placed.plate_mm), plan.placed.corner_cut_mm, footprint, base_mm, spec, top_mm,
+                        tuple(map(tuple, plan.frame_ring)) if plan.frame_ring else None,
+                        tuple(map(tuple, plan.bar_outline)), tuple(map(tuple, plan.dot_centres)))  # tuples: a key
     plate_top = base_mm - min(SEAM_MM, base_mm / 10)
     return inlaid(relief, _pocketed_plate(shape), (ox, oy), plate_top_mm=plate_top, pocket_floor_mm=plate_top / 2)
 

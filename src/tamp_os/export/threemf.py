@@ -7,20 +7,17 @@ OrcaSlicer read by name and so carry no relationship (see write_3mf_parts). Numb
 the way lib3mf (the 3MF Consortium's library, which wrote these files before) writes them: six
 decimals of the float32 coordinates, so every reader gets the same vertices. Formatting the
 arrays a block of rows per string operation and compressing once is about 3x faster than lib3mf
-writing a package and a second pass dropping its attachment relationships; zlib compresses one
-block on a helper thread while the next is formatted. UUIDs are derived from the content, and
-every entry has a fixed date, so the same input gives the same bytes.
+writing a package and a second pass dropping its attachment relationships. UUIDs are derived from
+the content, and every entry has a fixed date, so the same input gives the same bytes.
 """
 
 from __future__ import annotations
 
 import hashlib
 import io
-import os
 import uuid
 import zipfile
 from collections.abc import Iterable, Iterator
-from concurrent.futures import Future, ThreadPoolExecutor
 
 import numpy as np
 
@@ -79,9 +76,10 @@ def _arrays(vertices, faces) -> tuple[np.ndarray, np.ndarray]:
     return np.ascontiguousarray(vertices, dtype=np.float32), np.ascontiguousarray(faces, dtype=np.uint32)
 
 
-# Rows of vertices or triangles formatted and compressed at a time: the model is never one
-# string (a 2000 x 2000 grid's would be 0.6 GB), and zlib compresses one piece while the next is
-# formatted; small pieces (about 0.5 MB of text) hand the first to zlib sooner.
+# Rows of vertices or triangles formatted and compressed at a time (about 0.5 MB of text): the
+# model is never one string (a 2000 x 2000 grid's would be 0.6 GB) joined and encoded again.
+# (zlib on a helper thread beside the formatting gained nothing: zlib takes the GIL back for every
+# block of output it grows, and the formatting holds it.)
 CHUNK_ROWS = 1 << 13
 # Triangle indices are formatted from a table of each vertex index's digits (a copy, not a
 # conversion per corner: ~40 % faster) up to this many vertices; beyond, the table costs more memory than it saves.
@@ -274,7 +272,8 @@ def _write_package(fh, model: tuple[int, Iterable[bytes]], attachments: list[tup
         if size_max * 1.05 <= zipfile.ZIP64_LIMIT:  # writestr would not take Zip64 either: the same entry
             # By name: the archive's method and level, and ZipInfo's default date (ZIP_DATE).
             with archive.open(MODEL_PATH, "w") as dest:
-                _write_pieces(dest, pieces)
+                for piece in pieces:
+                    dest.write(piece)
         else:  # writestr decides on Zip64 from the exact size
             entries.insert(0, (MODEL_PATH, b"".join(pieces)))
         for name, data in entries:
@@ -283,22 +282,3 @@ def _write_package(fh, model: tuple[int, Iterable[bytes]], attachments: list[tup
             archive.writestr(info, data, compresslevel=COMPRESS_LEVEL)
     fh.write(buffer.getbuffer())
 
-
-def _write_pieces(dest, pieces: Iterable[bytes]) -> None:
-    """Write `pieces` to the zip entry `dest` in order. zlib releases the GIL, so a helper thread
-    compresses (and checksums) each piece while this one formats the next, one piece ahead at
-    most; a batch worker with one core to itself (TAMP_THREADS=1) does both here."""
-    if os.environ.get("TAMP_THREADS") == "1":
-        for piece in pieces:
-            dest.write(piece)
-        return
-    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="tamp-3mf") as pool:
-        pending: Future | None = None
-        try:
-            for piece in pieces:
-                if pending is not None:
-                    pending.result()
-                pending = pool.submit(dest.write, piece)
-        finally:  # the entry is closed only after its last write, even when formatting failed
-            if pending is not None:
-                pending.result()

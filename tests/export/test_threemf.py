@@ -302,9 +302,9 @@ def test_model_written_in_pieces_is_the_model_compressed_whole(monkeypatch):
 @pytest.mark.timeout(60)
 @pytest.mark.parametrize("where", ["formatting", "compressing"])
 def test_a_write_stopped_between_pieces_leaves_no_file_and_no_thread(monkeypatch, tmp_path, where):
-    """Ctrl-C while the model is being formatted (this thread) or an error while a piece is being
-    compressed (the helper thread): no 3MF, no temporary file beside it, no helper thread left,
-    and the error reaches the caller."""
+    """Ctrl-C while the model is being formatted or an error while a piece is being compressed:
+    no 3MF, no temporary file beside it, no writer thread left (should one compress again), and
+    the error reaches the caller."""
     import threading
 
     from tamp_os.export import threemf
@@ -336,7 +336,7 @@ class _Stopped(BaseException):
 
 
 def _with_a_bad_piece(pieces, calls):
-    """The model's pieces with None as the fourth, once: zipfile raises TypeError on the helper thread."""
+    """The model's pieces with None as the fourth, once: zipfile's entry raises TypeError writing it."""
     for k, piece in enumerate(pieces):
         if k == 3 and not calls:
             calls.append(1)

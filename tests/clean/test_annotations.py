@@ -60,3 +60,58 @@ def test_box_fill_agrees_with_the_direct_solve_on_a_rough_picture():
     f = fast.astype(np.float64)
     mean = (f[:-2, 1:-1] + f[2:, 1:-1] + f[1:-1, :-2] + f[1:-1, 2:]) / 4
     assert np.abs(mean[inner] - f[1:-1, 1:-1][inner]).max() <= 1e-5
+
+
+@pytest.mark.timeout(60)
+def test_filled_holes_is_scipys_fill_of_holes():
+    """filled_holes (one labelling of the background) fills exactly what binary_fill_holes fills:
+    4-connected holes only, nothing that reaches an edge, on random masks of every density and
+    on masks of one row or column."""
+    from scipy import ndimage
+
+    from tamp_os.clean.annotations import filled_holes
+
+    rng = np.random.default_rng(4)
+    shapes = [(1, 9), (9, 1), (2, 2), (7, 11), (30, 40)]
+    for shape in shapes:
+        for density in (0.0, 0.2, 0.45, 0.6, 0.8, 1.0):
+            for _ in range(5):
+                solid = rng.random(shape) < density
+                np.testing.assert_array_equal(filled_holes(solid), ndimage.binary_fill_holes(solid), err_msg=f"{shape} {density}")
+    ring = np.ones((5, 5), bool)
+    ring[2, 2] = False  # a hole
+    ring[1, 1] = False  # joined to the hole only by a corner: a hole of its own, not the outside
+    np.testing.assert_array_equal(filled_holes(ring), np.ones((5, 5), bool))
+
+
+def _label_box(values, top, left, *, rows=24, cols=70, text_value=0.0):
+    """A white label box with dark glyph strokes inside and two letters beside it, in place."""
+    values[top : top + rows, left : left + cols] = 1.0
+    for k in range(4):
+        values[top + 6 : top + rows - 6, left + 8 + 15 * k : left + 12 + 15 * k] = text_value
+    for k in range(2):  # letters of the box's colour just right of it
+        c = left + cols + 4 + 8 * k
+        values[top + 8 : top + 15, c : c + 4] = 1.0
+
+
+@pytest.mark.timeout(60)
+@pytest.mark.parametrize("where", ["top-left", "bottom-right", "middle", "two"])
+def test_annotation_mask_grown_within_its_box_is_the_whole_pictures_growth(monkeypatch, where):
+    """The mask's 2-pixel halo is grown within the box of what was found: the same mask as
+    growing it over the whole picture, for boxes and letters at the picture's edges and corners."""
+    from scipy import ndimage
+
+    from tamp_os.clean import annotations
+
+    values = np.full((160, 220), 0.5)
+    values += np.random.default_rng(2).normal(0, 0.05, values.shape)
+    values[0, 0], values[-1, -1] = 0.0, 1.0
+    corners = {"top-left": [(0, 0)], "bottom-right": [(136, 130)], "middle": [(70, 60)], "two": [(0, 120), (130, 0)]}
+    for top, left in corners[where]:
+        _label_box(values, top, left, cols=70 if left + 86 <= 220 else 60)
+    mask, found = annotations.detect_annotations(values)
+    assert {a.kind for a in found} == {"box", "text"} and mask.any()  # boxes and the letters beside them
+    monkeypatch.setattr(annotations, "_grown", lambda m, box, iterations: ndimage.binary_dilation(m, iterations=iterations))
+    whole, found_whole = annotations.detect_annotations(values)
+    np.testing.assert_array_equal(mask, whole)
+    assert found == found_whole

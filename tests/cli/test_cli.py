@@ -5,6 +5,7 @@ import os
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -13,7 +14,7 @@ from PIL import Image
 from tamp_os import LithoParams
 from tamp_os.cli.commands import main
 from tamp_os.errors import ParameterError
-from conftest import examples
+from conftest import examples, need
 
 
 @pytest.fixture
@@ -293,3 +294,53 @@ def test_an_option_that_does_not_fit_the_file_fails_the_file_in_info_as_in_conve
     convert_err = capsys.readouterr().err
     assert "--channel must be 0–1 (DAPI, GFP); got 7" in info_err and info_err == convert_err
     assert main(["info", czi, "--pixel-size", "not-a-length"]) == 2
+
+
+@pytest.mark.timeout(120)
+def test_program_started_with_its_output_closed_exits_as_python_does(tmp_path):
+    # `tamp-os --version >&-`: Python gives the program no sys.stdout (None); print() then writes
+    # nothing and Python's exit skips the stream, so the quick exit must too (not a traceback).
+    for entry in ("run", "main"):
+        done = subprocess.run([sys.executable, "-c", ENTRY, entry, "--version"], stdout=subprocess.DEVNULL,
+                              stderr=subprocess.PIPE, text=True, timeout=120, close_fds=True,
+                              preexec_fn=lambda: os.close(1))
+        assert done.returncode == 0 and "Traceback" not in done.stderr, (entry, done.stderr)
+
+
+def _processes_naming(marker: str) -> list[int]:
+    """Ids of the live processes whose command line holds `marker` (Linux /proc)."""
+    found = []
+    for entry in os.listdir("/proc"):
+        try:
+            with open(f"/proc/{entry}/cmdline", "rb") as fh:
+                if marker.encode() in fh.read():
+                    found.append(int(entry))
+        except (OSError, ValueError):
+            continue
+    return found
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(240)
+def test_program_batch_on_two_workers_reports_every_file_and_leaves_no_worker(tmp_path):
+    # The program's quick exit with a pool of worker processes: every input in the report and the
+    # last line, the exit code of a failed file, no worker process and no temporary file left.
+    need(os.path.isdir("/proc/self"), "/proc (to find worker processes)")
+    folder, out, temp = tmp_path / "in", tmp_path / "out-batch-marker", tmp_path / "tmp"
+    folder.mkdir()
+    temp.mkdir()
+    yy, xx = np.mgrid[0:48, 0:64]
+    for i in range(3):
+        Image.fromarray(((np.sin(xx / (4 + i)) + 1) * 100 + yy).astype(np.uint8)).save(folder / f"good{i}.png")
+    (folder / "bad.png").write_bytes(b"not an image")
+    done = subprocess.run([sys.executable, "-m", "tamp_os.cli", "batch", str(folder), "-o", str(out), "--workers", "2",
+                           "--preset", "low", "--formats", "stl,3mf"], capture_output=True, text=True, timeout=200,
+                          env={**os.environ, "TMPDIR": str(temp)})
+    assert done.returncode == 1, done.stdout + done.stderr
+    lines = done.stdout.splitlines()
+    assert lines[-1].startswith("batch: 3 converted, 0 already up to date, 1 failed"), lines
+    assert sorted(line.split()[3] for line in lines[:-1] if " of 4: " in line) == ["bad.png", "good0.png", "good1.png", "good2.png"]
+    report = json.loads((out / "batch-report.json").read_text(encoding="utf-8"))
+    assert sorted(r["status"] for r in report) == ["converted"] * 3 + ["failed"]
+    assert len(list(out.glob("*.3mf"))) == 3 and not list(out.glob(".*.part"))
+    assert _processes_naming(str(out)) == [] and list(temp.iterdir()) == []

@@ -297,3 +297,48 @@ def test_model_written_in_pieces_is_the_model_compressed_whole(monkeypatch):
     written = np.array([[float(x) for x in line.split('"')[1:6:2]] for line in model.splitlines() if line.startswith("<vertex ")])
     np.testing.assert_array_equal(written, np.round(np.concatenate([vertices] * 3).astype(np.float32).astype(np.float64), 6))
     assert model.count("<triangle ") == 346 and model.count(' p1="2"') == 5
+
+
+@pytest.mark.timeout(60)
+@pytest.mark.parametrize("where", ["formatting", "compressing"])
+def test_a_write_stopped_between_pieces_leaves_no_file_and_no_thread(monkeypatch, tmp_path, where):
+    """Ctrl-C while the model is being formatted or an error while a piece is being compressed:
+    no 3MF, no temporary file beside it, no writer thread left (should one compress again), and
+    the error reaches the caller."""
+    import threading
+
+    from tamp_os.export import threemf
+    from tamp_os.export.files import write_atomic
+
+    rng = np.random.default_rng(11)
+    mesh = trimesh.Trimesh(rng.normal(size=(200, 3)) * 30, rng.integers(0, 200, (300, 3)), process=False)
+    monkeypatch.setattr(threemf, "CHUNK_ROWS", 16)
+    calls = []
+    if where == "formatting":
+        fmt = threemf._vertices_xml
+        monkeypatch.setattr(threemf, "_vertices_xml", lambda v: calls.append(1) or (fmt(v) if len(calls) != 4 else (_ for _ in ()).throw(_Stopped)))
+        expected = _Stopped
+    else:
+        pieces = threemf._model_pieces
+        monkeypatch.setattr(threemf, "_model_pieces", lambda *a: _with_a_bad_piece(pieces(*a), calls))
+        expected = TypeError
+    target = tmp_path / "print.3mf"
+    with pytest.raises(expected):
+        write_atomic(target, lambda fh: write_3mf(mesh, fh, {"title": "stopped"}))
+    assert list(tmp_path.iterdir()) == []
+    assert not [t for t in threading.enumerate() if t.name.startswith("tamp-3mf")]
+    write_atomic(target, lambda fh: write_3mf(mesh, fh, {"title": "stopped"}))  # the next write is whole
+    assert zipfile.ZipFile(target).testzip() is None
+
+
+class _Stopped(BaseException):
+    """What Ctrl-C raises (a BaseException, not an Exception), without stopping the test run."""
+
+
+def _with_a_bad_piece(pieces, calls):
+    """The model's pieces with None as the fourth, once: zipfile's entry raises TypeError writing it."""
+    for k, piece in enumerate(pieces):
+        if k == 3 and not calls:
+            calls.append(1)
+            yield None
+        yield piece

@@ -103,3 +103,32 @@ def test_every_front_end_converts_through_convert():
         assert "slice_outputs" not in text and ".save(" not in text, rel
     demo = (ROOT / "scripts" / "demo.py").read_text(encoding="utf-8")
     assert "convert" in demo and ".save(" not in demo and "make_lithograph" not in demo
+
+
+@pytest.mark.timeout(120)
+def test_prints_in_one_process_are_the_bytes_each_makes_alone(tmp_path):
+    """Prints made one after another in one process (a batch, a sweep) share kept work, such as
+    the furnished plate: each must be byte for byte the print made with nothing kept, whether the
+    next print has the same furniture on another picture or other furniture on the same one."""
+    from tamp_os import LithoParams
+    from tamp_os.tactile import furniture
+
+    yy, xx = np.mgrid[0:90, 0:120]
+    waves = ((np.sin(xx / 7) * np.cos(yy / 9) + 1) * 120).astype(np.uint8)
+    block = np.zeros((90, 120), np.uint8)
+    block[20:70, 30:90] = 220
+    same = {"caption": "first", "frame_mm": 2.0, "pixel_size": "0.5um"}
+    jobs = [(waves, same), (block, {**same, "caption": "other words", "frame_mm": 3.0}), (block, same),
+            (waves, {**same, "dot_height_mm": 0.8}), (waves, {**same, "scale_bar": "40um"})]
+
+    def written(i, picture, settings, folder):
+        convert(picture, LithoParams(**settings, formats=("stl", "3mf")), folder / str(i), stem="p")
+        return {p.name: p.read_bytes() for p in (folder / str(i)).iterdir() if p.suffix in (".stl", ".3mf")}
+
+    furniture.clear_plate_cache()
+    together = [written(i, picture, settings, tmp_path / "one") for i, (picture, settings) in enumerate(jobs)]
+    assert furniture._pocketed_plate.cache_info().hits >= 1  # the plate was kept and used, so this tests the keeping
+    for i, (picture, settings) in enumerate(jobs):
+        furniture.clear_plate_cache()
+        alone = written(i, picture, settings, tmp_path / "alone")
+        assert sorted(alone) == ["p.3mf", "p.stl"] and alone == together[i], (i, settings)

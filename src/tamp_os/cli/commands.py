@@ -54,6 +54,8 @@ def _exit_now(code: int) -> int:
     wait_for_threads()
     run_atexit()
     for stream in (sys.stdout, sys.stderr):
+        if stream is None:  # started with the output closed (`>&-`): Python's exit skips it too
+            continue
         try:
             stream.flush()
         except (OSError, ValueError):  # a closed or full output: Python's exit would say so with 120

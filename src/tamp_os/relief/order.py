@@ -58,10 +58,13 @@ def order_statistics(sample: np.ndarray, ranks: np.ndarray) -> list:
         within = sample >= low
         below = n - int(np.count_nonzero(within))
         within &= sample <= high
-        inside = sample[within]
-        if not (below <= first and last < below + inside.size):
+        count = int(np.count_nonzero(within))
+        if not (below <= first and last < below + count):
             return whole_partition(sample, ranks)
-        out += np.partition(inside, group - below)[group - below].tolist()
+        if low == high:  # a plateau of one value holds the ranks (a saturated area): nothing to sort
+            out += [sample.dtype.type(low)] * len(group)
+            continue
+        out += np.partition(sample[within], group - below)[group - below].tolist()
     return out
 
 

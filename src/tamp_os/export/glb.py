@@ -20,6 +20,8 @@ import struct
 
 import numpy as np
 
+from ..mesh.solid import column_bounds
+
 GLTF_MAGIC = 0x46546C67  # b"glTF"
 JSON_CHUNK = 0x4E4F534A  # b"JSON"
 BIN_CHUNK = 0x004E4942  # b"BIN\0"
@@ -43,15 +45,6 @@ def unit_normals(normals: np.ndarray) -> np.ndarray:
     return (v * norm.reshape((-1, 1))).astype(np.float32)
 
 
-# Column by column: max(axis=0) over an (N, 3) array walks it with a stride of three, ~20x slower.
-def _column_max(array: np.ndarray) -> list[float]:
-    return [float(array[:, k].max()) for k in range(array.shape[1])]
-
-
-def _column_min(array: np.ndarray) -> list[float]:
-    return [float(array[:, k].min()) for k in range(array.shape[1])]
-
-
 def glb_bytes(vertices: np.ndarray, faces: np.ndarray, normals: np.ndarray) -> bytes:
     """The GLB file of one mesh: (N, 3) vertices in mm, (M, 3) faces, (N, 3) vertex normals."""
     if len(faces) == 0 or len(vertices) == 0:
@@ -72,13 +65,14 @@ def glb_bytes(vertices: np.ndarray, faces: np.ndarray, normals: np.ndarray) -> b
         return views[data]
 
     index, positions, unit = arrays
+    (position_min, position_max), (unit_min, unit_max) = column_bounds(positions), column_bounds(unit)
     accessors = [
         {"componentType": UNSIGNED_INT, "type": "SCALAR", "bufferView": view_of(index), "count": int(index.size),
          "max": [int(index.max())], "min": [int(index.min())]},
         {"componentType": FLOAT, "type": "VEC3", "byteOffset": 0, "bufferView": view_of(positions), "count": len(positions),
-         "max": _column_max(positions), "min": _column_min(positions)},
+         "max": position_max, "min": position_min},
         {"componentType": FLOAT, "count": len(unit), "type": "VEC3", "byteOffset": 0, "bufferView": view_of(unit),
-         "max": _column_max(unit), "min": _column_min(unit)},
+         "max": unit_max, "min": unit_min},
     ]
     offsets = np.cumsum([0] + [len(b) for b in blobs])
     tree = {

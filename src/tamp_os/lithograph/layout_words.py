@@ -95,7 +95,8 @@ def find_layout(heights_mm: np.ndarray, mm_per_px: float, base_mm: float, *, rel
 def _sizes_and_centres(labels: np.ndarray, count: int) -> tuple[np.ndarray, list[tuple[float, float]]]:
     """Points and centre (row, column) of each of the labels 1..count: the numbers that
     ndimage.sum_labels and center_of_mass give with weights of one (their bincounts, in the same
-    order), without a weight image per axis (at 1000 mm, High: 150 MB each)."""
+    order), without their image of ones; the row and column indices are one image at a time
+    (at 1000 mm, High: 150 MB each)."""
     flat = labels.ravel()
     rows, cols = labels.shape
     sizes = np.bincount(flat, minlength=count + 1)[1 : count + 1].astype(np.float64)  # sums of ones: exact counts

@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 from PIL import Image
 
 from tamp_os import LithoParams
-from tamp_os.cli.commands import main
+from tamp_os.cli.commands import OPENBLAS_THREAD_VARIABLES, main
 from tamp_os.errors import ParameterError
 from conftest import examples, need
 
@@ -52,7 +52,7 @@ def test_program_exits_as_python_does_and_writes_what_main_writes(fixture, tmp_p
         temp = tmp_path / f"tmp-{entry}"
         temp.mkdir()
         argv = ["convert", str(picture), "-o", str(tmp_path / entry), "--formats", "stl,3mf,glb"]
-        env = {k: v for k, v in os.environ.items() if k not in ("PYTHONUNBUFFERED", "OPENBLAS_NUM_THREADS")}
+        env = {k: v for k, v in os.environ.items() if k not in ("PYTHONUNBUFFERED", *OPENBLAS_THREAD_VARIABLES)}
         done = subprocess.run([sys.executable, "-c", ENTRY, entry, *argv], capture_output=True, text=True, timeout=240,
                               env={**env, "TMPDIR": str(temp)})
         assert done.returncode == 0, done.stderr
@@ -72,10 +72,14 @@ def test_program_exits_as_python_does_and_writes_what_main_writes(fixture, tmp_p
         assert (tmp_path / "run" / name).read_bytes() == (tmp_path / "main" / name).read_bytes(), name
 
 
-def test_program_keeps_the_users_openblas_threads():
-    env = {**os.environ, "OPENBLAS_NUM_THREADS": "2"}
-    done = subprocess.run([sys.executable, "-c", ENTRY, "run", "--version"], capture_output=True, text=True, timeout=120, env=env)
-    assert done.returncode == 0 and done.stdout.splitlines()[-1].split()[3] == "2", done.stdout + done.stderr
+@pytest.mark.parametrize("variable", ["OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS", "OMP_NUM_THREADS"])
+def test_program_keeps_the_users_openblas_threads(variable):
+    env = {k: v for k, v in os.environ.items() if k not in OPENBLAS_THREAD_VARIABLES}
+    done = subprocess.run([sys.executable, "-c", ENTRY, "run", "--version"], capture_output=True, text=True, timeout=120,
+                          env={**env, variable: "2"})
+    # OpenBLAS reads the older two only when its own is unset: the program leaves it unset then
+    expected = "2" if variable == "OPENBLAS_NUM_THREADS" else "None"
+    assert done.returncode == 0 and done.stdout.splitlines()[-1].split()[3] == expected, done.stdout + done.stderr
 
 
 def test_program_exit_code_and_messages_survive_the_quick_exit(tmp_path):

@@ -22,6 +22,7 @@ EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
 OPTION_NAMES = {"z_slice": "--slice", "slice_timeout_s": "--timeout"}
 # Earlier option names, still accepted: parameter -> its old option.
 OLD_OPTION_NAMES = {"depth_mm": "--height-mm"}
+OPENBLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS", "OMP_NUM_THREADS")  # in the order OpenBLAS reads them
 _ONE_COMMAND = False  # set by run(): this process runs one command, then exits
 
 
@@ -35,7 +36,9 @@ def run() -> int:
     # SciPy its own copy): each copy starts a thread per extra core that spins after loading and
     # after every BLAS call (~70 ms of CPU per conversion on 2 cores, taken from the OCR thread
     # and the machine's other work), while the pipeline makes no BLAS call large enough to share.
-    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+    # OpenBLAS also reads the two older variables when its own is unset: a user's setting of any wins.
+    if not any(os.environ.get(name) for name in OPENBLAS_THREAD_VARIABLES):
+        os.environ["OPENBLAS_NUM_THREADS"] = "1"
     return _exit_now(main())
 
 

@@ -311,6 +311,21 @@ def test_program_started_with_its_output_closed_exits_as_python_does(tmp_path):
         assert done.returncode == 0 and "Traceback" not in done.stderr, (entry, done.stderr)
 
 
+@pytest.mark.timeout(120)
+@pytest.mark.skipif(not os.path.exists("/dev/full"), reason="needs /dev/full (Linux) for an output that fails")
+@pytest.mark.parametrize("buffered", [True, False])
+def test_program_whose_output_fails_says_so_in_one_line(buffered):
+    # A full disk behind `>`: buffered, the line fails at the exit's flush; unbuffered, at print().
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONUNBUFFERED"}
+    env.update({} if buffered else {"PYTHONUNBUFFERED": "1"})
+    with open("/dev/full", "w") as full:
+        done = subprocess.run([sys.executable, "-m", "tamp_os.cli", "--version"], stdout=full, stderr=subprocess.PIPE,
+                              text=True, timeout=120, env=env)
+    lines = done.stderr.splitlines()
+    assert done.returncode in (1, 120) and "Traceback" not in done.stderr, done.stderr
+    assert len(lines) == 1 and lines[0].startswith("error: ") and "No space left on device" in lines[0], done.stderr
+
+
 def _processes_naming(marker: str) -> list[int]:
     """Ids of the live processes whose command line holds `marker` (Linux /proc)."""
     found = []

@@ -61,9 +61,17 @@ def _exit_now(code: int) -> int:
             continue
         try:
             stream.flush()
-        except (OSError, ValueError):  # a closed or full output: Python's exit would say so with 120
+        except (OSError, ValueError) as exc:  # a closed or full output: Python's exit says so, with 120
             code = code or 120
+            _say_to_stderr(f"error: the output could not be written ({getattr(exc, 'strerror', None) or exc}).")
     os._exit(code)
+
+
+def _say_to_stderr(line: str) -> None:
+    """One line on the error output, if it can still take one (it may be the output that failed)."""
+    with contextlib.suppress(OSError, ValueError, AttributeError):
+        sys.stderr.write(line + "\n")
+        sys.stderr.flush()
 
 
 @contextlib.contextmanager
@@ -302,19 +310,19 @@ def main(argv=None) -> int:
         return int(exc.code or 0) and EXIT_USAGE
     logging.basicConfig(level=logging.DEBUG if args.debug else logging.ERROR, format="%(levelname)s: %(message)s")
     os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")  # offscreen rendering with no display
-    if args.version:
-        from .. import __version__
-
-        print(f"tamp-os {__version__}")
-        return EXIT_OK
-    if not args.command:
-        parser.print_help()
-        return EXIT_USAGE
     from ..errors import ParameterError, TampError
 
     previous = _stop_on_signals()
     _never_fail_on_encoding()
-    try:
+    try:  # the version and the help too: their output may be a full disk or a closed pipe
+        if args.version:
+            from .. import __version__
+
+            print(f"tamp-os {__version__}")
+            return EXIT_OK
+        if not args.command:
+            parser.print_help()
+            return EXIT_USAGE
         commands = {
             "convert": cmd_convert, "batch": cmd_batch, "presets": cmd_presets, "info": cmd_info,
             "braille-test-plate": cmd_braille_plate, "sweep": cmd_sweep, "render": cmd_render,
@@ -347,8 +355,9 @@ def last_resort_words(exc: BaseException) -> str:
     if isinstance(exc, MemoryError):
         return "not enough memory for this image; make it smaller (or lower --resolution-px) and try again."
     if isinstance(exc, OSError) and exc.strerror:
-        where = f"{exc.filename}: " if exc.filename else ""
-        return f"{where}{exc.strerror}; check the file or folder and its permissions. (--debug shows the details.)"
+        if not exc.filename:  # print() to a full disk or a closed output names no file
+            return f"{exc.strerror} (writing the output); check the disk's free space and where the output goes. (--debug shows the details.)"
+        return f"{exc.filename}: {exc.strerror}; check the file or folder and its permissions. (--debug shows the details.)"
     text = str(exc).splitlines()[0][:200] if str(exc) else ""
     return (f"unexpected {exc.__class__.__name__}{': ' + text if text else ''}. Nothing half-written was left; "
             "run again with --debug to see where it happened, and please report it.")

@@ -326,6 +326,23 @@ def test_program_whose_output_fails_says_so_in_one_line(buffered):
     assert len(lines) == 1 and lines[0].startswith("error: ") and "No space left on device" in lines[0], done.stderr
 
 
+@pytest.mark.timeout(120)
+@pytest.mark.skipif(not os.path.exists("/dev/full"), reason="needs /dev/full (Linux) for an output that fails")
+@pytest.mark.parametrize("buffered", [True, False])
+@pytest.mark.parametrize("asked", [["--help"], ["convert", "--help"]])
+def test_help_whose_output_fails_says_so_in_one_line_and_does_not_exit_0(asked, buffered):
+    # `tamp-os --help > /dev/full` as `--version > /dev/full`: the help was not written, so one
+    # error line and an exit status that says so (argparse swallows the failed write itself).
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONUNBUFFERED"}
+    env.update({} if buffered else {"PYTHONUNBUFFERED": "1"})
+    with open("/dev/full", "w") as full:
+        done = subprocess.run([sys.executable, "-m", "tamp_os.cli", *asked], stdout=full, stderr=subprocess.PIPE,
+                              text=True, timeout=120, env=env)
+    lines = done.stderr.splitlines()
+    assert done.returncode != 0 and "Traceback" not in done.stderr, (done.returncode, done.stderr)
+    assert len(lines) == 1 and lines[0].startswith("error: ") and "No space left on device" in lines[0], done.stderr
+
+
 def _processes_naming(marker: str) -> list[int]:
     """Ids of the live processes whose command line holds `marker` (Linux /proc)."""
     found = []

@@ -62,8 +62,9 @@ def _exit_now(code: int) -> int:
         try:
             stream.flush()
         except (OSError, ValueError) as exc:  # a closed or full output: Python's exit says so, with 120
-            code = code or 120
-            _say_to_stderr(f"error: the output could not be written ({getattr(exc, 'strerror', None) or exc}).")
+            if not code:  # (a failed command has said what failed; often this same output)
+                code = 120
+                _say_to_stderr(f"error: the output could not be written ({getattr(exc, 'strerror', None) or exc}).")
     os._exit(code)
 
 
@@ -148,8 +149,19 @@ def _params_from_args(args, base=None):
     return (base or LithoParams()).replace(**changes)
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse's parser, but help that cannot be written fails (argparse drops a failed write, so
+    `tamp-os --help > file` on a full disk exited 0 with nothing written and nothing said)."""
+
+    def print_help(self, file=None):
+        file = file or sys.stdout
+        if file is not None:  # None: started with the output closed (`>&-`), as print() skips it
+            file.write(self.format_help())
+            file.flush()
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="tamp-os",
         description="Turn images, above all microscopy images, into 3D-printable tactile lithographs.",
     )
@@ -308,6 +320,9 @@ def main(argv=None) -> int:
         args = parser.parse_args(argv)
     except SystemExit as exc:
         return int(exc.code or 0) and EXIT_USAGE
+    except OSError as exc:  # --help into a full disk or a closed pipe
+        _say_to_stderr(f"error: {last_resort_words(exc)}")
+        return EXIT_FAILED
     logging.basicConfig(level=logging.DEBUG if args.debug else logging.ERROR, format="%(levelname)s: %(message)s")
     os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")  # offscreen rendering with no display
     from ..errors import ParameterError, TampError

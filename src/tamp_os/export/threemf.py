@@ -16,9 +16,12 @@ from __future__ import annotations
 
 import hashlib
 import io
+import os
 import uuid
 import zipfile
+from collections import deque
 from collections.abc import Iterable, Iterator
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
@@ -294,8 +297,7 @@ def _write_package(fh, model: tuple[int, Iterable[bytes]], attachments: list[tup
         if size_max * 1.05 <= zipfile.ZIP64_LIMIT:  # writestr would not take Zip64 either: the same entry
             # By name: the archive's method and level, and ZipInfo's default date (ZIP_DATE).
             with archive.open(MODEL_PATH, "w") as dest:
-                for piece in pieces:
-                    dest.write(piece)
+                write_in_order(dest.write, pieces, threaded=os.environ.get("TAMP_THREADS") != "1")
         else:  # writestr decides on Zip64 from the exact size
             entries.insert(0, (MODEL_PATH, b"".join(pieces)))
         for name, data in entries:
@@ -303,4 +305,33 @@ def _write_package(fh, model: tuple[int, Iterable[bytes]], attachments: list[tup
             info.compress_type = zipfile.ZIP_DEFLATED
             archive.writestr(info, data, compresslevel=COMPRESS_LEVEL)
     fh.write(buffer.getbuffer())
+
+
+# Pieces formatted ahead of the one being compressed: enough to keep zlib busy, few enough that
+# memory stays a few pieces.
+PIPELINE_DEPTH = 2
+
+
+def write_in_order(write, pieces: Iterable[bytes], *, threaded: bool = True) -> None:
+    """write(piece) for every piece, in order. `threaded`: on one helper thread while the next
+    pieces are made in this one (zlib and NumPy's formatting release the GIL, so the model's
+    compression runs beside its formatting); the calls and their order are the same, so are the
+    bytes. An error on either side stops both and reaches the caller once the helper is idle."""
+    if not threaded:
+        for piece in pieces:
+            write(piece)
+        return
+    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="tamp-3mf") as helper:
+        pending: deque = deque()
+        try:
+            for piece in pieces:
+                pending.append(helper.submit(write, piece))
+                while len(pending) > PIPELINE_DEPTH or (pending and pending[0].done()):
+                    pending.popleft().result()
+            while pending:
+                pending.popleft().result()
+        except BaseException:
+            for waiting in pending:  # not begun: never begun; the one running ends before the with does
+                waiting.cancel()
+            raise
 

@@ -94,4 +94,5 @@ def save_mesh(mesh: Mesh, path, metadata: dict | None = None, *, checked: bool =
     writer = exporter_for(path)
     if not checked:
         check_export(mesh, [path])
-    return write_atomic(path, lambda fh: writer(mesh, fh, metadata or {}))
+    # The writers only write(): the file's SHA-256 comes along (the recipe lists it, lithograph/outputs.py).
+    return write_atomic(path, lambda fh: writer(mesh, fh, metadata or {}), remember_sha256=True)

@@ -19,7 +19,7 @@ import numpy as np
 
 from ..errors import ExportError, InputError, ParameterError
 from ..export import check_export, save_mesh
-from ..export.files import to_uint8, write_png, write_text
+from ..export.files import to_uint8, write_png, write_text, written_sha256
 from ..formats import BY_NAME, DOCUMENT_FORMATS, GRAPHIC_FORMATS, PIN_FORMATS, by_suffix
 from ..params import LithoParams
 from ..printing.printers import PrinterProfile
@@ -246,11 +246,15 @@ def _version_of(dist) -> str:
 
 
 def file_sha256(path: Path) -> str:
-    """SHA-256 of a file, read in blocks (of an OME-Zarr folder: its files, as read.py hashes it)."""
+    """SHA-256 of a file, read in blocks (of an OME-Zarr folder: its files, as read.py hashes it);
+    of a mesh this process has just written, the hash taken while writing it (export.files.written_sha256)."""
     if Path(path).is_dir():
         from ..read.model import sha256_of
 
         return sha256_of(Path(path))
+    known = written_sha256(path)  # a mesh hashed as it was written, unchanged since: not read back
+    if known is not None:
+        return known
     digest = hashlib.sha256()
     with open(path, "rb") as fh:
         for block in iter(lambda: fh.read(1 << 20), b""):

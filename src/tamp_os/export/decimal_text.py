@@ -11,6 +11,8 @@ gives the same six decimals as Python's correctly rounded formatting (round half
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 PAD = 0  # the byte that fills unused places; never a character of the text
@@ -72,10 +74,23 @@ def fixed_six(values: np.ndarray) -> np.ndarray:
     out = np.empty((len(x), digits + 8), np.uint8)
     # The sign from the value, not the rounded integer: '-0.000000' for -0.0 and tiny negatives, as Python (PAD is 0).
     out[:, 0] = np.signbit(x).view(np.uint8) * np.uint8(ord("-"))
-    out[:, 1 : digits + 1] = digit_columns(whole, digits, pad_leading=True)
+    if digits <= 3:  # a print's millimetres: one gather from the table of 0 .. 999
+        out[:, 1 : digits + 1] = np.take(_triples(True)[:, 3 - digits :], whole, axis=0)
+    else:
+        out[:, 1 : digits + 1] = digit_columns(whole, digits, pad_leading=True)
     out[:, digits + 1] = ord(".")
-    out[:, digits + 2 :] = digit_columns(fraction, 6, pad_leading=False)
+    high, low = np.divmod(fraction, 1000)  # the decimals three at a time, gathered from a table
+    out[:, digits + 2 : digits + 5] = np.take(_triples(False), high, axis=0)
+    out[:, digits + 5 :] = np.take(_triples(False), low, axis=0)
     return out
+
+
+@functools.lru_cache(maxsize=2)
+def _triples(pad_leading: bool) -> np.ndarray:
+    """digit_columns of 0 .. 999, three places each (read-only: shared)."""
+    table = digit_columns(np.arange(1000), 3, pad_leading=pad_leading)
+    table.flags.writeable = False
+    return table
 
 
 def index_fields(indices: np.ndarray, table: np.ndarray | None = None) -> np.ndarray:

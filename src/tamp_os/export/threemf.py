@@ -70,7 +70,9 @@ class Geometry:
 
     def __init__(self, vertices: np.ndarray, faces: np.ndarray, *, title: str, object_id: int):
         self.vertices, self.faces, self.title, self.object_id = vertices, faces, title, object_id
-        self.seed = uuid.UUID(hashlib.sha256(vertices.tobytes() + faces.tobytes()).hexdigest()[:32])
+        digest = hashlib.sha256(np.ascontiguousarray(vertices))  # then the faces: the hash of both joined, without joining them
+        digest.update(np.ascontiguousarray(faces))
+        self.seed = uuid.UUID(digest.hexdigest()[:32])
 
     def uuid(self, what: str) -> str:
         return str(uuid.uuid5(self.seed, what))

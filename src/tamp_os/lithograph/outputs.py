@@ -208,8 +208,9 @@ def write_meshes(mesh, folder: Path, stem: str, *, formats: list[str], meta: dic
         path = save_mesh(mesh, folder / f"{stem}.{fmt}", meta, checked=True)
         return fmt, (path, time.perf_counter() - start)
 
-    # The writers spend much of their time in NumPy's and zlib's C code, which release the GIL,
-    # so writing the formats side by side uses both cores (the 3MF's number formatting holds it).
+    # The writers spend most of their time in NumPy's, zlib's and hashlib's C code, which release
+    # the GIL, so writing the formats side by side uses both cores (the 3MF compresses its model
+    # on a helper thread of its own while formatting it: threemf.write_in_order).
     # A batch worker with one core to itself (TAMP_THREADS=1) writes them one after the other.
     if mesh.n_triangles > PARALLEL_WRITE_TRIANGLES and len(formats) > 1 and os.environ.get("TAMP_THREADS") != "1":
         pool = ThreadPoolExecutor(max_workers=min(len(formats), os.cpu_count() or 1))

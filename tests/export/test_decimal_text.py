@@ -60,7 +60,7 @@ def test_indices_read_as_python_writes_them_with_and_without_the_table(count, pi
     indices = np.array([p % count for p in picks], dtype=np.uint32)
     expected = "".join(f"<i {i}>\n" for i in indices.tolist()).encode()
     for table in (decimal_text.index_table(count), None):
-        fields = decimal_text.index_fields(indices, table)
+        fields = decimal_text.index_fields(indices, table=table)
         assert decimal_text.lines_text([fields], [b"<i ", b">\n"]) == expected
     big = np.array(wide, dtype=np.uint32)  # any uint32, as an invalid mesh's indices may be
     fields = decimal_text.index_fields(big)

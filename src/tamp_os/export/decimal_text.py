@@ -1,5 +1,5 @@
 """Numbers written as decimal text by NumPy, a whole block of rows per array operation: the same
-characters Python's '%.6f' and '%d' write, about twice as fast, and with the GIL released for most
+characters Python's '%.6f' and '%d' write, two to three times as fast, and with the GIL released for most
 of the work (so zlib, or another writer, runs on the other core meanwhile; see threemf.py).
 
 Each number is laid out in a fixed-width field of ASCII digits whose unused places hold a zero
@@ -93,7 +93,7 @@ def _triples(pad_leading: bool) -> np.ndarray:
     return table
 
 
-def index_fields(indices: np.ndarray, table: np.ndarray | None = None) -> np.ndarray:
+def index_fields(indices: np.ndarray, *, table: np.ndarray | None = None) -> np.ndarray:
     """(len(indices), w) uint8 fields: what '%d' writes of each non-negative integer index, taken
     from `table` (index_table of more than the largest index) when given, else computed."""
     if table is not None:

@@ -117,7 +117,7 @@ def _triangles_xml(faces: np.ndarray, material: str = "", *, table: np.ndarray |
 
     if len(faces) == 0:
         return b""
-    fields = decimal_text.index_fields(faces.ravel(), table)
+    fields = decimal_text.index_fields(faces.ravel(), table=table)
     fields = fields.reshape(len(faces), 3, fields.shape[1])
     parts = [b'<triangle v1="', b'" v2="', b'" v3="', f'"{material}/>\n'.encode("utf-8")]
     return decimal_text.lines_text([fields[:, 0], fields[:, 1], fields[:, 2]], parts)

@@ -91,7 +91,10 @@ def instrument(stages: Stages) -> None:
     stages.wrap(marks, "inpaint", "  of which inpainting")
     stages.wrap(pipeline, "add_furniture", "  of which furniture (plan, fuse)")
     stages.wrap(clean_stage, "_scale_from_bars", "beside: scale-bar OCR (own thread)")
-    stages.wrap(outputs, "check_export", "check mesh as written")
+    if hasattr(outputs, "check_written_solid"):  # since issue 37's fourth round: beside the writes, inside their wall
+        stages.wrap(outputs, "check_written_solid", "check mesh as written")
+    else:
+        stages.wrap(outputs, "check_export", "check mesh as written")
     stages.wrap(outputs, "metadata", "metadata and description")
     stages.wrap(outputs, "write_recipe", "recipe")
     stages.wrap(outputs, "save_mesh", lambda mesh, path, *rest: f"write {Path(path).suffix[1:].upper()}")

@@ -79,10 +79,12 @@ def written_sha256(path) -> str | None:
     return known[1]
 
 
-def write_atomic(path: Path, write: Callable[[BinaryIO], None], *, remember_sha256: bool = False) -> Path:
+def write_atomic(path: Path, write: Callable[[BinaryIO], None], *, remember_sha256: bool = False,
+                 before_replace: Callable[[], None] | None = None) -> Path:
     """Write through `write(file)` to a temporary file beside `path`, then rename it into place.
     `remember_sha256`: hash the bytes as they are written, for written_sha256 (the file object
-    then offers only write())."""
+    then offers only write()). `before_replace`: called once the temporary file is complete and
+    before it takes the name; if it raises, the temporary file goes and nothing is written."""
     path = Path(path)
     check_path_length(path, PART_EXTRA_BYTES)
     if path.is_dir():
@@ -98,6 +100,8 @@ def write_atomic(path: Path, write: Callable[[BinaryIO], None], *, remember_sha2
         with os.fdopen(fd, "wb") as fh:
             hashing = _Hashing(fh) if remember_sha256 else None
             write(hashing or fh)
+        if before_replace is not None:
+            before_replace()
         os.chmod(tmp, 0o644)
         os.replace(tmp, path)
         if hashing is not None:

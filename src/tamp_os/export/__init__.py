@@ -3,7 +3,9 @@ itself is opened by `files.write_atomic`.
 
 Nothing is written unless everything can be: `check_export` runs the solid check on the mesh as
 it will be written (float32 positions merged, as slicers read an STL) and every chosen format's
-own check (STEP's size limit) first, and raises ExportError instead of writing a file.
+own check (STEP's size limit) first, and raises ExportError instead of writing a file. (A
+lithograph's formats, lithograph/outputs.py, run the formats' checks first and the solid check
+beside the writing, their files taking their names only once it has passed.)
 """
 
 from __future__ import annotations

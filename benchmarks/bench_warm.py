@@ -91,10 +91,14 @@ def instrument(stages: Stages) -> None:
     stages.wrap(marks, "inpaint", "  of which inpainting")
     stages.wrap(pipeline, "add_furniture", "  of which furniture (plan, fuse)")
     stages.wrap(clean_stage, "_scale_from_bars", "beside: scale-bar OCR (own thread)")
-    stages.wrap(outputs, "check_export", "check mesh as written")
+    if hasattr(outputs, "check_written_solid"):  # since issue 37's fourth round: beside the writes, inside their wall
+        stages.wrap(outputs, "check_written_solid", "check mesh as written")
+    else:
+        stages.wrap(outputs, "check_export", "check mesh as written")
     stages.wrap(outputs, "metadata", "metadata and description")
     stages.wrap(outputs, "write_recipe", "recipe")
     stages.wrap(outputs, "save_mesh", lambda mesh, path, *rest: f"write {Path(path).suffix[1:].upper()}")
+    stages.wrap(outputs, "write_meshes", "  writes, side by side (wall)")  # the rows above overlap in time
     if hasattr(threemf, "_without_model_relationships"):
         stages.wrap(threemf, "_without_model_relationships", "  of which 3MF re-zip")
 
@@ -145,6 +149,8 @@ def table(name: str, runs: list[dict[str, tuple[float, float]]]) -> list[str]:
         row(stage)
         if stage == "write 3MF" and any("  of which 3MF re-zip" in r for r in runs):
             row("  of which 3MF re-zip")
+        if stage == "write GLB" and any("  writes, side by side (wall)" in r for r in runs):
+            row("  writes, side by side (wall)")
     row("rest (files, figure's finish)", [minus(r, "total", ("figure",) + writes) for r in runs])
     rows.append(f"| **total** | **{1000 * total[0]:.0f}** | 100% | **{1000 * total[1]:.0f}** |")
     beside = statistics.median(r.get("beside: scale-bar OCR (own thread)", (0.0, 0.0))[0] for r in runs)

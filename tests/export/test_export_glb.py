@@ -40,6 +40,8 @@ def meshes(draw):
         vertices = vertices.astype(np.float32)
     if draw(st.booleans()):
         normals = normals.astype(np.float32)
+    if draw(st.integers(0, 4)) == 0:  # positions that are their own unit normals: one shared buffer view
+        vertices = normals = np.eye(3)[rng.integers(0, 3, n_vertices)] * rng.choice([-1.0, 1.0], (n_vertices, 1))
     return vertices, faces, normals
 
 

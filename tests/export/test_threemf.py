@@ -342,3 +342,92 @@ def _with_a_bad_piece(pieces, calls):
             calls.append(1)
             yield None
         yield piece
+
+
+def _package(mesh_or_parts, *, threaded: bool, chunk_rows: int, whole: bool = False) -> bytes:
+    """The 3MF of a mesh (or of parts) with the model formatted CHUNK_ROWS at a time and compressed
+    beside the formatting (`threaded`) or in this thread, or joined and compressed whole."""
+    from tamp_os.export import threemf
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(threemf, "CHUNK_ROWS", chunk_rows)
+        if whole:  # as for a model near Zip64's limit: joined, then compressed in one call
+            patch.setattr(threemf, "_body_bytes_max", lambda *args: zipfile.ZIP64_LIMIT)
+        patch.setenv("TAMP_THREADS", "0" if threaded else "1")
+        out = io.BytesIO()
+        if isinstance(mesh_or_parts, list):
+            write_3mf_parts(mesh_or_parts, out, {"title": "pipeline"})
+        else:
+            write_3mf(mesh_or_parts, out, {"title": "pipeline"})
+    return out.getvalue()
+
+
+@pytest.mark.timeout(300)
+@settings(max_examples=examples(40))
+@given(n_vertices=st.integers(0, 300), n_faces=st.integers(0, 400), chunk_rows=st.integers(1, 64),
+       scale=st.sampled_from([1e-3, 1.0, 250.0, 1e6]), seed=st.integers(0, 2**16), parts=st.booleans())
+def test_compressed_beside_the_formatting_is_the_same_package(n_vertices, n_faces, chunk_rows, scale, seed, parts):
+    """Any mesh (none, one triangle, indices past the vertices), any piece size, one object or
+    parts: compressing on a helper thread gives the bytes of compressing in this thread and of
+    compressing the model whole; and the model's lines are what Python's '%.6f' and '%d' write."""
+    rng = np.random.default_rng(seed)
+    vertices = (rng.normal(size=(n_vertices, 3)) * scale).astype(np.float32)
+    faces = rng.integers(0, max(n_vertices, 1) + (seed % 3 == 0), (n_faces, 3))  # now and then an index past the last vertex
+    mesh = trimesh.Trimesh(vertices, faces, process=False, validate=False)
+    subject = [Part("base", "base", mesh, (1, 2, 3)), Part("dots", "dots", trimesh.Trimesh(vertices[:1], faces[:1] * 0, process=False), (4, 5, 6))] if parts else mesh
+    threaded = _package(subject, threaded=True, chunk_rows=chunk_rows)
+    assert threaded == _package(subject, threaded=False, chunk_rows=chunk_rows)
+    assert threaded == _package(subject, threaded=False, chunk_rows=1 << 13, whole=True)
+    model = zipfile.ZipFile(io.BytesIO(threaded)).read("3D/3dmodel.model").decode()
+    if not parts:
+        assert "".join(line + "\n" for line in model.splitlines() if line.startswith("<vertex ")) == "".join(
+            '<vertex x="%.6f" y="%.6f" z="%.6f"/>\n' % tuple(v) for v in vertices.astype(np.float64).tolist())
+        assert "".join(line + "\n" for line in model.splitlines() if line.startswith("<triangle ")) == "".join(
+            '<triangle v1="%d" v2="%d" v3="%d"/>\n' % tuple(f) for f in faces.tolist())
+
+
+@pytest.mark.timeout(60)
+def test_coordinates_numpy_does_not_write_are_written_by_python():
+    """inf, nan and coordinates beyond decimal_text's exact range: the same text as '%.6f'."""
+    vertices = np.array([[np.inf, -np.inf, np.nan], [3e10, -1e12, 0.5], [1.0, 2.0, 3.0]], dtype=np.float32)
+    mesh = trimesh.Trimesh(vertices, [[0, 1, 2]], process=False, validate=False)
+    data = _package(mesh, threaded=True, chunk_rows=2)
+    model = zipfile.ZipFile(io.BytesIO(data)).read("3D/3dmodel.model").decode()
+    assert [line for line in model.splitlines() if line.startswith("<vertex ")] == [
+        '<vertex x="%.6f" y="%.6f" z="%.6f"/>' % tuple(v) for v in vertices.astype(np.float64).tolist()]
+
+
+@pytest.mark.timeout(60)
+@pytest.mark.parametrize("fails_at", [0, 1, 5])
+def test_a_helper_that_fails_stops_the_formatting_soon_and_leaves_no_thread(fails_at):
+    """The helper's write raising (a full disk, a bug): the error reaches the caller at once, the
+    pieces not yet made are never made (no hang on a full pipeline), and the helper is gone."""
+    import threading
+
+    from tamp_os.export.threemf import PIPELINE_DEPTH, write_in_order
+
+    made, written = [], []
+
+    def pieces():
+        for k in range(1000):
+            made.append(k)
+            yield bytes([k % 256]) * 10
+
+    def write(piece):
+        if len(written) == fails_at:
+            raise OSError("no space left")
+        written.append(piece)
+
+    with pytest.raises(OSError, match="no space"):
+        write_in_order(write, pieces(), threaded=True)
+    assert len(made) <= fails_at + PIPELINE_DEPTH + 2 and written == [bytes([k]) * 10 for k in range(fails_at)]
+    assert not [t for t in threading.enumerate() if t.name.startswith("tamp-3mf")]
+
+
+@pytest.mark.timeout(60)
+def test_pieces_are_written_in_their_order():
+    from tamp_os.export.threemf import write_in_order
+
+    written: list[int] = []
+    write_in_order(written.append, iter(range(500)), threaded=True)
+    assert written == list(range(500))

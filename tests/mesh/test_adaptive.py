@@ -164,3 +164,58 @@ def test_the_check_around_an_inserted_peak_measures_the_grid_points_inside():
     vertices = np.array([[0.0, 0.0, 0.0], [4.0, 0.0, 0.0], [0.0, 10.0, 0.0], [10.0, 10.0, 0.0], [10.0, 0.0, 0.0]])
     assert error_at_grid_points(vertices, np.array([[0, 1, 2]]), heights, width_mm=10.0, depth_mm=10.0) == 0.0
     assert error_at_grid_points(vertices, np.array([[0, 4, 3]]), heights, width_mm=10.0, depth_mm=10.0) == pytest.approx(1.0)
+
+
+def _insert_point_by_rows(vertices, faces, point):
+    """insert_point as first written (the barycentric weights from vertices[faces]'s rows): the
+    reference its faster form must match exactly."""
+    a, b, c = (vertices[faces[:, k]] for k in range(3))
+    p = point[:2]
+
+    def cross(u, v, w):
+        return (v[..., 0] - u[..., 0]) * (w[..., 1] - u[..., 1]) - (v[..., 1] - u[..., 1]) * (w[..., 0] - u[..., 0])
+
+    area = cross(a, b, c)
+    weights = [cross(p, b, c) / area, cross(a, p, c) / area, cross(a, b, p) / area]
+    hits = np.flatnonzero((weights[0] >= -1e-9) & (weights[1] >= -1e-9) & (weights[2] >= -1e-9))
+    if len(hits) == 0:
+        return vertices, faces
+    bary = np.stack([w[hits] for w in weights], axis=1)
+    if (np.abs(bary - 1) <= 1e-9).any():
+        return vertices, faces
+    new, keep, added = len(vertices), np.ones(len(faces), bool), []
+    for f, weight in zip(hits, bary):
+        i, j, k = faces[f]
+        zero = np.flatnonzero(np.abs(weight) <= 1e-9)
+        keep[f] = False
+        if len(zero) == 0:
+            added += [(i, j, new), (j, k, new), (k, i, new)]
+        else:
+            order = [faces[f][(zero[0] + m) % 3] for m in range(3)]
+            added += [(order[0], order[1], new), (order[0], new, order[2])]
+    return np.vstack([vertices, point]), np.vstack([faces[keep], np.array(added, dtype=faces.dtype)])
+
+
+@pytest.mark.timeout(120)
+@settings(max_examples=examples(100), deadline=None)
+@given(seed=st.integers(0, 2**16), where=st.sampled_from(["random", "vertex", "edge", "outside"]))
+def test_insert_point_is_the_row_by_row_computation(seed, where):
+    """On a real adaptive top and any point (inside, on a vertex, on an edge, off the surface):
+    the same vertices and faces, bit for bit, as the weights computed from vertices[faces]."""
+    from tamp_os.mesh.adaptive import adaptive_top
+
+    rng = np.random.default_rng(seed)
+    heights = rng.random((24, 31)).astype(np.float32)
+    vertices, faces = adaptive_top(heights, 30.0, 23.0, max_error_mm=0.2)
+    if where == "vertex":
+        point = vertices[rng.integers(len(vertices))] + [0.0, 0.0, 1.0]
+    elif where == "edge":
+        f = faces[rng.integers(len(faces))]
+        point = (vertices[f[0]] + vertices[f[1]]) / 2
+    elif where == "outside":
+        point = np.array([31.0, 5.0, 1.0])
+    else:
+        point = np.array([rng.uniform(0, 30), rng.uniform(0, 23), 1.5])
+    got, expected = insert_point(vertices, faces, point), _insert_point_by_rows(vertices, faces, point)
+    assert got[0].tobytes() == expected[0].tobytes() and got[1].tobytes() == expected[1].tobytes()
+    assert got[1].dtype == expected[1].dtype

@@ -198,3 +198,42 @@ def test_furnished_plate_made_once_per_shape_and_the_same_solid(monkeypatch):
         plates[0].vertices[0, 0] = -1.0
     other = furnished("Other words")
     assert plates[3] is not plates[2] and len(other.vertices) != len(first.vertices)
+
+
+def _closed_and_oriented_by_two_sorts(faces: np.ndarray) -> bool:
+    """The plain statement: no repeated corner; the directed edges, sorted, are distinct and are
+    their own reverses sorted."""
+    if (faces[:, 0] == faces[:, 1]).any() or (faces[:, 1] == faces[:, 2]).any() or (faces[:, 0] == faces[:, 2]).any():
+        return False
+    a, b, c = (faces[:, k].astype(np.int64) for k in range(3))
+    n = int(faces.max()) + 1
+    forward = np.sort(np.concatenate([a * n + b, b * n + c, c * n + a]))
+    backward = np.sort(np.concatenate([b * n + a, c * n + b, a * n + c]))
+    return bool(np.array_equal(forward, backward)) and bool((np.diff(forward) > 0).all())
+
+
+@pytest.mark.timeout(120)
+@settings(max_examples=examples(300), deadline=None)
+@given(seed=st.integers(0, 2**16), spoil=st.sampled_from(["none", "flip", "drop", "duplicate", "renumber", "random", "odd"]))
+def test_closed_and_oriented_answers_as_the_plain_statement(seed, spoil):
+    """Closed meshes (a box, a sphere, the relief) whole and spoiled in every way that matters:
+    the one-sort test says what sorting the edges and their reverses says."""
+    rng = np.random.default_rng(seed)
+    mesh = [trimesh.creation.box(), trimesh.creation.icosphere(subdivisions=1 + seed % 2), _relief()][seed % 3]
+    faces = np.asarray(mesh.faces, dtype=np.int64).copy()
+    k = int(rng.integers(len(faces)))
+    if spoil == "flip":
+        faces[k] = faces[k][::-1]
+    elif spoil == "drop":
+        faces = np.delete(faces, k, axis=0)
+    elif spoil == "duplicate":
+        faces = np.vstack([faces, faces[k : k + 2]])
+    elif spoil == "renumber":
+        faces[k, 0] = faces[k, 1]
+    elif spoil == "random":
+        faces = rng.integers(0, 6, (int(rng.integers(1, 24)), 3))  # odd counts too
+    elif spoil == "odd":  # a closed surface has an even number of faces; one more than that
+        faces = np.vstack([faces, faces[k][::-1]])
+    expected = _closed_and_oriented_by_two_sorts(faces)
+    assert closed_and_oriented(faces) == expected
+    assert expected == (spoil == "none") or spoil in ("random", "renumber")

@@ -3,7 +3,9 @@ itself is opened by `files.write_atomic`.
 
 Nothing is written unless everything can be: `check_export` runs the solid check on the mesh as
 it will be written (float32 positions merged, as slicers read an STL) and every chosen format's
-own check (STEP's size limit) first, and raises ExportError instead of writing a file.
+own check (STEP's size limit) first, and raises ExportError instead of writing a file. (A
+lithograph's formats, lithograph/outputs.py, run the formats' checks first and the solid check
+beside the writing, their files taking their names only once it has passed.)
 """
 
 from __future__ import annotations
@@ -70,28 +72,43 @@ def check_export(mesh: Mesh, paths: Iterable) -> None:
 
     Run once before writing a set of files, so that a failure leaves no file at all.
     """
+    paths = [Path(p) for p in paths]
+    for path in paths:
+        format_of(path)  # a name no format writes: that error first
+    check_written_solid(mesh, paths)
+    check_formats(mesh, paths)
+
+
+def check_written_solid(mesh: Mesh, paths: Iterable) -> None:
+    """check_export's first half: ExportError (naming the files) unless the mesh as a slicer
+    reads it is a closed solid (mesh.validate.check_as_written)."""
     from ..mesh.validate import check_as_written
 
-    paths = [Path(p) for p in paths]
-    exporters = {format_of(p): _exporter(format_of(p)) for p in paths}
     check = check_as_written(mesh)
     if not check.ok:
-        names = ", ".join(p.name for p in paths)
+        names = ", ".join(Path(p).name for p in paths)
         raise ExportError(
             f"{names}: the mesh is not a closed solid as a slicer reads it ({'; '.join(check.problems)}); "
             f"nothing was written. This is a fault in TAMP-OS, not in your input: please report it with the input and settings."
         )
-    for exporter in exporters.values():
+
+
+def check_formats(mesh: Mesh, paths: Iterable) -> None:
+    """check_export's second half: each path's format's own check (STEP's size limit); quick."""
+    for exporter in {format_of(Path(p)): _exporter(format_of(Path(p))) for p in paths}.values():
         exporter.check(mesh)
 
 
-def save_mesh(mesh: Mesh, path, metadata: dict | None = None, *, checked: bool = False) -> Path:
+def save_mesh(mesh: Mesh, path, metadata: dict | None = None, *, checked: bool = False,
+              before_replace: Callable[[], None] | None = None) -> Path:
     """Write `mesh` to `path` in the format its extension names (metadata: title, description).
 
-    The mesh is checked first (see check_export) unless `checked` says the caller already did.
+    The mesh is checked first (see check_export) unless `checked` says the caller already did
+    (or does it meanwhile: `before_replace`, see files.write_atomic, waits for that check).
     """
     path = Path(path)
     writer = exporter_for(path)
     if not checked:
         check_export(mesh, [path])
-    return write_atomic(path, lambda fh: writer(mesh, fh, metadata or {}))
+    # The writers only write(): the file's SHA-256 comes along (the recipe lists it, lithograph/outputs.py).
+    return write_atomic(path, lambda fh: writer(mesh, fh, metadata or {}), remember_sha256=True, before_replace=before_replace)

@@ -3,8 +3,11 @@ place, so a crash never leaves half a file that looks whole."""
 
 from __future__ import annotations
 
+import hashlib
 import os
+import stat
 import tempfile
+import threading
 from pathlib import Path
 from typing import BinaryIO, Callable
 
@@ -37,8 +40,51 @@ def check_path_length(path, extra_bytes: int = 0) -> None:
         )
 
 
-def write_atomic(path: Path, write: Callable[[BinaryIO], None]) -> Path:
-    """Write through `write(file)` to a temporary file beside `path`, then rename it into place."""
+class _Hashing:
+    """A file that also feeds everything written to it into a SHA-256 (hashlib releases the GIL
+    for blocks, so each writer thread hashes its own file beside the others)."""
+
+    def __init__(self, fh: BinaryIO):
+        self.fh, self.digest = fh, hashlib.sha256()
+
+    def write(self, data) -> int:
+        self.digest.update(data)
+        return self.fh.write(data)
+
+
+# The SHA-256 of files this process wrote with remember_sha256, by absolute path, with the
+# file's identity then (device, inode, size, modification and change times): a file replaced
+# or written since no longer matches and is read again (see written_sha256).
+_WRITTEN: dict[str, tuple[tuple, str]] = {}
+_WRITTEN_LOCK = threading.Lock()  # the formats of a print are written side by side
+WRITTEN_REMEMBERED = 256
+
+
+def _identity(path: Path) -> tuple | None:
+    try:
+        st = os.stat(path)
+    except OSError:
+        return None
+    return (st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns, st.st_ctime_ns) if stat.S_ISREG(st.st_mode) else None
+
+
+def written_sha256(path) -> str | None:
+    """The SHA-256 (hex) of `path` as this process wrote it (write_atomic's remember_sha256), or
+    None when it did not, or the file has been replaced or changed since."""
+    key = os.path.abspath(path)
+    with _WRITTEN_LOCK:
+        known = _WRITTEN.get(key)
+    if known is None or _identity(Path(key)) != known[0]:
+        return None
+    return known[1]
+
+
+def write_atomic(path: Path, write: Callable[[BinaryIO], None], *, remember_sha256: bool = False,
+                 before_replace: Callable[[], None] | None = None) -> Path:
+    """Write through `write(file)` to a temporary file beside `path`, then rename it into place.
+    `remember_sha256`: hash the bytes as they are written, for written_sha256 (the file object
+    then offers only write()). `before_replace`: called once the temporary file is complete and
+    before it takes the name; if it raises, the temporary file goes and nothing is written."""
     path = Path(path)
     check_path_length(path, PART_EXTRA_BYTES)
     if path.is_dir():
@@ -52,9 +98,14 @@ def write_atomic(path: Path, write: Callable[[BinaryIO], None]) -> Path:
         raise ExportError(f"{folder}: cannot write here ({exc.strerror}); choose another output folder with -o.") from None
     try:
         with os.fdopen(fd, "wb") as fh:
-            write(fh)
+            hashing = _Hashing(fh) if remember_sha256 else None
+            write(hashing or fh)
+        if before_replace is not None:
+            before_replace()
         os.chmod(tmp, 0o644)
         os.replace(tmp, path)
+        if hashing is not None:
+            _remember(path, hashing.digest.hexdigest())
     except BaseException as exc:
         try:
             os.unlink(tmp)
@@ -64,6 +115,18 @@ def write_atomic(path: Path, write: Callable[[BinaryIO], None]) -> Path:
             raise ExportError(f"{path}: writing failed ({exc.strerror or exc}); nothing was written.") from None
         raise
     return path
+
+
+def _remember(path: Path, digest: str) -> None:
+    identity = _identity(path)
+    if identity is None:
+        return
+    key = os.path.abspath(path)
+    with _WRITTEN_LOCK:
+        _WRITTEN.pop(key, None)
+        _WRITTEN[key] = (identity, digest)
+        while len(_WRITTEN) > WRITTEN_REMEMBERED:  # the oldest first (dicts keep their order)
+            _WRITTEN.pop(next(iter(_WRITTEN)))
 
 
 def write_text(path, text: str) -> Path:

@@ -55,14 +55,18 @@ def glb_bytes(vertices: np.ndarray, faces: np.ndarray, normals: np.ndarray) -> b
         unit_normals(normals),
     ]
     blobs: list[bytes] = []
-    views: dict[bytes, int] = {}  # identical contents share one buffer view, as trimesh's did
+    contents: list[bytes] = []  # each view's bytes before padding
 
     def view_of(array: np.ndarray) -> int:
+        """Identical contents share one buffer view, as trimesh's did (found by comparing those of
+        the same length: hashing them as dictionary keys took longer, holding the GIL)."""
         data = array.tobytes()
-        if data not in views:
-            views[data] = len(blobs)
+        same = next((k for k, seen in enumerate(contents) if len(seen) == len(data) and seen == data), None)
+        if same is None:
+            contents.append(data)
             blobs.append(_pad4(data))
-        return views[data]
+            return len(blobs) - 1
+        return same
 
     index, positions, unit = arrays
     (position_min, position_max), (unit_min, unit_max) = column_bounds(positions), column_bounds(unit)

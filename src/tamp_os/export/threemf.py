@@ -6,8 +6,9 @@ the model) and the slicers' attachments under Metadata/, which PrusaSlicer, Bamb
 OrcaSlicer read by name and so carry no relationship (see write_3mf_parts). Numbers are written
 the way lib3mf (the 3MF Consortium's library, which wrote these files before) writes them: six
 decimals of the float32 coordinates, so every reader gets the same vertices. Formatting the
-arrays a block of rows per string operation and compressing once is about 3x faster than lib3mf
-writing a package and a second pass dropping its attachment relationships. UUIDs are derived from
+arrays a block of rows per NumPy operation (decimal_text.py: the characters '%.6f' and '%d' write)
+and compressing once is several times faster than lib3mf writing a package and a second pass
+dropping its attachment relationships. UUIDs are derived from
 the content, and every entry has a fixed date, so the same input gives the same bytes.
 """
 
@@ -15,9 +16,12 @@ from __future__ import annotations
 
 import hashlib
 import io
+import os
 import uuid
 import zipfile
+from collections import deque
 from collections.abc import Iterable, Iterator
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
@@ -66,7 +70,9 @@ class Geometry:
 
     def __init__(self, vertices: np.ndarray, faces: np.ndarray, *, title: str, object_id: int):
         self.vertices, self.faces, self.title, self.object_id = vertices, faces, title, object_id
-        self.seed = uuid.UUID(hashlib.sha256(vertices.tobytes() + faces.tobytes()).hexdigest()[:32])
+        digest = hashlib.sha256(np.ascontiguousarray(vertices))  # then the faces: the hash of both joined, without joining them
+        digest.update(np.ascontiguousarray(faces))
+        self.seed = uuid.UUID(digest.hexdigest()[:32])
 
     def uuid(self, what: str) -> str:
         return str(uuid.uuid5(self.seed, what))
@@ -78,32 +84,53 @@ def _arrays(vertices, faces) -> tuple[np.ndarray, np.ndarray]:
 
 # Rows of vertices or triangles formatted and compressed at a time (about 0.5 MB of text): the
 # model is never one string (a 2000 x 2000 grid's would be 0.6 GB) joined and encoded again.
-# (zlib on a helper thread beside the formatting gained nothing: zlib takes the GIL back for every
-# block of output it grows, and the formatting holds it.)
 CHUNK_ROWS = 1 << 13
-# Triangle indices are formatted from a table of each vertex index's digits (a copy, not a
-# conversion per corner: ~40 % faster) up to this many vertices; beyond, the table costs more memory than it saves.
+# Triangle indices are copied from a table of each vertex index's digits (a gather, not divisions
+# per corner) up to this many vertices; beyond, the table costs more memory than it saves.
 INDEX_TABLE_MAX = 1 << 21
+VERTEX_PARTS = [b'<vertex x="', b'" y="', b'" z="', b'"/>\n']
 
 
-def _vertices_xml(vertices: np.ndarray) -> str:
-    """<vertex> lines: six decimals of each float32 coordinate (lib3mf's precision), one format
-    operation over the whole array."""
+def _vertices_xml(vertices: np.ndarray) -> bytes:
+    """<vertex> lines: six decimals of each float32 coordinate (lib3mf's precision), formatted by
+    NumPy (decimal_text) or, for values it does not take (inf, nan, huge), by Python."""
+    from . import decimal_text
+
+    if not decimal_text.fixed_six_supported(vertices):
+        return _vertices_xml_plain(vertices).encode("ascii")
+    fields = decimal_text.fixed_six(vertices.ravel())
+    width = fields.shape[1]
+    fields = fields.reshape(len(vertices), 3 * width)
+    return decimal_text.lines_text([fields[:, :width], fields[:, width : 2 * width], fields[:, 2 * width :]], VERTEX_PARTS)
+
+
+def _vertices_xml_plain(vertices: np.ndarray) -> str:
+    """<vertex> lines as Python's '%.6f' writes them, one format operation over the whole array."""
     return ('<vertex x="%.6f" y="%.6f" z="%.6f"/>\n' * len(vertices)) % tuple(vertices.astype(np.float64).ravel().tolist())
 
 
-def _triangles_xml(faces: np.ndarray, material: str = "", *, names: np.ndarray | None = None) -> str:
-    """<triangle> lines (0-based vertex indices); `material` is extra attributes for all of them
-    (pid and p1), empty for the object's default material; `names`: each vertex index as text
-    (object array), or None to format the numbers."""
-    if names is None:
-        return (f'<triangle v1="%d" v2="%d" v3="%d"{material}/>\n' * len(faces)) % tuple(faces.ravel().tolist())
-    return (f'<triangle v1="%s" v2="%s" v3="%s"{material}/>\n' * len(faces)) % tuple(names[faces.ravel()].tolist())
+def _triangles_xml(faces: np.ndarray, material: str = "", *, table: np.ndarray | None = None) -> bytes:
+    """<triangle> lines (0-based vertex indices, as '%d' writes them); `material` is extra
+    attributes for all of them (pid and p1), empty for the object's default material; `table`:
+    decimal_text.index_table covering every index, or None to compute the digits."""
+    from . import decimal_text
+
+    if len(faces) == 0:
+        return b""
+    fields = decimal_text.index_fields(faces.ravel(), table=table)
+    fields = fields.reshape(len(faces), 3, fields.shape[1])
+    parts = [b'<triangle v1="', b'" v2="', b'" v3="', f'"{material}/>\n'.encode("utf-8")]
+    return decimal_text.lines_text([fields[:, 0], fields[:, 1], fields[:, 2]], parts)
 
 
-def _index_names(n_vertices: int) -> np.ndarray | None:
-    """Every vertex index as text (what '%d' writes), or None for a mesh too large for the table."""
-    return np.array(list(map(str, range(n_vertices))), dtype=object) if n_vertices <= INDEX_TABLE_MAX else None
+def _index_table(n_vertices: int, faces: np.ndarray) -> np.ndarray | None:
+    """decimal_text.index_table of the vertices when it covers every face's index and is small
+    enough (INDEX_TABLE_MAX), else None (the digits are computed)."""
+    from . import decimal_text
+
+    if not len(faces) or n_vertices > INDEX_TABLE_MAX or int(faces.max()) >= n_vertices:
+        return None
+    return decimal_text.index_table(n_vertices)
 
 
 def _model_xml(geometry: Geometry, metadata: dict, *, resources: str = "", object_extra: str = "",
@@ -150,12 +177,12 @@ def _model_pieces(head: bytes, geometry: Geometry, ranges: list[tuple[int, int, 
     yield head
     vertices, faces = geometry.vertices, geometry.faces
     for start in range(0, len(vertices), CHUNK_ROWS):
-        yield _vertices_xml(vertices[start : start + CHUNK_ROWS]).encode("ascii")
+        yield _vertices_xml(vertices[start : start + CHUNK_ROWS])
     yield b"</vertices>\n<triangles>\n"
-    names = _index_names(len(vertices)) if len(faces) and int(faces.max()) < len(vertices) else None
+    table = _index_table(len(vertices), faces)
     for first, stop, extra in ranges:
         for start in range(first, stop, CHUNK_ROWS):
-            yield _triangles_xml(faces[start : min(start + CHUNK_ROWS, stop)], extra, names=names).encode("utf-8")
+            yield _triangles_xml(faces[start : min(start + CHUNK_ROWS, stop)], extra, table=table)
     yield tail
 
 
@@ -272,8 +299,7 @@ def _write_package(fh, model: tuple[int, Iterable[bytes]], attachments: list[tup
         if size_max * 1.05 <= zipfile.ZIP64_LIMIT:  # writestr would not take Zip64 either: the same entry
             # By name: the archive's method and level, and ZipInfo's default date (ZIP_DATE).
             with archive.open(MODEL_PATH, "w") as dest:
-                for piece in pieces:
-                    dest.write(piece)
+                write_in_order(dest.write, pieces, threaded=os.environ.get("TAMP_THREADS") != "1")
         else:  # writestr decides on Zip64 from the exact size
             entries.insert(0, (MODEL_PATH, b"".join(pieces)))
         for name, data in entries:
@@ -281,4 +307,33 @@ def _write_package(fh, model: tuple[int, Iterable[bytes]], attachments: list[tup
             info.compress_type = zipfile.ZIP_DEFLATED
             archive.writestr(info, data, compresslevel=COMPRESS_LEVEL)
     fh.write(buffer.getbuffer())
+
+
+# Pieces formatted ahead of the one being compressed: enough to keep zlib busy, few enough that
+# memory stays a few pieces.
+PIPELINE_DEPTH = 2
+
+
+def write_in_order(write, pieces: Iterable[bytes], *, threaded: bool = True) -> None:
+    """write(piece) for every piece, in order. `threaded`: on one helper thread while the next
+    pieces are made in this one (zlib and NumPy's formatting release the GIL, so the model's
+    compression runs beside its formatting); the calls and their order are the same, so are the
+    bytes. An error on either side stops both and reaches the caller once the helper is idle."""
+    if not threaded:
+        for piece in pieces:
+            write(piece)
+        return
+    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="tamp-3mf") as helper:
+        pending: deque = deque()
+        try:
+            for piece in pieces:
+                pending.append(helper.submit(write, piece))
+                while len(pending) > PIPELINE_DEPTH or (pending and pending[0].done()):
+                    pending.popleft().result()
+            while pending:
+                pending.popleft().result()
+        except BaseException:
+            for waiting in pending:  # not begun: never begun; the one running ends before the with does
+                waiting.cancel()
+            raise
 

@@ -9,17 +9,18 @@ import functools
 import hashlib
 import json
 import os
+import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
 
 from ..errors import ExportError, InputError, ParameterError
-from ..export import check_export, save_mesh
-from ..export.files import to_uint8, write_png, write_text
+from ..export import check_formats, check_written_solid, format_of, save_mesh
+from ..export.files import to_uint8, write_png, write_text, written_sha256
 from ..formats import BY_NAME, DOCUMENT_FORMATS, GRAPHIC_FORMATS, PIN_FORMATS, by_suffix
 from ..params import LithoParams
 from ..printing.printers import PrinterProfile
@@ -97,8 +98,7 @@ def save(litho, target, formats=None, *, stem: str | None = None) -> list[Path]:
     if litho.tiles or litho.parts:  # several solids (export/multipart.py)
         written = _write_multipart(litho, folder, stem, meshes, meta)
     else:
-        check_export(litho.mesh, [folder / f"{stem}.{fmt}" for fmt in meshes])
-        written = [path for path, _ in write_meshes(litho.mesh, folder, stem, formats=meshes, meta=meta).values()]
+        written = _write_checked(litho.mesh, folder, stem, meshes, meta)
     if graphics:
         from ..export.tactile2d import save_graphic  # cairo's writer, imported only for PDF/SVG
 
@@ -117,6 +117,21 @@ def save(litho, target, formats=None, *, stem: str | None = None) -> list[Path]:
     written.append(write_text(folder / f"{stem}.description.txt", meta["description"] + "\n"))
     recipe = write_recipe(litho, folder / f"{stem}{RECIPE_SUFFIX}", [p.name for p in written])
     return written + [recipe]
+
+
+def _write_checked(mesh, folder: Path, stem: str, formats: list[str], meta: dict) -> list[Path]:
+    """The mesh in each format, refused as check_export refuses it (the same errors, in the same
+    order), its solid check running beside the writing: no file takes its name before it passes."""
+    paths = [folder / f"{stem}.{fmt}" for fmt in formats]
+    for path in paths:
+        format_of(path)  # a name no format writes fails first
+    try:
+        check_formats(mesh, paths)
+    except ExportError:
+        check_written_solid(mesh, paths)  # a mesh failing both is refused for its solid first
+        raise
+    written = write_meshes(mesh, folder, stem, formats=formats, meta=meta, check=lambda: check_written_solid(mesh, paths))
+    return [path for path, _ in written.values()]
 
 
 def _write_multipart(litho, folder: Path, stem: str, formats: list[str], meta: dict) -> list[Path]:
@@ -200,24 +215,66 @@ def tactile_graphic(litho) -> Graphic2D:
     return layout_graphic(regions, litho.layout.width_mm / regions.shape[1], furniture)
 
 
-def write_meshes(mesh, folder: Path, stem: str, *, formats: list[str], meta: dict) -> dict[str, tuple[Path, float]]:
-    """Write `mesh` as folder/stem.FMT for each format: {format: (path, seconds)}."""
+def write_meshes(mesh, folder: Path, stem: str, *, formats: list[str], meta: dict,
+                 check: Callable[[], None] | None = None) -> dict[str, tuple[Path, float]]:
+    """Write `mesh` as folder/stem.FMT for each format: {format: (path, seconds)}. `check`, when
+    given, raises if the mesh must not be written: it runs first or, when the formats are written
+    side by side, beside them, and no file takes its name unless it passes."""
+    gate = _Gate()
 
     def write(fmt):
         start = time.perf_counter()
-        path = save_mesh(mesh, folder / f"{stem}.{fmt}", meta, checked=True)
+        path = save_mesh(mesh, folder / f"{stem}.{fmt}", meta, checked=True, before_replace=gate.wait if check else None)
         return fmt, (path, time.perf_counter() - start)
 
-    # The writers spend much of their time in NumPy's and zlib's C code, which release the GIL,
-    # so writing the formats side by side uses both cores (the 3MF's number formatting holds it).
+    # The writers spend most of their time in NumPy's, zlib's and hashlib's C code, which release
+    # the GIL, so writing the formats side by side uses both cores (the 3MF compresses its model
+    # on a helper thread of its own while formatting it: threemf.write_in_order).
     # A batch worker with one core to itself (TAMP_THREADS=1) writes them one after the other.
     if mesh.n_triangles > PARALLEL_WRITE_TRIANGLES and len(formats) > 1 and os.environ.get("TAMP_THREADS") != "1":
         pool = ThreadPoolExecutor(max_workers=min(len(formats), os.cpu_count() or 1))
         try:
-            return dict(pool.map(write, formats))
-        finally:  # stopped (Ctrl-C, SIGTERM): the formats not begun are not begun; those begun remove their parts
+            futures = [pool.submit(write, fmt) for fmt in formats]
+            if check is not None:
+                gate.run(check)
+            return dict(future.result() for future in futures)
+        finally:  # stopped (Ctrl-C, SIGTERM) or refused: the formats not begun are not begun; those begun remove their parts
+            gate.close()  # unless the check has passed, a writer still waiting removes its part
             pool.shutdown(wait=True, cancel_futures=True)
+    if check is not None:
+        gate.run(check)
     return dict(write(fmt) for fmt in formats)
+
+
+class _Gate:
+    """A check that writers wait for before their files take their names (write_meshes)."""
+
+    def __init__(self):
+        self.done, self.error = threading.Event(), None
+
+    def run(self, check: Callable[[], None]) -> None:
+        """Run `check` (once: later calls do nothing) and open the gate; its error, if any, is
+        raised here and in every writer waiting."""
+        if self.done.is_set():
+            return
+        try:
+            check()
+        except BaseException as exc:
+            self.error = exc
+            raise
+        finally:
+            self.done.set()
+
+    def close(self) -> None:
+        """Open the gate for good: writers waiting fail unless the check has passed."""
+        if not self.done.is_set():
+            self.error = self.error or ExportError("stopped before the check of the mesh")
+            self.done.set()
+
+    def wait(self) -> None:
+        self.done.wait()
+        if self.error is not None:
+            raise ExportError("not written: the check of the mesh failed") from None
 
 
 @functools.lru_cache(maxsize=1)
@@ -246,11 +303,15 @@ def _version_of(dist) -> str:
 
 
 def file_sha256(path: Path) -> str:
-    """SHA-256 of a file, read in blocks (of an OME-Zarr folder: its files, as read.py hashes it)."""
+    """SHA-256 of a file, read in blocks (of an OME-Zarr folder: its files, as read.py hashes it);
+    of a mesh this process has just written, the hash taken while writing it (export.files.written_sha256)."""
     if Path(path).is_dir():
         from ..read.model import sha256_of
 
         return sha256_of(Path(path))
+    known = written_sha256(path)  # a mesh hashed as it was written, unchanged since: not read back
+    if known is not None:
+        return known
     digest = hashlib.sha256()
     with open(path, "rb") as fh:
         for block in iter(lambda: fh.read(1 << 20), b""):

@@ -102,11 +102,14 @@ def insert_point(vertices: np.ndarray, faces: np.ndarray, point: np.ndarray):
     Inside a triangle: that triangle becomes three. On an edge: each triangle sharing the edge
     becomes two, so no T-junction appears. On a vertex: nothing to do.
     """
-    a, b, c = (np.take(vertices, faces[:, k], axis=0) for k in range(3))  # np.take: vertices[faces]'s rows, sooner
-    p = point[:2]
+    # Each corner's x and y as contiguous columns (the same numbers as vertices[faces][..., 0 or 1],
+    # and the same arithmetic below, without strided rows: ~3x sooner).
+    x, y = np.ascontiguousarray(vertices[:, 0]), np.ascontiguousarray(vertices[:, 1])
+    a, b, c = ((x.take(faces[:, k]), y.take(faces[:, k])) for k in range(3))
+    p = (point[0], point[1])
 
     def cross(u, v, w):  # twice the signed area of (u, v, w)
-        return (v[..., 0] - u[..., 0]) * (w[..., 1] - u[..., 1]) - (v[..., 1] - u[..., 1]) * (w[..., 0] - u[..., 0])
+        return (v[0] - u[0]) * (w[1] - u[1]) - (v[1] - u[1]) * (w[0] - u[0])
 
     area = cross(a, b, c)
     eps = 1e-9

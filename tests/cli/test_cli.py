@@ -343,6 +343,16 @@ def test_help_whose_output_fails_says_so_in_one_line_and_does_not_exit_0(asked, 
     assert len(lines) == 1 and lines[0].startswith("error: ") and "No space left on device" in lines[0], done.stderr
 
 
+@pytest.mark.timeout(120)
+def test_help_piped_into_a_program_that_stopped_reading_exits_0_quietly():
+    # `tamp-os convert --help | head -0`: as a command's output into a closed pipe (| head), not an error
+    proc = subprocess.Popen([sys.executable, "-m", "tamp_os.cli", "convert", "--help"], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE)
+    proc.stdout.close()  # the reader is gone before the help (17 KB, more than a pipe's buffer) is written
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 0 and err == b"", err
+
+
 def _processes_naming(marker: str) -> list[int]:
     """Ids of the live processes whose command line holds `marker` (Linux /proc)."""
     found = []

@@ -320,7 +320,10 @@ def main(argv=None) -> int:
         args = parser.parse_args(argv)
     except SystemExit as exc:
         return int(exc.code or 0) and EXIT_USAGE
-    except OSError as exc:  # --help into a full disk or a closed pipe
+    except BrokenPipeError:  # --help piped into a program that stopped reading (| head), as for a command's output
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return EXIT_OK
+    except OSError as exc:  # --help into a full disk
         _say_to_stderr(f"error: {last_resort_words(exc)}")
         return EXIT_FAILED
     logging.basicConfig(level=logging.DEBUG if args.debug else logging.ERROR, format="%(levelname)s: %(message)s")
@@ -371,7 +374,8 @@ def last_resort_words(exc: BaseException) -> str:
         return "not enough memory for this image; make it smaller (or lower --resolution-px) and try again."
     if isinstance(exc, OSError) and exc.strerror:
         if not exc.filename:  # print() to a full disk or a closed output names no file
-            return f"{exc.strerror} (writing the output); check the disk's free space and where the output goes. (--debug shows the details.)"
+            return (f"{exc.strerror} (no file named: often the output itself); check where the output goes and the disk's free space. "
+                    "(--debug shows the details.)")
         return f"{exc.filename}: {exc.strerror}; check the file or folder and its permissions. (--debug shows the details.)"
     text = str(exc).splitlines()[0][:200] if str(exc) else ""
     return (f"unexpected {exc.__class__.__name__}{': ' + text if text else ''}. Nothing half-written was left; "

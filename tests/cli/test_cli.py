@@ -33,14 +33,16 @@ def test_help_imports_no_heavy_libraries():
 
 # The tamp-os program (commands.run) or main() called by a program, in a child process whose
 # atexit handler reports how many objects the cycle collector holds frozen, whether it collects,
-# the OpenBLAS thread setting and how many threads the process has left (0: not known here).
+# the OpenBLAS thread setting, how many threads the process has left (0: not known here) and
+# whether NumPy's f2py was loaded.
 ENTRY = """
 import atexit, gc, os, sys
 from tamp_os.cli import commands
 entry, argv = sys.argv[1], sys.argv[2:]
 sys.argv = ["tamp-os"] + argv
 threads = lambda: len(os.listdir("/proc/self/task")) if os.path.isdir("/proc/self/task") else 0
-atexit.register(lambda: print("collector", gc.get_freeze_count(), gc.isenabled(), os.environ.get("OPENBLAS_NUM_THREADS"), threads()))
+atexit.register(lambda: print("collector", gc.get_freeze_count(), gc.isenabled(), os.environ.get("OPENBLAS_NUM_THREADS"), threads(),
+                              "numpy.f2py.crackfortran" in sys.modules))
 sys.exit(commands.run() if entry == "run" else commands.main(argv))
 """
 
@@ -66,10 +68,31 @@ def test_program_exits_as_python_does_and_writes_what_main_writes(fixture, tmp_p
         assert int(reports["run"][3]) < int(reports["main"][3])  # are not started in the program
     assert int(reports["run"][0]) > 50_000  # NumPy's, SciPy's and scikit-image's objects, kept out of collections
     assert int(reports["main"][0]) == 0  # a program calling main() keeps its own objects collectable
+    assert reports["run"][4] == "False" and reports["main"][4] == "True"  # NumPy's tools loaded only where used
     names = sorted(p.name for p in (tmp_path / "run").iterdir())
     assert names == sorted(p.name for p in (tmp_path / "main").iterdir()) and len(names) >= 5
     for name in names:
         assert (tmp_path / "run" / name).read_bytes() == (tmp_path / "main" / name).read_bytes(), name
+
+
+def test_numpy_tools_deferred_by_the_program_still_work_when_used():
+    # As in the tamp-os program: SciPy imported while NumPy's tool submodules are deferred, then each used.
+    code = """
+import sys
+from tamp_os.cli import commands
+commands._ONE_COMMAND = True
+with commands._loading():
+    import scipy.ndimage
+import numpy as np
+print(sorted(m for m in sys.modules if m.startswith(("numpy.f2py.", "numpy.testing._private"))))
+from numpy.testing import assert_array_equal
+assert_array_equal(np.arange(3), [0, 1, 2])
+np.testing.assert_allclose(np.polynomial.Polynomial([1, 2])(2.0), 5.0)
+print(np.char.upper(["ab"])[0], np.rec.fromarrays([[1, 2]], names="x").x.sum(), np.strings.lower("AB"), callable(np.f2py.run_main))
+"""
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.splitlines() == ["[]", "AB 3 ab True"]
 
 
 @pytest.mark.parametrize("variable", ["OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS", "OMP_NUM_THREADS"])

@@ -24,6 +24,8 @@ OPTION_NAMES = {"z_slice": "--slice", "slice_timeout_s": "--timeout"}
 OLD_OPTION_NAMES = {"depth_mm": "--height-mm"}
 OPENBLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS", "OMP_NUM_THREADS")  # in the order OpenBLAS reads them
 _ONE_COMMAND = False  # set by run(): this process runs one command, then exits
+# NumPy submodules a conversion never uses (see _defer_numpy_tools); numpy.ma is left out: np.median uses it.
+NUMPY_TOOLS = ("f2py", "testing", "polynomial", "ctypeslib", "rec", "char", "strings")
 
 
 def run() -> int:
@@ -82,6 +84,8 @@ def _loading():
     and cost ~20 ms of each `tamp-os convert`, one full pass included), then those objects are
     frozen, so neither later collections nor the collection at exit walk them again (~40 ms
     less at exit). Not in other callers of main(): freezing keeps the caller's objects too."""
+    if _ONE_COMMAND:
+        _defer_numpy_tools()
     if not (_ONE_COMMAND and gc.isenabled()):
         yield
         return
@@ -91,6 +95,31 @@ def _loading():
     finally:
         gc.freeze()
         gc.enable()
+
+
+def _defer_numpy_tools() -> None:
+    """NumPy's tool submodules (f2py, testing, ...) loaded on first use instead of at start-up, in
+    run()'s process only. SciPy's array-API layer (1.17) copies NumPy's whole namespace when
+    scipy.ndimage is imported, which imports every submodule NumPy loads lazily, ~50 ms of CPU of
+    each `tamp-os convert` for modules a conversion never uses. Bound on numpy as the standard
+    library's LazyLoader modules, they still work when something does use them: their first
+    attribute read loads them. Skipped for any already imported or missing in this NumPy."""
+    import importlib.util
+
+    import numpy
+
+    for name in NUMPY_TOOLS:
+        full_name = f"numpy.{name}"
+        if full_name in sys.modules or name in vars(numpy):
+            continue
+        spec = importlib.util.find_spec(full_name)
+        if spec is None or spec.loader is None:
+            continue
+        spec.loader = importlib.util.LazyLoader(spec.loader)
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[full_name] = module
+        spec.loader.exec_module(module)
+        setattr(numpy, name, module)
 
 
 def _param_options(parser: argparse.ArgumentParser) -> None:

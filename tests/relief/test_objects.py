@@ -7,7 +7,7 @@ from hypothesis import strategies as st
 from scipy import ndimage
 from skimage import segmentation
 
-from tamp_os.relief.objects import dense_ranks, scipy_label_median, sequential_labels
+from tamp_os.relief.objects import dense_ranks, scipy_label_median, sequential_labels, sorted_by_label
 
 pytestmark = pytest.mark.timeout(120)
 
@@ -45,6 +45,22 @@ def test_scipy_label_median_is_ndimage_median(rows, cols, n, ground, seed, dtype
     got = scipy_label_median(values, labels, n)
     assert got.dtype == expected.dtype
     np.testing.assert_array_equal(got, expected)
+
+
+@settings(max_examples=80, deadline=None)
+@given(rows=st.integers(1, 30), cols=st.integers(1, 30), n=st.integers(1, 12), seed=st.integers(0, 2**16),
+       dtype=st.sampled_from([np.float32, np.float64]), special=st.sampled_from(["none", "signed zeros", "nan", "inf"]))
+def test_values_sorted_by_label_are_each_labels_sorted_values(rows, cols, n, seed, dtype, special):
+    # float32 values take one sort of packed keys: negatives, infinities, ties, -0.0 and NaN included.
+    rng = np.random.default_rng(seed)
+    labels = np.where(rng.random((rows, cols)) < 0.3, 0, rng.integers(1, n + 1, (rows, cols)))
+    values = (rng.integers(-20, 20, (rows, cols)) * 0.37).astype(dtype)
+    extra = {"none": values, "signed zeros": -0.0, "nan": np.nan, "inf": -np.inf}[special]
+    values = np.where(rng.random((rows, cols)) < 0.2, extra, values).astype(dtype)
+    val, starts, counts = sorted_by_label(values, labels, n)
+    assert val.dtype == values.dtype
+    for k in range(1, n + 1):
+        np.testing.assert_array_equal(val[starts[k - 1]:starts[k - 1] + counts[k - 1]], np.sort(values[labels == k]))
 
 
 def test_inside_distance_is_remembered_for_the_same_labels_only():

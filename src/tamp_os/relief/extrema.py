@@ -16,6 +16,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .order import float32_keys
+
 
 def h_maxima(image: np.ndarray, h: float) -> np.ndarray:
     """skimage.morphology.h_maxima(image, h) (uint8) for a 2-D float `image` and the default
@@ -80,15 +82,16 @@ def _ascending(flat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     from the one before it (size - 1 bools). float32 without NaN: one sort of 64-bit keys, the
     value's bits ordered as numbers above the index (NumPy's SIMD sort: several times faster
     than an argsort); equal values then come in index order. Else NumPy's argsort."""
-    if flat.dtype != np.float32 or flat.size >= 1 << 32 or np.isnan(flat).any():
+    bits = float32_keys(flat) if flat.dtype == np.float32 and flat.size < 1 << 32 else None
+    if bits is None:
         ascending = np.argsort(flat)
         ordered = flat[ascending]
         return ascending, ordered[:-1] != ordered[1:]
-    bits = (flat + np.float32(0.0)).view(np.uint32)  # + 0: -0.0 is 0.0, one value as in a comparison
-    # Negative floats: all bits flipped (larger magnitude, smaller number); others: the sign bit set.
-    key = np.where(bits >= 1 << 31, ~bits, bits | np.uint32(1 << 31)).astype(np.uint64)
+    key = bits.astype(np.uint64)
     key <<= np.uint64(32)
     key |= np.arange(flat.size, dtype=np.uint64)
     key.sort()
-    value = key >> np.uint64(32)
-    return (key & np.uint64(0xFFFFFFFF)).astype(np.intp), value[:-1] != value[1:]
+    halves = key.view(np.uint32)  # little-endian: the index, then the value, of each key
+    value = halves[1::2] if np.little_endian else halves[::2]
+    index = halves[::2] if np.little_endian else halves[1::2]
+    return index.astype(np.intp), value[:-1] != value[1:]

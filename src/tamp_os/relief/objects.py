@@ -18,6 +18,7 @@ from scipy import ndimage
 from skimage import filters, segmentation
 
 from .extrema import h_maxima
+from .order import SIGN_BIT, float32_keys, float32_values
 from .hull import labelled_hulls, solid_enough
 from .scales import disk, gaussian_mm
 
@@ -459,6 +460,11 @@ def sorted_by_label(values: np.ndarray, labels: np.ndarray, n: int) -> tuple[np.
     flat = labels.ravel()
     inside = flat > 0
     lab, val = flat[inside], values.ravel()[inside]
+    counts = np.bincount(lab, minlength=n + 1)[1:]
+    starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    packed = _sorted_float32(val, lab, n)
+    if packed is not None:
+        return packed, starts, counts
     if n < 1 << 16:
         # By value, then by label with a stable sort of 16-bit keys (a radix sort): 2x faster
         # than np.lexsort. Equal values may swap places, which leaves every order statistic the same.
@@ -466,10 +472,24 @@ def sorted_by_label(values: np.ndarray, labels: np.ndarray, n: int) -> tuple[np.
         order = order[np.argsort(lab[order].astype(np.uint16), kind="stable")]
     else:
         order = np.lexsort((val, lab))
-    lab, val = lab[order], val[order]
-    counts = np.bincount(lab, minlength=n + 1)[1:]
-    starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
-    return val, starts, counts
+    return val[order], starts, counts
+
+
+def _sorted_float32(val: np.ndarray, lab: np.ndarray, n: int) -> np.ndarray | None:
+    """float32 values sorted by label, then by value, as one sort of 64-bit keys (the label above
+    the value's ordered bits; NumPy's SIMD sort, 3-4 times faster than the two argsorts), or None
+    for other values, NaN, or -0.0 (its key is 0.0's: the sort could not tell which one it was)."""
+    if val.dtype != np.float32 or n >= 1 << 31 or np.any(val.view(np.uint32) == SIGN_BIT):
+        return None
+    bits = float32_keys(val)
+    if bits is None:
+        return None
+    key = lab.astype(np.uint64)
+    key <<= np.uint64(32)
+    key |= bits
+    key.sort()
+    halves = key.view(np.uint32)  # little-endian: the value, then the label, of each key
+    return float32_values(halves[::2] if np.little_endian else halves[1::2])
 
 
 def dome_profile(labels: np.ndarray, *, pitch_mm: float, round_mm: float, pin_aspect: float | None = None,

@@ -388,22 +388,51 @@ def _filled(labels: np.ndarray) -> np.ndarray:
     """Fill each member's holes (SEM particles glow at their rims, so half their peak can be a
     ring): hole pixels go to the member around them. Only holes no larger than the member
     itself: a closed line around a wide cell is a line, not a particle."""
-    holes, n = ndimage.label(ndimage.binary_fill_holes(labels > 0) & (labels == 0))
+    holes, n = _holes(labels)
     if n == 0:
         return labels
     out = labels.copy()
     member_area = np.bincount(labels.ravel(), minlength=int(labels.max()) + 1)
+    hole_area = np.bincount(holes.ravel(), minlength=n + 1)
+    # The member around a hole is its last pixel's nearest (as before); that is one of the members
+    # beside that pixel (4-neighbours, one pixel away: the pixels below and right of it are
+    # members). A hole larger than all of those is kept without asking which.
+    inside = np.flatnonzero(holes)
+    last = np.zeros(n + 1, np.intp)
+    np.maximum.at(last, holes.ravel()[inside], inside)
+    width = labels.shape[1]
+    beside = labels.ravel()[last[1:, None] + np.array([-width, -1, 1, width])]
+    largest = np.concatenate([[0], member_area[beside].max(axis=1, where=beside > 0, initial=0)])
     # Each hole's nearest members, in its box one pixel wider (the members around a hole border
     # it there): a distance transform of the boxes, not of the whole picture.
     for k, box in enumerate(ndimage.find_objects(holes), 1):
-        box = tuple(slice(max(0, b.start - 1), b.stop + 1) for b in box)
+        if box is None or hole_area[k] > largest[k]:
+            continue
+        box = tuple(slice(b.start - 1, b.stop + 1) for b in box)  # a hole never touches the picture's border
         window = labels[box]
-        _, (iy, ix) = ndimage.distance_transform_edt(window == 0, return_indices=True)
+        iy, ix = ndimage.distance_transform_edt(window == 0, return_distances=False, return_indices=True)
         hole = holes[box] == k
         nearest = window[iy[hole], ix[hole]]
-        if hole.sum() <= member_area[nearest[-1]]:  # the member around it (its last pixel's nearest, as before)
+        if hole_area[k] <= member_area[nearest[-1]]:  # the member around it (its last pixel's nearest, as before)
             out[box][hole] = nearest
     return out
+
+
+def _holes(labels: np.ndarray) -> tuple[np.ndarray, int]:
+    """The holes of the members (ground not reached from the picture's border through ground,
+    4-connected, as ndimage.binary_fill_holes): labelled (any numbering), and their count. One
+    labelling of the ground, not a fill by repeated dilation and a labelling."""
+    ground, n = ndimage.label(labels == 0)
+    if n == 0:
+        return ground, 0
+    open_ = np.zeros(n + 1, bool)
+    for edge in (ground[0], ground[-1], ground[:, 0], ground[:, -1]):
+        open_[edge] = True
+    open_[0] = True
+    if open_.all():
+        return np.zeros_like(ground), 0
+    renumber = np.cumsum(~open_) * ~open_
+    return renumber[ground].astype(ground.dtype, copy=False), int(renumber.max())
 
 
 def _split_touching(labels: np.ndarray, depth_px: float, *, inside_distance: InsideDistance | None = None) -> np.ndarray:

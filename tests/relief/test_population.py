@@ -54,3 +54,38 @@ def test_a_ring_around_a_wide_hole_keeps_its_hole_and_a_pinhole_is_filled():
     labels[37, 37] = 0  # a pinhole in a small member
     out = population._filled(labels)
     assert (out[7:33, 7:33] == 0).all() and out[37, 37] == 2
+
+
+def _plain_object_width_mm(image, labels, pitch_mm):
+    # What object_width_mm did before: the distance transform of the whole picture.
+    from skimage import filters
+
+    from tamp_os.relief.hull import solid_enough
+    from tamp_os.relief.objects import label_max
+
+    if labels.max() == 0 or float(np.ptp(image)) <= 0:
+        return 0.0
+    objects, n = ndimage.label(image > filters.threshold_otsu(image))
+    held = np.zeros(n + 1, bool)
+    held[objects[labels > 0]] = True
+    held[0] = False
+    held &= np.bincount(objects.ravel(), minlength=n + 1) <= population.MAX_MEMBER_SHARE * objects.size
+    held = solid_enough(objects, held, population.MIN_SOLIDITY)
+    if not held.any():
+        return 0.0
+    radius = label_max(ndimage.distance_transform_edt(objects > 0), objects, n)
+    return float(np.median(2.0 * radius[np.flatnonzero(held)] * pitch_mm))
+
+
+@settings(max_examples=60, deadline=None)
+@given(rows=st.integers(8, 70), cols=st.integers(8, 70), n=st.integers(1, 12), seed=st.integers(0, 2**16))
+def test_object_width_is_the_whole_pictures_distance_transform(rows, cols, n, seed):
+    # Discs of many sizes, some cut by the picture's border, members in some of them.
+    rng = np.random.default_rng(seed)
+    yy, xx = np.mgrid[:rows, :cols]
+    image = rng.random((rows, cols)) * 0.2
+    for _ in range(n):
+        cy, cx, r = rng.integers(-5, rows + 5), rng.integers(-5, cols + 5), rng.integers(2, 20)
+        image[(yy - cy) ** 2 + (xx - cx) ** 2 < r * r] += 0.8
+    labels = np.where(rng.random((rows, cols)) < 0.05, rng.integers(1, 4, (rows, cols)), 0)
+    assert population.object_width_mm(image, labels, 0.4) == _plain_object_width_mm(image, labels, 0.4)

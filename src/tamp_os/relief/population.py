@@ -129,7 +129,13 @@ def object_width_mm(image: np.ndarray, labels: np.ndarray, pitch_mm: float) -> f
     held = solid_enough(objects, held, MIN_SOLIDITY)
     if not held.any():
         return 0.0
-    radius = label_max(ndimage.distance_transform_edt(objects > 0), objects, n)
+    # The distance transform of the box around the held objects, one pixel wider: each pixel's
+    # nearest ground lies within its own object's box one pixel wider (the pixels nearer than it
+    # are all its object's, and one of them is its neighbour), so the box's transform is the
+    # picture's there.
+    rows, cols = np.nonzero(held[objects])
+    box = (slice(max(rows.min() - 1, 0), rows.max() + 2), slice(max(cols.min() - 1, 0), cols.max() + 2))
+    radius = label_max(ndimage.distance_transform_edt(objects[box] > 0), objects[box], n)
     return float(np.median(2.0 * radius[np.flatnonzero(held)] * pitch_mm))
 
 

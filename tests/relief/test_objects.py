@@ -100,3 +100,14 @@ def test_the_nearest_member_is_ndimages_and_kept_for_the_same_mask_only(monkeypa
     np.testing.assert_array_equal(nearest_member(moved)[0], ndimage.distance_transform_edt(~moved))  # changed: its own
     monkeypatch.setattr(objects, "NEAREST_REMEMBERED_PX", 10)  # a grid too large to keep is computed each time
     assert nearest_member(mask)[0] is not nearest_member(mask)[0]
+
+
+@settings(max_examples=80, deadline=None)
+@given(rows=st.integers(1, 25), cols=st.integers(1, 25), share=st.floats(0.0, 1.0), seed=st.integers(0, 2**16))
+def test_grown_marks_are_a_3x3_dilation_of_grid_marks(rows, cols, share, seed):
+    # Marks on every second pixel of every second row, odd and even sizes, marks on every border.
+    from tamp_os.relief.objects import grown_marks
+
+    marks = np.zeros((rows, cols), bool)
+    marks[::2, ::2] = np.random.default_rng(seed).random(marks[::2, ::2].shape) < share
+    np.testing.assert_array_equal(grown_marks(marks), ndimage.binary_dilation(marks, structure=np.ones((3, 3))))

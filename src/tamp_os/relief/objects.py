@@ -190,6 +190,23 @@ def sparse_h_maxima(dist: np.ndarray, depth_px: float) -> np.ndarray:
     return out
 
 
+def grown_marks(marks: np.ndarray) -> np.ndarray:
+    """A (rows, cols) bool mask set on every second pixel of every second row at most (as
+    sparse_h_maxima's), each set pixel grown to its 3 x 3 square: ndimage.binary_dilation by a
+    3 x 3 square, as nine strided copies of the grid (no pass over every pixel's neighbours)."""
+    small = marks[::2, ::2]
+    out = np.zeros(marks.shape, bool)
+    for dy in (-1, 0, 1):
+        i0 = 1 if dy < 0 else 0  # the first grid row landing inside the picture
+        n = min(small.shape[0] - i0, (marks.shape[0] - (2 * i0 + dy) + 1) // 2)
+        for dx in (-1, 0, 1):
+            j0 = 1 if dx < 0 else 0
+            m = min(small.shape[1] - j0, (marks.shape[1] - (2 * j0 + dx) + 1) // 2)
+            r, c = 2 * i0 + dy, 2 * j0 + dx
+            out[r : r + 2 * n : 2, c : c + 2 * m : 2] |= small[i0 : i0 + n, j0 : j0 + m]
+    return out
+
+
 def _dilate(mask: np.ndarray, radius_px: float, outside: bool = False) -> np.ndarray:
     """Binary dilation of a (rows, cols) bool mask by `disk(radius_px)`; pixels outside the
     picture count as `outside`.

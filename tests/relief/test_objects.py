@@ -81,6 +81,42 @@ def test_inside_distance_is_remembered_for_the_same_labels_only():
     assert memo(other)[1] is not dist and memo(other)[0].sum() < inside.sum()
 
 
+@settings(max_examples=60, deadline=None)
+@given(rows=st.integers(4, 50), cols=st.integers(4, 50), n=st.integers(2, 30), seed=st.integers(0, 2**16))
+def test_inside_distance_after_a_join_is_the_joined_members_own(rows, cols, n, seed):
+    # Touching members (nearest of n points, some ground), some of them joined; on the border too.
+    from tamp_os.relief.objects import InsideDistance
+
+    rng = np.random.default_rng(seed)
+    points = np.zeros((rows, cols), np.int32)
+    points[rng.integers(0, rows, n), rng.integers(0, cols, n)] = np.arange(1, n + 1)
+    _, (iy, ix) = ndimage.distance_transform_edt(points == 0, return_indices=True)
+    labels = np.where(rng.random((rows, cols)) < 0.1, 0, points[iy, ix]).astype(np.int32)
+    roots = np.arange(n + 1)
+    roots[1:] = np.where(rng.random(n) < 0.4, rng.integers(1, n + 1, n), roots[1:])  # some members join another
+    joined = roots[labels].astype(np.int32)
+    memo = InsideDistance()
+    memo(labels)
+    memo.joined(labels, joined)
+    inside, dist = memo(joined)
+    fresh_inside, fresh_dist = InsideDistance()(joined)
+    np.testing.assert_array_equal(inside, fresh_inside)
+    assert dist.tobytes() == fresh_dist.tobytes()
+
+
+def test_inside_distance_is_not_taken_over_by_labels_that_are_no_join():
+    from tamp_os.relief.objects import InsideDistance
+
+    labels = np.zeros((10, 10), np.int32)
+    labels[1:9, 1:5], labels[1:9, 5:9] = 1, 2
+    split = labels.copy()
+    split[1:9, 3] = 3  # a new border: insides shrink, not a join
+    memo = InsideDistance()
+    memo(labels)
+    memo.joined(labels, split)
+    np.testing.assert_array_equal(memo(split)[1], InsideDistance()(split)[1])
+
+
 def test_the_nearest_member_is_ndimages_and_kept_for_the_same_mask_only(monkeypatch):
     from tamp_os.relief import objects
     from tamp_os.relief.objects import nearest_member

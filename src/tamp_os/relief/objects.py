@@ -403,6 +403,32 @@ class InsideDistance:
             self._labels, self._value = labels, (inside, dist)
         return self._value
 
+    def joined(self, labels: np.ndarray, joined: np.ndarray) -> None:
+        """Remember the value for `joined`, `labels` with some touching members joined (the last
+        labels asked): their insides only grow (the borders between joined members), and a pixel's
+        distance changes only in the parts of the insides that grew (4-connected; a pixel's
+        nearest outside lies beside the pixels of its part nearer than it, so within its part's
+        box one pixel wider). Only those boxes are transformed again."""
+        if labels is not self._labels or self._value is None:
+            return
+        was_inside, was_dist = self._value
+        inside = (joined > 0) & ~inner_outline(joined)
+        if (was_inside & ~inside).any():  # not a join after all: leave it to the next call
+            return
+        grown = inside & ~was_inside
+        dist = was_dist
+        if grown.any():
+            parts, n = ndimage.label(inside)
+            changed = np.zeros(n + 1, bool)
+            changed[parts[grown]] = True
+            where = changed[parts]
+            rows, cols = np.nonzero(where)
+            box = (slice(max(rows.min() - 1, 0), rows.max() + 2), slice(max(cols.min() - 1, 0), cols.max() + 2))
+            dist = was_dist.copy()
+            dist[box][where[box]] = ndimage.distance_transform_edt(inside[box])[where[box]]
+        inside.flags.writeable = dist.flags.writeable = False
+        self._labels, self._value = joined, (inside, dist)
+
 
 def sequential_labels(labels: np.ndarray) -> np.ndarray:
     """The labels renumbered 1..k in their order, 0 kept, in `labels`' dtype: what

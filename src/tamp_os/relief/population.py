@@ -387,7 +387,10 @@ def _merge_once(labels: np.ndarray, top: np.ndarray | None, large_px: float = 0.
     if a.size == 0:
         return labels
     roots = joined_roots(int(labels.max()), a.tolist(), b.tolist())
-    return sequential_labels(roots[labels]).astype(labels.dtype)
+    joined = sequential_labels(roots[labels]).astype(labels.dtype)
+    if inside_distance is not None:  # the split asks for the joined members' next
+        inside_distance.joined(labels, joined)
+    return joined
 
 
 def _filled(labels: np.ndarray) -> np.ndarray:

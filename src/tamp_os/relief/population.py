@@ -400,31 +400,79 @@ def _filled(labels: np.ndarray) -> np.ndarray:
     holes, n = _holes(labels)
     if n == 0:
         return labels
-    out = labels.copy()
     member_area = np.bincount(labels.ravel(), minlength=int(labels.max()) + 1)
     hole_area = np.bincount(holes.ravel(), minlength=n + 1)
-    # The member around a hole is its last pixel's nearest (as before); that is one of the members
-    # beside that pixel (4-neighbours, one pixel away: the pixels below and right of it are
-    # members). A hole larger than all of those is kept without asking which.
+    # A hole pixel's nearest member pixel borders the hole (the pixels nearer than it are all the
+    # hole's, and one of them is its neighbour). So a hole bordered by one member only goes to
+    # that member, whichever of its pixels is nearest: no distance transform needed.
+    lowest, highest = _members_around(holes, labels, n)
+    one = (lowest == highest) & (lowest > 0)
+    fill = np.where(one & (hole_area <= member_area[lowest]), lowest, 0)
+    fill[0] = 0
+    out = np.where(fill[holes] > 0, fill[holes], labels).astype(labels.dtype, copy=False)
+    if not one[1:].all():
+        _fill_between(out, labels, holes, ~one, hole_area, member_area)
+    return out
+
+
+def _members_around(holes: np.ndarray, labels: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Per hole 0..n: the lowest and highest label of the members beside it (4-neighbours)."""
+    lowest = np.full(n + 1, np.iinfo(np.int64).max)
+    highest = np.zeros(n + 1, np.int64)
+    for hole, member in ((holes[1:], labels[:-1]), (holes[:-1], labels[1:]), (holes[:, 1:], labels[:, :-1]),
+                         (holes[:, :-1], labels[:, 1:])):
+        beside = (hole > 0) & (member > 0)
+        np.minimum.at(lowest, hole[beside], member[beside].astype(np.int64))
+        np.maximum.at(highest, hole[beside], member[beside].astype(np.int64))
+    return np.where(highest > 0, lowest, 0), highest
+
+
+def _fill_between(out: np.ndarray, labels: np.ndarray, holes: np.ndarray, which: np.ndarray, hole_area: np.ndarray,
+                  member_area: np.ndarray) -> None:
+    """Fill the holes `which` (bool per hole) bordered by several members, in `out`: each pixel to
+    its nearest member (a distance transform of the hole's box, one pixel wider: the members
+    around a hole border it there), when the hole is no larger than its last pixel's nearest."""
+    n = which.size - 1
+    # That member is one of those beside the last pixel (4-neighbours, one pixel away: the pixels
+    # below and right of it are members). A hole larger than all of those is kept without asking which.
     inside = np.flatnonzero(holes)
     last = np.zeros(n + 1, np.intp)
     np.maximum.at(last, holes.ravel()[inside], inside)
     width = labels.shape[1]
     beside = labels.ravel()[last[1:, None] + np.array([-width, -1, 1, width])]
     largest = np.concatenate([[0], member_area[beside].max(axis=1, where=beside > 0, initial=0)])
-    # Each hole's nearest members, in its box one pixel wider (the members around a hole border
-    # it there): a distance transform of the boxes, not of the whole picture.
     for k, box in enumerate(ndimage.find_objects(holes), 1):
-        if box is None or hole_area[k] > largest[k]:
+        if box is None or not which[k] or hole_area[k] > largest[k]:
             continue
         box = tuple(slice(b.start - 1, b.stop + 1) for b in box)  # a hole never touches the picture's border
         window = labels[box]
-        iy, ix = ndimage.distance_transform_edt(window == 0, return_distances=False, return_indices=True)
+        iy, ix = _nearest_in_window(window == 0)
         hole = holes[box] == k
         nearest = window[iy[hole], ix[hole]]
         if hole_area[k] <= member_area[nearest[-1]]:  # the member around it (its last pixel's nearest, as before)
             out[box][hole] = nearest
-    return out
+
+
+# Small holes between members (a pixel or a few where three basins meet) come in a few shapes: their
+# boxes' nearest-member indices are remembered by the box's pattern of ground, up to this many pixels.
+WINDOW_REMEMBERED_PX = 36
+_window_nearest: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
+
+
+def _nearest_in_window(ground: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """ndimage.distance_transform_edt(ground, return_distances=False, return_indices=True) of a
+    small bool window; the same pattern's answer is computed once (read-only, shared)."""
+    key = None
+    if ground.size <= WINDOW_REMEMBERED_PX:
+        key = (ground.shape, np.packbits(ground, axis=None).tobytes())
+        known = _window_nearest.get(key)
+        if known is not None:
+            return known
+    iy, ix = ndimage.distance_transform_edt(ground, return_distances=False, return_indices=True)
+    if key is not None and len(_window_nearest) < 4096:  # at most 2^36 patterns exist; a few dozen occur
+        iy.flags.writeable = ix.flags.writeable = False
+        _window_nearest[key] = (iy, ix)
+    return iy, ix
 
 
 def _holes(labels: np.ndarray) -> tuple[np.ndarray, int]:

@@ -89,3 +89,50 @@ def test_object_width_is_the_whole_pictures_distance_transform(rows, cols, n, se
         image[(yy - cy) ** 2 + (xx - cx) ** 2 < r * r] += 0.8
     labels = np.where(rng.random((rows, cols)) < 0.05, rng.integers(1, 4, (rows, cols)), 0)
     assert population.object_width_mm(image, labels, 0.4) == _plain_object_width_mm(image, labels, 0.4)
+
+
+@settings(max_examples=100, deadline=None)
+@given(n=st.integers(0, 60), pairs=st.integers(0, 80), seed=st.integers(0, 2**16))
+def test_joined_roots_are_each_groups_smallest_label(n, pairs, seed):
+    rng = np.random.default_rng(seed)
+    xs, ys = rng.integers(0, n + 1, pairs), rng.integers(0, n + 1, pairs)
+    got = population.joined_roots(n, xs.tolist(), ys.tolist())
+    # The groups: connected components of the pairs' graph, found by flooding.
+    expected = np.arange(n + 1)
+    changed = True
+    while changed:
+        changed = False
+        for x, y in zip(xs, ys):
+            low = min(expected[x], expected[y])
+            if expected[x] != low or expected[y] != low:
+                expected[x] = expected[y] = low
+                changed = True
+    np.testing.assert_array_equal(got, expected)
+
+
+def _plain_largest_parts(labels):
+    # What _largest_parts did before: a loop over the parts from the largest.
+    parts, n = ndimage.label(labels > 0, structure=np.ones((3, 3)))
+    if n == 0:
+        return labels
+    owner = np.zeros(n + 1, np.int64)
+    owner[parts.ravel()] = labels.ravel()
+    size = np.bincount(parts.ravel(), minlength=n + 1)
+    size[0] = 0
+    best = np.zeros(int(labels.max()) + 1, np.int64)
+    for part in np.argsort(size)[::-1]:
+        if part != 0 and size[part] != 0 and best[owner[part]] == 0:
+            best[owner[part]] = part
+    keep = np.zeros(n + 1, bool)
+    keep[best[best > 0]] = True
+    return np.where(keep[parts], labels, 0)
+
+
+@settings(max_examples=80, deadline=None)
+@given(rows=st.integers(1, 40), cols=st.integers(1, 40), n=st.integers(1, 8), share=st.floats(0.05, 0.9),
+       seed=st.integers(0, 2**16))
+def test_largest_parts_keep_what_the_loop_kept(rows, cols, n, share, seed):
+    # Crumbs of equal sizes (ties), labels split into several parts, parts holding two labels.
+    rng = np.random.default_rng(seed)
+    labels = np.where(rng.random((rows, cols)) < share, rng.integers(1, n + 1, (rows, cols)), 0).astype(np.int32)
+    np.testing.assert_array_equal(population._largest_parts(labels), _plain_largest_parts(labels))

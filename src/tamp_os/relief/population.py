@@ -210,16 +210,12 @@ def _largest_parts(labels: np.ndarray) -> np.ndarray:
     owner[parts.ravel()] = labels.ravel()
     size = np.bincount(parts.ravel(), minlength=n + 1)
     size[0] = 0
-    best = np.zeros(int(labels.max()) + 1, np.int64)
-    best_size = np.zeros_like(best)
-    for part in np.argsort(size)[::-1]:
-        if part == 0 or size[part] == 0:
-            continue
-        k = owner[part]
-        if best[k] == 0:
-            best[k], best_size[k] = part, size[part]
+    # Each label's first part in the order of decreasing size (equal sizes in that sort's order).
+    order = np.argsort(size)[::-1]
+    order = order[(order != 0) & (size[order] > 0)]
+    _, first = np.unique(owner[order], return_index=True)
     keep = np.zeros(n + 1, bool)
-    keep[best[best > 0]] = True
+    keep[order[first]] = True
     return np.where(keep[parts], labels, 0)
 
 
@@ -270,20 +266,23 @@ def _merge_shallow(labels: np.ndarray, top: np.ndarray) -> np.ndarray:
 
 def joined_roots(n: int, xs, ys) -> np.ndarray:
     """For labels 0..n, the smallest label of the group each ends in when every pair (xs[i], ys[i])
-    is joined (union-find with path halving): index it with a label image to merge the groups."""
-    parent = np.arange(n + 1)
-
-    def root(k):
-        while parent[k] != k:
-            parent[k] = parent[parent[k]]
-            k = parent[k]
-        return k
-
-    for x, y in zip(xs, ys):
-        rx, ry = root(x), root(y)
-        if rx != ry:
-            parent[max(rx, ry)] = min(rx, ry)
-    return np.array([root(k) for k in range(n + 1)])
+    is joined: index it with a label image to merge the groups. Each pair hooks the larger of its
+    two roots under the smaller, then every label jumps to its root's root, until the pairs agree
+    (a few rounds of array operations, not a loop over labels)."""
+    root = np.arange(n + 1)
+    xs, ys = np.asarray(xs, np.intp), np.asarray(ys, np.intp)
+    while xs.size:
+        rx, ry = root[xs], root[ys]
+        apart = rx != ry
+        if not apart.any():
+            break
+        np.minimum.at(root, np.maximum(rx, ry)[apart], np.minimum(rx, ry)[apart])
+        while True:  # hooks only ever point to a smaller label: every chain ends at its group's smallest
+            jumped = root[root]
+            if np.array_equal(jumped, root):
+                break
+            root = jumped
+    return root
 
 
 def neckless_pairs(labels: np.ndarray, top: np.ndarray | None = None, large_px: float = 0.0, *,

@@ -61,11 +61,13 @@ def _reconstruct(seed: np.ndarray, mask: np.ndarray, loop) -> np.ndarray:
     strides = np.array([dy * padded[1] + dx for dy in (-1, 0, 1) for dx in (-1, 0, 1) if dy or dx], signed)
     flat = images.reshape(-1)
     ascending, distinct = _ascending(flat)
-    order = ascending.astype(signed, copy=False)[::-1]
+    # The loop walks the pixels from the highest: each one's previous is the next higher, its
+    # following the next lower (scattered through intp indices read forwards: twice as fast).
+    linked = ascending.astype(signed)
     prev = np.full(size, -1, signed)
     following = np.full(size, -1, signed)
-    prev[order[1:]] = order[:-1]
-    following[order[:-1]] = order[1:]
+    prev[ascending[:-1]] = linked[1:]
+    following[ascending[1:]] = linked[:-1]
     # Each value's rank among the distinct values, from the same sort (rank_order sorts again).
     step = np.empty(size, unsigned)
     step[0] = 0
@@ -73,7 +75,7 @@ def _reconstruct(seed: np.ndarray, mask: np.ndarray, loop) -> np.ndarray:
     ranks = np.empty(size, unsigned)
     ranks[ascending] = step
     values = flat[ascending[np.concatenate([[True], distinct])]]
-    loop(ranks, prev, following, strides, order[0], padded[0] * padded[1])
+    loop(ranks, prev, following, strides, linked[-1], padded[0] * padded[1])
     return values[ranks[: padded[0] * padded[1]]].reshape(padded)[1:-1, 1:-1]
 
 

@@ -147,3 +147,26 @@ def test_grown_marks_are_a_3x3_dilation_of_grid_marks(rows, cols, share, seed):
     marks = np.zeros((rows, cols), bool)
     marks[::2, ::2] = np.random.default_rng(seed).random(marks[::2, ::2].shape) < share
     np.testing.assert_array_equal(grown_marks(marks), ndimage.binary_dilation(marks, structure=np.ones((3, 3))))
+
+
+@settings(max_examples=60, deadline=None)
+@given(rows=st.integers(4, 50), cols=st.integers(4, 50), n=st.integers(1, 10), seed=st.integers(0, 2**16))
+def test_convex_fill_fills_as_the_loop_over_hulls_did(rows, cols, n, seed):
+    # Nearly convex discs with notches, overlapping hulls, concave ones left alone.
+    from tamp_os.relief import objects
+    from tamp_os.relief.hull import labelled_hulls
+
+    rng = np.random.default_rng(seed)
+    yy, xx = np.mgrid[:rows, :cols]
+    labels = np.zeros((rows, cols), np.int32)
+    for k in range(1, n + 1):
+        cy, cx, r = rng.integers(0, rows), rng.integers(0, cols), rng.integers(2, 15)
+        disc = ((yy - cy) ** 2 + (xx - cx) ** 2 < r * r) & (labels == 0)
+        disc &= rng.random((rows, cols)) < rng.choice([0.97, 0.9, 0.6])  # notches, or ragged
+        labels[disc] = k
+    expected = labels.copy()
+    for k, box, hull, solidity in labelled_hulls(labels, np.ones(n + 1, bool)):
+        if solidity >= objects.CONVEX_SOLIDITY:
+            window = expected[box]
+            window[hull & (window == 0)] = k
+    np.testing.assert_array_equal(objects._convex_fill(labels), expected)

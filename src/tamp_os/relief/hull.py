@@ -154,9 +154,20 @@ def hull_pixels(labels: np.ndarray, which: np.ndarray) -> np.ndarray:
     follow in exact integer arithmetic: the same pixels as qhull's hull filled row by row.
     """
     out = np.zeros(which.size, np.int64)
+    rows = hull_rows(labels, which)
+    if rows is not None:
+        lab, _, lo, hi = rows
+        np.add.at(out, lab, np.maximum(hi - lo + 1, 0))
+    return out
+
+
+def hull_rows(labels: np.ndarray, which: np.ndarray) -> tuple[np.ndarray, ...] | None:
+    """(label, row, first column, last column) of every pixel row of the hulls of the labels with
+    which[k], from each label's first row to its last (a row's last column under its first: none
+    of the hull in that row), as hull_pixels finds them; None when no label is asked."""
     rows, cols = np.nonzero(which[labels])
     if rows.size == 0:
-        return out
+        return None
     lab = labels[rows, cols].astype(np.int64)
     # Each (label, row)'s first and last column: pixels come row by row, columns rising.
     order = np.argsort(lab * labels.shape[0] + rows, kind="stable")
@@ -176,10 +187,7 @@ def hull_pixels(labels: np.ndarray, which: np.ndarray) -> np.ndarray:
     height = bottom[asked] - top[asked] + 1
     q_lab = np.repeat(asked, height)
     q_row = top[q_lab] + np.arange(height.sum()) - np.repeat(np.cumsum(height) - height, height)
-    lo = _chain_at(left, q_lab, 2 * q_row, ceil=True)
-    hi = _chain_at(right, q_lab, 2 * q_row, ceil=False)
-    np.add.at(out, q_lab, np.maximum(hi - lo + 1, 0))
-    return out
+    return q_lab, q_row, _chain_at(left, q_lab, 2 * q_row, ceil=True), _chain_at(right, q_lab, 2 * q_row, ceil=False)
 
 
 def _chain(lab: np.ndarray, row: np.ndarray, x2: np.ndarray, side: int, pick) -> tuple[np.ndarray, ...]:

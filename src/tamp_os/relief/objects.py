@@ -19,7 +19,7 @@ from skimage import filters, segmentation
 
 from .extrema import h_maxima
 from .order import SIGN_BIT, float32_keys, float32_values
-from .hull import labelled_hulls, solid_enough
+from .hull import hull_rows, solid_enough
 from .scales import disk, gaussian_mm
 
 MAX_COVER = 0.7  # objects covering more than this share of the picture are the background
@@ -268,12 +268,32 @@ def _convex_fill(labels: np.ndarray) -> np.ndarray:
 
     Where a rim meets a shadow the edge band is wide, and the interior grown back from it
     leaves a notch; particles, spheres and cells are convex, so the hull is the better guess.
+    All hulls at once (hull.py hull_rows); where two overlap on the ground, the lower label's
+    (filled first, label by label, before).
     """
     out = labels.copy()
-    for k, box, hull, solidity in labelled_hulls(labels, np.ones(int(labels.max()) + 1, bool)):
-        if solidity >= CONVEX_SOLIDITY:
-            window = out[box]
-            window[hull & (window == 0)] = k
+    n = int(labels.max())
+    which = np.ones(n + 1, bool)
+    which[0] = False
+    rows = hull_rows(labels, which) if n > 0 else None
+    if rows is None:
+        return out
+    lab, row, lo, hi = rows
+    width = np.maximum(hi - lo + 1, 0)
+    area = np.bincount(labels.ravel(), minlength=n + 1)
+    hull = np.bincount(lab, weights=width, minlength=n + 1)
+    solid = np.zeros(n + 1, bool)
+    solid[hull > 0] = area[hull > 0] / hull[hull > 0] >= CONVEX_SOLIDITY
+    take = solid[lab] & (width > 0)
+    lab, row, lo, width = lab[take], row[take], lo[take], width[take]
+    # Every pixel of the solid hulls: each row's run, from its first column.
+    run_start = np.repeat(np.cumsum(width) - width, width)
+    cols = np.repeat(lo, width) + np.arange(int(width.sum())) - run_start
+    where = np.repeat(row, width) * labels.shape[1] + cols
+    lowest = np.full(labels.size, n + 1, np.int64)
+    np.minimum.at(lowest, where, np.repeat(lab, width))
+    free = (labels.ravel() == 0) & (lowest <= n)
+    out.ravel()[free] = lowest[free]
     return out
 
 

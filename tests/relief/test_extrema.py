@@ -41,3 +41,14 @@ def test_without_scikit_images_loop_it_is_scikit_images_h_maxima(monkeypatch):
     monkeypatch.setattr(extrema, "_reconstruction_loop", lambda: None)
     picture = np.random.default_rng(1).random((30, 40)).astype(np.float32)
     np.testing.assert_array_equal(h_maxima(picture, 0.3), morphology.h_maxima(picture, 0.3))
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_negative_values_and_signed_zeros_are_ordered_as_numbers(dtype):
+    # float32 is sorted by its bits: negative values (bits flipped) and -0.0 beside 0.0 must still
+    # come in the order of their values.
+    rng = np.random.default_rng(7)
+    picture = (rng.integers(-6, 6, (40, 50)) * 0.25).astype(dtype)
+    picture[rng.random(picture.shape) < 0.2] = -0.0
+    for h in (0.2, 0.25, 0.6):
+        np.testing.assert_array_equal(h_maxima(picture, h), morphology.h_maxima(picture, h))

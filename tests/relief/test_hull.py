@@ -11,7 +11,7 @@ from hypothesis.extra.numpy import arrays
 from scipy import ndimage
 from skimage.morphology import convex_hull_image
 
-from tamp_os.relief.hull import convex_hull_mask, labelled_hulls, solid_enough
+from tamp_os.relief.hull import convex_hull_mask, hull_pixels, labelled_hulls, solid_enough
 from conftest import examples
 
 
@@ -55,3 +55,31 @@ def test_solid_enough_drops_only_concave_candidates():
     candidates = np.array([False, True, True, False])
     assert solid_enough(labels, candidates, 0.7).tolist() == [False, True, False, False]
     assert solid_enough(labels, candidates, 0.5).tolist() == [False, True, True, False]
+
+
+@pytest.mark.timeout(120)
+@settings(max_examples=examples(200), deadline=None)
+@given(mask=arrays(bool, st.tuples(st.integers(1, 50), st.integers(1, 50))), opened=st.booleans(), fold=st.integers(0, 3),
+       seed=st.integers(0, 2**16))
+def test_hull_pixels_of_all_labels_at_once_are_each_hulls(mask, opened, fold, seed):
+    # Labels of any shape, some in several pieces (fold), some not asked for.
+    if opened:
+        mask = ndimage.binary_opening(mask)
+    labels, n = ndimage.label(mask)
+    if fold:
+        labels = np.where(labels > 0, labels % (fold + 1) + 1, 0)
+        n = int(labels.max())
+    which = np.zeros(n + 2, bool)  # one label more than present: it has no pixels
+    which[1:] = np.random.default_rng(seed).random(n + 1) < 0.8
+    got = hull_pixels(labels, which)
+    boxes = ndimage.find_objects(labels, max_label=n + 1)
+    for k in range(n + 2):
+        asked = k > 0 and which[k] and boxes[k - 1] is not None
+        assert got[k] == (convex_hull_mask(labels[boxes[k - 1]] == k).sum() if asked else 0)
+
+
+@pytest.mark.timeout(60)
+def test_a_candidate_without_pixels_stays_a_candidate():
+    labels = np.zeros((10, 10), np.int32)
+    labels[2:5, 2:5] = 1
+    assert solid_enough(labels, np.array([False, True, True]), 0.7).tolist() == [False, True, True]

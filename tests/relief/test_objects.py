@@ -7,7 +7,7 @@ from hypothesis import strategies as st
 from scipy import ndimage
 from skimage import segmentation
 
-from tamp_os.relief.objects import dense_ranks, scipy_label_median, sequential_labels
+from tamp_os.relief.objects import dense_ranks, scipy_label_median, sequential_labels, sorted_by_label
 
 pytestmark = pytest.mark.timeout(120)
 
@@ -47,6 +47,22 @@ def test_scipy_label_median_is_ndimage_median(rows, cols, n, ground, seed, dtype
     np.testing.assert_array_equal(got, expected)
 
 
+@settings(max_examples=80, deadline=None)
+@given(rows=st.integers(1, 30), cols=st.integers(1, 30), n=st.integers(1, 12), seed=st.integers(0, 2**16),
+       dtype=st.sampled_from([np.float32, np.float64]), special=st.sampled_from(["none", "signed zeros", "nan", "inf"]))
+def test_values_sorted_by_label_are_each_labels_sorted_values(rows, cols, n, seed, dtype, special):
+    # float32 values take one sort of packed keys: negatives, infinities, ties, -0.0 and NaN included.
+    rng = np.random.default_rng(seed)
+    labels = np.where(rng.random((rows, cols)) < 0.3, 0, rng.integers(1, n + 1, (rows, cols)))
+    values = (rng.integers(-20, 20, (rows, cols)) * 0.37).astype(dtype)
+    extra = {"none": values, "signed zeros": -0.0, "nan": np.nan, "inf": -np.inf}[special]
+    values = np.where(rng.random((rows, cols)) < 0.2, extra, values).astype(dtype)
+    val, starts, counts = sorted_by_label(values, labels, n)
+    assert val.dtype == values.dtype
+    for k in range(1, n + 1):
+        np.testing.assert_array_equal(val[starts[k - 1]:starts[k - 1] + counts[k - 1]], np.sort(values[labels == k]))
+
+
 def test_inside_distance_is_remembered_for_the_same_labels_only():
     from tamp_os.relief.objects import InsideDistance, inner_outline
 
@@ -63,6 +79,42 @@ def test_inside_distance_is_remembered_for_the_same_labels_only():
     other = labels.copy()
     other[labels == 2] = 0  # another array (same values until changed): its own distances
     assert memo(other)[1] is not dist and memo(other)[0].sum() < inside.sum()
+
+
+@settings(max_examples=60, deadline=None)
+@given(rows=st.integers(4, 50), cols=st.integers(4, 50), n=st.integers(2, 30), seed=st.integers(0, 2**16))
+def test_inside_distance_after_a_join_is_the_joined_members_own(rows, cols, n, seed):
+    # Touching members (nearest of n points, some ground), some of them joined; on the border too.
+    from tamp_os.relief.objects import InsideDistance
+
+    rng = np.random.default_rng(seed)
+    points = np.zeros((rows, cols), np.int32)
+    points[rng.integers(0, rows, n), rng.integers(0, cols, n)] = np.arange(1, n + 1)
+    _, (iy, ix) = ndimage.distance_transform_edt(points == 0, return_indices=True)
+    labels = np.where(rng.random((rows, cols)) < 0.1, 0, points[iy, ix]).astype(np.int32)
+    roots = np.arange(n + 1)
+    roots[1:] = np.where(rng.random(n) < 0.4, rng.integers(1, n + 1, n), roots[1:])  # some members join another
+    joined = roots[labels].astype(np.int32)
+    memo = InsideDistance()
+    memo(labels)
+    memo.joined(labels, joined)
+    inside, dist = memo(joined)
+    fresh_inside, fresh_dist = InsideDistance()(joined)
+    np.testing.assert_array_equal(inside, fresh_inside)
+    assert dist.tobytes() == fresh_dist.tobytes()
+
+
+def test_inside_distance_is_not_taken_over_by_labels_that_are_no_join():
+    from tamp_os.relief.objects import InsideDistance
+
+    labels = np.zeros((10, 10), np.int32)
+    labels[1:9, 1:5], labels[1:9, 5:9] = 1, 2
+    split = labels.copy()
+    split[1:9, 3] = 3  # a new border: insides shrink, not a join
+    memo = InsideDistance()
+    memo(labels)
+    memo.joined(labels, split)
+    np.testing.assert_array_equal(memo(split)[1], InsideDistance()(split)[1])
 
 
 def test_the_nearest_member_is_ndimages_and_kept_for_the_same_mask_only(monkeypatch):
@@ -84,3 +136,37 @@ def test_the_nearest_member_is_ndimages_and_kept_for_the_same_mask_only(monkeypa
     np.testing.assert_array_equal(nearest_member(moved)[0], ndimage.distance_transform_edt(~moved))  # changed: its own
     monkeypatch.setattr(objects, "NEAREST_REMEMBERED_PX", 10)  # a grid too large to keep is computed each time
     assert nearest_member(mask)[0] is not nearest_member(mask)[0]
+
+
+@settings(max_examples=80, deadline=None)
+@given(rows=st.integers(1, 25), cols=st.integers(1, 25), share=st.floats(0.0, 1.0), seed=st.integers(0, 2**16))
+def test_grown_marks_are_a_3x3_dilation_of_grid_marks(rows, cols, share, seed):
+    # Marks on every second pixel of every second row, odd and even sizes, marks on every border.
+    from tamp_os.relief.objects import grown_marks
+
+    marks = np.zeros((rows, cols), bool)
+    marks[::2, ::2] = np.random.default_rng(seed).random(marks[::2, ::2].shape) < share
+    np.testing.assert_array_equal(grown_marks(marks), ndimage.binary_dilation(marks, structure=np.ones((3, 3))))
+
+
+@settings(max_examples=60, deadline=None)
+@given(rows=st.integers(4, 50), cols=st.integers(4, 50), n=st.integers(1, 10), seed=st.integers(0, 2**16))
+def test_convex_fill_fills_as_the_loop_over_hulls_did(rows, cols, n, seed):
+    # Nearly convex discs with notches, overlapping hulls, concave ones left alone.
+    from tamp_os.relief import objects
+    from tamp_os.relief.hull import labelled_hulls
+
+    rng = np.random.default_rng(seed)
+    yy, xx = np.mgrid[:rows, :cols]
+    labels = np.zeros((rows, cols), np.int32)
+    for k in range(1, n + 1):
+        cy, cx, r = rng.integers(0, rows), rng.integers(0, cols), rng.integers(2, 15)
+        disc = ((yy - cy) ** 2 + (xx - cx) ** 2 < r * r) & (labels == 0)
+        disc &= rng.random((rows, cols)) < rng.choice([0.97, 0.9, 0.6])  # notches, or ragged
+        labels[disc] = k
+    expected = labels.copy()
+    for k, box, hull, solidity in labelled_hulls(labels, np.ones(n + 1, bool)):
+        if solidity >= objects.CONVEX_SOLIDITY:
+            window = expected[box]
+            window[hull & (window == 0)] = k
+    np.testing.assert_array_equal(objects._convex_fill(labels), expected)

@@ -6,7 +6,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from tamp_os.relief import order
-from tamp_os.relief.order import percentiles
+from tamp_os.relief.order import float32_keys, float32_values, percentiles
 
 pytestmark = pytest.mark.timeout(120)
 
@@ -62,3 +62,16 @@ def test_a_large_picture_is_not_partitioned_whole(monkeypatch):
     monkeypatch.setattr(order, "whole_partition", lambda sample, ranks: pytest.fail("partitioned the whole sample"))
     sample = np.random.default_rng(4).normal(100, 20, 1024 * 768).astype(np.float32)
     np.testing.assert_array_equal(percentiles(sample, [2.0, 98.0, 25.0, 50.0, 75.0]), np.percentile(sample, [2.0, 98.0, 25.0, 50.0, 75.0]))
+
+
+def test_float32_keys_sort_as_the_values_and_give_them_back():
+    values = np.concatenate([np.random.default_rng(3).standard_cauchy(2000), [0.0, -0.0, np.inf, -np.inf, 1e-45, -1e-45,
+                                                                              np.finfo(np.float32).max]]).astype(np.float32)
+    keys = float32_keys(values)
+    assert keys.dtype == np.uint32
+    order = np.argsort(keys, kind="stable")
+    assert np.all(np.diff(values[order]) >= 0)
+    assert keys[values == 0.0].min() == keys[values == 0.0].max()  # 0.0 and -0.0: one value, one key
+    back = float32_values(keys)
+    np.testing.assert_array_equal(back.view(np.uint32), (values + np.float32(0.0)).view(np.uint32))
+    assert float32_keys(np.array([1.0, np.nan], np.float32)) is None

@@ -72,3 +72,23 @@ def whole_partition(sample: np.ndarray, ranks: np.ndarray) -> list:
     """The plain way, for a bracket that missed its rank (a sample whose strided subsample is
     unlike the whole)."""
     return np.partition(sample, ranks)[ranks].tolist()
+
+
+def float32_keys(values: np.ndarray) -> np.ndarray | None:
+    """uint32 keys that sort as the float32 `values` do (equal values, 0.0 and -0.0 too, get equal
+    keys), or None if a value is NaN (unordered). Packed above an index or a label into 64-bit
+    keys, one np.sort (SIMD) replaces an argsort, several times slower."""
+    if np.isnan(values).any():
+        return None
+    bits = (values.astype(np.float32, copy=False) + np.float32(0.0)).view(np.uint32)  # + 0: -0.0 is 0.0
+    # Negative floats: all bits flipped (a larger magnitude is a smaller number); others: the sign bit set.
+    return np.where(bits >= SIGN_BIT, ~bits, bits | np.uint32(SIGN_BIT))
+
+
+def float32_values(keys: np.ndarray) -> np.ndarray:
+    """The float32 values of float32_keys (uint32)."""
+    keys = keys.astype(np.uint32, copy=False)
+    return np.where(keys >= SIGN_BIT, keys ^ np.uint32(SIGN_BIT), ~keys).view(np.float32)
+
+
+SIGN_BIT = 1 << 31

@@ -22,7 +22,7 @@ from skimage import segmentation
 
 from .hull import solid_enough
 from .extrema import h_maxima
-from .objects import InsideDistance, dense_ranks, label_max, label_median, sequential_labels, sorted_by_label, sparse_h_maxima
+from .objects import InsideDistance, dense_ranks, grown_marks, label_max, label_median, sequential_labels, sorted_by_label, sparse_h_maxima
 
 BACKGROUND_MM = 12.0  # members up to about this wide are measured against the ground around them
 NOISE_SIGMAS = 3.0  # a member's peak stands this many noise deviations above its neck (swept on the benchmark: 3 or 5)
@@ -129,7 +129,13 @@ def object_width_mm(image: np.ndarray, labels: np.ndarray, pitch_mm: float) -> f
     held = solid_enough(objects, held, MIN_SOLIDITY)
     if not held.any():
         return 0.0
-    radius = label_max(ndimage.distance_transform_edt(objects > 0), objects, n)
+    # The distance transform of the box around the held objects, one pixel wider: each pixel's
+    # nearest ground lies within its own object's box one pixel wider (the pixels nearer than it
+    # are all its object's, and one of them is its neighbour), so the box's transform is the
+    # picture's there.
+    rows, cols = np.nonzero(held[objects])
+    box = (slice(max(rows.min() - 1, 0), rows.max() + 2), slice(max(cols.min() - 1, 0), cols.max() + 2))
+    radius = label_max(ndimage.distance_transform_edt(objects[box] > 0), objects[box], n)
     return float(np.median(2.0 * radius[np.flatnonzero(held)] * pitch_mm))
 
 
@@ -204,16 +210,12 @@ def _largest_parts(labels: np.ndarray) -> np.ndarray:
     owner[parts.ravel()] = labels.ravel()
     size = np.bincount(parts.ravel(), minlength=n + 1)
     size[0] = 0
-    best = np.zeros(int(labels.max()) + 1, np.int64)
-    best_size = np.zeros_like(best)
-    for part in np.argsort(size)[::-1]:
-        if part == 0 or size[part] == 0:
-            continue
-        k = owner[part]
-        if best[k] == 0:
-            best[k], best_size[k] = part, size[part]
+    # Each label's first part in the order of decreasing size (equal sizes in that sort's order).
+    order = np.argsort(size)[::-1]
+    order = order[(order != 0) & (size[order] > 0)]
+    _, first = np.unique(owner[order], return_index=True)
     keep = np.zeros(n + 1, bool)
-    keep[best[best > 0]] = True
+    keep[order[first]] = True
     return np.where(keep[parts], labels, 0)
 
 
@@ -264,20 +266,23 @@ def _merge_shallow(labels: np.ndarray, top: np.ndarray) -> np.ndarray:
 
 def joined_roots(n: int, xs, ys) -> np.ndarray:
     """For labels 0..n, the smallest label of the group each ends in when every pair (xs[i], ys[i])
-    is joined (union-find with path halving): index it with a label image to merge the groups."""
-    parent = np.arange(n + 1)
-
-    def root(k):
-        while parent[k] != k:
-            parent[k] = parent[parent[k]]
-            k = parent[k]
-        return k
-
-    for x, y in zip(xs, ys):
-        rx, ry = root(x), root(y)
-        if rx != ry:
-            parent[max(rx, ry)] = min(rx, ry)
-    return np.array([root(k) for k in range(n + 1)])
+    is joined: index it with a label image to merge the groups. Each pair hooks the larger of its
+    two roots under the smaller, then every label jumps to its root's root, until the pairs agree
+    (a few rounds of array operations, not a loop over labels)."""
+    root = np.arange(n + 1)
+    xs, ys = np.asarray(xs, np.intp), np.asarray(ys, np.intp)
+    while xs.size:
+        rx, ry = root[xs], root[ys]
+        apart = rx != ry
+        if not apart.any():
+            break
+        np.minimum.at(root, np.maximum(rx, ry)[apart], np.minimum(rx, ry)[apart])
+        while True:  # hooks only ever point to a smaller label: every chain ends at its group's smallest
+            jumped = root[root]
+            if np.array_equal(jumped, root):
+                break
+            root = jumped
+    return root
 
 
 def neckless_pairs(labels: np.ndarray, top: np.ndarray | None = None, large_px: float = 0.0, *,
@@ -381,29 +386,109 @@ def _merge_once(labels: np.ndarray, top: np.ndarray | None, large_px: float = 0.
     if a.size == 0:
         return labels
     roots = joined_roots(int(labels.max()), a.tolist(), b.tolist())
-    return sequential_labels(roots[labels]).astype(labels.dtype)
+    joined = sequential_labels(roots[labels]).astype(labels.dtype)
+    if inside_distance is not None:  # the split asks for the joined members' next
+        inside_distance.joined(labels, joined)
+    return joined
 
 
 def _filled(labels: np.ndarray) -> np.ndarray:
     """Fill each member's holes (SEM particles glow at their rims, so half their peak can be a
     ring): hole pixels go to the member around them. Only holes no larger than the member
     itself: a closed line around a wide cell is a line, not a particle."""
-    holes, n = ndimage.label(ndimage.binary_fill_holes(labels > 0) & (labels == 0))
+    holes, n = _holes(labels)
     if n == 0:
         return labels
-    out = labels.copy()
     member_area = np.bincount(labels.ravel(), minlength=int(labels.max()) + 1)
-    # Each hole's nearest members, in its box one pixel wider (the members around a hole border
-    # it there): a distance transform of the boxes, not of the whole picture.
+    hole_area = np.bincount(holes.ravel(), minlength=n + 1)
+    # A hole pixel's nearest member pixel borders the hole (the pixels nearer than it are all the
+    # hole's, and one of them is its neighbour). So a hole bordered by one member only goes to
+    # that member, whichever of its pixels is nearest: no distance transform needed.
+    lowest, highest = _members_around(holes, labels, n)
+    one = (lowest == highest) & (lowest > 0)
+    fill = np.where(one & (hole_area <= member_area[lowest]), lowest, 0)
+    fill[0] = 0
+    out = np.where(fill[holes] > 0, fill[holes], labels).astype(labels.dtype, copy=False)
+    if not one[1:].all():
+        _fill_between(out, labels, holes, ~one, hole_area, member_area)
+    return out
+
+
+def _members_around(holes: np.ndarray, labels: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Per hole 0..n: the lowest and highest label of the members beside it (4-neighbours)."""
+    lowest = np.full(n + 1, np.iinfo(np.int64).max)
+    highest = np.zeros(n + 1, np.int64)
+    for hole, member in ((holes[1:], labels[:-1]), (holes[:-1], labels[1:]), (holes[:, 1:], labels[:, :-1]),
+                         (holes[:, :-1], labels[:, 1:])):
+        beside = (hole > 0) & (member > 0)
+        np.minimum.at(lowest, hole[beside], member[beside].astype(np.int64))
+        np.maximum.at(highest, hole[beside], member[beside].astype(np.int64))
+    return np.where(highest > 0, lowest, 0), highest
+
+
+def _fill_between(out: np.ndarray, labels: np.ndarray, holes: np.ndarray, which: np.ndarray, hole_area: np.ndarray,
+                  member_area: np.ndarray) -> None:
+    """Fill the holes `which` (bool per hole) bordered by several members, in `out`: each pixel to
+    its nearest member (a distance transform of the hole's box, one pixel wider: the members
+    around a hole border it there), when the hole is no larger than its last pixel's nearest."""
+    n = which.size - 1
+    # That member is one of those beside the last pixel (4-neighbours, one pixel away: the pixels
+    # below and right of it are members). A hole larger than all of those is kept without asking which.
+    inside = np.flatnonzero(holes)
+    last = np.zeros(n + 1, np.intp)
+    np.maximum.at(last, holes.ravel()[inside], inside)
+    width = labels.shape[1]
+    beside = labels.ravel()[last[1:, None] + np.array([-width, -1, 1, width])]
+    largest = np.concatenate([[0], member_area[beside].max(axis=1, where=beside > 0, initial=0)])
     for k, box in enumerate(ndimage.find_objects(holes), 1):
-        box = tuple(slice(max(0, b.start - 1), b.stop + 1) for b in box)
+        if box is None or not which[k] or hole_area[k] > largest[k]:
+            continue
+        box = tuple(slice(b.start - 1, b.stop + 1) for b in box)  # a hole never touches the picture's border
         window = labels[box]
-        _, (iy, ix) = ndimage.distance_transform_edt(window == 0, return_indices=True)
+        iy, ix = _nearest_in_window(window == 0)
         hole = holes[box] == k
         nearest = window[iy[hole], ix[hole]]
-        if hole.sum() <= member_area[nearest[-1]]:  # the member around it (its last pixel's nearest, as before)
+        if hole_area[k] <= member_area[nearest[-1]]:  # the member around it (its last pixel's nearest, as before)
             out[box][hole] = nearest
-    return out
+
+
+# Small holes between members (a pixel or a few where three basins meet) come in a few shapes: their
+# boxes' nearest-member indices are remembered by the box's pattern of ground, up to this many pixels.
+WINDOW_REMEMBERED_PX = 36
+_window_nearest: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
+
+
+def _nearest_in_window(ground: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """ndimage.distance_transform_edt(ground, return_distances=False, return_indices=True) of a
+    small bool window; the same pattern's answer is computed once (read-only, shared)."""
+    key = None
+    if ground.size <= WINDOW_REMEMBERED_PX:
+        key = (ground.shape, np.packbits(ground, axis=None).tobytes())
+        known = _window_nearest.get(key)
+        if known is not None:
+            return known
+    iy, ix = ndimage.distance_transform_edt(ground, return_distances=False, return_indices=True)
+    if key is not None and len(_window_nearest) < 4096:  # at most 2^36 patterns exist; a few dozen occur
+        iy.flags.writeable = ix.flags.writeable = False
+        _window_nearest[key] = (iy, ix)
+    return iy, ix
+
+
+def _holes(labels: np.ndarray) -> tuple[np.ndarray, int]:
+    """The holes of the members (ground not reached from the picture's border through ground,
+    4-connected, as ndimage.binary_fill_holes): labelled (any numbering), and their count. One
+    labelling of the ground, not a fill by repeated dilation and a labelling."""
+    ground, n = ndimage.label(labels == 0)
+    if n == 0:
+        return ground, 0
+    open_ = np.zeros(n + 1, bool)
+    for edge in (ground[0], ground[-1], ground[:, 0], ground[:, -1]):
+        open_[edge] = True
+    open_[0] = True
+    if open_.all():
+        return np.zeros_like(ground), 0
+    renumber = np.cumsum(~open_) * ~open_
+    return renumber[ground].astype(ground.dtype, copy=False), int(renumber.max())
 
 
 def _split_touching(labels: np.ndarray, depth_px: float, *, inside_distance: InsideDistance | None = None) -> np.ndarray:
@@ -414,7 +499,7 @@ def _split_touching(labels: np.ndarray, depth_px: float, *, inside_distance: Ins
         return labels
     inside, dist = (inside_distance or InsideDistance())(labels)
     # sparse_h_maxima marks every second pixel of a plateau: a 3x3 dilation joins those marks again.
-    marks = ndimage.binary_dilation(sparse_h_maxima(dist, max(depth_px, 0.5)), structure=np.ones((3, 3)))
+    marks = grown_marks(sparse_h_maxima(dist, max(depth_px, 0.5)))
     markers, n = ndimage.label(marks & inside)
     if n == 0:
         return labels

@@ -97,10 +97,22 @@ def hessian_ridges(image01: np.ndarray, pitch_mm: float, sigma_mm: float = RIDGE
     hyy = ndimage.gaussian_filter(img, sigma, order=(2, 0), mode="reflect")
     hxx = ndimage.gaussian_filter(img, sigma, order=(0, 2), mode="reflect")
     hxy = ndimage.gaussian_filter(img, sigma, order=(1, 1), mode="reflect")
-    mean = (hyy + hxx) / 2
-    root = np.sqrt(((hyy - hxx) / 2) ** 2 + hxy * hxy)
+    # In place, each step the same float32 operation as written out: (hyy + hxx) / 2 for the mean,
+    # sqrt(((hyy - hxx) / 2) ** 2 + hxy * hxy) for the root (fewer fresh arrays on a fine grid).
+    mean = hyy + hxx
+    mean /= 2
+    hyy -= hxx
+    hyy /= 2
+    root = np.square(hyy, out=hyy)
+    root += np.square(hxy, out=hxy)
+    np.sqrt(root, out=root)
     scale = np.float32(sigma * sigma)
-    return np.maximum(root - mean, 0.0) * scale, np.maximum(mean + root, 0.0) * scale
+    bright = np.maximum(root - mean, 0.0)
+    bright *= scale
+    mean += root
+    dark = np.maximum(mean, 0.0, out=mean)
+    dark *= scale
+    return bright, dark
 
 
 def find_lines(bright01: np.ndarray, *, pitch_mm: float, min_area_mm2: float = 6.0, method: str = "hessian",
@@ -179,12 +191,8 @@ def fine_lines(fine01: np.ndarray, *, fine_pitch_mm: float, work_shape: tuple[in
         parts, n = ndimage.label(low, structure=np.ones((3, 3)))
         mask = low
         if n:
-            peak = label_max(np.where(low, response, 0).astype(np.float32), parts, n)
-            boxes = ndimage.find_objects(parts)
-            extent = np.array([0] + [max(b[0].stop - b[0].start, b[1].stop - b[1].start) for b in boxes])
-            keep = (extent >= MIN_PIECE_MM / fine_pitch_mm) & (peak >= med + FINE_HIGH_MADS * mad)
-            keep[0] = False
-            mask = keep[parts]
+            mask = _long_and_strong(parts, n, low & (response >= np.float64(med + FINE_HIGH_MADS * mad)),
+                                    MIN_PIECE_MM / fine_pitch_mm)
         on = response[mask]
         strength = float((np.median(on) - med) / mad) if on.size else 0.0
         fy, fx = np.nonzero(mask)
@@ -194,6 +202,21 @@ def fine_lines(fine01: np.ndarray, *, fine_pitch_mm: float, work_shape: tuple[in
         skeleton = _drop_short(morphology.skeletonize(coarse), MIN_PIECE_MM / pitch_mm)
         out[bright] = network_of(skeleton, pitch_mm=pitch_mm, min_area_mm2=min_area_mm2, strength=strength)
     return out
+
+
+def _long_and_strong(parts: np.ndarray, n: int, high: np.ndarray, min_extent_px: float) -> np.ndarray:
+    """The pixels of labelled pieces 1..n that hold a `high` pixel and whose box's larger side
+    is at least `min_extent_px`. A piece's peak reaches the high threshold exactly when one of its
+    pixels does (compared in float64, as its float64 maximum would be), so the labels are marked
+    from the high pixels and only those few boxes measured: a tenth of the pieces, a fifth of the time."""
+    keep = np.zeros(n + 1, bool)
+    keep[parts[high]] = True
+    keep[0] = False
+    boxes = ndimage.find_objects(parts)
+    for label in np.flatnonzero(keep):
+        box = boxes[label - 1]
+        keep[label] = max(box[0].stop - box[0].start, box[1].stop - box[1].start) >= min_extent_px
+    return keep[parts]
 
 
 def draw_lines(lines: Lines, pitch_mm: float) -> np.ndarray:

@@ -270,9 +270,11 @@ def lattice_spectrum(work: np.ndarray, pitch_mm: float) -> Spectrum:
     share = float(power[near].sum() / total)
     # A second direction: the strongest peak at least LATTICE_ANGLE_DEG from the first (angles
     # modulo 180 degrees: the half-plane spectrum holds each direction once), within an octave.
-    turn = np.abs((grid.angle_deg - grid.angle_deg[at] + 90.0) % 180.0 - 90.0)
-    other = band & (turn >= LATTICE_ANGLE_DEG) & (freq >= 0.5 * freq[at]) & (freq <= 2.0 * freq[at])
-    two_way = bool(other.any()) and float(banded[other].max()) >= SECOND_PEAK * float(banded[at])
+    # The angles only within that octave band: the modulo over every bin was a third of this step.
+    octave = band & (freq >= 0.5 * freq[at]) & (freq <= 2.0 * freq[at])
+    turn = np.abs((grid.angle_deg[octave] - grid.angle_deg[at] + 90.0) % 180.0 - 90.0)
+    other = banded[octave][turn >= LATTICE_ANGLE_DEG]
+    two_way = bool(other.size) and float(other.max()) >= SECOND_PEAK * float(banded[at])
     period = Period(float(1.0 / freq[at]), share) if share >= 0.35 else None
     return Spectrum(period, peaked, two_way)
 

@@ -337,6 +337,27 @@ def test_boundaries_under_a_print_pixel_wide_are_found_before_the_blur_and_raise
     assert own >= 0.7 * len(ids), (own, len(ids))
 
 
+@pytest.mark.timeout(60)
+def test_fine_lines_finds_the_same_network_whether_its_pieces_are_gathered_box_by_box_or_in_one_pass(monkeypatch):
+    """The kept pieces' pixels are gathered from their boxes when they are few (MANY_PIECES) and in
+    one pass over the fine grid otherwise: both give the same skeleton, regions and strength."""
+    from tamp_os.relief import lines as lines_module
+
+    truth = thin_boundary_grains()
+    prepared, _, _, mm = _fine_case(truth)
+    picture = prepared.finer(2 * prepared.image.shape[1])
+    fine_pitch_mm = 100.0 / (picture.shape[1] - 1)
+    kw = {"fine_pitch_mm": fine_pitch_mm, "work_shape": prepared.image.shape, "pitch_mm": mm, "min_area_mm2": 6.0}
+    by_box = lines_module.fine_lines(picture, **kw)
+    monkeypatch.setattr(lines_module, "MANY_PIECES", -1)
+    one_pass = lines_module.fine_lines(picture, **kw)
+    assert by_box[False].skeleton.sum() > 100  # the grains' dark boundaries are found
+    for bright in (True, False):
+        a, b = by_box[bright], one_pass[bright]
+        assert np.array_equal(a.skeleton, b.skeleton) and np.array_equal(a.cells, b.cells)
+        assert a.strength == b.strength and a.cell_count == b.cell_count
+
+
 @pytest.mark.timeout(180)
 def test_the_al2o3_grain_boundaries_become_a_raised_network_and_the_report_says_where_they_separate(fixture):
     """The Al2O3 SE picture (README: ~100 grains outlined by thin boundaries): auto takes the

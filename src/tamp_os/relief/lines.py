@@ -50,6 +50,7 @@ STEP_MARGIN = 0.02  # a line stands at least this far (0..1 of the range) above 
 FINE_PITCH_MM = 0.1  # lines too thin for the working grid are looked for on a grid this fine (or the source's, if coarser)
 FINE_SIGMA_MM = 0.1  # the Hessian's scale there: a grain boundary's own width
 FINE_LOW_MADS, FINE_HIGH_MADS = 4.0, 10.0  # the hysteresis threshold on the fine ridge response
+MANY_PIECES = 200  # more kept pieces than this: their pixels found in one pass over the picture, not box by box
 RIDGE_METHODS = ("hessian", "sato", "meijering", "tophat")
 
 
@@ -189,13 +190,10 @@ def fine_lines(fine01: np.ndarray, *, fine_pitch_mm: float, work_shape: tuple[in
         # somewhere and span at least MIN_PIECE_MM (the larger side of their box stands for length).
         low = response > med + FINE_LOW_MADS * mad
         parts, n = ndimage.label(low, structure=np.ones((3, 3)))
-        mask = low
-        if n:
-            mask = _long_and_strong(parts, n, low & (response >= np.float64(med + FINE_HIGH_MADS * mad)),
-                                    MIN_PIECE_MM / fine_pitch_mm)
-        on = response[mask]
+        high = low & (response >= np.float64(med + FINE_HIGH_MADS * mad))
+        fy, fx = _long_and_strong(parts, n, high, MIN_PIECE_MM / fine_pitch_mm)
+        on = response[fy, fx]  # in the pieces' order, not the picture's: the same median
         strength = float((np.median(on) - med) / mad) if on.size else 0.0
-        fy, fx = np.nonzero(mask)
         coarse = np.zeros(work_shape, bool)
         coarse[np.rint(fy * ((work_shape[0] - 1) / max(rows - 1, 1))).astype(np.intp),
                np.rint(fx * ((work_shape[1] - 1) / max(cols - 1, 1))).astype(np.intp)] = True
@@ -204,11 +202,12 @@ def fine_lines(fine01: np.ndarray, *, fine_pitch_mm: float, work_shape: tuple[in
     return out
 
 
-def _long_and_strong(parts: np.ndarray, n: int, high: np.ndarray, min_extent_px: float) -> np.ndarray:
-    """The pixels of labelled pieces 1..n that hold a `high` pixel and whose box's larger side
-    is at least `min_extent_px`. A piece's peak reaches the high threshold exactly when one of its
-    pixels does (compared in float64, as its float64 maximum would be), so the labels are marked
-    from the high pixels and only those few boxes measured: a tenth of the pieces, a fifth of the time."""
+def _long_and_strong(parts: np.ndarray, n: int, high: np.ndarray, min_extent_px: float) -> tuple[np.ndarray, np.ndarray]:
+    """Rows and columns of the pixels of the labelled pieces 1..n that hold a `high` pixel and
+    whose box's larger side is at least `min_extent_px`. A piece's peak reaches the high threshold
+    exactly when one of its pixels does (compared in float64, as its float64 maximum would be), so
+    the labels are marked from the high pixels, and only those few boxes are measured and searched
+    for their pixels (a tenth of the pieces; the picture is not scanned again)."""
     keep = np.zeros(n + 1, bool)
     keep[parts[high]] = True
     keep[0] = False
@@ -216,7 +215,16 @@ def _long_and_strong(parts: np.ndarray, n: int, high: np.ndarray, min_extent_px:
     for label in np.flatnonzero(keep):
         box = boxes[label - 1]
         keep[label] = max(box[0].stop - box[0].start, box[1].stop - box[1].start) >= min_extent_px
-    return keep[parts]
+    kept = np.flatnonzero(keep)
+    if len(kept) > MANY_PIECES:
+        return np.nonzero(keep[parts])
+    rows, cols = [np.zeros(0, np.intp)], [np.zeros(0, np.intp)]
+    for label in kept:
+        box = boxes[label - 1]
+        y, x = np.nonzero(parts[box] == label)
+        rows.append(y + box[0].start)
+        cols.append(x + box[1].start)
+    return np.concatenate(rows), np.concatenate(cols)
 
 
 def draw_lines(lines: Lines, pitch_mm: float) -> np.ndarray:

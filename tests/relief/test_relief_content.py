@@ -340,7 +340,8 @@ def test_boundaries_under_a_print_pixel_wide_are_found_before_the_blur_and_raise
 @pytest.mark.timeout(60)
 def test_fine_lines_finds_the_same_network_whether_its_pieces_are_gathered_box_by_box_or_in_one_pass(monkeypatch):
     """The kept pieces' pixels are gathered from their boxes when they are few (MANY_PIECES) and in
-    one pass over the fine grid otherwise: both give the same skeleton, regions and strength."""
+    one pass over the fine grid otherwise: both give the same skeleton, regions and strength; a
+    floor on the strength leaves out only the polarities under it."""
     from tamp_os.relief import lines as lines_module
 
     truth = thin_boundary_grains()
@@ -356,6 +357,12 @@ def test_fine_lines_finds_the_same_network_whether_its_pieces_are_gathered_box_b
         a, b = by_box[bright], one_pass[bright]
         assert np.array_equal(a.skeleton, b.skeleton) and np.array_equal(a.cells, b.cells)
         assert a.strength == b.strength and a.cell_count == b.cell_count
+    # A floor on the strength leaves out a weaker polarity and nothing else.
+    floor = by_box[False].strength
+    kept = lines_module.fine_lines(picture, **kw, min_strength=floor)
+    assert np.array_equal(kept[False].skeleton, by_box[False].skeleton)
+    assert set(kept) == {False} | ({True} if by_box[True].strength >= floor else set())
+    assert lines_module.fine_lines(picture, **kw, min_strength=floor + 1e-6).keys() <= {True}
 
 
 @pytest.mark.timeout(180)

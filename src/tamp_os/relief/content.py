@@ -565,7 +565,9 @@ def _fine_network(fine, shape: tuple[int, int], pitch_mm: float, width_mm: float
     if picture is None or picture.shape[1] < 2 * shape[1]:
         return None
     fine_pitch_mm = width_mm / (picture.shape[1] - 1)
-    found = fine_lines(picture, fine_pitch_mm=fine_pitch_mm, work_shape=shape, pitch_mm=pitch_mm, min_area_mm2=min_area_mm2)
+    # Lines weaker than FINE_STRENGTH are no fine network (_is_fine_network): not drawn at all.
+    found = fine_lines(picture, fine_pitch_mm=fine_pitch_mm, work_shape=shape, pitch_mm=pitch_mm, min_area_mm2=min_area_mm2,
+                       min_strength=FINE_STRENGTH)
     for bright, lines in found.items():
         log.debug("fine lines (%s, %.2f mm grid): %d regions, strength %.1f, cover %.2f", "bright" if bright else "dark",
                   fine_pitch_mm, lines.cell_count, lines.strength, lines.cover)

@@ -30,6 +30,7 @@ working grid: there they enclose 140-160 regions and stand +0.96 mm over them (b
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass
 
 import numpy as np
@@ -39,6 +40,8 @@ from skimage import filters, morphology
 from .objects import label_max, label_median
 from .population import label_percentile, noise_level
 from .scales import disk
+
+log = logging.getLogger(__name__)
 
 LINE_WIDTH_MM = 1.2  # raised line width on the print (1.0–1.5 mm is the tactile standard)
 LINE_HEIGHT_MM = 1.0  # raised line height (0.8–1.2 mm)
@@ -169,10 +172,11 @@ def network_of(skeleton: np.ndarray, *, pitch_mm: float, min_area_mm2: float, st
 
 
 def fine_lines(fine01: np.ndarray, *, fine_pitch_mm: float, work_shape: tuple[int, int], pitch_mm: float,
-               min_area_mm2: float) -> dict[bool, Lines]:
+               min_area_mm2: float, min_strength: float | None = None) -> dict[bool, Lines]:
     """Line networks found on a grid finer than the working grid (the source before the print
     grid's resampling and blur, which fade lines under a print pixel wide: the Al2O3 grain
-    boundaries), drawn on the working grid; {True: bright lines, False: dark lines}.
+    boundaries), drawn on the working grid; {True: bright lines, False: dark lines}. With
+    `min_strength`, a polarity whose lines are weaker than that is left out (not drawn at all).
 
     The one-scale Hessian at FINE_SIGMA_MM (a boundary's own width), a hysteresis threshold in
     robust deviations of the response (FINE_LOW_MADS to FINE_HIGH_MADS: a line's faint stretches
@@ -180,26 +184,36 @@ def fine_lines(fine01: np.ndarray, *, fine_pitch_mm: float, work_shape: tuple[in
     fine pixel marks the working-grid pixel it falls in, and that mask is thinned to the skeleton
     the print draws LINE_WIDTH_MM wide."""
     ridges = hessian_ridges(fine01, fine_pitch_mm, FINE_SIGMA_MM)
-    rows, cols = fine01.shape
     out = {}
     for bright, response in ((True, ridges[0]), (False, ridges[1])):
-        sample = response[::4, ::4]  # the median and deviation of a sixteenth: the same to 1 %, a fifth of the time
-        med = float(np.median(sample))
-        mad = float(np.median(np.abs(sample - med))) * 1.4826 + 1e-9
-        # Hysteresis in one labelling: pieces above the low threshold that reach the high one
-        # somewhere and span at least MIN_PIECE_MM (the larger side of their box stands for length).
-        low = response > med + FINE_LOW_MADS * mad
-        parts, n = ndimage.label(low, structure=np.ones((3, 3)))
-        high = low & (response >= np.float64(med + FINE_HIGH_MADS * mad))
-        fy, fx = _long_and_strong(parts, n, high, MIN_PIECE_MM / fine_pitch_mm)
-        on = response[fy, fx]  # in the pieces' order, not the picture's: the same median
-        strength = float((np.median(on) - med) / mad) if on.size else 0.0
+        fy, fx, strength = _fine_pieces(response, fine_pitch_mm)
+        if min_strength is not None and strength < min_strength:
+            log.debug("fine lines (%s): strength %.1f under %.1f, not drawn", "bright" if bright else "dark", strength, min_strength)
+            continue
+        rows, cols = response.shape
         coarse = np.zeros(work_shape, bool)
         coarse[np.rint(fy * ((work_shape[0] - 1) / max(rows - 1, 1))).astype(np.intp),
                np.rint(fx * ((work_shape[1] - 1) / max(cols - 1, 1))).astype(np.intp)] = True
         skeleton = _drop_short(morphology.skeletonize(coarse), MIN_PIECE_MM / pitch_mm)
         out[bright] = network_of(skeleton, pitch_mm=pitch_mm, min_area_mm2=min_area_mm2, strength=strength)
     return out
+
+
+def _fine_pieces(response: np.ndarray, fine_pitch_mm: float) -> tuple[np.ndarray, np.ndarray, float]:
+    """Rows and columns of the fine grid's line pixels after the hysteresis threshold, and their
+    median response in robust deviations over the grid's (the lines' strength)."""
+    sample = response[::4, ::4]  # the median and deviation of a sixteenth: the same to 1 %, a fifth of the time
+    med = float(np.median(sample))
+    mad = float(np.median(np.abs(sample - med))) * 1.4826 + 1e-9
+    # Hysteresis in one labelling: pieces above the low threshold that reach the high one
+    # somewhere and span at least MIN_PIECE_MM (the larger side of their box stands for length).
+    low = response > med + FINE_LOW_MADS * mad
+    parts, n = ndimage.label(low, structure=np.ones((3, 3)))
+    high = low & (response >= np.float64(med + FINE_HIGH_MADS * mad))
+    fy, fx = _long_and_strong(parts, n, high, MIN_PIECE_MM / fine_pitch_mm)
+    on = response[fy, fx]  # in the pieces' order, not the picture's: the same median
+    strength = float((np.median(on) - med) / mad) if on.size else 0.0
+    return fy, fx, strength
 
 
 def _long_and_strong(parts: np.ndarray, n: int, high: np.ndarray, min_extent_px: float) -> tuple[np.ndarray, np.ndarray]:

@@ -259,8 +259,10 @@ def brighter_than_both_sides(skeleton: np.ndarray, image: np.ndarray, pitch_mm: 
     if n == 0:
         return skeleton
     dist, (iy, ix) = ndimage.distance_transform_edt(~skeleton, return_indices=True)
-    band = (dist * pitch_mm >= 0.8) & (dist * pitch_mm <= 1.6)
-    owner = np.where(band, parts[iy, ix], 0)
+    dist_mm = dist * pitch_mm
+    band = (dist_mm >= 0.8) & (dist_mm <= 1.6)
+    owner = np.zeros_like(parts)
+    owner[band] = parts[iy[band], ix[band]]  # the nearest piece looked up in the band only
     on = label_median(image, parts, n)
     side = label_percentile(image, owner, n, pct=80)
     keep = np.concatenate([[False], ~(side >= on - STEP_MARGIN)])  # NaN side (no band): keep

@@ -113,7 +113,7 @@ def blob_scale(bright01: np.ndarray, pitch_mm: float, stack: np.ndarray | None =
         return None
     x_size = stack[0].size
     # Maxima of a flat picture's rounding noise (equal on plateaus) are no blobs: a floor in picture units.
-    peaks = (stack == _neighbourhood_max(stack)) & (stack > MIN_STRENGTH)
+    peaks = (stack == neighbourhood_max(stack)) & (stack > MIN_STRENGTH)
     peaks[:, :3] = peaks[:, -3:] = False  # maxima at the border are cut blobs
     peaks[:, :, :3] = peaks[:, :, -3:] = False
     if not peaks.any():
@@ -138,14 +138,16 @@ def blob_scale(bright01: np.ndarray, pitch_mm: float, stack: np.ndarray | None =
     centres = np.stack([rows * back[0], cols * back[1]], axis=1)
     # Peaks against troughs of the band-pass at that scale (3x3 extrema): a Gaussian texture is
     # symmetric (its troughs as deep as its peaks are high), bright bodies on dark gaps are not.
+    # (ndimage's 3x3 filters in their default 'reflect' mode repeat the edge pixel beyond the edge:
+    # the same extrema as the neighbourhood within the picture.)
     band = stack[mode]
-    tops = band[(band == ndimage.maximum_filter(band, 3)) & (band > 0)]
-    troughs = -band[(band == ndimage.minimum_filter(band, 3)) & (band < 0)]
+    tops = band[(band == neighbourhood_max(band)) & (band > 0)]
+    troughs = -band[(band == -neighbourhood_max(-band)) & (band < 0)]
     asymmetry = float(np.median(tops) / max(float(np.median(troughs)), 1e-12)) if tops.size and troughs.size else 0.0
     return BlobScale(count, sigma, diameter_mm, near, variation, packing, asymmetry, centres)
 
 
-def _neighbourhood_max(stack: np.ndarray) -> np.ndarray:
+def neighbourhood_max(stack: np.ndarray) -> np.ndarray:
     """ndimage.maximum_filter(stack, size=3, mode="constant", cval=-inf) of a finite stack, as
     each point's maximum with its neighbours along each axis in turn, in place: the same numbers
     (a maximum is exact), 2.5-3x faster than SciPy's filter on an (8, 170, 250) stack."""

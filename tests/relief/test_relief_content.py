@@ -94,6 +94,25 @@ def test_dark_line_network_becomes_raised_lines_on_a_flat_ground(invert):
     assert any("raised 1.0 mm over the areas they enclose" in check for check in made.checks)
 
 
+@pytest.mark.timeout(60)
+def test_lines_under_a_strength_floor_are_left_untraced_and_a_network_over_it_is_traced_in_full():
+    """find_lines' min_strength: a network stronger than the floor comes out as without it; the
+    same picture's lines under a floor above their strength keep their skeleton, strength and
+    length but enclose no regions (untraced), so no caller can take them for a network."""
+    from tamp_os.relief.lines import find_lines
+
+    truth = dark_line_network()
+    dark_lines = 1.0 - truth.image
+    full = find_lines(dark_lines, pitch_mm=pitch(truth.image))
+    assert full.traced and full.cell_count >= 10 and full.strength > 20
+    over = find_lines(dark_lines, pitch_mm=pitch(truth.image), min_strength=full.strength)
+    assert over.traced and np.array_equal(over.cells, full.cells) and over.separate_at == full.separate_at
+    under = find_lines(dark_lines, pitch_mm=pitch(truth.image), min_strength=full.strength + 1)
+    assert not under.traced and under.cell_count == 0 and not under.cells.any() and not under.merged.any()
+    assert np.array_equal(under.skeleton, full.skeleton) and under.strength == full.strength
+    assert under.length_mm == full.length_mm and under.cover == full.cover
+
+
 def _skeleton_length_mm(mask, mm):
     from skimage.morphology import skeletonize
 

@@ -529,8 +529,11 @@ class _Finder:
     def lines(self, bright: bool) -> Lines:
         """Lines brighter than both sides in the picture (bright) or in its inverse."""
         if bright not in self._lines:
+            # Lines under NETWORK_STRENGTH are neither a network (_is_network) nor line art
+            # (_is_line_art), the only questions asked of them: their regions are not traced.
             self._lines[bright] = find_lines(self.picture(bright), pitch_mm=self.pitch_mm, min_area_mm2=self.min_area_mm2,
-                                             response=self.ridges()[0 if bright else 1], noise=self.noise)
+                                             response=self.ridges()[0 if bright else 1], noise=self.noise,
+                                             min_strength=NETWORK_STRENGTH)
         return self._lines[bright]
 
     def blobs(self, bright: bool) -> BlobScale | None:

@@ -63,7 +63,9 @@ class Lines:
     the lines enclose (0 on the lines); cell_count: cells at least a fingertip's area;
     length_mm: total skeleton length; cover: share of the picture within half a line width of
     the skeleton; merged: bool mask of cells too narrow to feel (filled when drawn); separate_at:
-    print-width factor at which 90 % of the cells become feelable (1 = they already are)."""
+    print-width factor at which 90 % of the cells become feelable (1 = they already are);
+    traced: False for lines too weak to be a network (find_lines' min_strength), whose regions
+    were not traced: no cells (cell_count 0, cells and merged all 0), separate_at 1."""
 
     skeleton: np.ndarray
     cells: np.ndarray
@@ -73,6 +75,7 @@ class Lines:
     merged: np.ndarray
     separate_at: float
     strength: float  # median ridge response on the skeleton over the response's noise (MAD)
+    traced: bool = True
 
 
 def ridge_response(bright01: np.ndarray, pitch_mm: float, method: str = "hessian") -> np.ndarray:
@@ -120,10 +123,11 @@ def hessian_ridges(image01: np.ndarray, pitch_mm: float, sigma_mm: float = RIDGE
 
 
 def find_lines(bright01: np.ndarray, *, pitch_mm: float, min_area_mm2: float = 6.0, method: str = "hessian",
-               response: np.ndarray | None = None, noise: float | None = None) -> Lines:
+               response: np.ndarray | None = None, noise: float | None = None, min_strength: float | None = None) -> Lines:
     """The line network of a 0..1 picture whose lines are bright (the working grid). `response`
     (the ridge response, from hessian_ridges) and `noise` (noise_level of the picture), when
-    given, are not computed again: the content style asks for both polarities of one picture."""
+    given, are not computed again: the content style asks for both polarities of one picture.
+    Lines weaker than `min_strength` (if given) are returned untraced (Lines.traced)."""
     image = bright01.astype(np.float32)
     if response is None:
         response = ridge_response(image, pitch_mm, method)
@@ -140,6 +144,12 @@ def find_lines(bright01: np.ndarray, *, pitch_mm: float, min_area_mm2: float = 6
     skeleton = brighter_than_both_sides(skeleton, image, pitch_mm)
     on = response[skeleton]
     strength = float((np.median(on) - med) / mad) if on.size else 0.0
+    if min_strength is not None and strength < min_strength:
+        # Too weak to be a network whatever regions it encloses: they are not traced.
+        nothing = np.zeros(skeleton.shape, np.int32)
+        cover = float(_dilate(skeleton, LINE_WIDTH_MM / 2 / pitch_mm).mean())
+        return Lines(skeleton, nothing, 0, float(skeleton.sum() * pitch_mm * 1.12), cover, nothing.astype(bool), 1.0, strength,
+                     traced=False)
     return network_of(skeleton, pitch_mm=pitch_mm, min_area_mm2=min_area_mm2, strength=strength)
 
 

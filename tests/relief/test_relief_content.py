@@ -94,6 +94,25 @@ def test_dark_line_network_becomes_raised_lines_on_a_flat_ground(invert):
     assert any("raised 1.0 mm over the areas they enclose" in check for check in made.checks)
 
 
+@pytest.mark.timeout(60)
+def test_lines_under_a_strength_floor_are_left_untraced_and_a_network_over_it_is_traced_in_full():
+    """find_lines' min_strength: a network stronger than the floor comes out as without it; the
+    same picture's lines under a floor above their strength keep their skeleton, strength and
+    length but enclose no regions (untraced), so no caller can take them for a network."""
+    from tamp_os.relief.lines import find_lines
+
+    truth = dark_line_network()
+    dark_lines = 1.0 - truth.image
+    full = find_lines(dark_lines, pitch_mm=pitch(truth.image))
+    assert full.traced and full.cell_count >= 10 and full.strength > 20
+    over = find_lines(dark_lines, pitch_mm=pitch(truth.image), min_strength=full.strength)
+    assert over.traced and np.array_equal(over.cells, full.cells) and over.separate_at == full.separate_at
+    under = find_lines(dark_lines, pitch_mm=pitch(truth.image), min_strength=full.strength + 1)
+    assert not under.traced and under.cell_count == 0 and not under.cells.any() and not under.merged.any()
+    assert np.array_equal(under.skeleton, full.skeleton) and under.strength == full.strength
+    assert under.length_mm == full.length_mm and under.cover == full.cover
+
+
 def _skeleton_length_mm(mask, mm):
     from skimage.morphology import skeletonize
 
@@ -335,6 +354,34 @@ def test_boundaries_under_a_print_pixel_wide_are_found_before_the_blur_and_raise
         where.setdefault(region, []).append(g)
     own = sum(len(v) for k, v in where.items() if k > 0 and len(v) == 1)
     assert own >= 0.7 * len(ids), (own, len(ids))
+
+
+@pytest.mark.timeout(60)
+def test_fine_lines_finds_the_same_network_whether_its_pieces_are_gathered_box_by_box_or_in_one_pass(monkeypatch):
+    """The kept pieces' pixels are gathered from their boxes when they are few (MANY_PIECES) and in
+    one pass over the fine grid otherwise: both give the same skeleton, regions and strength; a
+    floor on the strength leaves out only the polarities under it."""
+    from tamp_os.relief import lines as lines_module
+
+    truth = thin_boundary_grains()
+    prepared, _, _, mm = _fine_case(truth)
+    picture = prepared.finer(2 * prepared.image.shape[1])
+    fine_pitch_mm = 100.0 / (picture.shape[1] - 1)
+    kw = {"fine_pitch_mm": fine_pitch_mm, "work_shape": prepared.image.shape, "pitch_mm": mm, "min_area_mm2": 6.0}
+    by_box = lines_module.fine_lines(picture, **kw)
+    monkeypatch.setattr(lines_module, "MANY_PIECES", -1)
+    one_pass = lines_module.fine_lines(picture, **kw)
+    assert by_box[False].skeleton.sum() > 100  # the grains' dark boundaries are found
+    for bright in (True, False):
+        a, b = by_box[bright], one_pass[bright]
+        assert np.array_equal(a.skeleton, b.skeleton) and np.array_equal(a.cells, b.cells)
+        assert a.strength == b.strength and a.cell_count == b.cell_count
+    # A floor on the strength leaves out a weaker polarity and nothing else.
+    floor = by_box[False].strength
+    kept = lines_module.fine_lines(picture, **kw, min_strength=floor)
+    assert np.array_equal(kept[False].skeleton, by_box[False].skeleton)
+    assert set(kept) == {False} | ({True} if by_box[True].strength >= floor else set())
+    assert lines_module.fine_lines(picture, **kw, min_strength=floor + 1e-6).keys() <= {True}
 
 
 @pytest.mark.timeout(180)

@@ -11,7 +11,7 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 from scipy import ndimage
 
-from tamp_os.relief.dense import blob_scale
+from tamp_os.relief.dense import blob_scale, neighbourhood_max
 from tamp_os.relief.preprocess import prepare
 from tamp_os.relief.styles import make_relief
 from conftest import examples
@@ -130,3 +130,16 @@ def test_texture_fixtures_are_no_dense_field_at_any_width(fixture, name):
         made = make_relief(image, style="auto", mm_per_px=litho.layout.mm_per_px, base_mm=BASE, relief_mm=RELIEF,
                            uniform=litho.report.uniform)
         assert "dense field" not in made.reason, (width_mm, made.reason)
+
+
+@pytest.mark.timeout(60)
+@settings(max_examples=examples(40), deadline=None)
+@given(shape=st.tuples(st.integers(1, 4), st.integers(1, 9), st.integers(1, 9)), levels=st.integers(1, 5), seed=st.integers(0, 2**16))
+def test_neighbourhood_max_is_scipys_3x3x3_maximum_with_nothing_beyond_the_edges(shape, levels, seed):
+    """The same numbers as ndimage.maximum_filter (size 3, -inf outside) in 3-D and, in 2-D, as its
+    default 'reflect' mode and as minus the minimum filter of minus the picture; few levels make ties."""
+    values = np.random.default_rng(seed).integers(-levels, levels + 1, size=shape).astype(np.float32) / 3
+    assert np.array_equal(neighbourhood_max(values), ndimage.maximum_filter(values, size=3, mode="constant", cval=-np.inf))
+    plane = values[0]
+    assert np.array_equal(neighbourhood_max(plane), ndimage.maximum_filter(plane, 3))
+    assert np.array_equal(-neighbourhood_max(-plane), ndimage.minimum_filter(plane, 3))

@@ -270,9 +270,11 @@ def lattice_spectrum(work: np.ndarray, pitch_mm: float) -> Spectrum:
     share = float(power[near].sum() / total)
     # A second direction: the strongest peak at least LATTICE_ANGLE_DEG from the first (angles
     # modulo 180 degrees: the half-plane spectrum holds each direction once), within an octave.
-    turn = np.abs((grid.angle_deg - grid.angle_deg[at] + 90.0) % 180.0 - 90.0)
-    other = band & (turn >= LATTICE_ANGLE_DEG) & (freq >= 0.5 * freq[at]) & (freq <= 2.0 * freq[at])
-    two_way = bool(other.any()) and float(banded[other].max()) >= SECOND_PEAK * float(banded[at])
+    # The angles only within that octave band: the modulo over every bin was a third of this step.
+    octave = band & (freq >= 0.5 * freq[at]) & (freq <= 2.0 * freq[at])
+    turn = np.abs((grid.angle_deg[octave] - grid.angle_deg[at] + 90.0) % 180.0 - 90.0)
+    other = banded[octave][turn >= LATTICE_ANGLE_DEG]
+    two_way = bool(other.size) and float(other.max()) >= SECOND_PEAK * float(banded[at])
     period = Period(float(1.0 / freq[at]), share) if share >= 0.35 else None
     return Spectrum(period, peaked, two_way)
 
@@ -527,8 +529,11 @@ class _Finder:
     def lines(self, bright: bool) -> Lines:
         """Lines brighter than both sides in the picture (bright) or in its inverse."""
         if bright not in self._lines:
+            # Lines under NETWORK_STRENGTH are neither a network (_is_network) nor line art
+            # (_is_line_art), the only questions asked of them: their regions are not traced.
             self._lines[bright] = find_lines(self.picture(bright), pitch_mm=self.pitch_mm, min_area_mm2=self.min_area_mm2,
-                                             response=self.ridges()[0 if bright else 1], noise=self.noise)
+                                             response=self.ridges()[0 if bright else 1], noise=self.noise,
+                                             min_strength=NETWORK_STRENGTH)
         return self._lines[bright]
 
     def blobs(self, bright: bool) -> BlobScale | None:
@@ -563,7 +568,9 @@ def _fine_network(fine, shape: tuple[int, int], pitch_mm: float, width_mm: float
     if picture is None or picture.shape[1] < 2 * shape[1]:
         return None
     fine_pitch_mm = width_mm / (picture.shape[1] - 1)
-    found = fine_lines(picture, fine_pitch_mm=fine_pitch_mm, work_shape=shape, pitch_mm=pitch_mm, min_area_mm2=min_area_mm2)
+    # Lines weaker than FINE_STRENGTH are no fine network (_is_fine_network): not drawn at all.
+    found = fine_lines(picture, fine_pitch_mm=fine_pitch_mm, work_shape=shape, pitch_mm=pitch_mm, min_area_mm2=min_area_mm2,
+                       min_strength=FINE_STRENGTH)
     for bright, lines in found.items():
         log.debug("fine lines (%s, %.2f mm grid): %d regions, strength %.1f, cover %.2f", "bright" if bright else "dark",
                   fine_pitch_mm, lines.cell_count, lines.strength, lines.cover)

@@ -30,6 +30,7 @@ working grid: there they enclose 140-160 regions and stand +0.96 mm over them (b
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass
 
 import numpy as np
@@ -39,6 +40,8 @@ from skimage import filters, morphology
 from .objects import label_max, label_median
 from .population import label_percentile, noise_level
 from .scales import disk
+
+log = logging.getLogger(__name__)
 
 LINE_WIDTH_MM = 1.2  # raised line width on the print (1.0–1.5 mm is the tactile standard)
 LINE_HEIGHT_MM = 1.0  # raised line height (0.8–1.2 mm)
@@ -50,6 +53,7 @@ STEP_MARGIN = 0.02  # a line stands at least this far (0..1 of the range) above 
 FINE_PITCH_MM = 0.1  # lines too thin for the working grid are looked for on a grid this fine (or the source's, if coarser)
 FINE_SIGMA_MM = 0.1  # the Hessian's scale there: a grain boundary's own width
 FINE_LOW_MADS, FINE_HIGH_MADS = 4.0, 10.0  # the hysteresis threshold on the fine ridge response
+MANY_PIECES = 200  # more kept pieces than this: their pixels found in one pass over the picture, not box by box
 RIDGE_METHODS = ("hessian", "sato", "meijering", "tophat")
 
 
@@ -59,7 +63,9 @@ class Lines:
     the lines enclose (0 on the lines); cell_count: cells at least a fingertip's area;
     length_mm: total skeleton length; cover: share of the picture within half a line width of
     the skeleton; merged: bool mask of cells too narrow to feel (filled when drawn); separate_at:
-    print-width factor at which 90 % of the cells become feelable (1 = they already are)."""
+    print-width factor at which 90 % of the cells become feelable (1 = they already are);
+    traced: False for lines too weak to be a network (find_lines' min_strength), whose regions
+    were not traced: no cells (cell_count 0, cells and merged all 0), separate_at 1."""
 
     skeleton: np.ndarray
     cells: np.ndarray
@@ -69,6 +75,7 @@ class Lines:
     merged: np.ndarray
     separate_at: float
     strength: float  # median ridge response on the skeleton over the response's noise (MAD)
+    traced: bool = True
 
 
 def ridge_response(bright01: np.ndarray, pitch_mm: float, method: str = "hessian") -> np.ndarray:
@@ -97,17 +104,30 @@ def hessian_ridges(image01: np.ndarray, pitch_mm: float, sigma_mm: float = RIDGE
     hyy = ndimage.gaussian_filter(img, sigma, order=(2, 0), mode="reflect")
     hxx = ndimage.gaussian_filter(img, sigma, order=(0, 2), mode="reflect")
     hxy = ndimage.gaussian_filter(img, sigma, order=(1, 1), mode="reflect")
-    mean = (hyy + hxx) / 2
-    root = np.sqrt(((hyy - hxx) / 2) ** 2 + hxy * hxy)
+    # In place, each step the same float32 operation as written out: (hyy + hxx) / 2 for the mean,
+    # sqrt(((hyy - hxx) / 2) ** 2 + hxy * hxy) for the root (fewer fresh arrays on a fine grid).
+    mean = hyy + hxx
+    mean /= 2
+    hyy -= hxx
+    hyy /= 2
+    root = np.square(hyy, out=hyy)
+    root += np.square(hxy, out=hxy)
+    np.sqrt(root, out=root)
     scale = np.float32(sigma * sigma)
-    return np.maximum(root - mean, 0.0) * scale, np.maximum(mean + root, 0.0) * scale
+    bright = np.maximum(root - mean, 0.0)
+    bright *= scale
+    mean += root
+    dark = np.maximum(mean, 0.0, out=mean)
+    dark *= scale
+    return bright, dark
 
 
 def find_lines(bright01: np.ndarray, *, pitch_mm: float, min_area_mm2: float = 6.0, method: str = "hessian",
-               response: np.ndarray | None = None, noise: float | None = None) -> Lines:
+               response: np.ndarray | None = None, noise: float | None = None, min_strength: float | None = None) -> Lines:
     """The line network of a 0..1 picture whose lines are bright (the working grid). `response`
     (the ridge response, from hessian_ridges) and `noise` (noise_level of the picture), when
-    given, are not computed again: the content style asks for both polarities of one picture."""
+    given, are not computed again: the content style asks for both polarities of one picture.
+    Lines weaker than `min_strength` (if given) are returned untraced (Lines.traced)."""
     image = bright01.astype(np.float32)
     if response is None:
         response = ridge_response(image, pitch_mm, method)
@@ -124,6 +144,12 @@ def find_lines(bright01: np.ndarray, *, pitch_mm: float, min_area_mm2: float = 6
     skeleton = brighter_than_both_sides(skeleton, image, pitch_mm)
     on = response[skeleton]
     strength = float((np.median(on) - med) / mad) if on.size else 0.0
+    if min_strength is not None and strength < min_strength:
+        # Too weak to be a network whatever regions it encloses: they are not traced.
+        nothing = np.zeros(skeleton.shape, np.int32)
+        cover = float(_dilate(skeleton, LINE_WIDTH_MM / 2 / pitch_mm).mean())
+        return Lines(skeleton, nothing, 0, float(skeleton.sum() * pitch_mm * 1.12), cover, nothing.astype(bool), 1.0, strength,
+                     traced=False)
     return network_of(skeleton, pitch_mm=pitch_mm, min_area_mm2=min_area_mm2, strength=strength)
 
 
@@ -156,10 +182,11 @@ def network_of(skeleton: np.ndarray, *, pitch_mm: float, min_area_mm2: float, st
 
 
 def fine_lines(fine01: np.ndarray, *, fine_pitch_mm: float, work_shape: tuple[int, int], pitch_mm: float,
-               min_area_mm2: float) -> dict[bool, Lines]:
+               min_area_mm2: float, min_strength: float | None = None) -> dict[bool, Lines]:
     """Line networks found on a grid finer than the working grid (the source before the print
     grid's resampling and blur, which fade lines under a print pixel wide: the Al2O3 grain
-    boundaries), drawn on the working grid; {True: bright lines, False: dark lines}.
+    boundaries), drawn on the working grid; {True: bright lines, False: dark lines}. With
+    `min_strength`, a polarity whose lines are weaker than that is left out (not drawn at all).
 
     The one-scale Hessian at FINE_SIGMA_MM (a boundary's own width), a hysteresis threshold in
     robust deviations of the response (FINE_LOW_MADS to FINE_HIGH_MADS: a line's faint stretches
@@ -167,33 +194,61 @@ def fine_lines(fine01: np.ndarray, *, fine_pitch_mm: float, work_shape: tuple[in
     fine pixel marks the working-grid pixel it falls in, and that mask is thinned to the skeleton
     the print draws LINE_WIDTH_MM wide."""
     ridges = hessian_ridges(fine01, fine_pitch_mm, FINE_SIGMA_MM)
-    rows, cols = fine01.shape
     out = {}
     for bright, response in ((True, ridges[0]), (False, ridges[1])):
-        sample = response[::4, ::4]  # the median and deviation of a sixteenth: the same to 1 %, a fifth of the time
-        med = float(np.median(sample))
-        mad = float(np.median(np.abs(sample - med))) * 1.4826 + 1e-9
-        # Hysteresis in one labelling: pieces above the low threshold that reach the high one
-        # somewhere and span at least MIN_PIECE_MM (the larger side of their box stands for length).
-        low = response > med + FINE_LOW_MADS * mad
-        parts, n = ndimage.label(low, structure=np.ones((3, 3)))
-        mask = low
-        if n:
-            peak = label_max(np.where(low, response, 0).astype(np.float32), parts, n)
-            boxes = ndimage.find_objects(parts)
-            extent = np.array([0] + [max(b[0].stop - b[0].start, b[1].stop - b[1].start) for b in boxes])
-            keep = (extent >= MIN_PIECE_MM / fine_pitch_mm) & (peak >= med + FINE_HIGH_MADS * mad)
-            keep[0] = False
-            mask = keep[parts]
-        on = response[mask]
-        strength = float((np.median(on) - med) / mad) if on.size else 0.0
-        fy, fx = np.nonzero(mask)
+        fy, fx, strength = _fine_pieces(response, fine_pitch_mm)
+        if min_strength is not None and strength < min_strength:
+            log.debug("fine lines (%s): strength %.1f under %.1f, not drawn", "bright" if bright else "dark", strength, min_strength)
+            continue
+        rows, cols = response.shape
         coarse = np.zeros(work_shape, bool)
         coarse[np.rint(fy * ((work_shape[0] - 1) / max(rows - 1, 1))).astype(np.intp),
                np.rint(fx * ((work_shape[1] - 1) / max(cols - 1, 1))).astype(np.intp)] = True
         skeleton = _drop_short(morphology.skeletonize(coarse), MIN_PIECE_MM / pitch_mm)
         out[bright] = network_of(skeleton, pitch_mm=pitch_mm, min_area_mm2=min_area_mm2, strength=strength)
     return out
+
+
+def _fine_pieces(response: np.ndarray, fine_pitch_mm: float) -> tuple[np.ndarray, np.ndarray, float]:
+    """Rows and columns of the fine grid's line pixels after the hysteresis threshold, and their
+    median response in robust deviations over the grid's (the lines' strength)."""
+    sample = response[::4, ::4]  # the median and deviation of a sixteenth: the same to 1 %, a fifth of the time
+    med = float(np.median(sample))
+    mad = float(np.median(np.abs(sample - med))) * 1.4826 + 1e-9
+    # Hysteresis in one labelling: pieces above the low threshold that reach the high one
+    # somewhere and span at least MIN_PIECE_MM (the larger side of their box stands for length).
+    low = response > med + FINE_LOW_MADS * mad
+    parts, n = ndimage.label(low, structure=np.ones((3, 3)))
+    high = low & (response >= np.float64(med + FINE_HIGH_MADS * mad))
+    fy, fx = _long_and_strong(parts, n, high, MIN_PIECE_MM / fine_pitch_mm)
+    on = response[fy, fx]  # in the pieces' order, not the picture's: the same median
+    strength = float((np.median(on) - med) / mad) if on.size else 0.0
+    return fy, fx, strength
+
+
+def _long_and_strong(parts: np.ndarray, n: int, high: np.ndarray, min_extent_px: float) -> tuple[np.ndarray, np.ndarray]:
+    """Rows and columns of the pixels of the labelled pieces 1..n that hold a `high` pixel and
+    whose box's larger side is at least `min_extent_px`. A piece's peak reaches the high threshold
+    exactly when one of its pixels does (compared in float64, as its float64 maximum would be), so
+    the labels are marked from the high pixels, and only those few boxes are measured and searched
+    for their pixels (a tenth of the pieces; the picture is not scanned again)."""
+    keep = np.zeros(n + 1, bool)
+    keep[parts[high]] = True
+    keep[0] = False
+    boxes = ndimage.find_objects(parts)
+    for label in np.flatnonzero(keep):
+        box = boxes[label - 1]
+        keep[label] = max(box[0].stop - box[0].start, box[1].stop - box[1].start) >= min_extent_px
+    kept = np.flatnonzero(keep)
+    if len(kept) > MANY_PIECES:
+        return np.nonzero(keep[parts])
+    rows, cols = [np.zeros(0, np.intp)], [np.zeros(0, np.intp)]
+    for label in kept:
+        box = boxes[label - 1]
+        y, x = np.nonzero(parts[box] == label)
+        rows.append(y + box[0].start)
+        cols.append(x + box[1].start)
+    return np.concatenate(rows), np.concatenate(cols)
 
 
 def draw_lines(lines: Lines, pitch_mm: float) -> np.ndarray:
@@ -214,8 +269,10 @@ def brighter_than_both_sides(skeleton: np.ndarray, image: np.ndarray, pitch_mm: 
     if n == 0:
         return skeleton
     dist, (iy, ix) = ndimage.distance_transform_edt(~skeleton, return_indices=True)
-    band = (dist * pitch_mm >= 0.8) & (dist * pitch_mm <= 1.6)
-    owner = np.where(band, parts[iy, ix], 0)
+    dist_mm = dist * pitch_mm
+    band = (dist_mm >= 0.8) & (dist_mm <= 1.6)
+    owner = np.zeros_like(parts)
+    owner[band] = parts[iy[band], ix[band]]  # the nearest piece looked up in the band only
     on = label_median(image, parts, n)
     side = label_percentile(image, owner, n, pct=80)
     keep = np.concatenate([[False], ~(side >= on - STEP_MARGIN)])  # NaN side (no band): keep

@@ -170,3 +170,25 @@ def test_convex_fill_fills_as_the_loop_over_hulls_did(rows, cols, n, seed):
             window = expected[box]
             window[hull & (window == 0)] = k
     np.testing.assert_array_equal(objects._convex_fill(labels), expected)
+
+
+@pytest.mark.timeout(60)
+def test_expanded_labels_where_is_skimages_expand_labels():
+    """expanded_labels_where gives np.where(where, expand_labels(...), 0): random labels of
+    every density, distances at and between integer square roots, none labelled."""
+    from tamp_os.relief.objects import expanded_labels_where, float_sqrt_bound
+
+    rng = np.random.default_rng(11)
+    for shape in [(1, 12), (12, 1), (9, 14), (40, 33)]:
+        for density in (0.0, 0.01, 0.1, 0.5):
+            labels = np.where(rng.random(shape) < density, rng.integers(1, 6, shape), 0).astype(np.int32)
+            where = rng.random(shape) < 0.7
+            for distance in (0.0, 1.0, 1.5, 2.0, np.sqrt(5.0), 3.999, 4.0, 8.968):
+                expected = np.where(where, segmentation.expand_labels(labels, distance=distance), 0)
+                got = expanded_labels_where(labels, distance, where)
+                assert got.dtype == labels.dtype
+                np.testing.assert_array_equal(got, expected, err_msg=f"{shape} {density} {distance}")
+    for distance in (0.0, 0.5, 1.0, np.sqrt(2.0), np.nextafter(np.sqrt(2.0), 0), 7.3, 100.0):
+        bound = float_sqrt_bound(distance)
+        assert np.sqrt(float(bound)) <= distance < np.sqrt(float(bound + 1))
+    assert float_sqrt_bound(-1.0) == -1

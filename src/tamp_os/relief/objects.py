@@ -119,8 +119,41 @@ def _enclosed_by_edges(smooth, grad, pitch_mm, nozzle_mm, min_px, blur_ratio=1.0
     labels = _keep(labels, min_px, filled.size)
     # Give each object back its rim: the edge band around it, never another region's inside.
     # (A blurrier picture has edge bands blur_ratio times wider: its rims are given back as wide.)
-    grown = segmentation.expand_labels(labels, distance=8 * nozzle_mm / pitch_mm * blur_ratio + 1)
-    return _convex_fill(np.where((labels > 0) | (closed & filled), grown, 0))
+    reach_px = 8 * nozzle_mm / pitch_mm * blur_ratio + 1
+    return _convex_fill(expanded_labels_where(labels, reach_px, (labels > 0) | (closed & filled)))
+
+
+def expanded_labels_where(labels: np.ndarray, distance_px: float, where: np.ndarray) -> np.ndarray:
+    """np.where(where, segmentation.expand_labels(labels, distance=distance_px), 0) of (rows,
+    cols) labels, looked up at the `where` pixels only. The same nearest label pixels (one
+    feature transform); the distance test on the integer squared distance, against the largest
+    integer whose float square root is within distance_px: what the float distances
+    expand_labels compares (square roots of exact sums of integer squares) say, without them."""
+    iy, ix = ndimage.distance_transform_edt(labels == 0, return_distances=False, return_indices=True)
+    h, w = labels.shape
+    dy = iy - np.arange(h, dtype=iy.dtype)[:, None]
+    dx = ix - np.arange(w, dtype=ix.dtype)
+    dy *= dy
+    dx *= dx
+    dy += dx
+    near = dy <= float_sqrt_bound(distance_px)
+    near &= where
+    iy *= w
+    iy += ix  # each pixel's nearest label pixel, as a flat index
+    return np.where(near, labels.ravel().take(iy), 0).astype(labels.dtype, copy=False)
+
+
+def float_sqrt_bound(distance: float) -> int:
+    """The largest integer n (or -1) with np.sqrt(float(n)) <= distance: integers n with
+    sqrt(n) <= distance in float64 are exactly those up to it (the float square root is monotone)."""
+    if not distance >= 0:
+        return -1
+    n = int(distance * distance)
+    while np.sqrt(np.float64(n + 1)) <= distance:
+        n += 1
+    while n >= 0 and not np.sqrt(np.float64(n)) <= distance:
+        n -= 1
+    return n
 
 
 def _enclosed_parts(regions: np.ndarray, ground: int, closed: np.ndarray, pitch_mm: float) -> np.ndarray:

@@ -244,21 +244,40 @@ def _dilate(mask: np.ndarray, radius_px: float, outside: bool = False) -> np.nda
     """Binary dilation of a (rows, cols) bool mask by `disk(radius_px)`; pixels outside the
     picture count as `outside`.
 
-    The disk is taken row by row: a 1-D running maximum along each row for each of its
-    half-widths, shifted up or down and combined. scipy's 2-D binary morphology visits every
-    disk pixel for every image pixel; this gives the same pixels 2-3x faster at r = 2-4.
+    The disk is taken row by row: a 1-D run along each row for each of its widths (row_runs),
+    shifted up or down and combined. scipy's 2-D binary morphology visits every disk pixel for
+    every image pixel; this gives the same pixels 2-3x faster at r = 2-4.
     """
     footprint = disk(radius_px)
     r = footprint.shape[0] // 2
     rows, cols = mask.shape
-    padded = np.pad(mask, r, constant_values=outside).view(np.uint8)
+    padded = np.pad(mask, r, constant_values=outside)
     out = np.zeros(mask.shape, bool)
-    runs: dict[int, np.ndarray] = {}
-    for dy, width in enumerate(footprint.sum(axis=1)):
-        if width not in runs:
-            runs[width] = ndimage.maximum_filter1d(padded, int(width), axis=1, mode="constant", cval=int(outside))
-        out |= runs[width][dy : dy + rows, r : r + cols].view(bool)
+    widths = [int(width) for width in footprint.sum(axis=1)]
+    runs = row_runs(padded, set(widths))
+    for dy, width in enumerate(widths):
+        # run[:, j] covers padded columns j .. j + width - 1: centred (as maximum_filter1d's
+        # window) on column j + width // 2; the pad (r >= width // 2) keeps every window inside
+        out |= runs[width][dy : dy + rows, r - width // 2 : r - width // 2 + cols]
     return out
+
+
+def row_runs(mask: np.ndarray, widths: set[int]) -> dict[int, np.ndarray]:
+    """Per width w: (rows, cols - w + 1) bool, whether any of mask[:, j : j + w] is set. Runs
+    of powers of two by doubling, a run of w as two overlapping runs of the largest power of
+    two within it: a few whole-array ORs, where maximum_filter1d copies every row to a float
+    buffer (the same pixels, 3-5x sooner on the objects' grid)."""
+    powers = {1: mask}
+    k = 1
+    while 2 * k <= max(widths):
+        powers[2 * k] = powers[k][:, :-k] | powers[k][:, k:]
+        k *= 2
+    runs = {}
+    for w in widths:
+        m = 1 << (w.bit_length() - 1)  # the largest power of two <= w
+        run = powers[m]
+        runs[w] = run[:, : run.shape[1] - (w - m)] | run[:, w - m :]
+    return runs
 
 
 def _erode(mask: np.ndarray, radius_px: float) -> np.ndarray:

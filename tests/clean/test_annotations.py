@@ -84,6 +84,35 @@ def test_filled_holes_is_scipys_fill_of_holes():
     np.testing.assert_array_equal(filled_holes(ring), np.ones((5, 5), bool))
 
 
+@pytest.mark.timeout(60)
+def test_saturated_parts_are_the_whole_pictures_labels():
+    """saturated_parts labels only the box around the True pixels: each part has the number,
+    the extent and the pixels the whole picture's labelling gives it (sparse and dense masks,
+    masks in a corner, a single pixel, none)."""
+    from scipy import ndimage
+
+    from tamp_os.clean.annotations import saturated_parts
+
+    rng = np.random.default_rng(7)
+    masks = []
+    for shape in [(1, 9), (9, 1), (7, 11), (40, 60)]:
+        for density in (0.0, 0.02, 0.3, 0.7, 1.0):
+            masks.append(rng.random(shape) < density)
+            corner = np.zeros(shape, bool)
+            corner[shape[0] // 2 :, shape[1] // 2 :] = rng.random((shape[0] - shape[0] // 2, shape[1] - shape[1] // 2)) < density
+            masks.append(corner)
+    one = np.zeros((6, 8), bool)
+    one[3, 5] = True
+    masks.append(one)
+    for saturated in masks:
+        whole, n = ndimage.label(saturated)
+        labels, parts = saturated_parts(saturated)
+        assert len(parts) == n
+        for i, ((sl, own), expected) in enumerate(zip(parts, ndimage.find_objects(whole)), start=1):
+            assert sl == expected
+            np.testing.assert_array_equal(labels[own] == i, whole[sl] == i)
+
+
 def _label_box(values, top, left, *, rows=24, cols=70, text_value=0.0):
     """A white label box with dark glyph strokes inside and two letters beside it, in place."""
     values[top : top + rows, left : left + cols] = 1.0

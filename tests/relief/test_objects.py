@@ -170,3 +170,59 @@ def test_convex_fill_fills_as_the_loop_over_hulls_did(rows, cols, n, seed):
             window = expected[box]
             window[hull & (window == 0)] = k
     np.testing.assert_array_equal(objects._convex_fill(labels), expected)
+
+
+@pytest.mark.timeout(60)
+def test_expanded_labels_where_is_skimages_expand_labels():
+    """expanded_labels_where gives np.where(where, expand_labels(...), 0): random labels of
+    every density, distances at and between integer square roots, none labelled."""
+    from tamp_os.relief.objects import expanded_labels_where, float_sqrt_bound
+
+    rng = np.random.default_rng(11)
+    for shape in [(1, 12), (12, 1), (9, 14), (40, 33)]:
+        for density in (0.0, 0.01, 0.1, 0.5):
+            labels = np.where(rng.random(shape) < density, rng.integers(1, 6, shape), 0).astype(np.int32)
+            where = rng.random(shape) < 0.7
+            for distance in (0.0, 1.0, 1.5, 2.0, np.sqrt(5.0), 3.999, 4.0, 8.968):
+                expected = np.where(where, segmentation.expand_labels(labels, distance=distance), 0)
+                got = expanded_labels_where(labels, distance, where)
+                assert got.dtype == labels.dtype
+                np.testing.assert_array_equal(got, expected, err_msg=f"{shape} {density} {distance}")
+    for distance in (0.0, 0.5, 1.0, np.sqrt(2.0), np.nextafter(np.sqrt(2.0), 0), 7.3, 100.0):
+        bound = float_sqrt_bound(distance)
+        assert np.sqrt(float(bound)) <= distance < np.sqrt(float(bound + 1))
+    assert float_sqrt_bound(-1.0) == -1
+
+
+@pytest.mark.timeout(60)
+def test_dilate_and_erode_are_scipys_by_a_disk():
+    """objects.py's disk dilation and erosion (row runs of every width from doubled runs) give
+    scipy's binary_dilation and binary_erosion by scales.disk, the picture's outside empty
+    (or full for a dilation told so), at radii with odd, even and power-of-two row widths."""
+    from tamp_os.relief import objects
+    from tamp_os.relief.scales import disk
+
+    rng = np.random.default_rng(5)
+    for shape in [(1, 1), (1, 17), (17, 1), (13, 19), (50, 41)]:
+        for density in (0.0, 0.03, 0.3, 0.9, 1.0):
+            mask = rng.random(shape) < density
+            for radius in (1.0, 1.5, 2.0, 3.2, 4.0, 5.5, 8.0, 12.0):
+                foot = disk(radius)
+                for outside in (False, True):
+                    expected = ndimage.binary_dilation(mask, foot, border_value=0) if not outside else \
+                        ~ndimage.binary_erosion(~mask, foot, border_value=0)
+                    np.testing.assert_array_equal(objects._dilate(mask, radius, outside), expected, err_msg=f"{shape} {density} {radius} {outside}")
+                np.testing.assert_array_equal(objects._erode(mask, radius), ndimage.binary_erosion(mask, foot, border_value=0))
+
+
+@pytest.mark.timeout(60)
+def test_row_runs_are_maxima_over_windows():
+    """row_runs: each window of every width from 1 to the row's length, set where any pixel is."""
+    from tamp_os.relief.objects import row_runs
+
+    rng = np.random.default_rng(6)
+    mask = rng.random((7, 23)) < 0.15
+    runs = row_runs(mask, set(range(1, 24)))
+    for w, run in runs.items():
+        expected = np.array([[mask[i, j : j + w].any() for j in range(23 - w + 1)] for i in range(7)]).reshape(7, 23 - w + 1)
+        np.testing.assert_array_equal(run, expected, err_msg=str(w))

@@ -162,3 +162,18 @@ def test_one_pixel_strokes_in_a_large_picture_are_found_though_the_noise_is_meas
     assert low < 0.2
     assert image[100:-100, columns].max() <= 0.05
     assert np.percentile(np.delete(image, columns, axis=1), 0.1) >= 0.8
+
+
+def test_stretch_of_unknown_or_infinite_pixels_matches_the_masked_way():
+    # The quick all-finite check must send every picture holding a NaN or an infinity down the
+    # masked way: the same picture with an all-opaque alpha always takes it.
+    rng = np.random.default_rng(11)
+    for bad in (np.nan, np.inf, -np.inf, None):
+        for dtype in (np.float32, np.float64):
+            values = rng.gamma(2.0, 20.0, (60, 80)).astype(dtype)
+            if bad is not None:
+                values[rng.random(values.shape) < 0.02] = bad
+            quick = stretch(values, None, 1.0, high_pct=99.0)
+            masked = stretch(values, np.ones(values.shape, np.float32), 1.0, high_pct=99.0)
+            assert quick[1:] == masked[1:]
+            assert np.array_equal(quick[0], masked[0])

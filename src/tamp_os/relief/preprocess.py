@@ -93,6 +93,13 @@ def _distinct_tails(values, usable, sample, low_pct, high_pct, low, high, quarti
     return low, high
 
 
+def _all_finite(values: np.ndarray) -> bool:
+    """Whether every value is finite: min and max propagate NaN, and with no NaN an infinity is
+    one of them. Two reductions in the values' own type, not a float64 sum (a converted copy of
+    every pixel)."""
+    return values.size == 0 or bool(np.isfinite(values.min()) and np.isfinite(values.max()))
+
+
 def stretch(values: np.ndarray, alpha: np.ndarray | None, low_pct: float, *, high_pct: float):
     """Map the low..high percentiles of the opaque, finite source pixels to 0..1 (clipped).
 
@@ -107,7 +114,7 @@ def stretch(values: np.ndarray, alpha: np.ndarray | None, low_pct: float, *, hig
     Returns (normalized float32 image with unknown pixels at 0, (low, high) source values,
     uniform flag). A uniform image (low == high) is all zeros: a flat plate.
     """
-    clean = alpha is None and np.isfinite(values.sum(dtype=np.float64))
+    clean = alpha is None and _all_finite(values)
     usable = None
     if clean:
         sample = values.ravel()  # all finite and opaque: no masked copy needed

@@ -100,3 +100,12 @@ def test_noisy_texture_gets_low_and_clean_edges_do_not():
 def test_uniform_picture_gets_low():
     s = suggest_by_touch(np.full((50, 50), 513, np.uint16), None, width_mm=100, nozzle_mm=0.4)
     assert s.preset == "low" and "uniform" in s.reason
+
+
+def test_relief_span_is_the_former_two_percentiles_difference():
+    rng = np.random.default_rng(5)
+    for _ in range(20):
+        rows, cols = rng.integers(8, 60, 2)
+        h = 1.0 + rng.gamma(rng.uniform(0.2, 3.0), 1.0, (rows, cols)) * rng.uniform(0.1, 5.0)
+        got = assess(h, 0.4).relief_span_mm
+        assert got == float(np.percentile(h, 99) - np.percentile(h, 1))

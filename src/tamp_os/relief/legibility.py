@@ -107,7 +107,8 @@ def assess(
     grid = WorkGrid.plan(h.shape, mm_per_px, nozzle_mm / 4)  # narrow features need nozzle/4
     work = grid.down(h).astype(np.float64)
     pitch = grid.pitch_mm
-    span = float(np.percentile(h, 99) - np.percentile(h, 1))
+    low, high = np.percentile(h, [1, 99])  # one copy and partition for both: the same order statistics
+    span = float(high - low)
     quantum = max(layer_mm or 0.1, 1e-3)
     fine = _fine_share(h, mm_per_px)
     levels, step = _levels_and_step(h, quantum, max(1, int(min_area_mm2 / mm_per_px**2)))

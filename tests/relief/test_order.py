@@ -75,3 +75,14 @@ def test_float32_keys_sort_as_the_values_and_give_them_back():
     back = float32_values(keys)
     np.testing.assert_array_equal(back.view(np.uint32), (values + np.float32(0.0)).view(np.uint32))
     assert float32_keys(np.array([1.0, np.nan], np.float32)) is None
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.tuples(st.integers(0, 2**32 - 1), st.integers(0, 2**32 - 1)), max_size=60))
+def test_sorted_pairs_are_lexsorts_order(pairs):
+    high = np.array([h for h, _ in pairs], np.uint32)
+    low = np.array([lo for _, lo in pairs], np.uint32)
+    order_ = np.lexsort((low, high))
+    got_high, got_low = order.sorted_pairs(high, low)
+    np.testing.assert_array_equal(got_high, high[order_])
+    np.testing.assert_array_equal(got_low, low[order_])

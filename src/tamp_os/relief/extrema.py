@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .order import float32_keys
+from .order import float32_keys, sorted_pairs
 
 
 def h_maxima(image: np.ndarray, h: float) -> np.ndarray:
@@ -89,11 +89,5 @@ def _ascending(flat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         ascending = np.argsort(flat)
         ordered = flat[ascending]
         return ascending, ordered[:-1] != ordered[1:]
-    key = bits.astype(np.uint64)
-    key <<= np.uint64(32)
-    key |= np.arange(flat.size, dtype=np.uint64)
-    key.sort()
-    halves = key.view(np.uint32)  # little-endian: the index, then the value, of each key
-    value = halves[1::2] if np.little_endian else halves[::2]
-    index = halves[::2] if np.little_endian else halves[1::2]
+    value, index = sorted_pairs(bits, np.arange(flat.size, dtype=np.uint32))
     return index.astype(np.intp), value[:-1] != value[1:]

@@ -19,7 +19,7 @@ from skimage import filters, segmentation
 
 from ..clean.annotations import filled_holes
 from .extrema import h_maxima
-from .order import SIGN_BIT, float32_keys, float32_values
+from .order import SIGN_BIT, float32_keys, float32_values, sorted_pairs
 from .hull import hull_rows, solid_enough
 from .scales import disk, gaussian_mm
 
@@ -600,12 +600,7 @@ def _sorted_float32(val: np.ndarray, lab: np.ndarray, n: int) -> np.ndarray | No
     bits = float32_keys(val)
     if bits is None:
         return None
-    key = lab.astype(np.uint64)
-    key <<= np.uint64(32)
-    key |= bits
-    key.sort()
-    halves = key.view(np.uint32)  # little-endian: the value, then the label, of each key
-    return float32_values(halves[::2] if np.little_endian else halves[1::2])
+    return float32_values(sorted_pairs(lab.astype(np.uint32), bits)[1])
 
 
 def dome_profile(labels: np.ndarray, *, pitch_mm: float, round_mm: float, pin_aspect: float | None = None,

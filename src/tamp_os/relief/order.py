@@ -85,6 +85,18 @@ def float32_keys(values: np.ndarray) -> np.ndarray | None:
     return np.where(bits >= SIGN_BIT, ~bits, bits | np.uint32(SIGN_BIT))
 
 
+def sorted_pairs(high: np.ndarray, low: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The (high, low) uint32 pairs sorted by high, then low, as two uint32 arrays: one sort of
+    64-bit keys (high above low; NumPy's SIMD sort, several times faster than an argsort or a
+    lexsort of the two)."""
+    key = high.astype(np.uint64)
+    key <<= np.uint64(32)
+    key |= low
+    key.sort()
+    halves = key.view(np.uint32)  # each key's two halves, in the machine's byte order
+    return (halves[1::2], halves[::2]) if np.little_endian else (halves[::2], halves[1::2])
+
+
 def float32_values(keys: np.ndarray) -> np.ndarray:
     """The float32 values of float32_keys (uint32)."""
     keys = keys.astype(np.uint32, copy=False)

@@ -20,6 +20,7 @@ import numpy as np
 from scipy import ndimage
 from skimage import segmentation
 
+from ..clean.annotations import ground_parts
 from .hull import solid_enough
 from .extrema import h_maxima
 from .objects import InsideDistance, dense_ranks, grown_marks, label_max, label_median, sequential_labels, sorted_by_label, sparse_h_maxima
@@ -478,12 +479,9 @@ def _holes(labels: np.ndarray) -> tuple[np.ndarray, int]:
     """The holes of the members (ground not reached from the picture's border through ground,
     4-connected, as ndimage.binary_fill_holes): labelled (any numbering), and their count. One
     labelling of the ground, not a fill by repeated dilation and a labelling."""
-    ground, n = ndimage.label(labels == 0)
-    if n == 0:
+    ground, open_ = ground_parts(labels == 0)
+    if open_.size == 1:
         return ground, 0
-    open_ = np.zeros(n + 1, bool)
-    for edge in (ground[0], ground[-1], ground[:, 0], ground[:, -1]):
-        open_[edge] = True
     open_[0] = True
     if open_.all():
         return np.zeros_like(ground), 0

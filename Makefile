@@ -8,8 +8,10 @@ demo: setup
 	.venv/bin/python scripts/demo.py demo-output
 
 # Two workers (the machine's two cores); a file's tests stay on one worker, so its module-scoped
-# set-ups (a server, a browser, a conversion) are made once.
-PARALLEL ?= -n 2 --dist loadfile
+# set-ups (a server, a browser, a conversion) are made once. A worker that crashes ends the run at
+# once, naming the test it ran: pytest-xdist 3.8 can wait forever for a replacement worker under
+# --dist loadfile (pytest-xdist issue 1323).
+PARALLEL ?= -n 2 --dist loadfile --max-worker-restart 0
 
 test: setup
 	.venv/bin/python -m pytest $(PARALLEL) $(PYTEST_ARGS)

@@ -1,5 +1,8 @@
+import ctypes
 import os
 import shutil
+import signal
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -149,3 +152,39 @@ def _locale_kept():
     yield
     if locale.setlocale(locale.LC_ALL) != saved:
         locale.setlocale(locale.LC_ALL, saved)
+
+
+# Signals whose handling a library must not change in a test worker: Python ignores SIGPIPE (a
+# write to a closed pipe or socket is then an error, not the end of the process) and the fault
+# handler prints a traceback on the others. gmsh.initialize() once reset all of these from C:
+# later a write to a closed socket ended the worker silently, and pytest-xdist waited forever.
+WATCHED_SIGNALS = ("SIGPIPE", "SIGSEGV", "SIGFPE", "SIGBUS", "SIGILL", "SIGABRT")
+
+
+class _SigAction(ctypes.Structure):  # Linux's struct sigaction: the handler comes first
+    _fields_ = [("handler", ctypes.c_void_p), ("mask", ctypes.c_ulong * 16), ("flags", ctypes.c_int),
+                ("restorer", ctypes.c_void_p)]
+
+
+def _sigactions() -> dict[str, _SigAction]:
+    """The process's own (C-level) handlers: signal.getsignal only knows what Python set."""
+    libc, actions = ctypes.CDLL(None, use_errno=True), {}
+    for name in WATCHED_SIGNALS:
+        actions[name] = _SigAction()
+        libc.sigaction(getattr(signal, name), None, ctypes.byref(actions[name]))
+    return actions
+
+
+@pytest.fixture(autouse=True)
+def _signals_kept():
+    """A test that leaves the worker's signal handling changed fails, and the handlers are put back."""
+    if not sys.platform.startswith("linux"):
+        yield
+        return
+    before = _sigactions()
+    yield
+    changed = [name for name, action in _sigactions().items() if action.handler != before[name].handler]
+    libc = ctypes.CDLL(None, use_errno=True)
+    for name in changed:
+        libc.sigaction(getattr(signal, name), ctypes.byref(before[name]), None)
+    assert not changed, f"the test changed this process's handling of {', '.join(changed)} (a library reset it from C); run that library in a child process"

@@ -1,6 +1,8 @@
 """STEP export read back by OpenCASCADE (through the gmsh wheel) as one closed solid."""
 
-import locale
+import json
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -13,22 +15,30 @@ from tamp_os.mesh.solid import grid_solid
 from conftest import need_module
 
 
+# The reading runs in a child process: gmsh.initialize() resets the process's SIGSEGV, SIGFPE,
+# SIGBUS and SIGINT handlers to the defaults (Python's fault handler among them) and switches the
+# locale to "C", so in the test worker a later crash of any test would end it without a traceback.
+READ_STEP = """
+import json, sys
+import gmsh
+gmsh.initialize(["-noenv"])
+gmsh.option.setNumber("General.Terminal", 0)
+tags = gmsh.model.occ.importShapes(sys.argv[1])
+gmsh.model.occ.synchronize()
+solids = [t for d, t in tags if d == 3]
+volumes = [gmsh.model.occ.getMass(3, t) for t in solids]
+bbox = list(gmsh.model.getBoundingBox(3, solids[0])) if solids else None
+print(json.dumps([volumes, bbox, len(gmsh.model.getEntities(2))]))
+gmsh.finalize()
+"""
+
+
 def occ_solids(path):
-    gmsh = need_module("gmsh")
-    saved = locale.setlocale(locale.LC_ALL)  # gmsh switches the process to the "C" locale
-    gmsh.initialize(["-noenv"])
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        tags = gmsh.model.occ.importShapes(str(path))
-        gmsh.model.occ.synchronize()
-        solids = [t for d, t in tags if d == 3]
-        volumes = [gmsh.model.occ.getMass(3, t) for t in solids]
-        bbox = gmsh.model.getBoundingBox(3, solids[0]) if solids else None
-        n_faces = len(gmsh.model.getEntities(2))
-        return volumes, bbox, n_faces
-    finally:
-        gmsh.finalize()
-        locale.setlocale(locale.LC_ALL, saved)
+    need_module("gmsh")
+    done = subprocess.run([sys.executable, "-c", READ_STEP, str(path)], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    volumes, bbox, n_faces = json.loads(done.stdout.splitlines()[-1])
+    return volumes, bbox, n_faces
 
 
 @pytest.mark.parametrize("mesher", ["adaptive", "grid"])

@@ -1,4 +1,5 @@
 import ctypes
+import functools
 import os
 import shutil
 import signal
@@ -156,7 +157,7 @@ def _locale_kept():
 
 # Signals whose handling a library must not change in a test worker: Python ignores SIGPIPE (a
 # write to a closed pipe or socket is then an error, not the end of the process) and the fault
-# handler prints a traceback on the others. gmsh.initialize() once reset all of these from C:
+# handler prints a traceback on the others. gmsh.initialize() once reset all but SIGABRT from C:
 # later a write to a closed socket ended the worker silently, and pytest-xdist waited forever.
 WATCHED_SIGNALS = ("SIGPIPE", "SIGSEGV", "SIGFPE", "SIGBUS", "SIGILL", "SIGABRT")
 
@@ -166,12 +167,17 @@ class _SigAction(ctypes.Structure):  # Linux's struct sigaction: the handler com
                 ("restorer", ctypes.c_void_p)]
 
 
+@functools.cache
+def _libc() -> ctypes.CDLL:
+    return ctypes.CDLL(None, use_errno=True)
+
+
 def _sigactions() -> dict[str, _SigAction]:
     """The process's own (C-level) handlers: signal.getsignal only knows what Python set."""
-    libc, actions = ctypes.CDLL(None, use_errno=True), {}
+    actions = {}
     for name in WATCHED_SIGNALS:
         actions[name] = _SigAction()
-        libc.sigaction(getattr(signal, name), None, ctypes.byref(actions[name]))
+        _libc().sigaction(getattr(signal, name), None, ctypes.byref(actions[name]))
     return actions
 
 
@@ -184,7 +190,6 @@ def _signals_kept():
     before = _sigactions()
     yield
     changed = [name for name, action in _sigactions().items() if action.handler != before[name].handler]
-    libc = ctypes.CDLL(None, use_errno=True)
     for name in changed:
-        libc.sigaction(getattr(signal, name), ctypes.byref(before[name]), None)
+        _libc().sigaction(getattr(signal, name), ctypes.byref(before[name]), None)
     assert not changed, f"the test changed this process's handling of {', '.join(changed)} (a library reset it from C); run that library in a child process"

@@ -88,7 +88,9 @@ def dask_run(jobs, out: Path, workers: int) -> tuple[float, float, float]:
     """(wall s, largest worker peak MB, CPU s of all workers) on a Dask LocalCluster of `workers` single-threaded processes."""
     from distributed import Client, LocalCluster
 
-    with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, \
+    # ":0": the scheduler's web server (started even without a dashboard) on a free port, not 8787,
+    # which another cluster or a test may hold
+    with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address="127.0.0.1:0") as cluster, \
             Client(cluster) as client:
         client.run(quiet_worker)  # one core and the imports, before the clock
         start = time.perf_counter()

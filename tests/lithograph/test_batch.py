@@ -77,7 +77,9 @@ def test_killed_batch_resumes_without_rewriting_finished_work(tmp_path):
 def test_dask_cluster_gives_the_same_outputs_as_the_local_pool(tmp_path, capsys):
     distributed = need_module("distributed")
     src = make_inputs(tmp_path / "in", good=6, hostile=1)
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None, host="127.0.0.1") as cluster:
+    # The scheduler starts its web server even without a dashboard, at 8787 unless told: a free port,
+    # or a busy 8787 (another cluster) is a warning, and warnings fail tests here.
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address="127.0.0.1:0", host="127.0.0.1") as cluster:
         code, out, _ = run(capsys, "batch", src, "-o", tmp_path / "dask", "--dask-scheduler", cluster.scheduler_address, "--formats", "stl,3mf")
     assert code == 1 and "6 converted" in out and "1 failed" in out
     run(capsys, "batch", src, "-o", tmp_path / "local", "--workers", "2", "--formats", "stl,3mf")

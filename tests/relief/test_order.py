@@ -86,3 +86,6 @@ def test_sorted_pairs_are_lexsorts_order(pairs):
     got_high, got_low = order.sorted_pairs(high, low)
     np.testing.assert_array_equal(got_high, high[order_])
     np.testing.assert_array_equal(got_low, low[order_])
+    wide_high, wide_low = order.sorted_pairs(high.astype(np.int64), low)  # labels come as signed integers
+    np.testing.assert_array_equal(wide_high, high[order_])
+    np.testing.assert_array_equal(wide_low, low[order_])

@@ -600,7 +600,7 @@ def _sorted_float32(val: np.ndarray, lab: np.ndarray, n: int) -> np.ndarray | No
     bits = float32_keys(val)
     if bits is None:
         return None
-    return float32_values(sorted_pairs(lab.astype(np.uint32), bits)[1])
+    return float32_values(sorted_pairs(lab, bits)[1])  # the labels widened once, into the keys
 
 
 def dome_profile(labels: np.ndarray, *, pitch_mm: float, round_mm: float, pin_aspect: float | None = None,

@@ -86,9 +86,9 @@ def float32_keys(values: np.ndarray) -> np.ndarray | None:
 
 
 def sorted_pairs(high: np.ndarray, low: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The (high, low) uint32 pairs sorted by high, then low, as two uint32 arrays: one sort of
-    64-bit keys (high above low; NumPy's SIMD sort, several times faster than an argsort or a
-    lexsort of the two)."""
+    """The (high, low) pairs of integers in 0 .. 2**32 - 1 (any integer dtype: high is widened
+    once, into the key) sorted by high, then low, as two uint32 arrays: one sort of 64-bit keys
+    (high above low; NumPy's SIMD sort, several times faster than an argsort or a lexsort of the two)."""
     key = high.astype(np.uint64)
     key <<= np.uint64(32)
     key |= low

@@ -1,8 +1,13 @@
 # Two commands do everything on a fresh Debian machine: `make demo` and `make test`.
-.PHONY: demo test test-fast setup bench clean
+.PHONY: demo test test-fast setup lock bench clean
 
 setup:
 	@bash scripts/setup.sh
+
+# Bring uv.lock into line with pyproject.toml after a change to the dependencies (commit both
+# together); `make lock LOCK_ARGS=--upgrade` moves every package to its newest allowed release.
+lock:
+	@bash scripts/setup.sh --lock $(LOCK_ARGS)
 
 demo: setup
 	.venv/bin/python scripts/demo.py demo-output

@@ -89,10 +89,8 @@ def load_user_profiles(path: Path | None = None) -> dict[str, PrinterProfile]:
     path = path or user_profiles_path()
     if not path.is_file():
         return {}
-    try:
-        import tomllib
-    except ModuleNotFoundError:  # Python 3.10
-        import tomli as tomllib
+    import tomllib
+
     try:
         data = tomllib.loads(path.read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:

@@ -43,7 +43,9 @@ if [ ! -x "$UV" ] || [ "$("$UV" --version 2>/dev/null)" != "uv $UV_VERSION" ]; t
   echo "setup: installing the package installer uv $UV_VERSION into .tools/uv"
   rm -rf .tools/uv
   "$PY" -m venv .tools/uv
-  if ! .tools/uv/bin/python -m pip install -q --disable-pip-version-check "uv==$UV_VERSION"; then
+  if ! pip_said=$(.tools/uv/bin/python -m pip install -q --disable-pip-version-check "uv==$UV_VERSION" 2>&1); then
+    # (without pip's notes about configured package folders that a machine lacks)
+    echo "$pip_said" | grep -v "^WARNING: Location" >&2
     rm -rf .tools/uv
     echo "setup: could not install uv $UV_VERSION from PyPI (pip's message above says why); check the connection to PyPI and run make setup again" >&2
     exit 1

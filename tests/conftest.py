@@ -18,9 +18,11 @@ STRICT = os.environ.get("TAMP_STRICT") == "1"
 os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 
 # Hypothesis profiles: `ci` keeps each test's own example count (`make test`, CI), `dev` runs a
-# tenth of them (`make test-fast`). Tests write `max_examples=examples(N)`.
+# tenth of them (`make test-fast`). Tests write `max_examples=examples(N)`. The `ci` profile is
+# derandomised (the same examples on every run, so CI passes or fails the same way twice); `dev`
+# draws new ones each run, and prints the seed of a failure to reproduce it.
 HYPOTHESIS_PROFILE = os.environ.get("TAMP_HYPOTHESIS", "ci")
-settings.register_profile("ci", deadline=None)
+settings.register_profile("ci", deadline=None, derandomize=True, database=None)
 settings.register_profile("dev", deadline=None, max_examples=10)
 settings.load_profile(HYPOTHESIS_PROFILE if HYPOTHESIS_PROFILE in ("ci", "dev") else "ci")
 

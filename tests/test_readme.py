@@ -66,8 +66,9 @@ def test_every_option_and_command_in_the_docs_exists():
     for path in DOCS:
         text = path.read_text(encoding="utf-8")
         used = set(re.findall(r"(?<![\w-])(--[a-z][a-z-]+)", text))
-        # the benchmarks' and scripts' own options (bench_*.py, check_identical.py); --config is lint-imports'
-        assert used <= known | script_options() | {"--config"}, (path.name, used - known)
+        # the benchmarks' and scripts' own options (bench_*.py, check_identical.py); --config is lint-imports',
+        # --upgrade uv's (make lock LOCK_ARGS=--upgrade)
+        assert used <= known | script_options() | {"--config", "--upgrade"}, (path.name, used - known)
         commands = re.findall(r"(?:bin/|`)tamp-os ([a-z][\w-]*)", text)
         assert set(commands) <= set(subparsers), (path.name, commands)
 

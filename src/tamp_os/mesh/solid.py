@@ -22,9 +22,10 @@ INDEX = np.int32
 def column_bounds(array: np.ndarray) -> tuple[list[float], list[float]]:
     """(each column's minimum, each column's maximum) of an (N, k) array such as a mesh's
     vertices: column by column, as min(axis=0) walks an (N, 3) array with a stride of three and
-    is ~20x slower (the same numbers either way)."""
+    is ~20x slower (the same numbers either way). A zero bound is +0.0: which of 0.0 and -0.0 a
+    minimum returns depends on the order it visits them, and a file must not depend on that."""
     columns = range(array.shape[1])
-    return [float(array[:, k].min()) for k in columns], [float(array[:, k].max()) for k in columns]
+    return [float(array[:, k].min()) + 0.0 for k in columns], [float(array[:, k].max()) + 0.0 for k in columns]
 
 
 @dataclass

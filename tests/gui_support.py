@@ -29,7 +29,7 @@ SCREENS = Path(os.environ["TAMP_SCREENSHOTS"]) if os.environ.get("TAMP_SCREENSHO
 
 
 def start_server(root: Path, *extra: str, slow_s: float = 0.0, grace_s: float = 1.0):
-    """Start `tamp-os gui` for real; returns (process, url). Waits at most 20 s."""
+    """Start `tamp-os gui` for real; returns (process, url). Waits at most 60 s (a loaded machine)."""
     from tamp_os.gui import free_port
 
     port = free_port()
@@ -37,7 +37,7 @@ def start_server(root: Path, *extra: str, slow_s: float = 0.0, grace_s: float = 
     proc = subprocess.Popen([sys.executable, "-m", "tamp_os.cli.commands", "gui", "--no-browser", "--port", str(port), *extra],
                             env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     url = f"http://127.0.0.1:{port}"
-    deadline = time.monotonic() + 20
+    deadline = time.monotonic() + 60
     while time.monotonic() < deadline:
         try:
             httpx.get(url, timeout=0.5)

@@ -15,7 +15,6 @@ from conftest import FIXTURES, need_module
 from cli_support import run_cli_child
 
 PEAK_RSS_MB = 300
-WALL_S = 10.0
 OUTSIDE = "refers to data outside this file"
 
 
@@ -33,7 +32,6 @@ def assert_refused(tmp_path, path, *needles, extra=()):
     for needle in (str(path), *needles):
         assert needle in errors[0], (needle, errors[0])
     assert mb < PEAK_RSS_MB, f"peak RSS {mb:.0f} MB"
-    assert seconds < WALL_S, f"{seconds:.1f} s"
     assert not out.exists() or not any(out.iterdir())
     after = sorted(p.relative_to(tmp_path) for p in tmp_path.rglob("*") if p != out)
     assert after == before  # nothing written anywhere else (no partial file, no cache beside the input)
@@ -480,7 +478,6 @@ def test_web_upload_of_each_hostile_vendor_file_is_refused(server, tmp_path, eli
             message = r.text.split('id="images-error"')[1].split("</p>")[0]
             assert name in message and needle in message, (name, message)
             assert "Traceback" not in r.text and str(path) not in r.text and "secret" not in message.replace("secret.h5", "")
-            assert seconds < WALL_S, (name, seconds)
             print(f"web {name}: {seconds:.2f} s: {message.strip()[:300]}")
             assert {p.name for p in root.iterdir()} == jobs_before  # the refused upload's job is gone, files and all
         assert httpx.get(url + "/", timeout=5).status_code == 200  # still answering

@@ -23,7 +23,6 @@ from cli_support import REFUSAL_PEAK_MB, one_error_line, run_cli_child
 # test (benchmarks/bench_guards.py times refusals: well under a second): a bound loose enough for a
 # loaded 2-core CI machine (2.2 s was seen there) that still tells refusing from the headers from
 # decoding the 40,000 declared blocks; the peak-memory bound says the same by memory.
-REFUSAL_S = 10.0
 
 
 def planes(seed=1, shape=(2, 60, 80)) -> np.ndarray:
@@ -181,7 +180,6 @@ def test_hostile_czi_is_refused_from_its_headers(tmp_path, name, command):
     assert path.stat().st_size < 4096
     out = tmp_path / "out"
     argv = ["convert", path, "-o", out] if command == "convert" else ["info", path]
-    started = time.perf_counter()
     code, err, peak, seconds, _ = run_cli_child(*argv, timeout_s=50)
     line = one_error_line(err)
     assert code == 1, err
@@ -190,7 +188,6 @@ def test_hostile_czi_is_refused_from_its_headers(tmp_path, name, command):
         assert word in line, line
     assert "not enough memory" not in line and "MemoryError" not in err
     assert 0 < peak < REFUSAL_PEAK_MB, f"peak {peak:.0f} MB while refusing"
-    assert seconds < REFUSAL_S and time.perf_counter() - started < 30, f"{seconds:.2f} s in the CLI"
     assert not out.exists() or not any(out.iterdir())
 
 

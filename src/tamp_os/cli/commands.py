@@ -769,13 +769,16 @@ def cmd_gui(args) -> int:
         url += f"?token={token}"
         print(f"WARNING: --host {args.host} makes the web app reachable from other computers. Anyone who has the "
               "address below, with its token, can use it and see the images uploaded to it.", file=sys.stderr, flush=True)
-    print(f"TAMP-OS web app at {url} (press Control-C to stop)", flush=True)
-    if not args.no_browser:
-        import threading
-        import webbrowser
 
-        threading.Timer(1.0, lambda: webbrowser.open(url)).start()
-    serve(args.host, args.port, max_file_mb=args.max_file_mb, max_files=args.max_files, access_token=token)
+    def ready() -> None:
+        print(f"TAMP-OS web app at {url} (press Control-C to stop)", flush=True)
+        if not args.no_browser:
+            import threading
+            import webbrowser
+
+            threading.Thread(target=webbrowser.open, args=(url,), daemon=True).start()
+
+    serve(args.host, args.port, on_ready=ready, max_file_mb=args.max_file_mb, max_files=args.max_files, access_token=token)
     return EXIT_OK
 
 

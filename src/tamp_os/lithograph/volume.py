@@ -272,14 +272,7 @@ def _model(path, picture, params, printer, read, voxel_m, rel, factors, budget_v
     # Background around the grid: a part cut by the stack's edge has a face there, and its walls can grow past it.
     pad = wall_pad(grid.pitch, wall)
     grid.values = np.pad(grid.values, [(p, p) for p in pad], mode="constant", constant_values=np.float32(grid.lo))
-    price = price_model(grid.values.size, mv.surface_triangles(grid.values > grid.level), params.max_triangles)
-    log.info("priced: %s", price.words())
-    price.check(path, max_memory_gb=params.max_memory_gb,
-                hint="A higher `iso_level` makes a smaller surface of a noisy stack.")
-    if price.seconds >= SAY_AFTER_S:
-        notes.append(f"priced before the work at {price.words()}.")
-    if on_price is not None:
-        on_price(price)
+    price = _priced(path, grid, params, mv, notes, on_price)
     filled, report = mv.solid_mask(grid.values, grid.level, tuple(grid.pitch), speck_mm3=SPECK_MM3)
     if not report.voxels:
         raise InputError(f"{path}: no part of the stack above `iso_level` {grid.level:g} is larger than {SPECK_MM3:g} mm³ on the "
@@ -331,6 +324,19 @@ def _model(path, picture, params, printer, read, voxel_m, rel, factors, budget_v
     return out
 
 
+def _priced(path, grid: _Grid, params, mv, notes: list[str], on_price) -> VolumePrice:
+    """The whole model priced from the padded working grid and its surface's triangle bound: refused
+    over `max_memory_gb`, a long one's time noted and passed to `on_price`."""
+    price = price_model(grid.values.size, mv.surface_triangles(grid.values > grid.level), params.max_triangles)
+    log.info("priced: %s", price.words())
+    price.check(path, max_memory_gb=params.max_memory_gb, hint="A higher `iso_level` makes a smaller surface of a noisy stack.")
+    if price.seconds >= SAY_AFTER_S:
+        notes.append(f"priced before the work at {price.words()}.")
+    if on_price is not None:
+        on_price(price)
+    return price
+
+
 def _level(path, values, params, mv) -> tuple[float, str, float, float]:
     """(level, where it came from, the stack's lowest and highest values); a blank stack or a level
     outside the values refused."""
@@ -375,7 +381,7 @@ def _content_grid(path, values, params, rel, factors, size_mm, budget_voxels, mv
     extent = np.asarray([b.stop - b.start for b in inner], dtype=float) * step  # z, y, x in sample units: the object's own
     del kept
     scale = size_mm / float(extent.max())  # print mm per sample unit
-    cropped, pitch = _refined(cropped, step * scale, budget_voxels)
+    cropped, pitch = _refined(cropped, step * scale, budget_voxels, averaged=np.asarray(factors) > 1)
     return _Grid(cropped, pitch, scale, lo, hi, level, level_from)
 
 
@@ -405,12 +411,15 @@ def refine_zoom(pitch_mm, shape, budget_voxels: int) -> np.ndarray:
     return np.maximum(1.0, np.floor(zoom * 4 + 1e-9) / 4)
 
 
-def _refined(values: np.ndarray, pitch: np.ndarray, budget_voxels: int) -> tuple[np.ndarray, np.ndarray]:
+def _refined(values: np.ndarray, pitch: np.ndarray, budget_voxels: int, averaged=None) -> tuple[np.ndarray, np.ndarray]:
     """A coarse grid interpolated up (linear, `refine_zoom`), so the surface is smooth rather than
-    a staircase of voxels, then smoothed by SMOOTH_VOXELS: (values, their pitch on the print)."""
+    a staircase of voxels, then smoothed by SMOOTH_VOXELS: (values, their pitch on the print).
+    An axis the stack was `averaged` down along (to fit the voxel budget) is not interpolated up again."""
     from scipy import ndimage
 
     zoom = refine_zoom(pitch, values.shape, budget_voxels)
+    if averaged is not None:
+        zoom = np.where(averaged, 1.0, zoom)
     if (zoom > 1).any():
         values = ndimage.zoom(values, zoom, order=1, mode="nearest", grid_mode=True)
         pitch = pitch / zoom

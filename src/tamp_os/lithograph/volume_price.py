@@ -25,11 +25,13 @@ from ..errors import InputError
 PROGRAM_BYTES = 300e6  # the interpreter with NumPy, SciPy, scikit-image, manifold3d, trimesh and Embree loaded, and the stand's furniture
 BYTES_PER_WORKING_VOXEL = 56  # float32 values, masks, two float64 distance maps, labels, the smoothed field (measured: ~50)
 BYTES_PER_FIELD_VOXEL = 14  # during the surface: the field kept, its padded copy, the nudge mask, marching cubes' own
-BYTES_PER_TRIANGLE = 700  # marching cubes' arrays, the mesh in float64, in manifold3d, a simplified copy, the deviation's trees
+BYTES_PER_TRIANGLE = 1000  # marching cubes' arrays, the mesh in float64, in manifold3d, simplified copies, the deviation's trees
+# (a 64³ noise stack: 2.4 GB at 2.8 million triangles at most, ~770 a triangle; smooth surfaces far less)
 SECONDS_START = 2.0  # imports, the first slice, the stand's furniture and the files of a small model
 SECONDS_PER_VOXEL = 1.2e-6  # the voxel steps and marching cubes
 SECONDS_PER_TRIANGLE = 6e-6  # the surface into manifold3d, its walls, the stand's union, the checks and the files
-SECONDS_PER_SIMPLIFIED_TRIANGLE = 30e-6  # the tolerance's search (several simplifications) and the deviations measured
+SECONDS_PER_SIMPLIFIED_TRIANGLE = 150e-6  # the tolerance's search (several simplifications), the deviations measured and,
+# when 0.1 mm cannot hold, the coarser grids tried (a noisy surface: minutes)
 SAY_AFTER_S = 10.0  # a model priced at more than this says its expected time before it starts
 
 

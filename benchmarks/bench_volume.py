@@ -1,8 +1,10 @@
-"""`convert --volume` on the real development stacks and a synthetic 512³ uint16 stack: a table of
-voxels, triangles, deviation, thinnest wall, time and peak memory (each conversion in its own
-process, so its peak is its own: ru_maxrss).
+"""`convert --volume` on the real development stacks, a synthetic 512³ uint16 stack and the hostile
+cases of issue 51.2 (tiny, coarse, noisy, a unit slip in the z step, MRC voxels of 1e-9 Å and 1e9 Å,
+a budget of 1,000): a table of voxels, triangles, deviation, thinnest wall, time (wall and CPU) and
+peak memory (each conversion in its own process, so its peak is its own: VmHWM), with the price the
+model was given before the work beside the true peak (the price must be at or above it).
 
-    python benchmarks/bench_volume.py [--out DIR] [--no-big] [--render DIR]
+    python benchmarks/bench_volume.py [--out DIR] [--no-big] [--no-hostile] [--render DIR]
 
 --render also renders each model (PyVista offscreen: from the front left, and from above) beside
 the stack's maximum projection, one picture per stack (renders/NAME.side-by-side.png), to look at.
@@ -24,25 +26,71 @@ REAL = ["confocal_beads_zstack_41z.tif", "confocal_membranes_cells3d.tif", "niko
         "mrc_emdb3001_microed.map", "mrc_emdb3197_subtomo.map"]
 
 ONE = r"""
-import json, resource, sys, time
+import json, re, resource, sys, time
 from tamp_os import LithoParams
 from tamp_os.errors import TampError
 from tamp_os.lithograph.volume import convert_volume
 start = time.perf_counter()
 try:
-    done = convert_volume(sys.argv[1], LithoParams(volume=True, formats=("stl",)), sys.argv[2])
+    done = convert_volume(sys.argv[1], LithoParams(volume=True, formats=("stl",), **json.loads(sys.argv[3])), sys.argv[2])
     v = done.model
     row = {"voxels": "x".join(map(str, v.source_shape[::-1])), "working": "x".join(map(str, v.working_shape[::-1])),
            "triangles": v.mesh.n_triangles, "full": v.triangles_full, "deviation": v.deviation_mm, "wall_p1": v.wall_p1_mm,
            "wall_min": v.min_wall_mm, "size": "x".join(f"{s:.0f}" for s in v.size_mm), "parts": v.parts,
            "floating": v.floating, "budget_met": v.budget_met, "within": v.deviation_mm <= 0.1, "coarsened": v.coarsened,
-           "thin_left": len(v.thin_left), "thin_grown": v.thin_grown, "stl": str(done.written[0])}
+           "thin_left": len(v.thin_left), "thin_grown": v.thin_grown, "stl": str(done.written[0]),
+           "price_mb": v.price.bytes / 1e6 if getattr(v, "price", None) else None,
+           "price_s": v.price.seconds if getattr(v, "price", None) else None}
 except TampError as exc:
     row = {"error": str(exc).split(";")[0][:90]}
+    found = re.search(r"need about ([0-9.]+) GB", str(exc))
+    if found:
+        row["price_mb"] = float(found.group(1)) * 1000
 row["seconds"] = time.perf_counter() - start
-row["peak_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+usage = resource.getrusage(resource.RUSAGE_SELF)
+row["cpu_s"] = usage.ru_utime + usage.ru_stime
+with open("/proc/self/status") as f:
+    row["peak_mb"] = next(int(line.split()[1]) for line in f if line.startswith("VmHWM:")) / 1024
 print(json.dumps(row))
 """
+
+
+def hostile_stacks(folder: Path):
+    """The cases of issue 51.2 that cost a minute or more on main: (name, path, parameters)."""
+    import numpy as np
+    import tifffile
+
+    def imagej(name, stack, z_um=1.0):
+        path = folder / name
+        tifffile.imwrite(path, stack, imagej=True, resolution=(1.0, 1.0), metadata={"spacing": z_um, "unit": "um", "axes": "ZYX"})
+        return path
+
+    def ball(n):
+        z, y, x = np.mgrid[:n, :n, :n]
+        r = np.sqrt((x - n / 2 + 0.5) ** 2 + (y - n / 2 + 0.5) ** 2 + (z - n / 2 + 0.5) ** 2)
+        return (100 + 1000 * np.clip(n * 0.35 - r + 0.5, 0, 1)).astype(np.uint16)
+
+    tiny = np.full((2, 2, 2), 100, np.uint16)
+    tiny[:, 0, 1] = tiny[1, 1, 0] = 1000
+    rng = np.random.default_rng(0)
+    cases = [("2x2x2 voxels", imagej("tiny.tif", tiny), {}),
+             ("48³ ball", imagej("ball48.tif", ball(48)), {}),
+             ("64³ ball, max_triangles 1000", imagej("ball64.tif", ball(64)), {"max_triangles": 1000}),
+             ("64³ ball, z_step 1 nm", folder / "ball64.tif", {"z_step": "1nm"}),
+             ("64³ noise", imagej("noise64.tif", rng.integers(0, 4000, (64, 64, 64)).astype(np.uint16)), {}),
+             ("128³ noise, max_triangles 2M", imagej("noise128.tif", rng.integers(0, 4000, (128,) * 3).astype(np.uint16)),
+              {"max_triangles": 2_000_000})]
+    try:
+        import mrcfile
+    except ImportError:
+        return cases
+    for angstrom in (1e-9, 1e9):
+        path = folder / f"ball_{angstrom:g}A.mrc"
+        with mrcfile.new(path, overwrite=True) as m:
+            m.set_data(ball(24).astype(np.float32))
+            m.voxel_size = angstrom
+        cases.append((f"MRC 24³, voxel {angstrom:g} Å", path, {}))
+    return cases
 
 
 def big_stack(path: Path, n: int = 512) -> Path:
@@ -124,35 +172,43 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", default=None, help="folder for the models (default: a temporary one)")
     parser.add_argument("--no-big", action="store_true", help="leave out the 512³ synthetic stack")
+    parser.add_argument("--no-hostile", action="store_true", help="leave out the hostile cases of issue 51.2")
     parser.add_argument("--render", default=None, metavar="DIR", help="render each model beside its maximum projection into DIR")
     args = parser.parse_args()
     out = Path(args.out or tempfile.mkdtemp(prefix="bench_volume_"))
     out.mkdir(parents=True, exist_ok=True)
-    cases = [(name, FIXTURES / name) for name in REAL]
+    cases = [(name, FIXTURES / name, {}) for name in REAL]
     if not args.no_big:
-        cases.append(("synthetic 512³ uint16", big_stack(out / "synthetic_512.tif")))
+        cases.append(("synthetic 512³ uint16", big_stack(out / "synthetic_512.tif"), {}))
+    if not args.no_hostile:
+        cases += hostile_stacks(out)
     env = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
     rows = []
-    for name, path in cases:
-        result = subprocess.run([sys.executable, "-c", ONE, str(path), str(out)], capture_output=True, text=True, env=env)
+    for name, path, options in cases:
+        result = subprocess.run([sys.executable, "-c", ONE, str(path), str(out), json.dumps(options)], capture_output=True,
+                                text=True, env=env)
         lines = [line for line in result.stdout.splitlines() if line.startswith("{")]
         row = json.loads(lines[-1]) if lines else {"error": (result.stderr.strip().splitlines() or ["failed"])[-1][:90]}
         rows.append((name, row))
         if args.render and "stl" in row:
             side_by_side(Path(row["stl"]), path, Path(args.render) / f"{Path(row['stl']).stem}.side-by-side.png")
     head = (f"{'stack':34} {'voxels':>12} {'working':>12} {'size mm':>11} {'triangles':>10} {'dev mm':>7} {'wall min':>8} "
-            f"{'wall p1':>8} {'thin grown/left':>15} {'parts':>5} {'s':>6} {'peak MB':>8}")
+            f"{'wall p1':>8} {'thin grown/left':>15} {'parts':>5} {'s':>6} {'cpu s':>6} {'peak MB':>8} {'price MB':>8} {'price s':>7}")
     print(head)
     print("-" * len(head))
     for name, r in rows:
         if "error" in r:
-            print(f"{name:34} refused: {r['error']} ({r['seconds']:.1f} s, {r['peak_mb']:.0f} MB)" if "seconds" in r else f"{name:34} {r['error']}")
+            price = f", priced {r['price_mb']:.0f} MB" if "price_mb" in r else ""
+            print(f"{name:34} refused: {r['error']} ({r['seconds']:.1f} s, cpu {r.get('cpu_s', 0):.1f} s, {r['peak_mb']:.0f} MB{price})"
+                  if "seconds" in r else f"{name:34} {r['error']}")
             continue
         budget = "" if r["budget_met"] else "*"
         over = "" if r["within"] else "†"
         thin = f"{r['thin_grown']}/{r['thin_left']}"
         print(f"{name:34} {r['voxels']:>12} {r['working']:>12} {r['size']:>11} {r['triangles']:>9,}{budget:1} {r['deviation']:6.3f}{over:1} "
-              f"{r['wall_min']:8.2f} {r['wall_p1']:8.2f} {thin:>15} {r['parts']:>5} {r['seconds']:6.1f} {r['peak_mb']:8.0f}")
+              f"{r['wall_min']:8.2f} {r['wall_p1']:8.2f} {thin:>15} {r['parts']:>5} {r['seconds']:6.1f} {r['cpu_s']:6.1f} "
+              f"{r['peak_mb']:8.0f} " + ("       -       -" if r["price_mb"] is None else
+              f"{r['price_mb']:8.0f} {r['price_s']:7.1f}" + ("" if r["price_mb"] >= r["peak_mb"] else "  PRICE BELOW PEAK")))
     print("* over the triangle budget (kept within 0.1 mm instead); † budget kept, more than 0.1 mm from the full surface (said)")
     print(f"models in {out}")
     return 0

@@ -159,7 +159,8 @@ class LithoParams:
     size_mm: float | None = _f(None, "longest side of a `volume` model (default: the printer's print width, 100 mm)", "mm", 5.0, 1000.0)
     z_step: str | float | None = _f(None, "z step of a `volume` stack, overriding the file's: a length such as 0.5um, or a number in metres")
     iso_level: float | None = _f(None, "isosurface level of a `volume` model, in the stack's own values (default: Otsu's threshold of the stack)", "", -1e38, 1e38)
-    max_triangles: int = _f(200_000, "most triangles of a `volume` model (simplified within 0.1 mm of the full surface)", "", 1000, 50_000_000)
+    max_triangles: int = _f(200_000, "most triangles of a `volume` model (simplified within 0.1 mm of the full surface); at most "
+                            "2,000,000 (a 100 MB STL), more than a slicer or a 0.4 mm nozzle can use", "", 1000, 2_000_000)
     min_wall_mm: float | None = _f(None, "thinnest wall of a `volume` model: thinner walls are thickened (default: 1.0 mm, 0.6 mm for a resin printer)", "mm", 0.1, 10.0)
     sections: int | None = _f(None, "print a z-stack as this many evenly spaced slices, each its own relief plate labelled in braille with its place", "", 2, 100)
     volume_stand: str = _f("plate", "what a `volume` model stands on: plate (a base with the furniture, fused) or none (the bare model)", choices=("plate", "none"))

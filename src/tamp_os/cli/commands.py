@@ -526,8 +526,14 @@ def _convert_volume(image, params, out: Path, stem: str, printer) -> list[str]:
     """`convert --volume`: the 3-D model's warnings to stderr, its lines returned."""
     from ..lithograph.volume import convert_volume
 
+    def say_price(price):  # a long model says its expected time before the work (volume_price.py)
+        if price.seconds >= SAY_AFTER_S:
+            print(f"note: {Path(image).name}: priced at {price.words()}; working…", file=sys.stderr, flush=True)
+
+    from ..lithograph.volume_price import SAY_AFTER_S
+
     with _WorkingLine(Path(image).name):
-        done = convert_volume(image, params, out, stem=stem, printer_profile=printer)
+        done = convert_volume(image, params, out, stem=stem, printer_profile=printer, on_price=say_price)
     for warning in done.model.warnings:
         print(f"warning: {cli_words(warning)}", file=sys.stderr)
     return [cli_words(line) for line in done.lines()]

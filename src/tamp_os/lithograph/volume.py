@@ -8,7 +8,8 @@ The steps, each in the stage that owns it:
    and the planes are block-averaged to it as they are read;
 2. voxels (mesh/volume.py): level (Otsu, or `iso_level`), specks dropped, internal voids filled,
    walls thinner than `min_wall_mm` thickened; a coarse stack is interpolated up to a finer grid
-   first, so the surface is smooth rather than a staircase of voxels;
+   first (at most MAX_GROWTH times its own voxels, so the cost follows the data, not `size_mm`),
+   so the surface is smooth rather than a staircase of voxels;
 3. surface: marching cubes, scaled so the model's longest side is `size_mm` exactly, then simplified
    to `max_triangles` (mesh/budget.py) within 0.1 mm, the deviation measured afterwards;
 4. stand (tactile/stand.py): the model on a base with the braille caption, scale bar and cut
@@ -31,12 +32,14 @@ import numpy as np
 from ..errors import InputError, ParameterError, Text
 from ..mesh.solid import Mesh
 from ..params import LithoParams
+from .volume_price import BYTES_PER_WORKING_VOXEL, SAY_AFTER_S, VolumePrice, price_model
 
 log = logging.getLogger(__name__)
 
 MAX_WORKING_VOXELS = 8_000_000  # the working grid's cap (200³): its voxel steps need ~0.5 GB
-BYTES_PER_WORKING_VOXEL = 56  # float32 values, masks, two float64 distance maps, labels, the smoothed field (measured: ~50)
+MAX_ANISOTROPY = 100.0  # voxels longer than this many times their width one way make no model (a unit slip in `z_step`)
 FINEST_PITCH_MM = 0.4  # a coarse stack is interpolated up to about this voxel size on the print (a nozzle's width), never finer
+MAX_GROWTH = 8.0  # ... and to at most this many times its own voxels (twice along each axis): cost follows the data, not `size_mm`
 MAX_DEVIATION_MM = 0.1
 SMOOTH_VOXELS = 0.5  # Gaussian sigma on the working grid before the level: noise of a voxel does not become a bump
 SPECK_MM3 = 1.0  # parts smaller than a 1 mm cube are noise to a finger: dropped
@@ -92,6 +95,7 @@ class VolumeModel:
     thin_left: list = field(default_factory=list)  # mesh.volume.ThinRegion: thin parts not thickened (where, how thin, why)
     thin_grown: int = 0  # thin parts thickened to the wall
     coarsened: float = 1.0  # the working grid made this many times coarser to meet the triangle budget
+    price: VolumePrice | None = None  # what the model was priced at before the voxel steps
 
 
 def min_wall_for(params: LithoParams, printer_name: str, printer_description: str) -> float:
@@ -129,6 +133,30 @@ def _voxel_size(picture, params: LithoParams, notes: list[str], warnings: list[s
     return (float(z), xy[0], xy[1])
 
 
+def _check_anisotropy(path, voxel_m, shape, params: LithoParams) -> None:
+    """Refuse voxels more than MAX_ANISOTROPY times longer one way than another: no surface can be
+    made of them (the model would be a sheet or a needle thinner than a wall), and the grid padded
+    to hold a wall in the short voxels' units would be vast. Almost always a unit slip."""
+    if not voxel_m:
+        return
+    z, y, x = voxel_m
+    ratio = max(voxel_m) / min(voxel_m)
+    if ratio <= MAX_ANISOTROPY:
+        return
+    from ..units import format_length
+
+    nz, ny, nx = shape
+    extent = np.asarray([nz * z, ny * y, nx * x])
+    size = float(params.size_mm or 100.0)
+    x_mm, y_mm, z_mm = (float(e) * size / float(extent.max()) for e in extent[::-1])
+    given = "the z step you gave" if params.z_step_m else "the file's z step"
+    raise ParameterError(
+        f"{path}: the voxels are {ratio:,.0f} times longer one way than another (z step {format_length(z)}, pixel "
+        f"{format_length(x)}); a 3-D model needs voxels within {MAX_ANISOTROPY:g} times of each other (this one would be "
+        f"{x_mm:.3g} × {y_mm:.3g} × {z_mm:.3g} mm). Check `z_step` ({given}) and `pixel_size`.",
+        parameter="z_step", value=z, allowed=f"within {MAX_ANISOTROPY:g} times the pixel size")
+
+
 def _working_grid(shape, voxel_rel, budget_voxels: int):
     """Whole reduction factors (z, y, x) so the reduced stack has at most `budget_voxels`, coarsening
     the finest axes (in the sample) first."""
@@ -144,8 +172,13 @@ def _working_grid(shape, voxel_rel, budget_voxels: int):
     return tuple(max(1, n // 2) for n in (nz, ny, nx))
 
 
-def make_volume(source, params: LithoParams | None = None, *, printer=None) -> VolumeModel:
-    """The 3-D model of the stack in `source` (a file of any format the readers read)."""
+def make_volume(source, params: LithoParams | None = None, *, printer=None, on_price=None) -> VolumeModel:
+    """The 3-D model of the stack in `source` (a file of any format the readers read).
+
+    The whole model is priced (volume_price.py) once the working grid is known, before the voxel
+    steps: a price over `max_memory_gb` is refused (InputError, nothing made), and `on_price`, when
+    given, is called with the VolumePrice before the work goes on (the CLI says a long one's time).
+    """
     from ..mesh import budget as mb
     from ..mesh import volume as mv
     from ..read.cost import Cost, check_memory
@@ -168,6 +201,7 @@ def make_volume(source, params: LithoParams | None = None, *, printer=None) -> V
                          f"needs a z-stack of at least 2 slices. Convert it as a relief (leave `volume` out), or export the "
                          f"whole stack from the microscope software.")
     voxel_m = _voxel_size(picture, params, notes, warnings)
+    _check_anisotropy(path, voxel_m, (nz, picture.file.height, picture.file.width), params)
     shape = open_stack_shape(path, channel=params.channel, time=params.time, scene=params.scene, limits=limits)
     source_shape = (shape.nz, shape.ny, shape.nx)
     # The memory the voxel steps need, priced before any slice is read: the working grid is chosen to fit.
@@ -188,7 +222,8 @@ def make_volume(source, params: LithoParams | None = None, *, printer=None) -> V
         notes.append(f"the stack ({shape.nx}×{shape.ny}×{shape.nz} voxels) was averaged over blocks of "
                      f"{factors[2]}×{factors[1]}×{factors[0]} voxels to fit the working grid.")
     try:
-        return _model(path, picture, params, printer, read, voxel_m, rel, factors, budget_voxels, notes, warnings, start, mv, mb)
+        return _model(path, picture, params, printer, read, voxel_m, rel, factors, budget_voxels, notes, warnings, start, mv, mb,
+                      on_price)
     except MemoryError:
         raise InputError(f"{path}: not enough memory to mesh this stack; lower `max_memory_gb` (the stack is then read on a "
                          f"coarser grid) or `size_mm`.") from None
@@ -228,14 +263,16 @@ class _Surface:
         return dataclasses.replace(region, box_mm=tuple(float(b) for b in box), thinnest_mm=region.thinnest_mm * self.rescale)
 
 
-def _model(path, picture, params, printer, read, voxel_m, rel, factors, budget_voxels, notes, warnings, start, mv, mb) -> VolumeModel:
+def _model(path, picture, params, printer, read, voxel_m, rel, factors, budget_voxels, notes, warnings, start, mv, mb,
+           on_price=None) -> VolumeModel:
     """The model from the read stack: level, voxels, surface within the budget, walls, stand."""
     size_mm = float(params.size_mm or printer.width_mm)
     grid = _content_grid(path, read.values, params, rel, factors, size_mm, budget_voxels, mv)
     wall = min_wall_for(params, printer.name, printer.description)
     # Background around the grid: a part cut by the stack's edge has a face there, and its walls can grow past it.
-    pad = int(np.ceil((wall / 2 + float(grid.pitch.max())) / float(grid.pitch.min()))) + 1
-    grid.values = np.pad(grid.values, pad, mode="constant", constant_values=np.float32(grid.lo))
+    pad = wall_pad(grid.pitch, wall)
+    grid.values = np.pad(grid.values, [(p, p) for p in pad], mode="constant", constant_values=np.float32(grid.lo))
+    price = _priced(path, grid, params, mv, notes, on_price)
     filled, report = mv.solid_mask(grid.values, grid.level, tuple(grid.pitch), speck_mm3=SPECK_MM3)
     if not report.voxels:
         raise InputError(f"{path}: no part of the stack above `iso_level` {grid.level:g} is larger than {SPECK_MM3:g} mm³ on the "
@@ -247,7 +284,9 @@ def _model(path, picture, params, printer, read, voxel_m, rel, factors, budget_v
     del filled
     grid.values = None
     report.grow_field = None
-    surface = _surface_within_budget(path, field_, grid, size_mm, params, mv, mb)
+    surface = _surface_within_budget(path, field_, grid, size_mm, params, mv, mb,
+                                     room=(lambda x, y: _stand_room(path, params, x, y, None if voxel_m is None else 1.0 / grid.scale))
+                                     if params.volume_stand == "plate" else None)
     del field_
     warnings.extend(_surface_warnings(surface, params))
     points, normals = mb.sample_surface(surface.model, WALL_SAMPLES, seed=3)
@@ -269,7 +308,7 @@ def _model(path, picture, params, printer, read, voxel_m, rel, factors, budget_v
         wall_p1_mm=float(np.percentile(walls, 1)), wall_wanted_mm=wall, thickened_mm=report.grown_mm,
         thin_voxels=report.thin_voxels, joined=report.joined, thin_regions_mm=report.thin_regions_mm,
         notes=notes, warnings=warnings, sample_m_per_mm=per_mm, thin_left=list(report.thin_left),
-        thin_grown=report.thin_grown, coarsened=surface.coarsened,
+        thin_grown=report.thin_grown, coarsened=surface.coarsened, price=price,
     )
     if params.volume_stand == "plate":
         _stand(out, path, surface, params, per_mm)
@@ -283,6 +322,19 @@ def _model(path, picture, params, printer, read, voxel_m, rel, factors, budget_v
         notes.append(f"1 mm on the model = {format_length(per_mm)} of the sample.")
     out.seconds = time.perf_counter() - start
     return out
+
+
+def _priced(path, grid: _Grid, params, mv, notes: list[str], on_price) -> VolumePrice:
+    """The whole model priced from the padded working grid and its surface's triangle bound: refused
+    over `max_memory_gb`, a long one's time noted and passed to `on_price`."""
+    price = price_model(grid.values.size, mv.surface_triangles(grid.values > grid.level), params.max_triangles)
+    log.info("priced: %s", price.words())
+    price.check(path, max_memory_gb=params.max_memory_gb, hint="A higher `iso_level` makes a smaller surface of a noisy stack.")
+    if price.seconds >= SAY_AFTER_S:
+        notes.append(f"priced before the work at {price.words()}.")
+    if on_price is not None:
+        on_price(price)
+    return price
 
 
 def _level(path, values, params, mv) -> tuple[float, str, float, float]:
@@ -329,26 +381,59 @@ def _content_grid(path, values, params, rel, factors, size_mm, budget_voxels, mv
     extent = np.asarray([b.stop - b.start for b in inner], dtype=float) * step  # z, y, x in sample units: the object's own
     del kept
     scale = size_mm / float(extent.max())  # print mm per sample unit
-    cropped, pitch = _refined(cropped, step * scale, budget_voxels)
+    cropped, pitch = _refined(cropped, step * scale, budget_voxels, averaged=np.asarray(factors) > 1)
     return _Grid(cropped, pitch, scale, lo, hi, level, level_from)
 
 
-def _refined(values: np.ndarray, pitch: np.ndarray, budget_voxels: int) -> tuple[np.ndarray, np.ndarray]:
-    """A coarse grid interpolated up (linear) towards FINEST_PITCH_MM within the budget, so the
-    surface is smooth, then smoothed by SMOOTH_VOXELS: (values, their pitch on the print)."""
+def refine_zoom(pitch_mm, shape, budget_voxels: int) -> np.ndarray:
+    """The zoom (z, y, x, ≥ 1, in quarter steps) that interpolates a grid of `shape` voxels of
+    `pitch_mm` towards FINEST_PITCH_MM, at most MAX_GROWTH times its own voxel count (and within
+    `budget_voxels`): the coarsest axes first, so an anisotropic stack grows along its long voxels
+    and its surface is made near the data's own resolution, not at the print's.
+
+    The finest common pitch t ≥ FINEST_PITCH_MM whose zoom max(1, pitch / t) stays within the
+    growth is found by bisection; the zoom is then rounded down to quarter steps.
+    """
+    pitch = np.asarray(pitch_mm, dtype=float)
+    voxels = float(np.prod(np.asarray(shape, dtype=float)))
+    growth = min(MAX_GROWTH, max(1.0, budget_voxels / max(voxels, 1.0)))
+
+    def grown(t: float) -> float:
+        return float(np.prod(np.maximum(1.0, pitch / t)))
+
+    lo, hi = FINEST_PITCH_MM, max(float(pitch.max()), FINEST_PITCH_MM)
+    if grown(lo) > growth:
+        for _ in range(40):
+            middle = math.sqrt(lo * hi)
+            lo, hi = (middle, hi) if grown(middle) > growth else (lo, middle)
+        lo = hi
+    zoom = np.maximum(1.0, pitch / lo)
+    return np.maximum(1.0, np.floor(zoom * 4 + 1e-9) / 4)
+
+
+def _refined(values: np.ndarray, pitch: np.ndarray, budget_voxels: int, averaged=None) -> tuple[np.ndarray, np.ndarray]:
+    """A coarse grid interpolated up (linear, `refine_zoom`), so the surface is smooth rather than
+    a staircase of voxels, then smoothed by SMOOTH_VOXELS: (values, their pitch on the print).
+    An axis the stack was `averaged` down along (to fit the voxel budget) is not interpolated up again."""
     from scipy import ndimage
 
-    zoom = np.maximum(1.0, pitch / FINEST_PITCH_MM)
-    grown = float(np.prod(np.asarray(values.shape) * zoom))
-    if grown > budget_voxels:
-        zoom = np.maximum(1.0, zoom * (budget_voxels / grown) ** (1 / 3))
-    zoom = np.round(zoom * 4) / 4
+    zoom = refine_zoom(pitch, values.shape, budget_voxels)
+    if averaged is not None:
+        zoom = np.where(averaged, 1.0, zoom)
     if (zoom > 1).any():
         values = ndimage.zoom(values, zoom, order=1, mode="nearest", grid_mode=True)
         pitch = pitch / zoom
     if SMOOTH_VOXELS:
         values = ndimage.gaussian_filter(values, SMOOTH_VOXELS, mode="nearest")
     return values, pitch
+
+
+def wall_pad(pitch_mm, wall_mm: float) -> tuple[int, int, int]:
+    """Background voxels around the grid along each axis (z, y, x): a part cut by the stack's edge
+    has a face there, and its walls can grow past it by half a wall and a voxel."""
+    pitch = np.asarray(pitch_mm, dtype=float)
+    reach = wall_mm / 2 + float(pitch.max())
+    return tuple(int(np.ceil(reach / float(p))) + 1 for p in pitch)
 
 
 def _closed(path, mesh: Mesh, level: float, mb):
@@ -362,7 +447,7 @@ def _closed(path, mesh: Mesh, level: float, mb):
     return solid
 
 
-def _surface_within_budget(path, field_, grid: _Grid, size_mm: float, params, mv, mb) -> _Surface:
+def _surface_within_budget(path, field_, grid: _Grid, size_mm: float, params, mv, mb, room=None) -> _Surface:
     """The surface simplified to `max_triangles` within MAX_DEVIATION_MM of the full-resolution one.
 
     When that cannot be (the simplification that meets the budget moves the surface further), the
@@ -370,21 +455,30 @@ def _surface_within_budget(path, field_, grid: _Grid, size_mm: float, params, mv
     budget, or, when that moves it more than twice the limit, meshed again on grids COARSER times
     coarser (simplified to the budget if still over it), each measured against the full surface; the
     deviation is reported. Only when none meets the budget is the surface kept within the limit.
+
+    `room(width_mm, depth_mm)`, when given, is what the base and its furniture will add: the surface
+    is simplified to the budget less that, once (the stand then rarely needs a second pass).
     """
     raw = mv.isosurface(field_, tuple(grid.pitch))
     rescale = size_mm / float((raw.vertices.max(axis=0) - raw.vertices.min(axis=0)).max())
     origin = raw.vertices.min(axis=0)
     full = _exact_size(raw, size_mm)
     del raw
-    surface = _budgeted(path, field_, grid, full, size_mm, params, mv, mb)
+    most = params.max_triangles
+    if room is not None and full.n_triangles > most:
+        x, y = (float(v) for v in (full.vertices.max(axis=0) - full.vertices.min(axis=0))[:2])
+        extra = room(x, y)
+        if 2 * extra < most:  # else the base alone takes the budget: the stand says so
+            most -= extra
+    surface = _budgeted(path, field_, grid, full, size_mm, params, mv, mb, most=most)
     surface.rescale, surface.origin, surface.full = rescale, origin, full
     return surface
 
 
-def _budgeted(path, field_, grid: _Grid, full: Mesh, size_mm: float, params, mv, mb) -> _Surface:
-    """`_surface_within_budget` once the full surface is made (see there)."""
+def _budgeted(path, field_, grid: _Grid, full: Mesh, size_mm: float, params, mv, mb, *, most: int) -> _Surface:
+    """`_surface_within_budget` once the full surface is made (see there), to `most` triangles."""
     solid = _closed(path, full, grid.level, mb)
-    before, limit, most = int(solid.num_tri()), MAX_DEVIATION_MM, params.max_triangles
+    before, limit = int(solid.num_tri()), MAX_DEVIATION_MM
     if before <= most:
         return _Surface(solid, mb.from_manifold(solid), mb.Budget(before, before, 0.0, True))
     candidate, tolerance, measured = mb.simplify_to_budget(solid, most, full, start_mm=limit)
@@ -454,20 +548,33 @@ def _wall_warnings(report, walls: np.ndarray, wall: float) -> list[str]:
     return out
 
 
-def _stand(out: VolumeModel, path, surface: _Surface, params, per_mm) -> None:
-    """`out` on its base plate with the furniture (its mesh, plate, scale and the floating parts' note).
-    The budget counts the whole file: when the base and furniture take it over `max_triangles`, the
-    model is simplified further by what they need, measured again, and stood again."""
+def _furniture(path, params, per_mm):
     from ..tactile.furniture import Furniture
-    from ..tactile.stand import stand_model
 
-    x, y, _ = out.size_mm
-    furniture = Furniture(
+    return Furniture(
         caption=params.caption if params.caption is not None else path.stem.replace("_", " ")[:60],
         braille_table=params.braille_table, scale_bar_m=params.scale_bar_m,
         auto_scale_bar=params.scale_bar == "auto", sample_m_per_print_mm=per_mm,
         corner_cut=params.orientation_corner == "cut", spec=params.braille_spec(),
     )
+
+
+def _stand_room(path, params, width_mm: float, depth_mm: float, per_mm) -> int:
+    """The triangles the base and its furniture will add (a tenth more, and some for the seam and posts)."""
+    from ..tactile.stand import furniture_triangles
+
+    furniture = _furniture(path, params, per_mm)
+    return int(furniture_triangles(width_mm, depth_mm, base_mm=params.base_mm, furniture=furniture) * 1.1) + 1000
+
+
+def _stand(out: VolumeModel, path, surface: _Surface, params, per_mm) -> None:
+    """`out` on its base plate with the furniture (its mesh, plate, scale and the floating parts' note).
+    The budget counts the whole file: when the base and furniture take it over `max_triangles`, the
+    model is simplified further by what they need, measured again, and stood again."""
+    from ..tactile.stand import stand_model
+
+    x, y, _ = out.size_mm
+    furniture = _furniture(path, params, per_mm)
     stand, out.mesh = _fused(path, surface.solid, x, y, params.base_mm, furniture, stand_model)
     extra = out.mesh.n_triangles - int(surface.solid.num_tri())
     if (out.mesh.n_triangles > params.max_triangles and surface.budget.met and surface.full is not None
@@ -630,7 +737,7 @@ def _length_words(metres: float) -> str:
 
 
 def convert_volume(source, params: LithoParams, out_dir, *, stem: str | None = None, printer_profile=None,
-                   formats=None) -> VolumeConversion:
+                   formats=None, on_price=None) -> VolumeConversion:
     """Make the 3-D model of `source` and write it into `out_dir`: NAME.stl (and 3MF, GLB ...), a
     description and a recipe. Nothing is written unless the mesh is a sound solid as written."""
     from ..export import check_export
@@ -647,7 +754,7 @@ def convert_volume(source, params: LithoParams, out_dir, *, stem: str | None = N
     if flat:
         raise ParameterError(f"`formats`: {', '.join(flat)} are 2-D graphics; a `volume` model is written as a mesh (stl, 3mf, "
                              f"glb ...). Leave {', '.join(flat)} out, or convert without `volume`.", parameter="formats", value=flat)
-    model = make_volume(source, params, printer=printer)
+    model = make_volume(source, params, printer=printer, on_price=on_price)
     folder = Path(out_dir)
     folder.mkdir(parents=True, exist_ok=True)
     stem = stem or Path(source).stem or "model"
@@ -675,6 +782,9 @@ def convert_volume(source, params: LithoParams, out_dir, *, stem: str | None = N
             "voids_filled": model.voids_filled, "specks_dropped": model.specks_dropped, "floating_parts_on_posts": model.floating,
             "working_voxels_zyx": list(model.working_shape), "voxel_m_zyx": list(model.voxel_m) if model.voxel_m else None,
             "sample_m_per_mm": model.sample_m_per_mm, "seconds": round(model.seconds, 2),
+            "priced": None if model.price is None else {
+                "seconds": round(model.price.seconds, 1), "peak_gb": round(model.price.bytes / 1e9, 3),
+                "working_voxels": model.price.voxels, "surface_triangles_at_most": model.price.triangles},
         },
     }
     written.append(write_text(folder / f"{stem}.tamp.json", json.dumps(recipe, indent=2, ensure_ascii=False) + "\n"))

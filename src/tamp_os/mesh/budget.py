@@ -72,8 +72,7 @@ def meet_budget(solid, max_triangles: int, max_deviation_mm: float, *, reference
 def simplify_to_budget(solid, max_triangles: int, reference: Mesh, *, start_mm: float):
     """(the solid simplified by the smallest tolerance that leaves at most `max_triangles`, that
     tolerance, its measured deviation from `reference`)."""
-    tolerance = tolerance_for(solid, max_triangles, start_mm)
-    candidate = solid.simplify(tolerance)
+    tolerance, candidate = _search(solid, max_triangles, start_mm)
     return candidate, tolerance, surface_deviation(reference, from_manifold(candidate))
 
 
@@ -94,21 +93,73 @@ def largest_within(solid, reference: Mesh, most_mm: float, *, max_deviation_mm: 
 
 
 def tolerance_for(solid, max_triangles: int, start_mm: float, *, most_mm: float = 5.0) -> float:
-    """The smallest simplification tolerance (mm) that leaves at most `max_triangles`, by bisection
-    (manifold3d's edge collapses: fewer triangles as the tolerance grows); `most_mm` when none does."""
-    hi = start_mm
-    while solid.simplify(hi).num_tri() > max_triangles:
-        if hi >= most_mm:
-            return most_mm
-        hi = min(hi * 2, most_mm)
-    lo = 0.0
-    for _ in range(BISECTIONS):
-        middle = (lo + hi) / 2
-        if solid.simplify(middle).num_tri() > max_triangles:
-            lo = middle
+    """The smallest simplification tolerance (mm) that leaves at most `max_triangles` (manifold3d's
+    edge collapses: fewer triangles as the tolerance grows), to within FILL of the budget or 1/32 of
+    the tolerance; `most_mm` when none does.
+
+    Each try is a simplification of the whole surface, so the tries are few: the next tolerance is
+    read off the count's power law in the tolerance (a straight line in log–log through the last two
+    tries, or between the closest tries either side of the budget), not halved blindly.
+    """
+    return _search(solid, max_triangles, start_mm, most_mm=most_mm)[0]
+
+
+def _search(solid, max_triangles: int, start_mm: float, *, most_mm: float = 5.0):
+    """`tolerance_for`'s search: (the tolerance, the solid simplified by it)."""
+    made = {}
+
+    def count(t: float) -> int:
+        made[t] = solid.simplify(t)
+        return int(made[t].num_tri())
+
+    def found(t: float):
+        return t, made[t] if t in made else solid.simplify(t)
+
+    aim = max_triangles * (1 - FILL / 2)
+    lo, n_lo = 0.0, int(solid.num_tri())  # the largest tolerance known to leave too many
+    hi, n_hi = None, 0  # the smallest known to fit
+    tries: list[tuple[float, int]] = []
+    t = float(start_mm)
+    for _ in range(MAX_TRIES):
+        n = count(t)
+        tries.append((t, n))
+        if n <= max_triangles:
+            hi, n_hi = t, n
         else:
-            hi = middle
-    return hi
+            lo, n_lo = t, n
+        if hi is not None and (n_hi >= max_triangles * (1 - FILL) or hi - lo <= hi / 32):
+            return found(hi)
+        if hi is None and t >= most_mm:
+            return found(most_mm)
+        t = _next_tolerance(tries, lo, n_lo, hi, n_hi, aim, most_mm)
+        for old in [k for k in made if k not in (lo, hi)]:
+            del made[old]  # only the two ends are kept
+    return found(hi if hi is not None else most_mm)
+
+
+FILL = 0.03  # a tolerance whose count fills the budget to within this share is the one
+MAX_TRIES = 10
+
+
+def _next_tolerance(tries, lo, n_lo, hi, n_hi, aim: float, most_mm: float) -> float:
+    """The next tolerance to try: where the power law through the closest tries meets `aim`, kept
+    inside what is known (above `lo`, below `hi`)."""
+    import math
+
+    if hi is not None and lo > 0 and n_lo > n_hi > 0:  # both sides known: interpolate in log-log
+        f = (math.log(n_lo) - math.log(aim)) / (math.log(n_lo) - math.log(n_hi))
+        t = math.exp(math.log(lo) + min(max(f, 0.1), 0.9) * (math.log(hi) - math.log(lo)))
+        return t
+    (t1, n1) = tries[-1]
+    slope = 1.0  # count ∝ tolerance^-slope: about 1 for a curved surface
+    if len(tries) >= 2:
+        t0, n0 = tries[-2]
+        if t0 != t1 and n0 > 0 and n1 > 0 and n0 != n1:
+            slope = min(max(-(math.log(n1) - math.log(n0)) / (math.log(t1) - math.log(t0)), 0.3), 3.0)
+    t = t1 * (max(n1, 1) / aim) ** (1 / slope)
+    if hi is None:  # too many so far: go up, by at least half again, within most_mm
+        return min(max(t, t1 * 1.5), t1 * 8, most_mm)
+    return max(min(t, hi * 0.95), hi / 8)  # all tries fit: come down towards the budget
 
 
 def sample_surface(mesh: Mesh, count: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:

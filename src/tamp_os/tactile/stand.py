@@ -55,6 +55,13 @@ def stand_model(model, width_mm: float, depth_mm: float, *, base_mm: float, furn
     return Stand(solid, placed, base_mm, offset, len(above), len(pieces), len(posts))
 
 
+def furniture_triangles(width_mm: float, depth_mm: float, *, base_mm: float, furniture: Furniture) -> int:
+    """The triangles the plate and its raised furniture add to a model of this footprint (before
+    their union with it, which adds a seam): what a triangle budget leaves room for."""
+    plan = plan_furniture(width_mm, depth_mm, furniture)
+    return 12 + sum(int(part.num_tri()) for part in build_raised(plan, base_mm, furniture.spec))
+
+
 def post_under(piece, model, floor_mm: float):
     """A round post from `floor_mm` (inside the plate) up into the lowest point of `piece`, or None
     when the way straight down from there meets another part of `model` (a post through it would

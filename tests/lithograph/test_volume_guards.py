@@ -145,3 +145,15 @@ def test_mrc_maps_with_extreme_voxel_sizes(tmp_path, voxel_angstrom):
     assert math.prod(measured["working_voxels_zyx"]) <= 8 * 24 ** 3 * 2
     assert measured["voxel_m_zyx"][0] == pytest.approx(voxel_angstrom * 1e-10, rel=1e-3)
     assert peak < 500
+
+
+@pytest.mark.timeout(120)
+@pytest.mark.parametrize("formats", ["stl,tour", "ebraille", "pdf,stl", "dotpad"])
+def test_a_format_a_model_cannot_be_is_refused_before_the_model_is_made(tmp_path, formats):
+    """Issue 52.1: `--volume --formats stl,tour` built the whole model, then failed on '.tour'. Every
+    format that is not a mesh is refused at once, in one line naming the formats a model can be."""
+    stack = imagej_stack(tmp_path / "ball.tif", ball(48))
+    code, line, peak = refused(tmp_path, stack, "--formats", formats)
+    assert code == 1
+    assert "stl, 3mf, glb" in line and all(f in line for f in formats.split(",") if f != "stl"), line
+    assert peak < REFUSAL_PEAK_MB, peak

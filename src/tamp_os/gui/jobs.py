@@ -272,13 +272,13 @@ def run_volume(path: Path, params: LithoParams, out: Path, *, stem: str):
 def volume_params(params: LithoParams, upload: Upload) -> LithoParams:
     """`volume` applies to an upload with a z axis only (the others stay reliefs), and a model is
     written as meshes: the flat formats ticked for the reliefs are left out of it (STL when none is left)."""
-    from ..formats import GRAPHIC_FORMATS, PIN_FORMATS
+    from ..formats import MESH_FORMATS
 
     if not params.volume:
         return params
     if upload.z_slices < 2:
         return params.replace(volume=False)
-    meshes = tuple(f for f in params.formats if f not in GRAPHIC_FORMATS and f not in PIN_FORMATS)
+    meshes = tuple(f for f in params.formats if f in MESH_FORMATS)
     return params.replace(formats=meshes or ("stl",), z_slice=None)
 
 

@@ -742,7 +742,7 @@ def convert_volume(source, params: LithoParams, out_dir, *, stem: str | None = N
     description and a recipe. Nothing is written unless the mesh is a sound solid as written."""
     from ..export import check_export
     from ..export.files import write_text
-    from ..formats import GRAPHIC_FORMATS, PIN_FORMATS
+    from ..formats import MESH_FORMATS
     from ..printing.print_settings import settings_for
     from ..version import __version__
     from .outputs import dependency_versions, file_sha256, write_meshes
@@ -750,10 +750,10 @@ def convert_volume(source, params: LithoParams, out_dir, *, stem: str | None = N
 
     printer = printer_profile or resolve_printer(params)
     formats = list(formats or params.formats)
-    flat = [f for f in formats if f in GRAPHIC_FORMATS or f in PIN_FORMATS]
+    flat = [f for f in formats if f not in MESH_FORMATS]  # refused before any work: a model takes seconds to minutes
     if flat:
-        raise ParameterError(f"`formats`: {', '.join(flat)} are 2-D graphics; a `volume` model is written as a mesh (stl, 3mf, "
-                             f"glb ...). Leave {', '.join(flat)} out, or convert without `volume`.", parameter="formats", value=flat)
+        raise ParameterError(f"`formats`: a `volume` model is written as a mesh ({', '.join(MESH_FORMATS)}), not as "
+                             f"{', '.join(flat)}. Leave {', '.join(flat)} out, or convert without `volume`.", parameter="formats", value=flat)
     model = make_volume(source, params, printer=printer, on_price=on_price)
     folder = Path(out_dir)
     folder.mkdir(parents=True, exist_ok=True)

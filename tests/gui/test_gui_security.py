@@ -231,3 +231,21 @@ def test_a_browser_that_leaves_mid_upload_costs_at_most_one_log_line(tmp_path):
     assert len([line for line in about if "POST /jobs" in line]) <= 1, log
     assert not (tmp_path / "jobs").exists() or not list((tmp_path / "jobs").rglob("left.png"))  # nothing kept of it
 
+
+@pytest.mark.timeout(120)
+def test_a_caption_with_markup_leaves_the_tour_page_whole(server):
+    """Issue 51.3 from the web app: the caption field (200 characters) reaches the touch tour as text."""
+    import json
+    import re
+
+    url, _ = server
+    caption = "<!--<script> </script><img src=x onerror=alert(1)> & ]]>"
+    with httpx.Client(base_url=url, timeout=60) as client:
+        job = new_job(client, [("sample.png", png_bytes((60, 80), 5))])
+        generate_and_wait(client, job, formats="tour", caption_0=caption)
+        archive = zipfile.ZipFile(io.BytesIO(client.get(f"/jobs/{job}/download.zip").content))
+    name = next(n for n in archive.namelist() if n.endswith(".tour.html"))
+    html = archive.read(name).decode("utf-8")
+    data = re.search(r'<script type="application/json" id="tour-data">(.*?)</script>', html, re.S).group(1)
+    assert "<" not in data and html.count("<script") == 2
+    assert any(caption in item["description"] for item in json.loads(data))

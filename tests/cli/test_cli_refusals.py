@@ -4,10 +4,13 @@ import json
 import os
 import subprocess
 import sys
+from pathlib import Path
 import numpy as np
 import pytest
 from PIL import Image
+from cli_support import run_cli_child
 from conftest import FIXTURES, ROOT, run_cli as run
+from synthetic_content import fluorescence_composite
 from tamp_os import make_lithograph
 from tamp_os.errors import ParameterError
 from tamp_os.relief.heightmap import heights_mm
@@ -43,3 +46,41 @@ def test_reading_a_text_file_never_echoes_its_bytes(tmp_path, capsys):
     secret.write_text("password=hunter2")
     code, _, err = run(capsys, "convert", secret, "-o", tmp_path / "o")
     assert code == 1 and "hunter2" not in err and "it holds text, not pixels" in err
+
+
+# ---- issue 51.7: error lines that repeat the argument ------------------------------------------
+
+def _picture(tmp_path, name="p.png") -> Path:
+    path = tmp_path / name
+    Image.fromarray((np.random.default_rng(0).random((40, 50)) * 255).astype(np.uint8)).save(path)
+    return path
+
+
+def _channels_picture(tmp_path) -> Path:
+    path = tmp_path / "fluo.png"
+    Image.fromarray(fluorescence_composite()).save(path)
+    return path
+
+
+LONG = 100_000
+
+
+@pytest.mark.parametrize("argv, prefix", [
+    (("convert", "{image}", "--printer", "p" * 10_000), "--printer: unknown profile 'ppp"),
+    (("convert", "{fluo}", "--key-labels", "k" * LONG), "--key-labels: 'kkk"),
+    (("convert", "{fluo}", "--key-labels", "A" * LONG + "=nuclei"), "--key-labels: no channel named aaa"),
+    (("convert", "{image}", "--relief-style", "r" * LONG), "--relief-style: must be one of"),
+    (("convert", "{image}", "--channel", "c" * LONG), "p.png: channel ccc"),
+    (("convert", "{image}", "--formats", "f" * LONG), "--formats: must be each one of"),
+    (("render", "{image}", "--theme", "t" * LONG), "argument --theme: invalid choice: 'ttt"),
+])
+def test_an_error_line_quotes_a_short_prefix_of_a_long_value(tmp_path, argv, prefix):
+    out = tmp_path / "out"
+    files = {"image": _picture(tmp_path), "fluo": _channels_picture(tmp_path)}
+    argv = [str(a).format(**files) if str(a).startswith("{") else a for a in argv]
+    status, err, _, _, _ = run_cli_child(*argv, "-o", out, "--preset", "low", timeout_s=120)
+    line = next(line for line in err.splitlines() if "error:" in line)
+    assert status in (1, 2) and "Traceback" not in err, err[:2000]
+    assert prefix in line and len(line) < 400, line[:600]
+    assert " characters)" in line, line
+    assert not out.exists() or not any(out.iterdir())

@@ -22,7 +22,7 @@ from cli_support import run_cli_child
 from conftest import need
 from ebraille_check import check_bytes, read_zip
 from gui_support import browser  # noqa: F401
-from synthetic_content import dim_and_bright_beads
+from synthetic_content import dim_and_bright_beads, fluorescence_composite
 from test_ebraille import _assert_epubcheck_clean
 from test_tour import _check_page, _open, tour_data
 
@@ -60,19 +60,6 @@ def hostile_tour(tour):
     regions = tuple(dataclasses.replace(r, label=f"{texts[i % len(texts)]} {i}", description=texts[(i + 3) % len(texts)])
                     for i, r in enumerate(tour.regions))
     return dataclasses.replace(tour, title=" | ".join(texts[:-1]), regions=regions)
-
-
-def fluorescence_composite(side_px: int = 200) -> np.ndarray:
-    """An RGB fluorescence picture on black: blue round nuclei, red lines, green spots (a channel print with a key)."""
-    yy, xx = np.mgrid[0:side_px, 0:side_px]
-    rgb = np.zeros((side_px, side_px, 3))
-    for cy, cx in ((50, 50), (50, 150), (150, 80), (160, 170)):
-        rgb[..., 2][(yy - cy) ** 2 + (xx - cx) ** 2 < 20 ** 2] = 1.0
-    for k in range(5):
-        rgb[..., 0][np.abs(yy - (0.4 * xx + 20 + 40 * k)) < 2.0] = 1.0
-    for cy, cx in np.random.default_rng(3).integers(8, side_px - 8, size=(40, 2)):
-        rgb[..., 1][(yy - cy) ** 2 + (xx - cx) ** 2 < 2.5 ** 2] = 1.0
-    return (rgb * 230).astype(np.uint8)
 
 
 class StartTags(HTMLParser):

@@ -188,6 +188,11 @@ class _Parser(argparse.ArgumentParser):
             file.write(self.format_help())
             file.flush()
 
+    def error(self, message):  # argparse quotes the whole value it could not use: a short prefix, as every error
+        from ..errors import shorten_values
+
+        super().error(shorten_values(message))
+
 
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from PIL import Image
-from cli_support import run_cli_child
+from cli_support import one_error_line, run_cli_child
 from conftest import FIXTURES, ROOT, run_cli as run
 from synthetic_content import fluorescence_composite
 from tamp_os import make_lithograph
@@ -48,7 +48,7 @@ def test_reading_a_text_file_never_echoes_its_bytes(tmp_path, capsys):
     assert code == 1 and "hunter2" not in err and "it holds text, not pixels" in err
 
 
-# ---- issue 51.7: error lines that repeat the argument ------------------------------------------
+# ---- issue 51: settings that cannot be printed, and error lines that repeat the argument -------
 
 def _picture(tmp_path, name="p.png") -> Path:
     path = tmp_path / name
@@ -60,6 +60,25 @@ def _channels_picture(tmp_path) -> Path:
     path = tmp_path / "fluo.png"
     Image.fromarray(fluorescence_composite()).save(path)
     return path
+
+
+def refusal(out: Path, *argv, code: int, timeout_s: float = 120) -> str:
+    """The command line in a child process: it exits with `code`, says one error line and no
+    traceback, and leaves `out` (the output folder) without a file. Returns the line."""
+    status, err, _, _, _ = run_cli_child(*argv, timeout_s=timeout_s)
+    assert status == code, err
+    line = one_error_line(err)
+    assert not out.exists() or not any(out.iterdir()), sorted(p.name for p in out.iterdir())
+    return line
+
+
+@pytest.mark.parametrize("command", ["convert", "batch"])
+def test_a_resin_on_a_nozzle_printer_is_refused_by_convert_as_by_estimate(tmp_path, command):
+    out = tmp_path / "out"
+    line = refusal(out, command, _picture(tmp_path), "-o", out, "--printer", "mk4", "--material", "resin", code=2)
+    assert "--material" in line and "nozzle printer" in line and "'resin'" in line and "PLA" in line, line
+    line = refusal(out, command, _picture(tmp_path), "-o", out, "--material", "plant-resin", code=2)  # the default printer
+    assert "'standard' is a nozzle printer" in line and "'plant-resin'" in line, line
 
 
 LONG = 100_000

@@ -81,6 +81,18 @@ def test_a_resin_on_a_nozzle_printer_is_refused_by_convert_as_by_estimate(tmp_pa
     assert "'standard' is a nozzle printer" in line and "'plant-resin'" in line, line
 
 
+def test_key_labels_that_name_no_channel_are_refused_and_the_others_said(tmp_path):
+    out = tmp_path / "out"
+    fluo = _channels_picture(tmp_path)
+    line = refusal(out, "convert", fluo, "-o", out, "--key-labels", "DAPI=nuclei,GFP=actin", "--preset", "low", code=1)
+    assert "--key-labels: no channel named dapi, gfp in this picture; its channels are red, green, blue" in line, line
+    status, err, _, _, _ = run_cli_child("convert", fluo, "-o", out, "--key-labels", "blue=nuclei,GFP=actin", "--preset", "low")
+    assert status == 0 and "Traceback" not in err, err
+    assert "warning: --key-labels: no channel named gfp in this picture" in err and "error:" not in err, err
+    status, err, _, _, _ = run_cli_child("convert", _picture(tmp_path), "-o", tmp_path / "grey", "--key-labels", "DAPI=nuclei")
+    assert status == 0 and "warning: --key-labels: this print has no channel key" in err, err
+
+
 LONG = 100_000
 
 

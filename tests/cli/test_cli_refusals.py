@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 import numpy as np
 import pytest
+import tifffile
 from PIL import Image
 from cli_support import one_error_line, run_cli_child
 from conftest import FIXTURES, ROOT, run_cli as run
@@ -91,6 +92,20 @@ def test_key_labels_that_name_no_channel_are_refused_and_the_others_said(tmp_pat
     assert "warning: --key-labels: no channel named gfp in this picture" in err and "error:" not in err, err
     status, err, _, _, _ = run_cli_child("convert", _picture(tmp_path), "-o", tmp_path / "grey", "--key-labels", "DAPI=nuclei")
     assert status == 0 and "warning: --key-labels: this print has no channel key" in err, err
+
+
+def test_lengths_given_as_a_number_of_metres_are_read(tmp_path):
+    stack = tmp_path / "stack.tif"
+    z = np.zeros((8, 16, 16), np.uint8)
+    z[2:6, 4:12, 4:12] = 200
+    tifffile.imwrite(stack, z, imagej=True, metadata={"axes": "ZYX"})
+    out = tmp_path / "out"
+    status, err, _, _, _ = run_cli_child("convert", stack, "--volume", "-o", out, "--z-step", "1e-9", "--pixel-size", "2e-9",
+                                         "--size-mm", "20", timeout_s=180)
+    assert status == 0 and "Traceback" not in err, err
+    assert "voxels 2 nm × 2 nm × 1 nm" in (out / "stack.description.txt").read_text()
+    line = refusal(tmp_path / "o2", "convert", stack, "--volume", "-o", tmp_path / "o2", "--z-step", "5", code=2)
+    assert "--z-step: must be a length from 1 pm to 1 m" in line and "got '5' (metres)" in line and "such as 4.2nm" in line, line
 
 
 LONG = 100_000

@@ -1002,11 +1002,10 @@ def _file_axes_lines(s) -> list[str]:
 def cmd_info(args) -> int:
     from ..clean.stage import clean_picture
     from ..errors import TampError
-    from ..params import parse_field
+    from ..params import LithoParams, parse_field
     from ..read.image import read_image
-    from ..units import parse_length_m
 
-    pixel_size_m = parse_length_m(args.pixel_size, "pixel_size") if args.pixel_size else None
+    pixel_size_m = LithoParams(pixel_size=args.pixel_size).pixel_size_m if args.pixel_size else None  # as convert reads it
     scene = parse_field("scene", args.scene) if args.scene is not None else None  # a number, or a series name
     try:  # what does not fit this file fails the file (exit 1), as in convert; a malformed option is usage (2)
         picture = read_image(args.image, page=args.page, z_slice=args.slice, channel=args.channel, time=args.time,

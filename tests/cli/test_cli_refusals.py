@@ -108,6 +108,34 @@ def test_lengths_given_as_a_number_of_metres_are_read(tmp_path):
     assert "--z-step: must be a length from 1 pm to 1 m" in line and "got '5' (metres)" in line and "such as 4.2nm" in line, line
 
 
+def _float_picture(path: Path, values: np.ndarray) -> Path:
+    tifffile.imwrite(path, values)
+    return path
+
+
+def _height_range_mm(stl: Path) -> float:
+    records = np.frombuffer(stl.read_bytes()[84:], dtype=np.dtype([("n", "<f4", 3), ("v", "<f4", (3, 3)), ("a", "<u2")]))
+    z = records["v"][..., 2]
+    return float(z.max() - z.min())
+
+
+def test_finite_values_past_single_precision_print_as_a_relief(tmp_path):
+    huge = np.zeros((40, 50))
+    huge[:20], huge[20:] = 1e299, -1e299
+    huge[5:15, 5:25] = 0.0
+    out = tmp_path / "out"
+    status, err, _, _, _ = run_cli_child("convert", _float_picture(tmp_path / "huge.tif", huge), "-o", out, "--verbose")
+    assert status == 0 and "NaN" not in err and "Traceback" not in err, err
+    assert _height_range_mm(out / "huge.stl") > 2.0  # the relief of the picture, not a flat plate
+    holes = huge.copy()
+    holes[30:35, 30:40] = np.nan
+    status, err, _, _, _ = run_cli_child("convert", _float_picture(tmp_path / "holes.tif", holes), "-o", out)
+    assert status == 0 and "50 pixels were NaN or infinite" in err, err
+    infinite = np.where(np.arange(40 * 50).reshape(40, 50) % 2, np.inf, -np.inf)
+    line = refusal(tmp_path / "o2", "convert", _float_picture(tmp_path / "inf.tif", infinite), "-o", tmp_path / "o2", code=1)
+    assert "inf.tif: every pixel is NaN or infinite" in line, line
+
+
 LONG = 100_000
 
 

@@ -136,6 +136,15 @@ def test_finite_values_past_single_precision_print_as_a_relief(tmp_path):
     assert "inf.tif: every pixel is NaN or infinite" in line, line
 
 
+def test_a_grid_too_coarse_for_a_relief_names_the_resolution(tmp_path):
+    out = tmp_path / "out"
+    line = refusal(out, "sweep", _picture(tmp_path), "-o", out, "--vary", "resolution=2,16384", code=2)
+    assert "--resolution-px: 2 grid points across 100 mm are 100 mm apart" in line and "at least 3" in line, line
+    assert "between the grid pitch" not in line
+    line = refusal(out, "convert", _picture(tmp_path), "-o", out, "--resolution-px", "3", "--width-mm", "200", code=1)
+    assert "give --resolution-px 5 or more" in line.lower(), line
+
+
 LONG = 100_000
 
 

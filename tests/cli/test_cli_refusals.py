@@ -167,3 +167,11 @@ def test_an_error_line_quotes_a_short_prefix_of_a_long_value(tmp_path, argv, pre
     assert prefix in line and len(line) < 400, line[:600]
     assert " characters)" in line, line
     assert not out.exists() or not any(out.iterdir())
+
+
+def test_a_warning_line_quotes_a_short_prefix_of_a_long_value(tmp_path):
+    out = tmp_path / "out"
+    status, err, _, _, _ = run_cli_child("convert", _channels_picture(tmp_path), "-o", out, "--preset", "low",
+                                         "--key-labels", "blue=nuclei," + "G" * LONG + "=actin", timeout_s=120)
+    warning = next(line for line in err.splitlines() if line.startswith("warning: --key-labels"))
+    assert status == 0 and "no channel named ggg" in warning and "(100,000 characters)" in warning and len(warning) < 400, warning[:600]

@@ -154,10 +154,11 @@ def _flags() -> MappingProxyType[str, str]:
 
 def cli_words(message) -> str:
     """A library message (an error, a warning, a help text) with each parameter it names said as
-    this command's option (pixel_size -> --pixel-size); see errors.Text."""
-    from ..errors import words
+    this command's option (pixel_size -> --pixel-size); see errors.Text. A warning quotes a short
+    prefix of a long value too (errors.shorten_values): a line on a terminal, not the value again."""
+    from ..errors import shorten_values, words
 
-    return words(message, _flags().get)
+    return shorten_values(words(message, _flags().get))
 
 
 def _format_help() -> str:

@@ -330,3 +330,16 @@ def sparse_beads(rows: int = 600, cols: int = 800, count: int = 5, cover_pct: fl
 def all_content(rows: int = 192, cols: int = 256) -> list[Truth]:
     return [dim_and_bright_beads(rows, cols), dark_line_network(rows, cols), dot_lattice(rows, cols),
             faint_grains(rows, cols), line_diagram(rows, cols)]
+
+
+def fluorescence_composite(side_px: int = 200) -> np.ndarray:
+    """An RGB fluorescence picture on black: blue round nuclei, red lines, green spots (a channel print with a key)."""
+    yy, xx = np.mgrid[0:side_px, 0:side_px]
+    rgb = np.zeros((side_px, side_px, 3))
+    for cy, cx in ((50, 50), (50, 150), (150, 80), (160, 170)):
+        rgb[..., 2][(yy - cy) ** 2 + (xx - cx) ** 2 < 20 ** 2] = 1.0
+    for k in range(5):
+        rgb[..., 0][np.abs(yy - (0.4 * xx + 20 + 40 * k)) < 2.0] = 1.0
+    for cy, cx in np.random.default_rng(3).integers(8, side_px - 8, size=(40, 2)):
+        rgb[..., 1][(yy - cy) ** 2 + (xx - cx) ** 2 < 2.5 ** 2] = 1.0
+    return (rgb * 230).astype(np.uint8)

@@ -101,6 +101,36 @@ def words(message: Any, namer: Namer | None = None, offers: Callable[[str], bool
     return render(str(message), namer, offers)
 
 
+# A message quotes what the user gave to show what was received, not to repeat it: a 100,000-character
+# `key_labels` made an error line of 100,078 characters (issue 51.7). Every error's text passes
+# through shorten_values, so no message needs to cut its own values.
+QUOTED_MAX_CHARS = 80  # a quoted value longer than this is cut to its first QUOTED_KEEP_CHARS
+QUOTED_KEEP_CHARS = 60
+BARE_MAX_CHARS = 300  # a run without spaces longer than this (a value said bare); paths are shorter
+BARE_TAIL_CHARS = 20  # of a bare run its end is kept too: a path's end is its file name
+# A Python repr of a string: its quote, never the same quote inside (repr escapes or switches it),
+# and not an apostrophe in a word (the picture's, don't).
+_QUOTED = re.compile(r"(?<!\w)(['\"])((?:\\.|(?!\1)[^\\\n]){%d,})\1(?!\w)" % (QUOTED_MAX_CHARS + 1))
+_BARE = re.compile(r"\S{%d,}" % (BARE_MAX_CHARS + 1))
+
+
+def shorten_values(text: str) -> str:
+    """`text` with every long quoted value cut to a prefix that identifies it and its length
+    ('DAPI=nuclei,GFP=…' (100,000 characters)), and every long run without spaces cut in its middle."""
+    if len(text) <= QUOTED_MAX_CHARS:
+        return text
+
+    def quoted(m: re.Match) -> str:
+        quote, inner = m.group(1), m.group(2)
+        return f"{quote}{inner[:QUOTED_KEEP_CHARS]}…{quote} ({len(inner):,} characters)"
+
+    def bare(m: re.Match) -> str:
+        run = m.group(0)
+        return f"{run[:QUOTED_KEEP_CHARS]}…{run[-BARE_TAIL_CHARS:]} ({len(run):,} characters)"
+
+    return _BARE.sub(bare, _QUOTED.sub(quoted, text))
+
+
 class TampError(Exception):
     """Base class: a problem the user can fix; the CLI prints it without a traceback.
 
@@ -144,7 +174,7 @@ def _restore(cls, state: dict) -> "TampError":
 
 
 def _template(message) -> str:
-    return str(message.template if isinstance(message, Text) else message)
+    return shorten_values(str(message.template if isinstance(message, Text) else message))
 
 
 def names_in(template: str) -> set[str]:

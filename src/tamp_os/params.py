@@ -11,6 +11,7 @@ import dataclasses
 import functools
 import json
 import math
+import re
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -19,7 +20,7 @@ from .formats import GRAPHIC_FORMATS, NAMES as FORMATS  # noqa: F401  (GRAPHIC_F
 from .printing.printers import PRESETS
 from .standards import DEFAULT_TABLE, BrailleSpec
 from .texts import parse_boxes, parse_grid
-from .units import PIXEL_SIZE_RANGE_M, format_length, parse_bed_mm, parse_length_m
+from .units import MAX_LENGTH_TEXT, PIXEL_SIZE_RANGE_M, format_length, parse_bed_mm, parse_length_m
 FITS = ("pad", "crop", "stretch")
 MESHERS = ("adaptive", "grid")
 # The relief styles (relief/styles.py implements them; a test keeps the two lists equal).
@@ -281,19 +282,26 @@ SECTIONS: tuple[tuple[str, tuple[str, ...]], ...] = (
 )
 
 
+BARE_NUMBER = re.compile(r"\s*[-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][-+]?[0-9]+)?\s*")  # 4.2e-9, 0.5, 1e-9
+
+
 def _length_m(value, name: str, range_m, words: tuple[str, ...] = ()) -> float | None:
     """A length parameter given as text with a unit ('4.2nm') or as a number of metres (4.2e-9);
     `words` are its other allowed values, named when a text is neither."""
     if value is None:
         return None
+    given = value
+    if isinstance(value, str) and len(value) <= MAX_LENGTH_TEXT and BARE_NUMBER.fullmatch(value):
+        value = float(value)  # a number in metres, as the help says, given as text (the command line, a CSV cell)
     if isinstance(value, str):
         return parse_length_m(value, name, range_m, words=words)
     lo, hi = range_m or (0.0, math.inf)
     allowed = f"a length from {format_length(lo)} to {format_length(hi)}" if range_m else "a length greater than 0"
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or not (lo <= value <= hi) or value <= 0:
+        got = f"{given!r} (metres)" if isinstance(given, str) else repr(given)
         raise ParameterError(
-            f"`{name}`: must be {allowed}, as text with a unit (4.2nm) or a number of metres (4.2e-9); got {value!r}.",
-            parameter=name, value=value, allowed=allowed, hint="give a number in metres or text with a unit",
+            f"`{name}`: must be {allowed}, as text with a unit (4.2nm) or a number of metres (4.2e-9); got {got}.",
+            parameter=name, value=given, allowed=allowed, hint="A number without a unit is in metres; add the unit, such as 4.2nm.",
         )
     return float(value)
 

@@ -473,6 +473,27 @@ def test_the_lock_is_removed_at_the_end_and_refuses_a_second_holder(tmp_path):
         pass
 
 
+def test_a_refusal_names_the_holder_and_a_folder_without_locks_says_so(tmp_path, monkeypatch):
+    import errno
+    import fcntl
+
+    from tamp_os.errors import ExportError, InputError
+    from tamp_os.lithograph.locks import folder_lock
+
+    with folder_lock(tmp_path / "out"):
+        with pytest.raises(InputError, match=rf"another TAMP-OS run \(process {os.getpid()}\) is writing into this folder now"):
+            with folder_lock(tmp_path / "out"):
+                pass
+
+    def no_locks(fd, operation):  # a network file system without locking
+        raise OSError(errno.ENOLCK, "No locks available")
+
+    monkeypatch.setattr(fcntl, "flock", no_locks)
+    with pytest.raises(ExportError, match=r"cannot lock this output folder \(No locks available\); choose a folder on a local disk"):
+        with folder_lock(tmp_path / "out"):
+            pass
+
+
 def test_a_planted_lock_link_is_never_followed(tmp_path, capsys):
     from tamp_os.lithograph.locks import LOCK_NAME
 
@@ -527,6 +548,57 @@ def test_a_signal_during_convert_leaves_no_temporary_file(tmp_path, signame):
         pytest.skip("the conversion finished before the signal arrived")  # timing; the sweep test covers the rest
     assert proc.returncode == 130 and "stopped." in err and "Traceback" not in err, err
     assert "big.tamp.json" not in leftovers  # the recipe comes last: an interrupted set never looks whole
+
+
+def _lock_held_by_another(lock: Path) -> bool:
+    """Whether some process holds the flock of `lock` (tried without waiting, and let go at once)."""
+    import fcntl
+
+    fd = os.open(lock, os.O_RDONLY)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        return True
+    finally:
+        os.close(fd)  # closing releases it
+    return False
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(300)
+@pytest.mark.parametrize("command", ["convert", "batch"])
+def test_a_run_killed_with_sigkill_leaves_a_lock_the_next_run_takes_over(tmp_path, command):
+    """Issue 51.8: SIGKILL cannot remove `.tamp-batch.lock`; the kernel lets go of its flock with the
+    process (and batch's workers die with it), so the next run recognises the lock as left and goes on."""
+    from tamp_os.lithograph.locks import LOCK_NAME
+
+    src = tmp_path / "in"
+    src.mkdir()
+    images = [small_png(src / f"p{i}.png", (300, 400), i) for i in range(5)]
+    out = tmp_path / "out"
+    argv = [command, *(map(str, images) if command == "convert" else [str(src), "--workers", "2"]), "-o", str(out)]
+    env = {**os.environ, "PYTHONPATH": SRC}
+    proc = subprocess.Popen([PYTHON, "-m", "tamp_os.cli.commands", *argv], env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    lock = out / LOCK_NAME
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and proc.poll() is None and not list(out.glob("*.stl")):
+        time.sleep(0.02)  # the first print written: the run is well inside its lock
+    if proc.poll() is not None:
+        pytest.skip("the run finished before it could be killed")
+    assert lock.read_text().strip() == str(proc.pid)  # the lock names its holder
+    assert _lock_held_by_another(lock)
+    proc.kill()  # SIGKILL: no handler runs, nothing is cleaned up
+    proc.wait(timeout=30)
+    proc.stderr.close()
+    assert lock.exists()
+    deadline = time.monotonic() + 10
+    while _lock_held_by_another(lock):  # batch's workers end with it (the kernel's parent-death signal)
+        assert time.monotonic() < deadline, "a process of the killed run still holds the lock"
+        time.sleep(0.05)
+    code, err, _, _, _ = run_cli_child(*argv, timeout_s=240)
+    assert code == 0 and "error:" not in err and "Traceback" not in err, err
+    assert sorted(p.name for p in out.glob("*.stl")) == [f"p{i}.stl" for i in range(5)]
+    assert not lock.exists() and not list(out.glob(".*.part"))
 
 
 @pytest.mark.timeout(300)

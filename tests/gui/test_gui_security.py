@@ -200,3 +200,52 @@ def test_listening_beyond_this_computer_needs_the_access_token(tmp_path):
         r = client.get("/?token=s3cret-token", follow_redirects=False)
         assert r.status_code == 303 and r.headers["location"] == "/" and "HttpOnly" in r.headers["set-cookie"]
         assert client.get("/").status_code == 200  # the cookie now opens it
+
+
+@pytest.mark.timeout(60)
+def test_a_browser_that_leaves_mid_upload_costs_at_most_one_log_line(tmp_path):
+    """Issue 51.5: a cancelled upload or a closed tab (starlette's ClientDisconnect while the form
+    is read) is normal, not a 40-line traceback and an "unexpected error"."""
+    proc, url = start_server(tmp_path / "jobs")
+    try:
+        host, port = url.removeprefix("http://").split(":")
+        with httpx.Client(base_url=url, timeout=30) as client:
+            token = form_token(client)
+        boundary = "tampboundary"
+        body = (f'--{boundary}\r\nContent-Disposition: form-data; name="token"\r\n\r\n{token}\r\n--{boundary}\r\n'
+                f'Content-Disposition: form-data; name="images"; filename="left.png"\r\nContent-Type: image/png\r\n\r\n').encode()
+        body += png_bytes((300, 400))[:5000]  # a fifth of the file, then the tab closes
+        head = (f"POST /jobs HTTP/1.1\r\nHost: {host}:{port}\r\nContent-Length: {len(body) + 1_000_000}\r\n"
+                f"Content-Type: multipart/form-data; boundary={boundary}\r\n\r\n").encode()
+        with socket.create_connection((host, int(port)), timeout=10) as s:
+            s.sendall(head + body)
+            time.sleep(0.5)  # the route is reading the form
+        time.sleep(0.5)
+        with httpx.Client(base_url=url, timeout=30) as client:
+            assert client.get("/").status_code == 200  # still answering
+    finally:
+        proc.terminate()
+        log = proc.communicate(timeout=20)[0]
+    about = [line for line in log.splitlines() if "POST /jobs" in line or "left" in line or "rror" in line]
+    assert "Traceback" not in log and "unexpected error" not in log, log
+    assert len([line for line in about if "POST /jobs" in line]) <= 1, log
+    assert not (tmp_path / "jobs").exists() or not list((tmp_path / "jobs").rglob("left.png"))  # nothing kept of it
+
+
+@pytest.mark.timeout(120)
+def test_a_caption_with_markup_leaves_the_tour_page_whole(server):
+    """Issue 51.3 from the web app: the caption field (200 characters) reaches the touch tour as text."""
+    import json
+    import re
+
+    url, _ = server
+    caption = "<!--<script> </script><img src=x onerror=alert(1)> & ]]>"
+    with httpx.Client(base_url=url, timeout=60) as client:
+        job = new_job(client, [("sample.png", png_bytes((60, 80), 5))])
+        generate_and_wait(client, job, formats="tour", caption_0=caption)
+        archive = zipfile.ZipFile(io.BytesIO(client.get(f"/jobs/{job}/download.zip").content))
+    name = next(n for n in archive.namelist() if n.endswith(".tour.html"))
+    html = archive.read(name).decode("utf-8")
+    data = re.search(r'<script type="application/json" id="tour-data">(.*?)</script>', html, re.S).group(1)
+    assert "<" not in data and html.count("<script") == 2
+    assert any(caption in item["description"] for item in json.loads(data))

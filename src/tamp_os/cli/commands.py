@@ -154,10 +154,11 @@ def _flags() -> MappingProxyType[str, str]:
 
 def cli_words(message) -> str:
     """A library message (an error, a warning, a help text) with each parameter it names said as
-    this command's option (pixel_size -> --pixel-size); see errors.Text."""
-    from ..errors import words
+    this command's option (pixel_size -> --pixel-size); see errors.Text. A warning quotes a short
+    prefix of a long value too (errors.shorten_values): a line on a terminal, not the value again."""
+    from ..errors import shorten_values, words
 
-    return words(message, _flags().get)
+    return shorten_values(words(message, _flags().get))
 
 
 def _format_help() -> str:
@@ -187,6 +188,11 @@ class _Parser(argparse.ArgumentParser):
         if file is not None:  # None: started with the output closed (`>&-`), as print() skips it
             file.write(self.format_help())
             file.flush()
+
+    def error(self, message):  # argparse quotes the whole value it could not use: a short prefix, as every error
+        from ..errors import shorten_values
+
+        super().error(shorten_values(message))
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -1006,11 +1012,10 @@ def _file_axes_lines(s) -> list[str]:
 def cmd_info(args) -> int:
     from ..clean.stage import clean_picture
     from ..errors import TampError
-    from ..params import parse_field
+    from ..params import LithoParams, parse_field
     from ..read.image import read_image
-    from ..units import parse_length_m
 
-    pixel_size_m = parse_length_m(args.pixel_size, "pixel_size") if args.pixel_size else None
+    pixel_size_m = LithoParams(pixel_size=args.pixel_size).pixel_size_m if args.pixel_size else None  # as convert reads it
     scene = parse_field("scene", args.scene) if args.scene is not None else None  # a number, or a series name
     try:  # what does not fit this file fails the file (exit 1), as in convert; a malformed option is usage (2)
         picture = read_image(args.image, page=args.page, z_slice=args.slice, channel=args.channel, time=args.time,

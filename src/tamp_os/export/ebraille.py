@@ -32,12 +32,11 @@ import uuid
 import zipfile
 from dataclasses import dataclass
 from pathlib import Path
-from xml.sax.saxutils import escape, quoteattr
-
 import numpy as np
 
 from .files import write_atomic
 from .graphic2d import Graphic2D
+from .markup import escape, quoteattr
 from .regions import Tour, labelled_svg, plain_svg
 
 MIMETYPE = "application/epub+zip"
@@ -103,11 +102,16 @@ class Brailler:
         self.pairs: dict[str, str] = {}
 
     def __call__(self, text: str) -> str:
-        from ..tactile.braille import to_braille
+        from ..tactile.braille import to_braille, unwritable_characters
 
-        if text not in self.pairs:
-            self.pairs[text] = to_braille(text, self.table, what="eBraille text")
-        return self.pairs[text]
+        # The texts are the tool's own sentences around a file's name, which may hold control and
+        # format characters (an escape sequence, a right-to-left override): never meant to be read,
+        # so left out rather than refused (the plate refuses them in a caption or a key label).
+        unwritable = set(unwritable_characters(text))
+        writable = "".join(ch for ch in text if ch not in unwritable) if unwritable else text
+        if writable not in self.pairs:
+            self.pairs[writable] = to_braille(writable, self.table, what=f"the eBraille text {writable!r}")
+        return self.pairs[writable]
 
 
 def _pagebreak(number: int, br: Brailler) -> str:

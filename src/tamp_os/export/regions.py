@@ -330,7 +330,7 @@ def labelled_svg(base_svg: str, tour: Tour, label_of=None, *, title: str | None 
 
     document_role: the root says role="graphics-document" (the tour page); an EPUB content
     document's inline SVG may carry no such role (epubcheck's schema)."""
-    from xml.sax.saxutils import escape, quoteattr
+    from .markup import escape, quoteattr
 
     label_of = label_of or (lambda r: r.label)
     head_start = base_svg.index("<svg")

@@ -13,7 +13,6 @@ import io
 import math
 from pathlib import Path
 from typing import BinaryIO, Callable
-from xml.sax.saxutils import escape
 
 import numpy as np
 
@@ -23,6 +22,7 @@ from ..tactile.braille import dot_centres
 from ..tactile.furniture import TICK_LENGTH_MM
 from . import textures as tx
 from .graphic2d import Graphic2D, page_placement
+from .markup import escape, xml_text
 
 PT_PER_MM = 72 / 25.4
 BAR_LINE_MM = 1.0  # scale bar and its ticks: a good standard tactile line
@@ -172,9 +172,9 @@ def write_pdf(graphic: Graphic2D, fh: BinaryIO, page_size: str | None = None, *,
     (pw, ph), offset = page_placement(graphic.plate_mm, page_size)
     surface = cairo.PDFSurface(fh, pw * PT_PER_MM, ph * PT_PER_MM)
     meta = metadata or {}
-    surface.set_metadata(cairo.PDFMetadata.TITLE, str(meta.get("title", "Tactile graphic")))
+    surface.set_metadata(cairo.PDFMetadata.TITLE, xml_text(meta.get("title", "Tactile graphic")))  # a file name's stray bytes too
     if meta.get("description"):
-        surface.set_metadata(cairo.PDFMetadata.SUBJECT, str(meta["description"]))
+        surface.set_metadata(cairo.PDFMetadata.SUBJECT, xml_text(meta["description"]))
     surface.set_metadata(cairo.PDFMetadata.CREATOR, "tamp-os")
     _draw(surface, graphic, offset, ph, PT_PER_MM)
     surface.finish()
@@ -202,7 +202,7 @@ def write_pdf_pages(graphics: list[Graphic2D], fh: BinaryIO, page_size: str | No
     sizes = [page_placement(g.plate_mm, page_size) for g in graphics]
     (pw, ph), _ = sizes[0]
     surface = cairo.PDFSurface(fh, pw * PT_PER_MM, ph * PT_PER_MM)
-    surface.set_metadata(cairo.PDFMetadata.TITLE, title)
+    surface.set_metadata(cairo.PDFMetadata.TITLE, xml_text(title))
     surface.set_metadata(cairo.PDFMetadata.CREATOR, "tamp-os")
     for graphic, ((pw, ph), offset) in zip(graphics, sizes):
         surface.set_size(pw * PT_PER_MM, ph * PT_PER_MM)

@@ -25,6 +25,8 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
+from .markup import xml_text
+
 CORE_NS = "http://schemas.microsoft.com/3dmanufacturing/core/2015/02"
 PRODUCTION_NS = "http://schemas.microsoft.com/3dmanufacturing/production/2015/06"
 MODEL_PATH = "3D/3dmodel.model"
@@ -33,12 +35,6 @@ MODEL_RELATIONSHIP = "http://schemas.microsoft.com/3dmanufacturing/2013/01/3dmod
 COMPRESS_LEVEL = 4
 ZIP_DATE = (1980, 1, 1, 0, 0, 0)  # the earliest a zip can hold: no clock in the bytes
 INDENT = "\t\t\t\t\t"
-
-
-def xml_text(value) -> str:
-    """`value` as text XML 1.0 can hold: characters it forbids (control characters other than tab,
-    newline and return; lone surrogates; U+FFFE/U+FFFF) become U+FFFD. Not escaped (see _attr)."""
-    return "".join(ch if ch in "\t\n\r" or ("\x20" <= ch <= "\ud7ff") or ("\ue000" <= ch <= "\ufffd") or ch >= "\U00010000" else "\ufffd" for ch in str(value))
 
 
 def _text(value) -> str:

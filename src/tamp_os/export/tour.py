@@ -16,12 +16,11 @@ Written through files.write_atomic.
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
-from xml.sax.saxutils import escape, quoteattr
 
 from .files import write_atomic
 from .graphic2d import Graphic2D
+from .markup import escape, quoteattr, script_json
 from .regions import Tour, labelled_svg, plain_svg
 
 STYLE = """
@@ -88,8 +87,7 @@ def tour_page(tour: Tour, graphic: Graphic2D, lang: str = "en") -> str:
     svg = labelled_svg(plain_svg(graphic, tour.title), tour)
     svg = svg[svg.index("<svg"):]
     w, d = tour.plate_mm
-    data = json.dumps([{"id": r.id, "label": r.label, "description": r.description} for r in tour.regions], ensure_ascii=False)
-    data = data.replace("</", "<\\/")  # never closes the script element
+    data = script_json([{"id": r.id, "label": r.label, "description": r.description} for r in tour.regions])
     items = "\n".join(f'<li><button type="button" data-index="{i}" aria-describedby="announce">{escape(r.label)}</button> '
                       f"{escape(r.description)}</li>" for i, r in enumerate(tour.regions))
     return f"""<!DOCTYPE html>
@@ -131,17 +129,26 @@ def write_tour(path, tour: Tour, graphic: Graphic2D, *, lang: str = "en") -> Pat
 DOCUMENT_SUFFIXES = {"ebraille": ".ebrl", "tour": ".tour.html"}
 
 
-def save_documents(litho, graphic: Graphic2D, formats, *, folder: Path, stem: str, description: str) -> list[Path]:
-    """Write the eBraille package and/or the touch tour of a lithograph whose 2-D graphic is `graphic`."""
-    from .ebraille import book_from_lithograph, write_ebraille
+def build_documents(litho, graphic: Graphic2D, formats, *, stem: str, description: str) -> dict[str, bytes]:
+    """The eBraille package and/or the touch tour of a lithograph whose 2-D graphic is `graphic`,
+    by file name, made before any file of the set is written: a text braille cannot write refuses
+    the whole set, never leaves half of it."""
+    from .ebraille import book_from_lithograph, package_files, zip_bytes
     from .regions import tour_from_lithograph
 
     tour = tour_from_lithograph(litho, graphic)
-    written = []
+    built = {}
     for fmt in formats:
-        target = Path(folder) / f"{stem}{DOCUMENT_SUFFIXES[fmt]}"
+        name = f"{stem}{DOCUMENT_SUFFIXES[fmt]}"
         if fmt == "ebraille":
-            written.append(write_ebraille(target, book_from_lithograph(litho, tour, description), graphic, picture=litho.picture.values))
+            files, _ = package_files(book_from_lithograph(litho, tour, description), graphic, litho.picture.values)
+            built[name] = zip_bytes(files)
         elif fmt == "tour":
-            written.append(write_tour(target, tour, graphic))
-    return written
+            built[name] = tour_page(tour, graphic).encode("utf-8")
+    return built
+
+
+def write_documents(folder: Path, built: dict[str, bytes]) -> list[Path]:
+    """Write what build_documents made into `folder`, each file atomically."""
+    return [write_atomic(Path(folder) / name, lambda fh, data=data: fh.write(data)) for name, data in built.items()]
+

@@ -132,8 +132,12 @@ class GuardMiddleware:
                 started = True
             await send(message)
 
+        from starlette.requests import ClientDisconnect
+
         try:
             await self.app(scope, receive, tracking)
+        except ClientDisconnect:  # a cancelled upload or a closed tab is normal: one line, and nobody to answer
+            log.info("the browser left during %s %s", scope.get("method"), scope.get("path"))
         except Exception:
             log.exception("unexpected error answering %s %s", scope.get("method"), scope.get("path"))
             if not started:

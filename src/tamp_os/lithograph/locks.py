@@ -7,6 +7,12 @@ folder, opened without following symbolic links (a planted link cannot send our 
 elsewhere), and removed when the run ends. Because a run removes the file as it finishes, a
 run that opened the old file just before that re-checks, once it holds the lock, that the name
 still points at the file it locked; otherwise it starts again on the new file.
+
+A run killed with SIGKILL cannot remove the file, but the kernel releases its flock with the
+process (and batch's workers die with it: batch.exit_with_parent), so the next run takes the lock
+of the file that is left and goes on. The holder writes its process ID into the file: a refusal
+names the process that writes, and a run that takes over a lock left by a process that is gone
+says so in the log.
 """
 
 from __future__ import annotations
@@ -72,16 +78,22 @@ def folder_lock(folder: Path, who: str = "another TAMP-OS run"):
         fd = _open_lock_file(path)
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
+        except OSError as exc:
+            holder = _holder(fd)
             os.close(fd)
+            if exc.errno not in (errno.EWOULDBLOCK, errno.EAGAIN):  # a file system without locks, not a holder
+                raise ExportError(f"{folder}: cannot lock this output folder ({exc.strerror}); choose a folder on a "
+                                  f"local disk with -o.") from None
             raise InputError(
-                f"{folder}: {who} is writing into this folder now; wait for it to finish or choose another output folder."
+                f"{folder}: {who}{f' (process {holder})' if holder else ''} is writing into this folder now; wait for it "
+                f"to finish or choose another output folder."
             ) from None
         try:
             same = os.stat(path, follow_symlinks=False).st_ino == os.fstat(fd).st_ino
         except FileNotFoundError:
             same = False
         if same:
+            _take_over(fd, path)
             break
         os.close(fd)  # the holder removed the file as we opened it: lock the new one
     else:
@@ -92,6 +104,25 @@ def folder_lock(folder: Path, who: str = "another TAMP-OS run"):
         with contextlib.suppress(OSError):
             os.unlink(path)
         os.close(fd)  # closing releases the flock
+
+
+def _holder(fd: int) -> int | None:
+    """The process ID a lock file names (None: none, or not a number)."""
+    try:
+        text = os.pread(fd, 32, 0).decode("ascii", "replace").strip()
+    except OSError:
+        return None
+    return int(text) if text.isdigit() else None
+
+
+def _take_over(fd: int, path: Path) -> None:
+    """Write this process's ID into the lock it now holds; log a lock a process that is gone left."""
+    left_by = _holder(fd)
+    if left_by is not None and left_by != os.getpid():
+        log.info("%s: the lock left by process %d (stopped without removing it) is taken over", path, left_by)
+    with contextlib.suppress(OSError):  # the ID is for people; the flock is the lock
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, f"{os.getpid()}\n".encode("ascii"), 0)
 
 
 def sweep_parts(folder: Path) -> list[str]:

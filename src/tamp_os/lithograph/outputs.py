@@ -95,6 +95,11 @@ def save(litho, target, formats=None, *, stem: str | None = None) -> list[Path]:
         from ..export.pin_files import pin_sets
 
         pages = pin_sets(litho, pins)
+    built = {}
+    if documents:  # eBraille and the tour made here: a text braille cannot write fails before any file
+        from ..export.tour import build_documents
+
+        built = build_documents(litho, graphic, documents, stem=stem, description=meta["description"])
     if litho.tiles or litho.parts:  # several solids (export/multipart.py)
         written = _write_multipart(litho, folder, stem, meshes, meta)
     else:
@@ -108,10 +113,10 @@ def save(litho, target, formats=None, *, stem: str | None = None) -> list[Path]:
 
         for fmt, pin_set in pages.items():
             written += save_pins(pin_set, fmt, folder, stem=stem, title=meta["title"])
-    if documents:
-        from ..export.tour import save_documents
+    if built:
+        from ..export.tour import write_documents
 
-        written += save_documents(litho, graphic, documents, folder=folder, stem=stem, description=meta["description"])
+        written += write_documents(folder, built)
     if litho.params.save_masks and litho.mask is not None:
         written.append(write_png(folder / f"{stem}.annotations.png", to_uint8(litho.mask, 0.0, 1.0)))
     written.append(write_text(folder / f"{stem}.description.txt", meta["description"] + "\n"))

@@ -30,7 +30,7 @@ from ..relief.agreement import agreement
 from ..relief.legibility import Legibility, assess
 from ..relief.layout import Layout
 from ..relief.preprocess import Prepared, prepare
-from ..relief.channel_auto import route as channel_route
+from ..relief.channel_auto import route as channel_route, unused_key_labels
 from ..relief.styles import ReliefResult, StyleOptions, make_relief
 from ..relief.touch import MOSTLY_NOISE, noise_share
 from .report import Report, plate_report
@@ -156,6 +156,7 @@ def make_lithograph(source, params: LithoParams | None = None, *, printer_profil
         route = channel_route(source, picture, params)
         if route is None and not params.channels:
             relief, key, channel_extras = _relief(prepared, layout, params, machine, _content_hints(cleaned)), (), None
+            relief = dataclasses.replace(relief, notes=tuple(relief.notes) + unused_key_labels(params.key_labels))
         else:
             from ..relief.channel_stage import channel_path, without_channel_note  # only when used: skimage.color and more
 

@@ -10,9 +10,13 @@ from ..relief.layout import Layout, plan_layout
 
 def resolve_printer(params: LithoParams, printer: PrinterProfile | None = None) -> PrinterProfile:
     """The printer numbers a print uses: the named (or given) profile with the user's nozzle and layer."""
+    from ..printing.slicer import material_for
+
     chosen = printer or get_printer(params.printer)
     if chosen.is_resin:
         check_resin(params, chosen)
+    else:  # a resin on a nozzle printer: refused here as `estimate` refuses it, not written into a recipe
+        material_for(chosen, params.material)
     return chosen.with_overrides(params.nozzle_mm, params.layer_mm)
 
 

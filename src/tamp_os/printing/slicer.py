@@ -115,7 +115,9 @@ def material_for(printer: PrinterProfile, name: str, price_per_kg: float | None 
     if chosen.is_resin != printer.is_resin:
         fits = RESINS if printer.is_resin else FILAMENTS
         what = "a resin printer" if printer.is_resin else "a nozzle printer"
-        raise ParameterError(f"`material`: the {printer.name} is {what}; choose one of {', '.join(fits)}; got {name!r}.")
+        raise ParameterError(f"`material`: the printer {printer.name!r} is {what}; choose one of {', '.join(fits)} "
+                             f"(or another `printer`); got {name!r}.", parameter="material", value=name,
+                             allowed=", ".join(fits))
     return chosen
 
 

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError, ParameterError, Text
+from ..errors import Decision, InputError, ParameterError, Text
 from .cost import MAX_MEMORY_GB
 
 
@@ -284,6 +284,7 @@ def to_picture(decoded: Decoded, channel, *, name, sha, path, keep_colour: bool 
         **decoded.facts,
     )
     file.channel_count = file.channel_count or file.channels
+    array = within_float32(array, file.notes)
     if array.ndim == 3 and array.shape[-1] >= 3:
         file.colour_sample = colour_sample(array)
     values, alpha = grayscale(array, channel, name)
@@ -295,6 +296,26 @@ def to_picture(decoded: Decoded, channel, *, name, sha, path, keep_colour: bool 
 
 
 COLOUR_SAMPLE_PX = 512
+FLOAT32_MAX = float(np.finfo(np.float32).max)
+
+
+def within_float32(array: np.ndarray, notes: list) -> np.ndarray:
+    """A float picture whose finite values reach past float32's range (±3.4e38), scaled by a power
+    of two to a largest value of about 1 (exact: brightness is relative, the stretch undoes any
+    scale); the values are read as float32 from here on, and ±1e299 became ±inf, then a plate
+    refused as 'every pixel is NaN or infinite' (issue 51.6). Any other array is returned as it is."""
+    if array.dtype.kind != "f" or array.dtype.itemsize <= 4:
+        return array
+    low, high = float(np.fmin.reduce(array, axis=None)), float(np.fmax.reduce(array, axis=None))  # NaN skipped, no copy
+    if -FLOAT32_MAX <= low and high <= FLOAT32_MAX:  # the usual case ends here
+        return array
+    finite = np.abs(array[np.isfinite(array)])
+    if not finite.size:
+        return array
+    _, exponent = np.frexp(float(finite.max()))
+    notes.append(Decision(f"The values reach {float(finite.max()):.3g}, past what is read in single precision; they were all "
+                 f"divided by 2^{int(exponent)} (brightness is relative, so the print is the same)."))
+    return np.ldexp(array, -int(exponent))
 
 
 def colour_sample(array: np.ndarray) -> np.ndarray:

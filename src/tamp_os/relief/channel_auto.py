@@ -191,6 +191,15 @@ class Route:
     section: str = ""  # "XZ" or "YZ" when the picture is an axial section (its rows run along Z), else ""
 
 
+def unused_key_labels(key_labels: str | None) -> tuple[Text, ...]:
+    """The note for `key_labels` given to a print without a channel key (it was ignored without a
+    word, issue 51.6); () when none were given."""
+    if not (key_labels or "").strip():
+        return ()
+    return (Text("`key_labels`: this print has no channel key (it prints the picture's brightness, not its channels), "
+                 "so the labels are not used; leave `key_labels` out⟦, or print the channels with `channels`⟧."),)
+
+
 def axial_section(picture) -> str:
     """"XZ" (or "YZ") when the file says the picture's rows run along Z (a side view), else ""."""
     axes = (picture.file.metadata.get("vendor") or {}).get("picture_axes") if picture is not None else None

@@ -31,7 +31,7 @@ from .channels import (
     stain_channels,
     stain_relief,
 )
-from .channel_auto import OFF
+from .channel_auto import OFF, unused_key_labels
 from .key_labels import label_forms
 from .preprocess import prepare
 
@@ -119,6 +119,22 @@ def _labels(text: str | None) -> dict[str, str]:
     return out
 
 
+def _check_labels(labels: dict[str, str], names) -> tuple[Text, ...]:
+    """Refuse `key_labels` of which no name is one of the picture's channels (`names`): they were
+    left out without a word (issue 51.6); a note for those of them that name no channel."""
+    from .channels import some_names
+
+    known = {str(n).lower() for n in names}
+    unknown = [name for name in labels if name not in known]
+    if not unknown:
+        return ()
+    said = f"no channel named {some_names(unknown)} in this picture; its channels are {some_names(list(names))}"
+    if len(unknown) == len(labels):
+        raise ParameterError(Text(f"`key_labels`: {said}. Name the channels as the key does (NAME=LABEL), or leave "
+                                  f"`key_labels` out."), parameter="key_labels", allowed=f"names among {some_names(list(names))}")
+    return (Text(f"`key_labels`: {said}; those labels are not used."),)
+
+
 _ROLE = {"domes": "nuclei", "ridges": "filaments", "dots": "spots", "plateau": "cytoplasm"}
 # An encoding chosen by measured shape says what the shape is, not what biology it might be (the
 # tubes of mitochondria are not "filaments", a dense field of EB3 comets is not "cytoplasm").
@@ -175,6 +191,7 @@ def run(source, layout, params, *, route=None, cleaned=None, title: str = "") ->
         stack = np.stack([r[1] for r in raw[:3]], axis=-1)
         stain = route.kind == "stain" if route is not None and route.kind != "assigned" else is_stained_brightfield(stack)
         if stain and not assigned:
+            label_notes = _check_labels(labels, STAIN_LABEL)
             stack = _near_grid(stack, layout)
             on_grid = [ChannelImage(c.name, _on_grid(c.image, layout, params)) for c in stain_channels(stack)]
             # stain densities are already 0..1; prepare() stretched them again; glass and lumens are
@@ -193,6 +210,7 @@ def run(source, layout, params, *, route=None, cleaned=None, title: str = "") ->
                                           f"density, a nucleus reaches {NUCLEAR_OD:g}): no nuclei stand out, so the denser "
                                           f"tissue (cell-rich nests, by its total optical density) is raised as domes and the "
                                           f"paler stroma is a low texture."))
+            rel.notes.extend(label_notes)
             key = tuple(KeyEntry(labels.get(ch.name.lower(), names[ch.name]), ch.encoding) for ch in rel.choices)
             return ChannelStage(rel, key, "stain")
         fluorescence = route.kind == "fluorescence" if route is not None and route.kind != "assigned" else is_fluorescence_composite(stack)
@@ -203,6 +221,7 @@ def run(source, layout, params, *, route=None, cleaned=None, title: str = "") ->
             raise ParameterError(Text("`channels`: this picture has a single channel; there is nothing to assign. "
                                       "Leave `channels` unset."))
         return None
+    label_notes = _check_labels(labels, names)  # before the work: a mistake costs nothing
     chans = [ChannelImage(n, _on_grid(v, layout, params), ex, em) for n, v, ex, em in raw]
     chans = [c for c in chans if float(c.image.max() - c.image.min()) > 1e-6] or chans  # empty (e.g. unused blue) left out
     if len(chans) < 2 and not assigned:
@@ -211,6 +230,7 @@ def run(source, layout, params, *, route=None, cleaned=None, title: str = "") ->
                          section=route.section if route is not None else "",
                          title=" ".join(t for t in (Path(source).stem if isinstance(source, (str, Path)) else "", title) if t))
     rel.notes[:0] = cleaning_notes
+    rel.notes.extend(label_notes)
     key = tuple(_entry(ch, labels) for ch in rel.choices)
     return ChannelStage(rel, key, "fluorescence")
 
@@ -249,6 +269,7 @@ def channel_path(source, relief, layout, *, params, route=None, cleaned=None, ti
             note = Text("`channels`: this picture has one plain channel (not a multi-channel or stained picture); "
                         "it is printed as usual.")
             out = dataclasses.replace(out, notes=tuple(out.notes) + (note,))
+        out = dataclasses.replace(out, notes=tuple(out.notes) + unused_key_labels(params.key_labels))
         return out, layout, (), None
     rel = stage.relief
     strip = key_strip(stage.key, width_mm=layout.width_mm, mm_per_px=layout.mm_per_px, relief_mm=params.relief_mm,

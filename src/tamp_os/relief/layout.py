@@ -2,10 +2,15 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
-from ..errors import Text
+from ..errors import ParameterError, Text
 from ..printing.printers import preset_blur_px, preset_resolution_px
+
+# The coarsest grid a relief is drawn on: the largest `detail_mm` (its shapes are at least one
+# grid step). Coarser, the detail check named a range whose low end was above its high end.
+MAX_PITCH_MM = 50.0
 
 
 @dataclass(frozen=True)
@@ -58,6 +63,12 @@ def plan_layout(
     cols = resolution_px or preset_resolution_px(preset, nozzle_mm, width_mm)
     rows = max(2, round((cols - 1) * depth_mm / width_mm) + 1)
     mm_per_px = width_mm / (cols - 1)
+    if mm_per_px > MAX_PITCH_MM:
+        least = math.ceil(width_mm / MAX_PITCH_MM) + 1
+        raise ParameterError(f"`resolution_px`: {cols} grid points across {width_mm:g} mm are {mm_per_px:.3g} mm apart; a "
+                             f"relief needs at most {MAX_PITCH_MM:g} mm, so at least {least} points. Give `resolution_px` "
+                             f"{least} or more, or a preset.", parameter="resolution_px", value=cols,
+                             allowed=f"{least} to 16384 across {width_mm:g} mm")
     if blur_mm is not None:
         blur = blur_mm / mm_per_px
     elif blur_px is not None:

@@ -232,6 +232,11 @@ def write_meshes(mesh, folder: Path, stem: str, *, formats: list[str], meta: dic
     # on a helper thread of its own while formatting it: threemf.write_in_order).
     # A batch worker with one core to itself (TAMP_THREADS=1) writes them one after the other.
     if mesh.n_triangles > PARALLEL_WRITE_TRIANGLES and len(formats) > 1 and os.environ.get("TAMP_THREADS") != "1":
+        if {"obj", "ply"} & set(formats):
+            # trimesh's modules import each other: two writer threads importing it at once met a module
+            # half made (ImportError: partially initialized module 'trimesh.exchange.ply'), so it is
+            # imported here, once, before them
+            import trimesh  # noqa: F401
         pool = ThreadPoolExecutor(max_workers=min(len(formats), os.cpu_count() or 1))
         try:
             futures = [pool.submit(write, fmt) for fmt in formats]

@@ -530,7 +530,7 @@ def _convert_volume(image, params, out: Path, stem: str, printer) -> list[str]:
         done = convert_volume(image, params, out, stem=stem, printer_profile=printer)
     for warning in done.model.warnings:
         print(f"warning: {cli_words(warning)}", file=sys.stderr)
-    return [cli_words(line) for line in done.lines()]
+    return done.lines(cli_words)
 
 
 def _convert_sections(image, params, out: Path, stem: str, printer, verbose: bool) -> list[str]:

@@ -398,8 +398,15 @@ def _check_field(f: dataclasses.Field, value: Any) -> None:
         raise ParameterError(f"`{f.name}`: a value is required ({describe_range(f)}).", parameter=f.name, value=None,
                              allowed=describe_range(f))
     if f.name == "formats":
-        if isinstance(value, str) or not all(v in FORMATS for v in value):
+        if isinstance(value, str):
             raise _refuse(f, value, f"each one of {', '.join(FORMATS)}")
+        bad = [v for v in value if v not in FORMATS]
+        if bad:  # the item that is wrong, and the list as the user wrote it (not a Python tuple)
+            allowed = f"each one of {', '.join(FORMATS)}"
+            named = ", ".join(map(repr, bad))
+            raise ParameterError(f"`formats`: {named} {'is not a format' if len(bad) == 1 else 'are not formats'} TAMP-OS "
+                                 f"writes; give {allowed}; got {','.join(map(str, value))}.",
+                                 parameter=f.name, value=value, allowed=allowed)
         return
     if m["choices"]:
         if value not in m["choices"]:

@@ -259,7 +259,7 @@ def _add_slicing(sub) -> None:
 def _add_gui(sub) -> None:
     gui = sub.add_parser("gui", help="start the accessible web app on this computer")
     gui.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1: this computer only)")
-    gui.add_argument("--port", type=int, default=8765, help="port (default 8765)")
+    gui.add_argument("--port", type=int, default=8765, help="port, 0 to 65535 (default 8765)")
     gui.add_argument("--no-browser", action="store_true", help="do not open a web browser")
     gui.add_argument("--max-file-mb", type=float, default=50.0, help="largest upload per image in MB (default 50)")
     gui.add_argument("--max-files", type=int, default=20, help="most images per job (default 20)")
@@ -479,7 +479,7 @@ def cmd_convert(args) -> int:
     with _loading():
         from ..lithograph.convert import convert
         from ..lithograph.outputs import distinct_stems, load_recipe
-        from ..lithograph.sizing import resolve_printer
+        from ..lithograph.sizing import check_up_front
 
     jobs = []
     if args.recipe:
@@ -489,7 +489,7 @@ def cmd_convert(args) -> int:
         print("error: give at least one IMAGE, or --recipe FILE.", file=sys.stderr)
         return EXIT_USAGE
     params = _params_from_args(args)  # validates options once, before any work
-    resolve_printer(params)
+    check_up_front(params)
     jobs += [(Path(p), params, None) for p in args.images]
     stems = distinct_stems([image for image, _, _ in jobs])  # never overwrite an output of this run
 
@@ -569,10 +569,10 @@ def _say(conversion, verbose: bool = False) -> list[str]:
 
 def cmd_batch(args) -> int:
     from ..lithograph.batch import Job, collect_inputs, read_overrides, run_batch
-    from ..lithograph.sizing import resolve_printer
+    from ..lithograph.sizing import check_up_front
 
     params = _params_from_args(args)
-    resolve_printer(params)
+    check_up_front(params)
     if args.workers is not None and args.workers < 1:
         print(f"error: --workers: give 1 or more worker processes; got {args.workers}.", file=sys.stderr)
         return EXIT_USAGE
@@ -704,9 +704,11 @@ def _vary_in_field_names(specs: list[str]) -> list[str]:
 
 
 def cmd_sweep(args) -> int:
+    from ..lithograph.sizing import check_up_front
     from ..lithograph.sweep import parse_vary, run_sweep
 
     params = _params_from_args(args)
+    check_up_front(params)
     vary = parse_vary(_vary_in_field_names(args.vary))
     result = run_sweep(Path(args.image), params, vary, out_dir=Path(args.output), render=not args.no_render)
     for conversion in result.conversions:
@@ -745,14 +747,14 @@ def cmd_render(args) -> int:
 
 
 def cmd_gui(args) -> int:
-    from ..errors import require_extra
+    from ..errors import ParameterError, require_extra
 
+    if not 0 <= args.port <= 65535:  # (the socket's own error is an OverflowError, which reads as a bug)
+        raise ParameterError(f"--port: must be a port number from 0 to 65535; got {args.port}.")
     require_extra("gui", "the web app", "fastapi", "uvicorn", "jinja2", "python_multipart")
     from ..gui import serve
 
     import socket
-
-    from ..errors import ParameterError
 
     with socket.socket() as probe:
         try:

@@ -252,7 +252,11 @@ def _add_slicing(sub) -> None:
         p.add_argument("--printer", default="standard", help="printer profile (default standard)")
         p.add_argument("--material", default="PLA", help="PLA, PETG, ABS, rPLA, rPETG (recycled), resin or plant-resin "
                        "(default PLA; on a resin printer, resin)")
-        p.add_argument("--filament-price", type=float, default=None, metavar="PER_KG", help="price per kg (default 25)")
+        # --filament-price-per-kg as convert names it; --filament-price, the name slice had before, still works
+        p.add_argument("--filament-price-per-kg", "--filament-price", dest="filament_price_per_kg", type=float, default=None,
+                       metavar="PER_KG", help="filament price per kg, in your currency (default 25, an assumed price)")
+        p.add_argument("--resin-price-per-kg", type=float, default=None, metavar="PER_KG",
+                       help="resin price per kg, in your currency (default 35, an assumed price)")
     slicer.add_argument("--timeout", type=float, default=600.0, metavar="S", help="stop PrusaSlicer after S seconds (default 600)")
 
 
@@ -784,9 +788,10 @@ def cmd_gui(args) -> int:
 def cmd_slice(args) -> int:
     from ..export.meshfile import read_mesh_file
     from ..printing.printers import get_printer
-    from ..printing.slicer import material, slice_mesh
+    from ..printing.slicer import material_for, slice_mesh
 
-    printer, mat = get_printer(args.printer), material(args.material, args.filament_price)
+    printer = get_printer(args.printer)
+    mat = material_for(printer, args.material, args.filament_price_per_kg, args.resin_price_per_kg)
 
     def slice_one(mesh):
         read_mesh_file(mesh)  # one clear error for a file that is not a mesh, before PrusaSlicer runs
@@ -802,8 +807,9 @@ def cmd_estimate(args) -> int:
     from ..printing.slicer import FILAMENTS, RESINS, estimate, material, material_for
 
     printer = get_printer(args.printer)
-    mat = material_for(printer, args.material, args.filament_price)
-    others = [material(m, args.filament_price) for m in (RESINS if printer.is_resin else FILAMENTS) if m != mat.name]
+    prices = (args.filament_price_per_kg, args.resin_price_per_kg)
+    mat = material_for(printer, args.material, *prices)
+    others = [material(m, *prices) for m in (RESINS if printer.is_resin else FILAMENTS) if m != mat.name]
 
     def estimate_one(mesh_path):
         mesh = read_mesh_file(mesh_path)
@@ -811,6 +817,7 @@ def cmd_estimate(args) -> int:
             print(f"warning: {mesh_path}: not a closed solid; the volume and estimate may be wrong.", file=sys.stderr)
         found = [estimate(float(mesh.volume), mesh.vertices, mesh.faces, printer=printer, mat=m) for m in (mat, *others)]
         e = found[0]
+        # (whether the price is assumed is said once, with the assumptions)
         lines = [f"{Path(mesh_path).name}: about {_amount_words(e)}, costing about {e['cost']:.2f} at {e['price_per_kg']:g} "
                  f"per kg{_co2e_text(e)}. Assumes {e['assumptions']}."]
         lines += [f"  {o['material']}: about {_amount_words(o)}, costing about {o['cost']:.2f}{_co2e_text(o)}" for o in found[1:]]

@@ -74,7 +74,9 @@ def test_fept_prints_as_the_command_line_does_off_the_viewer_thread(print_widget
     text = (tmp_path / "prints" / "fept_spheres_sem.description.txt").read_text(encoding="utf-8").strip()
     assert text in print_widget.description.value
     assert "fept_spheres_sem.png" in print_widget.description.value.splitlines()[0]
-    assert "fept_spheres_sem" in print_widget.message.value and "Traceback" not in print_widget.message.value
+    message = print_widget.message.value
+    assert message.startswith("fept_spheres_sem.png: ") and "Traceback" not in message  # the name as on the disk
+    assert "its description and recipe. The files are in " in message and message.endswith(".")
     assert print_widget.layers.value == [layer]  # the picture stays chosen, not the relief napari selected when adding it
 
 

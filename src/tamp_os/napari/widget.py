@@ -15,7 +15,7 @@ from qtpy.QtCore import QObject, Signal
 from ..errors import TampError, is_decision
 from ..lithograph.pipeline import STAGES
 from ..printing.printers import PRESETS
-from .controls import CONTROLS, FORMAT_CHOICES, STYLE_WORDS, label, params_for, printer_names, widget_words
+from .controls import CONTROLS, FORMAT_CHOICES, STYLE_WORDS, label, params_for, printer_names, result_words, widget_words
 from .layers import check_layer, layer_picture, print_source
 
 STEPS = (*STAGES, "save")
@@ -158,7 +158,7 @@ class PrintWidget(Container):
         self.viewer.layers.selection = set(printed)  # napari selects what it adds: keep the picture chosen, not its relief
         warnings = [widget_words(w) for each in conversion.prints for w in each.report.warnings if not is_decision(w)]
         folder = conversion.written[0].parent if conversion.written else self.output.value
-        self.say(" ".join([widget_words(conversion.summary()) + f" In {folder}.", *warnings]))
+        self.say(" ".join([result_words(conversion.summary(), folder), *warnings]))
         self.description.value = description_text(source, conversion)
 
     def _failed(self, exc: Exception) -> None:

@@ -101,6 +101,14 @@ def words(message: Any, namer: Namer | None = None, offers: Callable[[str], bool
     return render(str(message), namer, offers)
 
 
+def file_words(message: Any) -> str:
+    """A message as a file says it (a print's description, inside its 3MF, PDF and eBraille too):
+    whoever reads the file has no controls, so advice that names one (a ⟦…⟧ clause) is left out,
+    and the files are the same whichever front end made them; each front end says that advice
+    beside them in its own words."""
+    return words(message, None, lambda name: False)
+
+
 class TampError(Exception):
     """Base class: a problem the user can fix; the CLI prints it without a traceback.
 

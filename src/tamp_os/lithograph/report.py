@@ -251,6 +251,16 @@ def files_phrase(names: list[str]) -> str:
     return text or " and ".join(extra)
 
 
+def advice_notes(report: Report) -> list:
+    """The verdicts and the tool's decisions that carry advice naming a parameter (errors.Text):
+    the description leaves that advice out, so each front end says these in its own words, leaving
+    out advice for controls it does not have."""
+    from ..errors import is_decision, names_in
+
+    said = [*touch_notes(report), *(w for w in report.warnings if is_decision(w))]
+    return [n for n in said if names_in(getattr(n, "template", str(n)))]
+
+
 def touch_notes(report: Report) -> list[str]:
     """The legibility verdicts: what a finger will find, with advice."""
     return list(report.legibility.verdicts) if report.legibility else []
@@ -296,8 +306,9 @@ def labels_sentence(annotations, width_px: int, height_px: int) -> str | None:
     return f"Text label{'s' * (len(items) != 1)} removed from the relief: " + ", ".join(items) + "."
 
 
-def web_summary_lines(report: Report, namer=None) -> list[str]:
-    """The web app's result lines: size, grid, scale, notes (in its words), what was removed, printing."""
+def web_summary_lines(report: Report, namer=None, offers=None) -> list[str]:
+    """The web app's result lines: size, grid, scale, notes (in its words: `namer`; advice naming a
+    control it does not have, by `offers`, left out), what was removed, printing."""
     from ..errors import words
 
     w, d, top = report.print_mm
@@ -306,7 +317,7 @@ def web_summary_lines(report: Report, namer=None) -> list[str]:
         f"Print {_mm(w)} × {_mm(d)} mm, up to {_mm(top)} mm high.",
         f"Grid {report.grid[0]} × {report.grid[1]} points, {report.triangles:,} triangles, {levels}",
         f"Scale: {report.scale}.",
-        *[f"Note: {words(x, namer)}" for x in report.warnings],
+        *[f"Note: {words(x, namer, offers)}" for x in report.warnings],
     ]
     removed = [annotation_words(a, *report.source_px) for a in report.annotations]
     if removed:
@@ -353,7 +364,10 @@ def _instrument_sentence(instrument: Instrument) -> str:
 def describe(report: Report, params: LithoParams, source_name: str) -> str:
     """A plain-language description of the object for people who cannot see it, written as alt text:
     what the print shows, its layout (what is raised, how many, where), then scale, caption and
-    orientation, and the technical figures last."""
+    orientation, and the technical figures last. It names no control of any front end
+    (errors.file_words): each says its own advice beside it (advice_notes)."""
+    from ..errors import file_words
+
     w, d, h = report.print_mm
     rw, rd = report.relief_mm
     rd -= report.key_depth_mm  # the picture alone: the key below it is described on its own
@@ -386,12 +400,12 @@ def describe(report: Report, params: LithoParams, source_name: str) -> str:
     if not report.pixel_size_m:
         parts.append("No physical scale is known for the image.")
     if not report.uniform and touch_notes(report):
-        parts.append("What a finger will find: " + " ".join(touch_notes(report)))
+        parts.append("What a finger will find: " + " ".join(file_words(v) for v in touch_notes(report)))
     if report.instrument:
         parts.append(_instrument_sentence(report.instrument))
     from ..errors import is_decision
 
-    decided = [str(w) for w in report.warnings if is_decision(w)]
+    decided = [file_words(w) for w in report.warnings if is_decision(w)]
     if decided:  # the tool's own choices, for the record (the command line says them only when asked to be verbose)
         parts.append("How it was made: " + " ".join(decided))
     return " ".join(parts)

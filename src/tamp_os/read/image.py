@@ -376,7 +376,7 @@ def _pick_z(path, array, axes, z_slice, notes):
     if z_slice is None:
         array = array.max(axis=axes.index("Z"))
         if n > 1:
-            notes.append(Decision(f"z-stack of {n} slices: maximum-intensity projection (choose one slice with `z_slice`)."))
+            notes.append(Decision(f"z-stack of {n} slices: maximum-intensity projection⟦ (choose one slice with `z_slice`)⟧."))
     else:
         if not 0 <= z_slice < n:
             raise ParameterError(f"{path}: `z_slice` must be 0–{n - 1} (slices in this stack); got {z_slice}.")

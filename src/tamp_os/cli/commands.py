@@ -550,9 +550,8 @@ def _convert_sections(image, params, out: Path, stem: str, printer, verbose: boo
 def _say(conversion, verbose: bool = False) -> list[str]:
     """One conversion's warnings to stderr; its lines (summary, notes, printing, and with `verbose`
     the details) returned."""
-    from ..lithograph.report import detail_lines
-
     from ..errors import is_decision
+    from ..lithograph.report import advice_notes, detail_lines
 
     which = f"{conversion.label}: " if conversion.label else ""  # a figure's print: which panel warns
     # Warnings are for what the user must act on; the tool's own decisions are in the description and
@@ -561,6 +560,8 @@ def _say(conversion, verbose: bool = False) -> list[str]:
         if not is_decision(warning):
             print(f"warning: {which}{cli_words(warning)}", file=sys.stderr)
     decided = [f"  note: {cli_words(w)}" for w in conversion.report.warnings if is_decision(w)] if verbose else []
+    if verbose:  # the description names no option: the verdicts' advice, in this command's words
+        decided += [f"  advice: {cli_words(v)}" for v in advice_notes(conversion.report) if not is_decision(v)]
     lines = [conversion.summary()] + [f"  note: {cli_words(n)}" for n in conversion.notes()] + decided
     printing = conversion.report.print
     if printing:  # the why of "for estimates only" on its own line, so that each line stays short
@@ -927,7 +928,7 @@ def cmd_check(args) -> int:
             report = make_lithograph(path, params).report
             verdicts = report.legibility.verdicts
             head = f"{path.name} (relief style {report.relief_style}: {report.relief_reason}):"
-        return [head] + [f"  {v}" for v in verdicts]
+        return [head] + [f"  {cli_words(v)}" for v in verdicts]
 
     return _run_each(args.inputs, check_one, args.debug)
 

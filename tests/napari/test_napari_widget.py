@@ -97,6 +97,9 @@ def test_two_channel_czi_prints_as_the_command_line_does(print_widget, napari_vi
     same_files(tmp_path / "cli", tmp_path / "prints", "zeiss_dapi_gfp_2ch")
     assert len(made.report.key) == 2  # one plate: a texture per channel, named in the braille key
     assert "key" in print_widget.description.value
+    # the widget has no channel controls: no advice naming them, in the description or beside it (issue 54.7)
+    assert "channel by channel" in print_widget.description.value
+    assert not [w for w in ("prints a single channel", "channels off", "`", "⟦") if w in print_widget.description.value]
 
 
 @pytest.mark.timeout(600)

@@ -792,7 +792,8 @@ def cmd_slice(args) -> int:
     from ..printing.slicer import material_for, slice_mesh
 
     printer = get_printer(args.printer)
-    mat = material_for(printer, args.material, args.filament_price_per_kg, args.resin_price_per_kg)
+    mat = material_for(printer, args.material, filament_price_per_kg=args.filament_price_per_kg,
+                       resin_price_per_kg=args.resin_price_per_kg)
 
     def slice_one(mesh):
         read_mesh_file(mesh)  # one clear error for a file that is not a mesh, before PrusaSlicer runs
@@ -809,7 +810,7 @@ def cmd_estimate(args) -> int:
 
     printer = get_printer(args.printer)
     prices = (args.filament_price_per_kg, args.resin_price_per_kg)
-    mat = material_for(printer, args.material, *prices)
+    mat = material_for(printer, args.material, filament_price_per_kg=prices[0], resin_price_per_kg=prices[1])
     others = [material(m, *prices) for m in (RESINS if printer.is_resin else FILAMENTS) if m != mat.name]
 
     def estimate_one(mesh_path):

@@ -480,7 +480,8 @@ def slice_outputs(litho, written: list[Path]) -> tuple[list[Path], SliceResult]:
         stl = save_mesh(litho.mesh, recipe.parent / (recipe.name[: -len(RECIPE_SUFFIX)] + ".stl"), metadata(litho))
         others.append(stl)
     params = litho.params
-    result = slice_mesh(stl, litho.printer, material_for(litho.printer, params.material, params.filament_price_per_kg, params.resin_price_per_kg),
-                        timeout_s=params.slice_timeout_s)
+    mat = material_for(litho.printer, params.material, filament_price_per_kg=params.filament_price_per_kg,
+                       resin_price_per_kg=params.resin_price_per_kg)
+    result = slice_mesh(stl, litho.printer, mat, timeout_s=params.slice_timeout_s)
     others.append(Path(result.gcode))
     return others + [recipe], result

@@ -186,7 +186,7 @@ class Report:
 MAX_LINE_CHARS = 160  # a result line a screen reader reads in one go; details go to the verbose lines and the report
 
 
-def summary_line(report: Report, written_names: list[str], shown: str | None = None, folder: str | None = None) -> str:
+def summary_line(report: Report, written_names: list[str], shown: str | None = None, *, folder: str | None = None) -> str:
     """One plain line per converted file, as `tamp-os convert` prints it: at most MAX_LINE_CHARS
     characters where the names allow (the mesh, printer, scale and every file name are in
     detail_lines). `shown` names the print instead of the input's name (a figure's "fig.png,
@@ -197,10 +197,10 @@ def summary_line(report: Report, written_names: list[str], shown: str | None = N
     levels = "a flat plate" if report.uniform else f"up to {report.height_levels} levels"
     size = f"{_mm(w)} × {_mm(d)} × {_mm(h)} mm"  # to 0.1 mm, as the description says it
     full = f"{size}, grid {report.grid[0]} × {report.grid[1]}, {report.triangles:,} triangles, {levels}, relief style {report.relief_style}"
-    return fitted_line(report.input, [full, f"{size}, {levels}, relief style {report.relief_style}"], written_names, folder)
+    return fitted_line(report.input, [full, f"{size}, {levels}, relief style {report.relief_style}"], written_names, folder=folder)
 
 
-def fitted_line(name: str, bodies: list[str], written_names: list[str], folder: str | None) -> str:
+def fitted_line(name: str, bodies: list[str], written_names: list[str], *, folder: str | None) -> str:
     """'NAME: BODY; wrote FILES' with the first body (fullest first) that keeps the line within
     MAX_LINE_CHARS; else the shortest body and the files said as a count and their folder ("wrote 7
     files to out_czi/"). A name is never cut: a screen reader then reads a name that is not on the

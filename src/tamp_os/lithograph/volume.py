@@ -618,7 +618,7 @@ class VolumeConversion:
         wall = f"thinnest wall {v.wall_p1_mm:.2f} mm"
         bodies = [f"{size}, {v.mesh.n_triangles:,} triangles ({surface}), {wall}", f"{size}, {v.mesh.n_triangles:,} triangles, {wall}",
                   f"{size}, {wall}"]
-        return fitted_line(v.name, bodies, self.names, str(self.written[0].parent) if self.written else None)
+        return fitted_line(v.name, bodies, self.names, folder=str(self.written[0].parent) if self.written else None)
 
     def lines(self, say=str) -> list[str]:
         """The summary and the notes, as `tamp-os convert` prints them; `say` puts a note (which

@@ -116,7 +116,7 @@ def material(name: str, filament_price_per_kg: float | None = None, resin_price_
     return dataclasses.replace(base, price_per_kg=price, price_assumed=False)
 
 
-def material_for(printer: PrinterProfile, name: str, filament_price_per_kg: float | None = None,
+def material_for(printer: PrinterProfile, name: str, *, filament_price_per_kg: float | None = None,
                  resin_price_per_kg: float | None = None) -> Material:
     """The material a printer prints: PLA (the default) on a resin printer means standard resin; a
     filament on a resin printer, or a resin on a nozzle printer, is refused with what to choose."""

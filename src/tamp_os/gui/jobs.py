@@ -307,7 +307,7 @@ def _volume_result(job: WebJob, upload: Upload, params: LithoParams, stem: str) 
     v = done.model
     result = Result(upload.name, True, files=[OutputFile(p.name, p.stat().st_size) for p in done.written],
                     description=describe_volume(v), model_glb=f"{stem}{PREVIEW_SUFFIX}", volume=True,
-                    summary=[web_words(line) for line in (done.summary(), *v.warnings, *v.notes)])
+                    summary=[done.summary(say_folder=False), *(web_words(line) for line in (*v.warnings, *v.notes))])
     _render_preview(job, result, v.mesh, stem)
     return result
 

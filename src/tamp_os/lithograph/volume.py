@@ -608,7 +608,9 @@ class VolumeConversion:
     def names(self) -> list[str]:
         return [p.name for p in self.written]
 
-    def summary(self) -> str:
+    def summary(self, *, say_folder: bool = True) -> str:
+        """The one result line; without `say_folder` (the web app, whose folder is its own) a line too
+        long for the files' names says only their count."""
         v = self.model
         x, y, z = v.size_mm
         scale = f", 1 mm = {_length_words(v.sample_m_per_mm)}" if v.sample_m_per_mm else ", scale unknown"
@@ -618,7 +620,8 @@ class VolumeConversion:
         wall = f"thinnest wall {v.wall_p1_mm:.2f} mm"
         bodies = [f"{size}, {v.mesh.n_triangles:,} triangles ({surface}), {wall}", f"{size}, {v.mesh.n_triangles:,} triangles, {wall}",
                   f"{size}, {wall}"]
-        return fitted_line(v.name, bodies, self.names, folder=str(self.written[0].parent) if self.written else None)
+        folder = str(self.written[0].parent) if self.written and say_folder else None
+        return fitted_line(v.name, bodies, self.names, folder=folder)
 
     def lines(self, say=str) -> list[str]:
         """The summary and the notes, as `tamp-os convert` prints them; `say` puts a note (which

@@ -103,6 +103,16 @@ def run_cli_child(*argv, timeout_s: float = 60) -> tuple[int, str, float, float,
     return proc.returncode, proc.stderr, found.get("PEAK_MB", 0.0), found.get("SECONDS", 0.0), wall
 
 
+def run_tamp(*argv, cwd=None, timeout_s: float = 240, env: dict | None = None) -> subprocess.CompletedProcess:
+    """`tamp-os ARGV` as a user types it, in a child Python (the package from this tree), run in
+    `cwd`: its exit code, stdout and stderr (not a terminal, as a screen reader's pipe)."""
+    keep = ("PATH", "HOME", "LANG", "LC_ALL", "TMPDIR", "TAMP_STRICT")
+    base = {**{k: os.environ[k] for k in keep if k in os.environ}, "PYTHONPATH": SRC,
+            "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
+    return subprocess.run([PYTHON, "-m", "tamp_os.cli", *map(str, argv)], cwd=cwd, env={**base, **(env or {})},
+                          capture_output=True, text=True, timeout=timeout_s, check=False)
+
+
 def one_error_line(err: str) -> str:
     lines = [line for line in err.splitlines() if line.startswith("error:")]
     assert len(lines) == 1, err

@@ -51,6 +51,17 @@ def pytest_collection_modifyitems(config, items):
             item.add_marker(getattr(pytest.mark, tier))
 
 
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_makereport(item, call):
+    """A test whose set-up skipped or failed never runs, so it has no call report; napari's
+    make_napari_viewer reads `item.rep_call` at teardown, and without one it errors
+    (AttributeError) after a clean skip. The set-up's report stands in for it."""
+    outcome = yield
+    report = outcome.get_result()
+    if report.when == "setup" and not report.passed and not hasattr(item, "rep_call"):
+        item.rep_call = report
+
+
 def pytest_terminal_summary(terminalreporter):
     """Say how many tests skipped because the shared fixtures are missing (a clone without ../shared)."""
     missing = [r for r in terminalreporter.stats.get("skipped", []) if "fixture" in str(r.longrepr)]

@@ -88,3 +88,20 @@ def _xml(names, pixel_m) -> bytes:
                f'<Distance Id="Y"><Value>{pixel_m}</Value></Distance></Items></Scaling>') if pixel_m else ""
     return (f"<ImageDocument><Metadata><Information><Image><Dimensions><Channels>{channels}</Channels></Dimensions>"
             f"</Image></Information>{scaling}</Metadata></ImageDocument>").encode()
+
+
+def four_channel_czi(path):
+    """A CZI of four channels, three with structure (nuclei, lines, spots) and one flat: three are printed."""
+    rng = np.random.default_rng(0)
+    yy, xx = np.mgrid[:160, :200]
+    planes = np.zeros((4, 160, 200), np.uint16)
+    for cy, cx in ((40, 40), (50, 120), (110, 70), (120, 160)):
+        planes[0] += (((yy - cy) ** 2 + (xx - cx) ** 2) < 200).astype(np.uint16) * 3000
+    for k in range(5):
+        planes[1][np.abs(yy - (20 + 30 * k)) < 2] = 2500
+    for _ in range(60):
+        y, x = rng.integers(5, 155), rng.integers(5, 195)
+        planes[2][y - 1:y + 2, x - 1:x + 2] = 2000
+    planes[3] = (rng.random((160, 200)) * 300 + 500).astype(np.uint16)
+    write_czi(path, planes + 100, names=("DAPI", "GFP", "Cy5", "Mono"))
+    return path

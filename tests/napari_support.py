@@ -48,6 +48,8 @@ def napari_viewer(headless_display, request):
     """A napari viewer (napari's make_napari_viewer fixture), or a skip/strict failure without napari."""
     need_module("napari.viewer")  # not just `napari`: without it, tests/napari would pass for the package
     need_module("magicgui")
+    if "fixtures_dir" in request.fixturenames:  # a test of a real file skips before a viewer is made for it
+        request.getfixturevalue("fixtures_dir")
     from napari._qt import qt_main_window
 
     # what napari's autouse fixture does (tests/conftest.py overrides it for the rest of the suite)

@@ -131,6 +131,14 @@ def shorten_values(text: str) -> str:
     return _BARE.sub(bare, _QUOTED.sub(quoted, text))
 
 
+def file_words(message: Any) -> str:
+    """A message as a file says it (a print's description, inside its 3MF, PDF and eBraille too):
+    whoever reads the file has no controls, so advice that names one (a ⟦…⟧ clause) is left out,
+    and the files are the same whichever front end made them; each front end says that advice
+    beside them in its own words."""
+    return words(message, None, lambda name: False)
+
+
 class TampError(Exception):
     """Base class: a problem the user can fix; the CLI prints it without a traceback.
 
@@ -207,10 +215,56 @@ class MissingDependencyError(TampError):
     """An optional tool or library that is not installed."""
 
 
+def install_hint(extra: str) -> str:
+    """The command that installs the optional `extra` for how this copy of TAMP-OS was installed:
+    from a clone (an editable install, or the source tree on the path), `make setup` there (it
+    installs every extra) or `pip install -e '.[extra]'`; from a local folder, pip install of that
+    folder; else from the package index, `pip install 'tamp-os[extra]'`."""
+    root = source_tree()
+    if root is not None:
+        return f"in {root} run make setup (it installs every extra), or pip install -e '.[{extra}]'"
+    folder, editable = _installed_from()
+    if folder is not None:
+        return f"pip install {'-e ' if editable else ''}'{folder}[{extra}]'"
+    return f"pip install 'tamp-os[{extra}]' (or 'tamp-os[all]')"
+
+
+def source_tree():
+    """The clone this package runs from (the folder with its pyproject.toml), or None when it runs
+    from an installed copy (site-packages)."""
+    from pathlib import Path
+
+    here = Path(__file__).resolve().parent
+    root = here.parent.parent
+    if here.parent.name != "src" or not (root / "pyproject.toml").is_file():
+        return None
+    try:
+        named = 'name = "tamp-os"' in (root / "pyproject.toml").read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError):
+        return None
+    return root if named else None
+
+
+def _installed_from():
+    """(the local folder pip installed this package from, whether editably), from the install's
+    direct_url.json (PEP 610); (None, False) for an install from the package index."""
+    import json
+    from importlib import metadata
+    from urllib.parse import unquote, urlparse
+
+    try:
+        said = json.loads(metadata.distribution("tamp-os").read_text("direct_url.json") or "{}")
+    except (metadata.PackageNotFoundError, ValueError, OSError):
+        return None, False
+    url = urlparse(str(said.get("url", "")))
+    if url.scheme != "file" or "dir_info" not in said:
+        return None, False
+    return unquote(url.path), bool(said["dir_info"].get("editable"))
+
+
 def require_extra(extra: str, what: str, *modules: str) -> None:
     """Import `modules` (the libraries of the package's optional `extra`), or say in one line which
-    extra to install: `pip install tamp-os` brings what converting needs; the web app, rendering
-    and Dask come with `tamp-os[gui]`, `[render]` and `[dask]` (or `[all]`)."""
+    extra to install and the command that installs it (install_hint)."""
     import importlib
 
     for name in modules:
@@ -218,8 +272,7 @@ def require_extra(extra: str, what: str, *modules: str) -> None:
             importlib.import_module(name)
         except ImportError:
             raise MissingDependencyError(
-                f"{what} needs {name}, which comes with the {extra!r} extra: pip install 'tamp-os[{extra}]' "
-                "(or 'tamp-os[all]')."
+                f"{what} needs {name}, which comes with the {extra!r} extra: {install_hint(extra)}."
             ) from None
 
 

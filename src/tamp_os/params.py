@@ -143,7 +143,8 @@ class LithoParams:
     material: str = _f("PLA", "filament or resin for slicing and estimates: PLA, PETG, ABS, rPLA and rPETG (recycled), resin or "
                        "plant-resin (PLA, the default, on a resin printer means resin)",
                        choices=("PLA", "PETG", "ABS", "rPLA", "rPETG", "resin", "plant-resin"))
-    filament_price_per_kg: float = _f(25.0, "filament price per kg, in your currency", "", 0.0, 1000.0, lo_open=True)
+    filament_price_per_kg: float | None = _f(None, "filament price per kg, in your currency (default: 25, an assumed price)", "", 0.0, 1000.0, lo_open=True)
+    resin_price_per_kg: float | None = _f(None, "resin price per kg, in your currency (default: 35, an assumed price)", "", 0.0, 1000.0, lo_open=True)
     slice_timeout_s: float = _f(600.0, "stop PrusaSlicer after this long", "s", 0.0, 86400.0, lo_open=True)
 
     # --- outputs ---
@@ -275,7 +276,7 @@ SECTIONS: tuple[tuple[str, tuple[str, ...]], ...] = (
     ('tactile furniture', ('caption', 'subject', 'braille_table', 'scale_bar', 'orientation_corner', 'frame_mm', 'dot_diameter_mm', 'dot_height_mm', 'dot_spacing_mm', 'cell_spacing_mm', 'line_spacing_mm')),
     ('parts and tiles', ('multicolour', 'bed_mm')),
     ('mesh', ('mesher', 'max_error_mm')),
-    ('slicing and estimates', ('gcode', 'material', 'filament_price_per_kg', 'slice_timeout_s')),
+    ('slicing and estimates', ('gcode', 'material', 'filament_price_per_kg', 'resin_price_per_kg', 'slice_timeout_s')),
     ('outputs', ('formats',)),
     ('figures and paper pages', ('panels', 'panel', 'panel_boxes', 'page_size')),
     ('volumes', ('volume', 'size_mm', 'z_step', 'iso_level', 'max_triangles', 'min_wall_mm', 'sections', 'volume_stand')),
@@ -407,8 +408,15 @@ def _check_field(f: dataclasses.Field, value: Any) -> None:
         raise ParameterError(f"`{f.name}`: a value is required ({describe_range(f)}).", parameter=f.name, value=None,
                              allowed=describe_range(f))
     if f.name == "formats":
-        if isinstance(value, str) or not all(v in FORMATS for v in value):
+        if isinstance(value, str):
             raise _refuse(f, value, f"each one of {', '.join(FORMATS)}")
+        bad = [v for v in value if v not in FORMATS]
+        if bad:  # the item that is wrong, and the list as the user wrote it (not a Python tuple)
+            allowed = f"each one of {', '.join(FORMATS)}"
+            named = ", ".join(map(repr, bad))
+            raise ParameterError(f"`formats`: {named} {'is not a format' if len(bad) == 1 else 'are not formats'} TAMP-OS "
+                                 f"writes; give {allowed}; got {','.join(map(str, value))}.",
+                                 parameter=f.name, value=value, allowed=allowed)
         return
     if m["choices"]:
         if value not in m["choices"]:

@@ -46,6 +46,8 @@ def test_a_z_stack_is_offered_and_printed_as_a_3d_model(server):
         results = client.get(f"/jobs/{job}").text
         assert "3-D tactile model of" in results and "Rendered picture of the 3-D model of ball.tif" in results
         assert "ball.heightmap.png" not in results and "flat.heightmap.png" in results  # the flat picture stays a relief
+        line = re.search(r"ball\.tif: 3-D model [^<]*", results).group(0)  # the name as uploaded, not capitalised
+        assert "; wrote " in line and " to /" not in line, line  # never the server's own folder (issue 54.5)
         archive = zipfile.ZipFile(io.BytesIO(client.get(f"/jobs/{job}/download.zip").content))
         names = set(archive.namelist())
         assert {"ball.stl", "ball.description.txt", "ball.tamp.json", "flat.stl", "flat.pdf"} <= names

@@ -132,3 +132,16 @@ def test_prints_in_one_process_are_the_bytes_each_makes_alone(tmp_path):
         furniture.clear_plate_cache()
         alone = written(i, picture, settings, tmp_path / "alone")
         assert sorted(alone) == ["p.3mf", "p.stl"] and alone == together[i], (i, settings)
+
+
+@pytest.mark.timeout(300)
+def test_obj_and_ply_written_side_by_side_in_a_fresh_process(tmp_path):
+    """trimesh's modules import each other: two writer threads importing it at once, in a process
+    that had not imported it yet, once failed with "partially initialized module"."""
+    from cli_support import run_tamp
+
+    Image.fromarray((np.random.default_rng(0).random((120, 160)) * 255).astype(np.uint8)).save(tmp_path / "noise.png")
+    done = run_tamp("convert", "noise.png", "-o", "out", "--formats", "stl,obj,ply", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert sorted(p.suffix for p in (tmp_path / "out").iterdir()) == [".json", ".obj", ".ply", ".stl", ".txt"]
+    assert "triangles" in (tmp_path / "out" / "noise.tamp.json").read_text()

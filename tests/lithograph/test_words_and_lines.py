@@ -86,7 +86,8 @@ def test_result_line_at_most_160_characters_and_details_with_verbose(tmp_path, s
                              "--width-mm", "40")
     assert code == 0, err
     lines = out.splitlines()
-    assert len(lines[0]) <= 160 and "…" in lines[0] and lines[0].endswith("its description and recipe")
+    # the name is said whole (never cut); the files as their count and folder (tests/cli/test_result_lines.py)
+    assert lines[0].startswith(f"{long.name}: ") and "…" not in lines[0] and lines[0].endswith(f"files to {tmp_path / 'o'}/")
     written = sorted(p.name for p in (tmp_path / "o").iterdir())
     assert sorted(line.removeprefix("  wrote: ") for line in lines if line.startswith("  wrote: ")) == written
     assert any(line.startswith("  mesh: ") and "triangles" in line for line in lines)

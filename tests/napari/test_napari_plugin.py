@@ -108,6 +108,17 @@ def test_messages_name_the_widgets_controls_and_leave_out_the_others():
     assert widget_words(Text("`pixel_size` 4 nm overrides 5 nm from the file.")).startswith("The layer's scale")
 
 
+def test_the_result_message_spells_the_file_as_on_the_disk_and_ends_each_sentence(tmp_path):
+    from tamp_os.napari.controls import result_words
+
+    said = result_words("fept_spheres_sem.png: 116 × 99.5 × 4 mm; wrote fept_spheres_sem.{stl,3mf}, its description and recipe",
+                        tmp_path)
+    assert said == ("fept_spheres_sem.png: 116 × 99.5 × 4 mm; wrote fept_spheres_sem.{stl,3mf}, its description and recipe. "
+                    f"The files are in {tmp_path}.")
+    counted = result_words(f"a.png: 100 × 100 × 4 mm; wrote 7 files to {tmp_path}/", tmp_path)
+    assert counted == f"a.png: 100 × 100 × 4 mm; wrote 7 files to {tmp_path}/."  # the folder said once
+
+
 def test_a_layer_from_a_file_keeps_it_unless_its_scale_was_set(tmp_path):
     from tamp_os.napari.layers import LayerPicture, print_source
 

@@ -74,7 +74,9 @@ def test_fept_prints_as_the_command_line_does_off_the_viewer_thread(print_widget
     text = (tmp_path / "prints" / "fept_spheres_sem.description.txt").read_text(encoding="utf-8").strip()
     assert text in print_widget.description.value
     assert "fept_spheres_sem.png" in print_widget.description.value.splitlines()[0]
-    assert "fept_spheres_sem" in print_widget.message.value and "Traceback" not in print_widget.message.value
+    message = print_widget.message.value
+    assert message.startswith("fept_spheres_sem.png: ") and "Traceback" not in message  # the name as on the disk
+    assert "its description and recipe. The files are in " in message and message.endswith(".")
     assert print_widget.layers.value == [layer]  # the picture stays chosen, not the relief napari selected when adding it
 
 
@@ -95,6 +97,9 @@ def test_two_channel_czi_prints_as_the_command_line_does(print_widget, napari_vi
     same_files(tmp_path / "cli", tmp_path / "prints", "zeiss_dapi_gfp_2ch")
     assert len(made.report.key) == 2  # one plate: a texture per channel, named in the braille key
     assert "key" in print_widget.description.value
+    # the widget has no channel controls: no advice naming them, in the description or beside it (issue 54.7)
+    assert "channel by channel" in print_widget.description.value
+    assert not [w for w in ("prints a single channel", "channels off", "`", "⟦") if w in print_widget.description.value]
 
 
 @pytest.mark.timeout(600)

@@ -107,7 +107,7 @@ def test_a_lattice_finer_than_a_fingertip_says_what_width_resolves_it():
     assert made.content_kind == "lattice", made.reason
     assert (column_lifts(made.heights_mm, centres, pitch(image), 6.0) >= 0.5).mean() >= 0.9
     said = " ".join(made.checks)
-    width = re.search(r"a wider print \(`width_mm` (\d+)\)", said)
+    width = re.search(r"a wider print ⟦\(`width_mm` (\d+)\) ⟧", said)
     assert width, said
     assert int(width.group(1)) >= 100 * MIN_PITCH_MM / 2.4 - 1
 
@@ -208,7 +208,7 @@ def test_columns_too_close_to_print_apart_are_said_missing_with_the_width_that_p
     assert int(shown.group(1)) == pytest.approx(len(centres), rel=0.05)
     assert float(shown.group(2)) == pytest.approx(11.0 * 100 / 1023, rel=0.1)
     assert int(shown.group(3)) < 0.5 * len(centres)
-    assert re.search(r"a wider print \(`width_mm` (\d+)\)", said)
+    assert re.search(r"a wider print ⟦\(`width_mm` (\d+)\) ⟧", said)
     # The columns it raises stand evenly: every one at least 0.5 mm over its troughs.
     assert said.startswith(f"A lattice of {shown.group(3)} columns") and "(100%)" in said
 

@@ -258,14 +258,18 @@ def _add_slicing(sub) -> None:
         p.add_argument("--printer", default="standard", help="printer profile (default standard)")
         p.add_argument("--material", default="PLA", help="PLA, PETG, ABS, rPLA, rPETG (recycled), resin or plant-resin "
                        "(default PLA; on a resin printer, resin)")
-        p.add_argument("--filament-price", type=float, default=None, metavar="PER_KG", help="price per kg (default 25)")
+        # --filament-price-per-kg as convert names it; --filament-price, the name slice had before, still works
+        p.add_argument("--filament-price-per-kg", "--filament-price", dest="filament_price_per_kg", type=float, default=None,
+                       metavar="PER_KG", help="filament price per kg, in your currency (default 25, an assumed price)")
+        p.add_argument("--resin-price-per-kg", type=float, default=None, metavar="PER_KG",
+                       help="resin price per kg, in your currency (default 35, an assumed price)")
     slicer.add_argument("--timeout", type=float, default=600.0, metavar="S", help="stop PrusaSlicer after S seconds (default 600)")
 
 
 def _add_gui(sub) -> None:
     gui = sub.add_parser("gui", help="start the accessible web app on this computer")
     gui.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1: this computer only)")
-    gui.add_argument("--port", type=int, default=8765, help="port (default 8765)")
+    gui.add_argument("--port", type=int, default=8765, help="port, 0 to 65535 (default 8765)")
     gui.add_argument("--no-browser", action="store_true", help="do not open a web browser")
     gui.add_argument("--max-file-mb", type=float, default=50.0, help="largest upload per image in MB (default 50)")
     gui.add_argument("--max-files", type=int, default=20, help="most images per job (default 20)")
@@ -485,7 +489,7 @@ def cmd_convert(args) -> int:
     with _loading():
         from ..lithograph.convert import convert
         from ..lithograph.outputs import distinct_stems, load_recipe
-        from ..lithograph.sizing import resolve_printer
+        from ..lithograph.sizing import check_up_front
 
     jobs = []
     if args.recipe:
@@ -495,7 +499,7 @@ def cmd_convert(args) -> int:
         print("error: give at least one IMAGE, or --recipe FILE.", file=sys.stderr)
         return EXIT_USAGE
     params = _params_from_args(args)  # validates options once, before any work
-    resolve_printer(params)
+    check_up_front(params)
     jobs += [(Path(p), params, None) for p in args.images]
     stems = distinct_stems([image for image, _, _ in jobs])  # never overwrite an output of this run
 
@@ -542,7 +546,7 @@ def _convert_volume(image, params, out: Path, stem: str, printer) -> list[str]:
         done = convert_volume(image, params, out, stem=stem, printer_profile=printer, on_price=say_price)
     for warning in done.model.warnings:
         print(f"warning: {cli_words(warning)}", file=sys.stderr)
-    return [cli_words(line) for line in done.lines()]
+    return done.lines(cli_words)
 
 
 def _convert_sections(image, params, out: Path, stem: str, printer, verbose: bool) -> list[str]:
@@ -558,9 +562,8 @@ def _convert_sections(image, params, out: Path, stem: str, printer, verbose: boo
 def _say(conversion, verbose: bool = False) -> list[str]:
     """One conversion's warnings to stderr; its lines (summary, notes, printing, and with `verbose`
     the details) returned."""
-    from ..lithograph.report import detail_lines
-
     from ..errors import is_decision
+    from ..lithograph.report import advice_notes, detail_lines
 
     which = f"{conversion.label}: " if conversion.label else ""  # a figure's print: which panel warns
     # Warnings are for what the user must act on; the tool's own decisions are in the description and
@@ -569,6 +572,8 @@ def _say(conversion, verbose: bool = False) -> list[str]:
         if not is_decision(warning):
             print(f"warning: {which}{cli_words(warning)}", file=sys.stderr)
     decided = [f"  note: {cli_words(w)}" for w in conversion.report.warnings if is_decision(w)] if verbose else []
+    if verbose:  # the description names no option: the verdicts' advice, in this command's words
+        decided += [f"  advice: {cli_words(v)}" for v in advice_notes(conversion.report) if not is_decision(v)]
     lines = [conversion.summary()] + [f"  note: {cli_words(n)}" for n in conversion.notes()] + decided
     printing = conversion.report.print
     if printing:  # the why of "for estimates only" on its own line, so that each line stays short
@@ -581,10 +586,10 @@ def _say(conversion, verbose: bool = False) -> list[str]:
 
 def cmd_batch(args) -> int:
     from ..lithograph.batch import Job, collect_inputs, read_overrides, run_batch
-    from ..lithograph.sizing import resolve_printer
+    from ..lithograph.sizing import check_up_front
 
     params = _params_from_args(args)
-    resolve_printer(params)
+    check_up_front(params)
     if args.workers is not None and args.workers < 1:
         print(f"error: --workers: give 1 or more worker processes; got {args.workers}.", file=sys.stderr)
         return EXIT_USAGE
@@ -716,9 +721,11 @@ def _vary_in_field_names(specs: list[str]) -> list[str]:
 
 
 def cmd_sweep(args) -> int:
+    from ..lithograph.sizing import check_up_front
     from ..lithograph.sweep import parse_vary, run_sweep
 
     params = _params_from_args(args)
+    check_up_front(params)
     vary = parse_vary(_vary_in_field_names(args.vary))
     result = run_sweep(Path(args.image), params, vary, out_dir=Path(args.output), render=not args.no_render)
     for conversion in result.conversions:
@@ -757,14 +764,14 @@ def cmd_render(args) -> int:
 
 
 def cmd_gui(args) -> int:
-    from ..errors import require_extra
+    from ..errors import ParameterError, require_extra
 
+    if not 0 <= args.port <= 65535:  # (the socket's own error is an OverflowError, which reads as a bug)
+        raise ParameterError(f"--port: must be a port number from 0 to 65535; got {args.port}.")
     require_extra("gui", "the web app", "fastapi", "uvicorn", "jinja2", "python_multipart")
     from ..gui import serve
 
     import socket
-
-    from ..errors import ParameterError
 
     with socket.socket() as probe:
         try:
@@ -797,9 +804,11 @@ def cmd_gui(args) -> int:
 def cmd_slice(args) -> int:
     from ..export.meshfile import read_mesh_file
     from ..printing.printers import get_printer
-    from ..printing.slicer import material, slice_mesh
+    from ..printing.slicer import material_for, slice_mesh
 
-    printer, mat = get_printer(args.printer), material(args.material, args.filament_price)
+    printer = get_printer(args.printer)
+    mat = material_for(printer, args.material, filament_price_per_kg=args.filament_price_per_kg,
+                       resin_price_per_kg=args.resin_price_per_kg)
 
     def slice_one(mesh):
         read_mesh_file(mesh)  # one clear error for a file that is not a mesh, before PrusaSlicer runs
@@ -815,8 +824,9 @@ def cmd_estimate(args) -> int:
     from ..printing.slicer import FILAMENTS, RESINS, estimate, material, material_for
 
     printer = get_printer(args.printer)
-    mat = material_for(printer, args.material, args.filament_price)
-    others = [material(m, args.filament_price) for m in (RESINS if printer.is_resin else FILAMENTS) if m != mat.name]
+    prices = (args.filament_price_per_kg, args.resin_price_per_kg)
+    mat = material_for(printer, args.material, filament_price_per_kg=prices[0], resin_price_per_kg=prices[1])
+    others = [material(m, *prices) for m in (RESINS if printer.is_resin else FILAMENTS) if m != mat.name]
 
     def estimate_one(mesh_path):
         mesh = read_mesh_file(mesh_path)
@@ -824,6 +834,7 @@ def cmd_estimate(args) -> int:
             print(f"warning: {mesh_path}: not a closed solid; the volume and estimate may be wrong.", file=sys.stderr)
         found = [estimate(float(mesh.volume), mesh.vertices, mesh.faces, printer=printer, mat=m) for m in (mat, *others)]
         e = found[0]
+        # (whether the price is assumed is said once, with the assumptions)
         lines = [f"{Path(mesh_path).name}: about {_amount_words(e)}, costing about {e['cost']:.2f} at {e['price_per_kg']:g} "
                  f"per kg{_co2e_text(e)}. Assumes {e['assumptions']}."]
         lines += [f"  {o['material']}: about {_amount_words(o)}, costing about {o['cost']:.2f}{_co2e_text(o)}" for o in found[1:]]
@@ -933,7 +944,7 @@ def cmd_check(args) -> int:
             report = make_lithograph(path, params).report
             verdicts = report.legibility.verdicts
             head = f"{path.name} (relief style {report.relief_style}: {report.relief_reason}):"
-        return [head] + [f"  {v}" for v in verdicts]
+        return [head] + [f"  {cli_words(v)}" for v in verdicts]
 
     return _run_each(args.inputs, check_one, args.debug)
 

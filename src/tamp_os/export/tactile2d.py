@@ -166,6 +166,13 @@ def _draw(surface, graphic: Graphic2D, offset_mm, page_h_mm: float, unit_scale: 
     surface.show_page()
 
 
+def _same_bytes_each_time(cairo, surface) -> None:
+    """The creator, and no creation date: cairo writes the time of writing, so a rebuild from the
+    recipe differed from the first PDF in those bytes alone; an empty date makes cairo leave it out."""
+    surface.set_metadata(cairo.PDFMetadata.CREATOR, "tamp-os")
+    surface.set_metadata(cairo.PDFMetadata.CREATE_DATE, "")
+
+
 def write_pdf(graphic: Graphic2D, fh: BinaryIO, page_size: str | None = None, *, metadata: dict | None = None) -> None:
     """The graphic as a one-page vector PDF at true size (page in points = mm × 72 / 25.4)."""
     cairo = _cairo()
@@ -175,7 +182,7 @@ def write_pdf(graphic: Graphic2D, fh: BinaryIO, page_size: str | None = None, *,
     surface.set_metadata(cairo.PDFMetadata.TITLE, xml_text(meta.get("title", "Tactile graphic")))  # a file name's stray bytes too
     if meta.get("description"):
         surface.set_metadata(cairo.PDFMetadata.SUBJECT, xml_text(meta["description"]))
-    surface.set_metadata(cairo.PDFMetadata.CREATOR, "tamp-os")
+    _same_bytes_each_time(cairo, surface)
     _draw(surface, graphic, offset, ph, PT_PER_MM)
     surface.finish()
 
@@ -203,7 +210,7 @@ def write_pdf_pages(graphics: list[Graphic2D], fh: BinaryIO, page_size: str | No
     (pw, ph), _ = sizes[0]
     surface = cairo.PDFSurface(fh, pw * PT_PER_MM, ph * PT_PER_MM)
     surface.set_metadata(cairo.PDFMetadata.TITLE, xml_text(title))
-    surface.set_metadata(cairo.PDFMetadata.CREATOR, "tamp-os")
+    _same_bytes_each_time(cairo, surface)
     for graphic, ((pw, ph), offset) in zip(graphics, sizes):
         surface.set_size(pw * PT_PER_MM, ph * PT_PER_MM)
         _draw(surface, graphic, offset, ph, PT_PER_MM)

@@ -307,7 +307,7 @@ def _volume_result(job: WebJob, upload: Upload, params: LithoParams, stem: str) 
     v = done.model
     result = Result(upload.name, True, files=[OutputFile(p.name, p.stat().st_size) for p in done.written],
                     description=describe_volume(v), model_glb=f"{stem}{PREVIEW_SUFFIX}", volume=True,
-                    summary=[web_words(line) for line in (done.summary(), *v.warnings, *v.notes)])
+                    summary=[done.summary(say_folder=False), *(web_words(line) for line in (*v.warnings, *v.notes))])
     _render_preview(job, result, v.mesh, stem)
     return result
 
@@ -365,7 +365,7 @@ def readme_text(names: list[str], where: dict[str, str] | None = None) -> str:
 
 def convert(job: WebJob, upload: Upload) -> Result:
     from ..lithograph.report import web_summary_lines
-    from .forms import label_of, web_words
+    from .forms import label_of, offers, web_words
     from .panel_choice import figure_prints, panel_parameter
 
     params = job.params.replace(preset=upload.override) if upload.override else job.params
@@ -386,7 +386,7 @@ def convert(job: WebJob, upload: Upload) -> Result:
         upload.name, True, files=[OutputFile(p.name, p.stat().st_size) for p in made.all_written],
         description=" ".join([made.litho.metadata()["description"],  # a figure: the overview, then each panel
                               *(f"Panel {each.suffix[7:]}: {each.litho.metadata()['description']}" for each in made.panels)]), heightmap_png=f"{stem}.heightmap.png",
-        model_glb=f"{stem}{PREVIEW_SUFFIX}", summary=web_summary_lines(report, label_of),
+        model_glb=f"{stem}{PREVIEW_SUFFIX}", summary=web_summary_lines(report, label_of, offers),
         relief_style=report.relief_style, relief_reason=report.relief_reason, touch=[web_words(v) for v in made.touch()],
         stem=stem,
     )

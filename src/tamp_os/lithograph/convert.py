@@ -40,7 +40,8 @@ class Print:
 
     def summary(self) -> str:
         """The one-line summary `tamp-os convert` prints (a figure's print names its panel)."""
-        return summary_line(self.report, self.names, f"{self.report.input}, {self.label}" if self.label else None)
+        return summary_line(self.report, self.names, f"{self.report.input}, {self.label}" if self.label else None,
+                            folder=str(self.written[0].parent) if self.written else None)
 
     def notes(self) -> list[str]:
         """What was removed from the picture (data band, annotations), in sentences."""

@@ -371,7 +371,9 @@ def overview_description(name: str, layout: PanelLayout, printed: list[str], *, 
                      f"{'were' if len(inferred) > 1 else 'was'} inferred from the order of the others.")
     if not any(p.label.isalpha() for p in layout.panels):
         parts.append("No panel letters were read on the figure, so the panels are numbered in reading order.")
-    parts += [f"Note: {n_}." for n_ in notes]  # from the overview itself (a panel too small for its frame)
+    from ..errors import file_words
+
+    parts += [f"Note: {file_words(n_)}." for n_ in notes]  # from the overview itself (a panel too small for its frame)
     return " ".join(parts)
 
 

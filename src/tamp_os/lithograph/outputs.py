@@ -237,6 +237,11 @@ def write_meshes(mesh, folder: Path, stem: str, *, formats: list[str], meta: dic
     # on a helper thread of its own while formatting it: threemf.write_in_order).
     # A batch worker with one core to itself (TAMP_THREADS=1) writes them one after the other.
     if mesh.n_triangles > PARALLEL_WRITE_TRIANGLES and len(formats) > 1 and os.environ.get("TAMP_THREADS") != "1":
+        if {"obj", "ply"} & set(formats):
+            # trimesh's modules import each other: two writer threads importing it at once met a module
+            # half made (ImportError: partially initialized module 'trimesh.exchange.ply'), so it is
+            # imported here, once, before them
+            import trimesh  # noqa: F401
         pool = ThreadPoolExecutor(max_workers=min(len(formats), os.cpu_count() or 1))
         try:
             futures = [pool.submit(write, fmt) for fmt in formats]
@@ -480,7 +485,8 @@ def slice_outputs(litho, written: list[Path]) -> tuple[list[Path], SliceResult]:
         stl = save_mesh(litho.mesh, recipe.parent / (recipe.name[: -len(RECIPE_SUFFIX)] + ".stl"), metadata(litho))
         others.append(stl)
     params = litho.params
-    result = slice_mesh(stl, litho.printer, material_for(litho.printer, params.material, params.filament_price_per_kg),
-                        timeout_s=params.slice_timeout_s)
+    mat = material_for(litho.printer, params.material, filament_price_per_kg=params.filament_price_per_kg,
+                       resin_price_per_kg=params.resin_price_per_kg)
+    result = slice_mesh(stl, litho.printer, mat, timeout_s=params.slice_timeout_s)
     others.append(Path(result.gcode))
     return others + [recipe], result

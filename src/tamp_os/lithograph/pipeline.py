@@ -185,7 +185,7 @@ def make_lithograph(source, params: LithoParams | None = None, *, printer_profil
     with clock("agreement"):
         agrees = _agreement(prepared, heights, layout, params, cleaned, relief) if not key else ()
     legibility = dataclasses.replace(legibility, levels_mm=tuple(round(v, 3) for v in relief.levels_mm),
-                                     verdicts=tuple(relief.checks) + agrees + tuple(legibility.verdicts))  # what the print shows of the picture first
+                                     verdicts=tuple(map(Text, (*relief.checks, *agrees, *legibility.verdicts))))  # what the print shows of the picture first; each a Text, so its advice is said in a front end's words
     report = _report(picture, cleaned, prepared, layout, params, machine, tactile.mesh, tactile.placed, max_error, timings, later,
                      relief, legibility, layout.depth_mm - picture_depth_mm,
                      find_layout(heights, layout.mm_per_px, params.base_mm, relief_mm=params.relief_mm) if not prepared.uniform else None)

@@ -186,27 +186,39 @@ class Report:
 MAX_LINE_CHARS = 160  # a result line a screen reader reads in one go; details go to the verbose lines and the report
 
 
-def summary_line(report: Report, written_names: list[str], shown: str | None = None) -> str:
+def summary_line(report: Report, written_names: list[str], shown: str | None = None, *, folder: str | None = None) -> str:
     """One plain line per converted file, as `tamp-os convert` prints it: at most MAX_LINE_CHARS
-    characters (the mesh, printer, scale and every file name are in detail_lines). `shown` names
-    the print instead of the input's name (a figure's "fig.png, panel a")."""
+    characters where the names allow (the mesh, printer, scale and every file name are in
+    detail_lines). `shown` names the print instead of the input's name (a figure's "fig.png,
+    panel a"); `folder` is where the files went, said when the line has no room for their names."""
     if shown:
         report = dataclasses.replace(report, input=shown)
     w, d, h = report.print_mm
     levels = "a flat plate" if report.uniform else f"up to {report.height_levels} levels"
     size = f"{_mm(w)} × {_mm(d)} × {_mm(h)} mm"  # to 0.1 mm, as the description says it
     full = f"{size}, grid {report.grid[0]} × {report.grid[1]}, {report.triangles:,} triangles, {levels}, relief style {report.relief_style}"
-    line = f"{report.input}: {full}; wrote {files_phrase(written_names)}"
-    if len(line) <= MAX_LINE_CHARS:
-        return line
-    # Too long: long names are cut in the middle (the input's and the files' alike), then the grid and
-    # triangles are left to the verbose lines.
-    for body, shortest in ((full, 24), (f"{size}, {levels}, relief style {report.relief_style}", 8)):
-        for room in range(60, shortest - 1, -4):
-            line = f"{_shorten(report.input, room)}: {body}; wrote {files_phrase(written_names, stem_chars=room)}"
-            if len(line) <= MAX_LINE_CHARS:
-                return line
-    return line
+    return fitted_line(report.input, [full, f"{size}, {levels}, relief style {report.relief_style}"], written_names, folder=folder)
+
+
+def fitted_line(name: str, bodies: list[str], written_names: list[str], *, folder: str | None) -> str:
+    """'NAME: BODY; wrote FILES' with the first body (fullest first) that keeps the line within
+    MAX_LINE_CHARS; else the shortest body and the files said as a count and their folder ("wrote 7
+    files to out_czi/"). A name is never cut: a screen reader then reads a name that is not on the
+    disk, and two lines cut differently read as two files."""
+    phrase = files_phrase(written_names)
+    for body in bodies:
+        line = f"{name}: {body}; wrote {phrase}"
+        if len(line) <= MAX_LINE_CHARS:
+            return line
+    return f"{name}: {bodies[-1]}; wrote {count_phrase(written_names, folder)}"
+
+
+def count_phrase(names: list[str], folder: str | None) -> str:
+    """'7 files to out_czi/' (or '7 files' when the folder is not known)."""
+    count = f"{len(names)} file{'s' * (len(names) != 1)}"
+    if folder is None:
+        return count
+    return f"{count} to {folder.rstrip(os.sep) + os.sep if folder not in ('', '.') else 'the current folder'}"
 
 
 def detail_lines(report: Report, written_names: list[str]) -> list[str]:
@@ -218,20 +230,18 @@ def detail_lines(report: Report, written_names: list[str]) -> list[str]:
     return lines + [f"  wrote: {name}" for name in written_names]
 
 
-def files_phrase(names: list[str], stem_chars: int | None = None) -> str:
-    """'ramp.{stl,3mf}, its description and recipe' for the files of one print; a count when they are many.
-    With `stem_chars`, the common name is cut in the middle to that many characters."""
+def files_phrase(names: list[str]) -> str:
+    """'ramp.{stl,3mf}, its description and recipe' for the files of one print; the first and last
+    of them when they share no name. Names are said whole."""
     extras = [n for n in names if n.endswith((".description.txt", ".tamp.json"))]
     main = [n for n in names if n not in extras]
     stem = os.path.commonprefix(main).rpartition(".")[0] if len(main) > 1 else ""
-    cut = (lambda t: _shorten(t, stem_chars)) if stem_chars is not None else (lambda t: t)
     if len(main) == 1:
-        head, _, ext = main[0].rpartition(".")
-        text = f"{cut(head)}.{ext}" if head else main[0]
+        text = main[0]
     elif stem and all(n.count(".") == stem.count(".") + 1 for n in main):
-        text = f"{cut(stem)}.{{{','.join(n[len(stem) + 1:] for n in main)}}}"
+        text = f"{stem}.{{{','.join(n[len(stem) + 1:] for n in main)}}}"
     elif main:
-        text = f"{len(main)} files ({cut(main[0])} … {cut(main[-1])})"
+        text = f"{len(main)} files ({main[0]} … {main[-1]})"
     else:
         text = ""
     said = {".description.txt": "description", ".tamp.json": "recipe"}
@@ -241,12 +251,14 @@ def files_phrase(names: list[str], stem_chars: int | None = None) -> str:
     return text or " and ".join(extra)
 
 
-def _shorten(text: str, limit: int) -> str:
-    """`text` cut in the middle to `limit` characters (a long file name keeps its start and end)."""
-    if len(text) <= limit:
-        return text
-    keep = max(limit - 1, 2)
-    return text[: (keep + 1) // 2] + "…" + text[len(text) - keep // 2:]
+def advice_notes(report: Report) -> list:
+    """The verdicts and the tool's decisions that carry advice naming a parameter (errors.Text):
+    the description leaves that advice out, so each front end says these in its own words, leaving
+    out advice for controls it does not have."""
+    from ..errors import is_decision, names_in
+
+    said = [*touch_notes(report), *(w for w in report.warnings if is_decision(w))]
+    return [n for n in said if names_in(getattr(n, "template", str(n)))]
 
 
 def touch_notes(report: Report) -> list[str]:
@@ -294,8 +306,9 @@ def labels_sentence(annotations, width_px: int, height_px: int) -> str | None:
     return f"Text label{'s' * (len(items) != 1)} removed from the relief: " + ", ".join(items) + "."
 
 
-def web_summary_lines(report: Report, namer=None) -> list[str]:
-    """The web app's result lines: size, grid, scale, notes (in its words), what was removed, printing."""
+def web_summary_lines(report: Report, namer=None, offers=None) -> list[str]:
+    """The web app's result lines: size, grid, scale, notes (in its words: `namer`; advice naming a
+    control it does not have, by `offers`, left out), what was removed, printing."""
     from ..errors import words
 
     w, d, top = report.print_mm
@@ -304,7 +317,7 @@ def web_summary_lines(report: Report, namer=None) -> list[str]:
         f"Print {_mm(w)} × {_mm(d)} mm, up to {_mm(top)} mm high.",
         f"Grid {report.grid[0]} × {report.grid[1]} points, {report.triangles:,} triangles, {levels}",
         f"Scale: {report.scale}.",
-        *[f"Note: {words(x, namer)}" for x in report.warnings],
+        *[f"Note: {words(x, namer, offers)}" for x in report.warnings],
     ]
     removed = [annotation_words(a, *report.source_px) for a in report.annotations]
     if removed:
@@ -351,7 +364,10 @@ def _instrument_sentence(instrument: Instrument) -> str:
 def describe(report: Report, params: LithoParams, source_name: str) -> str:
     """A plain-language description of the object for people who cannot see it, written as alt text:
     what the print shows, its layout (what is raised, how many, where), then scale, caption and
-    orientation, and the technical figures last."""
+    orientation, and the technical figures last. It names no control of any front end
+    (errors.file_words): each says its own advice beside it (advice_notes)."""
+    from ..errors import file_words
+
     w, d, h = report.print_mm
     rw, rd = report.relief_mm
     rd -= report.key_depth_mm  # the picture alone: the key below it is described on its own
@@ -384,12 +400,12 @@ def describe(report: Report, params: LithoParams, source_name: str) -> str:
     if not report.pixel_size_m:
         parts.append("No physical scale is known for the image.")
     if not report.uniform and touch_notes(report):
-        parts.append("What a finger will find: " + " ".join(touch_notes(report)))
+        parts.append("What a finger will find: " + " ".join(file_words(v) for v in touch_notes(report)))
     if report.instrument:
         parts.append(_instrument_sentence(report.instrument))
     from ..errors import is_decision
 
-    decided = [str(w) for w in report.warnings if is_decision(w)]
+    decided = [file_words(w) for w in report.warnings if is_decision(w)]
     if decided:  # the tool's own choices, for the record (the command line says them only when asked to be verbose)
         parts.append("How it was made: " + " ".join(decided))
     return " ".join(parts)

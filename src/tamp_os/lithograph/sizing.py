@@ -20,6 +20,15 @@ def resolve_printer(params: LithoParams, printer: PrinterProfile | None = None) 
     return chosen.with_overrides(params.nozzle_mm, params.layer_mm)
 
 
+def check_up_front(params: LithoParams) -> PrinterProfile:
+    """What a run refuses before any work, as a usage error (ParameterError): the printer, a resin
+    printer's limits and a braille table liblouis does not have. Returns the printer."""
+    from ..tactile.braille import check_table_name
+
+    check_table_name(params.braille_table)
+    return resolve_printer(params)
+
+
 def check_resin(params: LithoParams, printer: PrinterProfile) -> None:
     """One clear error for what a resin printer cannot do: two colours, a nozzle, a layer outside its range
     (or, to slice with PrusaSlicer, one its presets lack), a filament."""

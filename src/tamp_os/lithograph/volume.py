@@ -32,6 +32,7 @@ import numpy as np
 from ..errors import InputError, ParameterError, Text
 from ..mesh.solid import Mesh
 from ..params import LithoParams
+from .report import fitted_line
 from .volume_price import BYTES_PER_WORKING_VOXEL, SAY_AFTER_S, VolumePrice, price_model
 
 log = logging.getLogger(__name__)
@@ -532,12 +533,11 @@ def _surface_warnings(surface: _Surface, params) -> list[str]:
 def _wall_warnings(report, walls: np.ndarray, wall: float) -> list[str]:
     """Thin parts left thin (where, how thin, why), and walls thinner than asked where the surface bends."""
     out = []
-    if report.thin_left:
-        where = "; ".join(r.words() for r in report.thin_left[:3])
-        more = f" and {len(report.thin_left) - 3} more" if len(report.thin_left) > 3 else ""
-        out.append(Text(f"{len(report.thin_left)} thin part{'s' if len(report.thin_left) > 1 else ''} left thinner than "
-                        f"{wall:g} mm, since thickening would change the structure: {where}{more}; a larger `size_mm` "
-                        f"makes them thicker."))
+    if report.thin_left:  # where they are (boxes of coordinates) is for the description, not a warning's line
+        n = len(report.thin_left)
+        thinnest = min(r.thinnest_mm for r in report.thin_left)
+        out.append(Text(f"{n} thin part{'s' if n > 1 else ''} left thinner than {wall:g} mm (thinnest {thinnest:.2f} mm) not to "
+                        f"change the structure; the description says where. A larger `size_mm` thickens them."))
     if report.joined:
         out.append(Text(f"thickening walls to {wall:g} mm joined {report.joined} parts that were apart; a larger `size_mm` keeps "
                         f"them apart."))
@@ -715,19 +715,25 @@ class VolumeConversion:
     def names(self) -> list[str]:
         return [p.name for p in self.written]
 
-    def summary(self) -> str:
+    def summary(self, *, say_folder: bool = True) -> str:
+        """The one result line; without `say_folder` (the web app, whose folder is its own) a line too
+        long for the files' names says only their count."""
         v = self.model
         x, y, z = v.size_mm
         scale = f", 1 mm = {_length_words(v.sample_m_per_mm)}" if v.sample_m_per_mm else ", scale unknown"
         surface = (f"simplified within {v.deviation_mm:.3f} mm of the full surface" if v.tolerance_mm
                    else "the full surface, not simplified")
-        return (f"{v.name}: 3-D model {x:.1f} × {y:.1f} × {z:.1f} mm{scale}, {v.mesh.n_triangles:,} triangles "
-                f"({surface}), thinnest wall {v.wall_p1_mm:.2f} mm; "
-                f"wrote {', '.join(self.names)}")
+        size = f"3-D model {x:.1f} × {y:.1f} × {z:.1f} mm{scale}"
+        wall = f"thinnest wall {v.wall_p1_mm:.2f} mm"
+        bodies = [f"{size}, {v.mesh.n_triangles:,} triangles ({surface}), {wall}", f"{size}, {v.mesh.n_triangles:,} triangles, {wall}",
+                  f"{size}, {wall}"]
+        folder = str(self.written[0].parent) if self.written and say_folder else None
+        return fitted_line(v.name, bodies, self.names, folder=folder)
 
-    def lines(self) -> list[str]:
-        """The summary and the notes, as `tamp-os convert` prints them."""
-        return [self.summary()] + [f"  note: {n}" for n in self.model.notes]
+    def lines(self, say=str) -> list[str]:
+        """The summary and the notes, as `tamp-os convert` prints them; `say` puts a note (which
+        may name parameters, errors.Text) in a front end's words."""
+        return [self.summary()] + [f"  note: {say(n)}" for n in self.model.notes]
 
 
 def _length_words(metres: float) -> str:

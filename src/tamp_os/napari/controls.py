@@ -65,6 +65,23 @@ def widget_words(message) -> str:
     return text[:1].upper() + text[1:]
 
 
+def advice_words(report) -> list[str]:
+    """What the description leaves out, said for this widget: each verdict or decision whose advice
+    names a control the widget has, in its words ("try “Relief style” objects")."""
+    from ..errors import file_words
+    from ..lithograph.report import advice_notes
+
+    # only where the widget has something to add: a note whose advice it cannot offer reads as in the description
+    return [widget_words(n) for n in advice_notes(report) if words(n, namer, offers) != file_words(n)]
+
+
+def result_words(summary: str, folder) -> str:
+    """The result message: the print's line as the command line says it, its file's name spelt as on
+    the disk (never capitalised), a full stop, and the folder when the line does not name it."""
+    text = words(summary, namer, offers).rstrip(".") + "."
+    return text if f" to {folder}" in text else f"{text} The files are in {folder}."
+
+
 def printer_names() -> list[str]:
     """The printers offered: the profiles (built-in and the user's), then the printer table's."""
     from ..printing.printer_table import ALL_PRINTERS

@@ -15,7 +15,8 @@ from qtpy.QtCore import QObject, Signal
 from ..errors import TampError, is_decision
 from ..lithograph.pipeline import STAGES
 from ..printing.printers import PRESETS
-from .controls import CONTROLS, FORMAT_CHOICES, STYLE_WORDS, label, params_for, printer_names, widget_words
+from .controls import (CONTROLS, FORMAT_CHOICES, STYLE_WORDS, advice_words, label, params_for, printer_names, result_words,
+                       widget_words)
 from .layers import check_layer, layer_picture, print_source
 
 STEPS = (*STAGES, "save")
@@ -158,7 +159,7 @@ class PrintWidget(Container):
         self.viewer.layers.selection = set(printed)  # napari selects what it adds: keep the picture chosen, not its relief
         warnings = [widget_words(w) for each in conversion.prints for w in each.report.warnings if not is_decision(w)]
         folder = conversion.written[0].parent if conversion.written else self.output.value
-        self.say(" ".join([widget_words(conversion.summary()) + f" In {folder}.", *warnings]))
+        self.say(" ".join([result_words(conversion.summary(), folder), *warnings]))
         self.description.value = description_text(source, conversion)
 
     def _failed(self, exc: Exception) -> None:
@@ -210,5 +211,6 @@ def description_text(source, conversion) -> str:
         text = next((p.read_text(encoding="utf-8") for p in each.written if p.name.endswith(".description.txt")), "")
         parts += [text.strip()] if text.strip() else []
         parts += [widget_words(n) for n in each.notes()]
+        parts += advice_words(each.report)  # the description names no control: the widget's own advice
     parts += [widget_words(n) for n in conversion.layout_notes]
     return "\n\n".join(parts)

@@ -68,6 +68,7 @@ class Material:
     co2e_kg_per_kg: float | None = None  # cradle-to-gate greenhouse gases, approximate
     co2e_source: str = "no factor found"
     filament_type: str = ""  # PrusaSlicer's filament_type for its presets: PLA for recycled PLA
+    price_assumed: bool = True  # the table's price (said as an assumption), not one the user gave
 
     @property
     def is_resin(self) -> bool:
@@ -78,15 +79,20 @@ class Material:
         return None if self.co2e_kg_per_kg is None else grams / 1000 * self.co2e_kg_per_kg
 
 
+# Prices per kg in the user's currency, assumed when not given: a 1 kg spool of filament, and a bottle of
+# standard or plant-based printing resin, which costs more per kg (a filament's price applied to resin
+# understated its cost); no price list was checked, so each cost line says the price is assumed.
+FILAMENT_PRICE_PER_KG = 25.0
+RESIN_PRICE_PER_KG = 35.0
 MATERIALS = {m.name.upper(): m for m in (
-    Material("PLA", 1.24, 25.0, co2e_kg_per_kg=0.62, co2e_source=_INGEO),
-    Material("PETG", 1.27, 25.0, co2e_kg_per_kg=2.15, co2e_source=f"virgin PET's as PETG's stand-in: {_RPET}"),
-    Material("ABS", 1.04, 25.0),
-    Material("rPLA", 1.24, 25.0, co2e_kg_per_kg=0.13, filament_type="PLA",
+    Material("PLA", 1.24, FILAMENT_PRICE_PER_KG, co2e_kg_per_kg=0.62, co2e_source=_INGEO),
+    Material("PETG", 1.27, FILAMENT_PRICE_PER_KG, co2e_kg_per_kg=2.15, co2e_source=f"virgin PET's as PETG's stand-in: {_RPET}"),
+    Material("ABS", 1.04, FILAMENT_PRICE_PER_KG),
+    Material("rPLA", 1.24, FILAMENT_PRICE_PER_KG, co2e_kg_per_kg=0.13, filament_type="PLA",
              co2e_source=f"assumed: PLA's 0.62 less the 79 % that recycling saves for PET (no recycled-PLA study found); {_INGEO}"),
-    Material("rPETG", 1.27, 25.0, co2e_kg_per_kg=0.45, filament_type="PETG", co2e_source=f"recycled PET's as a stand-in: {_RPET}"),
-    Material("resin", 1.1, 25.0, kind="resin", co2e_kg_per_kg=4.0, co2e_source=_RESIN),
-    Material("plant-resin", 1.1, 25.0, kind="resin", co2e_kg_per_kg=2.0,
+    Material("rPETG", 1.27, FILAMENT_PRICE_PER_KG, co2e_kg_per_kg=0.45, filament_type="PETG", co2e_source=f"recycled PET's as a stand-in: {_RPET}"),
+    Material("resin", 1.1, RESIN_PRICE_PER_KG, kind="resin", co2e_kg_per_kg=4.0, co2e_source=_RESIN),
+    Material("plant-resin", 1.1, RESIN_PRICE_PER_KG, kind="resin", co2e_kg_per_kg=2.0,
              co2e_source="assumed: half the standard resin's for a resin about half plant-based (Voet et al. 2018, "
                          "ACS Omega 3:1403, made SLA resins 34-67 % bio-based); no study of such a resin's footprint found; uncertain"),
 )}
@@ -94,24 +100,29 @@ FILAMENTS = tuple(m.name for m in MATERIALS.values() if not m.is_resin)
 RESINS = tuple(m.name for m in MATERIALS.values() if m.is_resin)
 
 
-def material(name: str, price_per_kg: float | None = None) -> Material:
+def material(name: str, filament_price_per_kg: float | None = None, resin_price_per_kg: float | None = None) -> Material:
+    """The material called `name`, at the price the user gave for its kind (filament or resin), else
+    at the table's assumed price."""
     key = name.upper()
     if key not in MATERIALS:
         raise ParameterError(f"`material`: must be one of {', '.join(m.name for m in MATERIALS.values())}; got {name!r}.")
     base = MATERIALS[key]
-    if price_per_kg is None:
+    price, parameter = ((resin_price_per_kg, "resin_price_per_kg") if base.is_resin
+                        else (filament_price_per_kg, "filament_price_per_kg"))
+    if price is None:
         return base
-    if not 0 < price_per_kg < 1000:
-        raise ParameterError(f"filament price: must be above 0 and below 1000 per kg; got {price_per_kg}.")
-    return dataclasses.replace(base, price_per_kg=price_per_kg)
+    if not 0 < price < 1000:
+        raise ParameterError(f"`{parameter}`: must be above 0 and below 1000 per kg; got {price}.", parameter=parameter, value=price)
+    return dataclasses.replace(base, price_per_kg=price, price_assumed=False)
 
 
-def material_for(printer: PrinterProfile, name: str, price_per_kg: float | None = None) -> Material:
+def material_for(printer: PrinterProfile, name: str, *, filament_price_per_kg: float | None = None,
+                 resin_price_per_kg: float | None = None) -> Material:
     """The material a printer prints: PLA (the default) on a resin printer means standard resin; a
     filament on a resin printer, or a resin on a nozzle printer, is refused with what to choose."""
     if printer.is_resin and name.upper() == "PLA":
         name = "resin"
-    chosen = material(name, price_per_kg)
+    chosen = material(name, filament_price_per_kg, resin_price_per_kg)
     if chosen.is_resin != printer.is_resin:
         fits = RESINS if printer.is_resin else FILAMENTS
         what = "a resin printer" if printer.is_resin else "a nozzle printer"
@@ -135,6 +146,7 @@ class SliceResult:
     price_per_kg: float
     printer: str = "generic"
     for_estimates_only: bool = True
+    price_assumed: bool = False
     note: str = GENERIC_NOTE  # why the G-code is for estimates only (slicer.estimates_note)
 
     def as_dict(self) -> dict:
@@ -143,10 +155,15 @@ class SliceResult:
     def sentence(self) -> str:
         return (
             f"{_duration(self.print_time_s)} to print, {self.filament_g:.1f} g of {self.material} "
-            f"({self.filament_mm / 1000:.2f} m of filament), costing {self.cost:.2f} at {self.price_per_kg:g} per kg"
+            f"({self.filament_mm / 1000:.2f} m of filament), costing {self.cost:.2f} at {price_words(self.price_per_kg, self.price_assumed)}"
             + _co2e_words(self.material, self.filament_g)
             + (f" ({self.note})" if self.for_estimates_only else f", sliced for {self.printer}")
         )
+
+
+def price_words(price_per_kg: float, assumed: bool) -> str:
+    """'35 per kg' for a price the user gave; '35 per kg (an assumed price, in your currency)' for the table's."""
+    return f"{price_per_kg:g} per kg" + (" (an assumed price, in your currency)" if assumed else "")
 
 
 def _co2e_words(material_name: str, grams: float) -> str:
@@ -171,6 +188,7 @@ class ResinSliceResult:
     printer: str
     for_estimates_only: bool = False
     note: str = ""
+    price_assumed: bool = False
 
     @property
     def gcode(self) -> str:
@@ -182,7 +200,7 @@ class ResinSliceResult:
 
     def sentence(self) -> str:
         return (f"{_duration(self.print_time_s)} to print, {self.resin_ml:.1f} mL of {self.material} ({self.resin_g:.1f} g), "
-                f"costing {self.cost:.2f} at {self.price_per_kg:g} per kg{_co2e_words(self.material, self.resin_g)}, "
+                f"costing {self.cost:.2f} at {price_words(self.price_per_kg, self.price_assumed)}{_co2e_words(self.material, self.resin_g)}, "
                 f"sliced for {self.printer}")
 
 
@@ -201,7 +219,7 @@ def read_sla_archive(path, mat: Material) -> ResinSliceResult:
             print_file=str(path), print_time_s=float(values["printTime"]), resin_ml=ml, resin_g=round(grams, 3),
             cost=round(grams / 1000 * mat.price_per_kg, 3), layer_mm=float(values["layerHeight"]),
             layers=int(values["numFast"]) + int(values["numSlow"]), material=mat.name, price_per_kg=mat.price_per_kg,
-            printer=values.get("printerModel", ""))
+            printer=values.get("printerModel", ""), price_assumed=mat.price_assumed)
     except (KeyError, ValueError) as exc:
         raise SlicerError(f"{path}: its config.ini lacks {exc}; is this PrusaSlicer's SLA output?") from None
 
@@ -364,6 +382,7 @@ def parse_gcode(text: str, mat: Material) -> SliceResult:
         layers=len(zs),
         material=mat.name,
         price_per_kg=mat.price_per_kg,
+        price_assumed=mat.price_assumed,
     )
 
 
@@ -410,11 +429,12 @@ def estimate(volume_mm3: float, vertices: np.ndarray, faces: np.ndarray, *, prin
         "cost": round(grams / 1000 * mat.price_per_kg, 3),
         "material": mat.name,
         "price_per_kg": mat.price_per_kg,
+        "price_assumed": mat.price_assumed,
         "co2e_kg": mat.co2e_kg(grams),
         "co2e_source": mat.co2e_source,
         "assumptions": (
             f"{PERIMETERS} perimeters of {1.125 * nozzle:.2f} mm, {TOP_LAYERS} top and {BOTTOM_LAYERS} bottom solid layers "
-            f"of {layer:g} mm, {INFILL:.0%} gyroid infill, {mat.name} at {mat.density_g_cm3:g} g/cm³ and {mat.price_per_kg:g} per kg"
+            f"of {layer:g} mm, {INFILL:.0%} gyroid infill, {mat.name} at {mat.density_g_cm3:g} g/cm³ and {price_words(mat.price_per_kg, mat.price_assumed)}"
         ),
     }
 
@@ -429,9 +449,10 @@ def resin_estimate(volume_mm3: float, mat: Material) -> dict:
         "cost": round(grams / 1000 * mat.price_per_kg, 3),
         "material": mat.name,
         "price_per_kg": mat.price_per_kg,
+        "price_assumed": mat.price_assumed,
         "co2e_kg": mat.co2e_kg(grams),
         "co2e_source": mat.co2e_source,
         "assumptions": (f"a solid print of the mesh's volume, flat on the platform with no supports, pad or hollowing "
                         f"(resin left in the vat and on the part is not counted), {mat.name} at {mat.density_g_cm3:g} g/mL "
-                        f"and {mat.price_per_kg:g} per kg"),
+                        f"and {price_words(mat.price_per_kg, mat.price_assumed)}"),
     }

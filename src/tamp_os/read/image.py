@@ -376,7 +376,7 @@ def _pick_z(path, array, axes, z_slice, notes):
     if z_slice is None:
         array = array.max(axis=axes.index("Z"))
         if n > 1:
-            notes.append(Decision(f"z-stack of {n} slices: maximum-intensity projection (choose one slice with `z_slice`)."))
+            notes.append(Decision(f"z-stack of {n} slices: maximum-intensity projection⟦ (choose one slice with `z_slice`)⟧."))
     else:
         if not 0 <= z_slice < n:
             raise ParameterError(f"{path}: `z_slice` must be 0–{n - 1} (slices in this stack); got {z_slice}.")
@@ -404,9 +404,11 @@ def _read_dm(path, limits: Limits, file_bytes: int) -> Decoded:
     try:
         from rsciio.digitalmicrograph import file_reader
     except ImportError:
+        from ..errors import install_hint
+
         raise MissingDependencyError(
-            f"{path}: is a Gatan DigitalMicrograph (DM3/DM4) file; reading it needs the optional "
-            f"extra: pip install 'tamp-os[dm]' (rosettasciio)."
+            f"{path}: is a Gatan DigitalMicrograph (DM3/DM4) file; reading it needs rosettasciio, which comes with "
+            f"the 'dm' extra: {install_hint('dm')}."
         ) from None
     try:
         item = file_reader(str(path), lazy=True)[0]  # lazy: the header's shape and dtype, no pixels yet

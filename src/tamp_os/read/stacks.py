@@ -99,7 +99,7 @@ def reduce_by_pages(path, series, axes, *, shape, page, z_slice, channel, meta):
         if z_slice is None:
             zs = list(range(nz))
             if nz > 1:
-                notes.append(Decision(f"z-stack of {nz} slices: maximum-intensity projection (choose one slice with `z_slice`)."))
+                notes.append(Decision(f"z-stack of {nz} slices: maximum-intensity projection⟦ (choose one slice with `z_slice`)⟧."))
         elif not 0 <= z_slice < nz:
             raise ParameterError(f"{path}: `z_slice` must be 0–{nz - 1} (slices in this stack); got {z_slice}.")
         else:

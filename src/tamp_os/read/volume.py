@@ -81,7 +81,7 @@ def _tiff_stack(path: Path, channel, time, scene) -> StackShape:
             raise ParameterError(f"{path}: `time` must be 0–{sizes.get('T', 1) - 1} (time points in this file); got {t}.",
                                  parameter="time", value=t)
         if sizes.get("T", 1) > 1 and time is None:
-            notes.append(Decision(f"time series of {sizes['T']} time points: using the first (choose another with `time`)."))
+            notes.append(Decision(f"time series of {sizes['T']} time points: using the first⟦ (choose another with `time`)⟧."))
         nz = sizes.get("Z", 1)
         lead = [a for a in axes if a not in "YX"]
         pages = list(series.pages)

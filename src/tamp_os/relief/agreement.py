@@ -133,12 +133,12 @@ def _polarity(shown, rel, structure, noise, pitch_mm, inverted, signal) -> tuple
         what = {"SE": "secondary-electron", "BSE": "backscattered-electron", "STEM": "HAADF STEM"}[signal]
         return facts, [Text(f"What is raised is the picture's dark side (median brightness {b_r:.0%} against {b_g:.0%} at the "
                             f"base), but in a {what} image bright is usually the specimen: the print may raise the gaps "
-                            f"around it; {option} raises the bright side.")]
+                            f"around it⟦; {option} raises the bright side⟧.")]
     if s_g > STRUCTURE_RATIO * max(s_r, noise) and s_g > VISIBLE_NOISE * noise and abs(b_r - b_g) > DARKER_BY:
         side = "dark" if b_r < b_g else "bright"
         return facts, [Text(f"What is raised is the picture's smooth {side} side, and what stays at the base carries its "
                             f"structure (shading and edges {s_g / max(s_r, 1e-6):.1f}× stronger): the print may raise the "
-                            f"gaps, not the specimen; {option} raises the other side.")]
+                            f"gaps, not the specimen⟦; {option} raises the other side⟧.")]
     return facts, []
 
 
@@ -161,7 +161,7 @@ def _flat_structure(h, structure, noise, pitch_mm, style: str) -> tuple[float, l
               else "`relief_style` structure raises the picture's shape everywhere")
     return round(share, 3), [Text(f"{share:.0%} of the picture ({where}) shows structure at fingertip scale that the print "
                                   f"leaves flat (under {FLAT_MM:g} mm of relief within a fingertip's reach): a finger will "
-                                  f"not find it; {advice}.")]
+                                  f"not find it⟦; {advice}⟧.")]
 
 
 def _where(mask: np.ndarray) -> str:

@@ -604,7 +604,8 @@ def channel_relief(channels: list[ChannelImage], *, mm_per_px: float, base_mm: f
                      f"are not taken for lines.")
         elif not assigned:
             said += " Its structures are not stretched along Z; their shapes were measured as they are."
-        notes.append(Text(said))
+        # How it was measured, for the record: the reader's own note already warns that the print is a side view
+        notes.append(Decision(said))
     if stretch < AXIAL_STRETCH_MIN:
         stretch = 1.0
     choices, chose_notes = choose(channels, assigned or {}, mm_per_px, max_channels=max_channels, masks=found, stretch=stretch, title=title)

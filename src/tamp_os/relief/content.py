@@ -1276,12 +1276,12 @@ def check_sentences(heights_mm: np.ndarray, made: ContentMade, mm_per_px: float,
             out = [f"Found {n} member{'s' * (n != 1)}, all raised at least {lifts.min():.1f} mm above the ground around them."]
         else:
             out = [f"Found {n} members; {felt} stand at least 0.5 mm above the ground around them, {n - felt} do not "
-                   f"(lowest {lifts.min():.1f} mm): a finger may miss them; a taller `relief_mm` raises them further."]
+                   f"(lowest {lifts.min():.1f} mm): a finger may miss them⟦; a taller `relief_mm` raises them further⟧."]
         split = made.split_pairs
         if split and split >= max(2, 0.1 * n):
             out.append(f"{split} pairs of touching domes share a border as wide as the domes themselves, with no neck between "
-                       f"them: one object of the picture may have been split into several domes; `relief_style` objects "
-                       f"raises one dome per outlined object.")
+                       f"them: one object of the picture may have been split into several domes⟦; `relief_style` objects "
+                       f"raises one dome per outlined object⟧.")
         return tuple(out)
     if made.kind == "plateau" and made.labels is not None and made.labels.max():
         n = int(made.labels.max())
@@ -1308,7 +1308,7 @@ def lattice_sentences(heights_mm: np.ndarray, made: ContentMade, mm_per_px: floa
     if not found.drawn or made.labels is None or not made.labels.max():
         return (f"The picture shows a lattice of about {found.picture_columns} columns {found.picture_spacing_mm:.1f} mm apart on "
                 f"the print, too close to print apart: the print is one flat plateau where they are; a wider print "
-                f"(`width_mm` {resolve}) raises every column.",)
+                f"⟦(`width_mm` {resolve}) ⟧raises every column.",)
     lifts = member_tops(heights_mm, made.labels, mm_per_px, ring_mm=max(mm_per_px, 0.5 * found.spacing_mm))
     n = lifts.size
     felt = int((lifts >= FELT_MM).sum())
@@ -1319,10 +1319,10 @@ def lattice_sentences(heights_mm: np.ndarray, made: ContentMade, mm_per_px: floa
                    f"finger finds at the interface.")
     if felt < 0.9 * found.picture_columns:
         out.append(f"The picture shows about {found.picture_columns} columns {found.picture_spacing_mm:.1f} mm apart; the print raises "
-                   f"{felt}, so columns may be missing; a wider print (`width_mm` {resolve}) raises every one of them.")
+                   f"{felt}, so columns may be missing; a wider print ⟦(`width_mm` {resolve}) ⟧raises every one of them.")
     elif found.picture_spacing_mm < MIN_PITCH_MM:
         out.append(f"Its columns are {found.picture_spacing_mm:.1f} mm apart, under the {MIN_PITCH_MM:g} mm a fingertip tells apart: "
-                   f"felt as an even grain; a wider print (`width_mm` {resolve}) spaces them {MIN_PITCH_MM:g} mm apart.")
+                   f"felt as an even grain; a wider print ⟦(`width_mm` {resolve}) ⟧spaces them {MIN_PITCH_MM:g} mm apart.")
     return tuple(out)
 
 

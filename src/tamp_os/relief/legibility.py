@@ -244,8 +244,8 @@ def _fine_verdict(f: dict, style: str | None) -> str:
     if share > FINE_SHARE_WARN:
         return Text(
             f"{share:.0%} of this relief's height variation is finer than a fingertip resolves (about 1 mm), so it is "
-            f"felt as roughness, not as shape; "
-            + ("try a larger `detail_mm` or a lower `texture_mm`." if style == "structure" else "try `relief_style` structure, or a larger `detail_mm`.")
+            f"felt as roughness, not as shape"
+            + ("⟦; try a larger `detail_mm` or a lower `texture_mm`⟧." if style == "structure" else "⟦; try `relief_style` structure⟧⟦, or a larger `detail_mm`⟧.")
         )
     return f"Most of the relief is shape a fingertip can follow: only {share:.0%} of its variation is finer than about 1 mm."
 
@@ -279,7 +279,7 @@ def _narrow_verdicts(f: dict, nozzle_mm: float, style: str | None) -> list[str]:
     elif f["narrow_share"] > 0.05:
         out.append(Text(
             f"{f['narrow_area_mm2']:.0f} mm² ({f['narrow_share']:.0%} of the picture) is ridges or grooves narrower than two "
-            f"nozzle widths ({2 * nozzle_mm:g} mm): they may not print and read as noise; a larger `detail_mm` removes them."
+            f"nozzle widths ({2 * nozzle_mm:g} mm): they may not print and read as noise⟦; a larger `detail_mm` removes them⟧."
         ))
     return out
 
@@ -292,8 +292,8 @@ def _object_verdict(f: dict, style: str | None) -> str:
         return Text(
             f"The {n} object{'s' * (n != 1)} stand{'s' * (n == 1)} only {lift:.2g} mm (median) above the ground around "
             f"{'it' if n == 1 else 'them'}; "
-            f"a finger may not find {'it' if n == 1 else 'them'}; "
-            + ("try a taller `relief_mm`." if style in ("objects", "content") else "try `relief_style` objects.")
+            f"a finger may not find {'it' if n == 1 else 'them'}"
+            + ("⟦; try a taller `relief_mm`⟧." if style in ("objects", "content") else "⟦; try `relief_style` objects⟧.")
         )
     return (f"{n} object{'s' * (n != 1)} stand{'s' * (n == 1)} {lift:.2g} mm (median; lowest {low:.2g} mm) above the "
             f"ground around {'it' if n == 1 else 'them'}.")

@@ -34,12 +34,12 @@ def unsupported(path, kind: str, why: str) -> InputError:
 
 
 def missing(path, kind: str, package: str):
-    from ...errors import MissingDependencyError
+    from ...errors import MissingDependencyError, install_hint
 
     what, _ = KINDS[kind]
     return MissingDependencyError(
-        f"{path}: is {what}; reading it needs the Python package {package}, which the set-up installs "
-        f"(pip install 'tamp-os[vendor]', or run make setup again)."
+        f"{path}: is {what}; reading it needs the Python package {package}, which comes with the 'vendor' extra: "
+        f"{install_hint('vendor')}."
     )
 
 

@@ -109,7 +109,7 @@ def choose(path, stack: Stack, request: Request, *, limits, all_channels: bool =
     t = check_index(path, "time", request.time, count=nt, what="time point")
     if nt > 1 and request.time is None:
         step = f", {stack.time_step_s:g} s apart" if stack.time_step_s else ""
-        notes.append(Decision(f"time series of {nt} time points{step}: using the first (choose another with `time`)."))
+        notes.append(Decision(f"time series of {nt} time points{step}: using the first⟦ (choose another with `time`)⟧."))
     peak = False
     if all_channels:
         channels = list(range(nc))
@@ -127,7 +127,7 @@ def choose(path, stack: Stack, request: Request, *, limits, all_channels: bool =
         channels = [index or 0]
     if nz > 1 and request.z_slice is None:
         zs, z_words = list(range(nz)), f"projection of {nz}"
-        notes.append(Decision(f"z-stack of {nz} slices: maximum-intensity projection (choose one slice with `z_slice`)."))
+        notes.append(Decision(f"z-stack of {nz} slices: maximum-intensity projection⟦ (choose one slice with `z_slice`)⟧."))
     else:
         z = check_index(path, "z_slice", request.z_slice, count=nz, what="slice")
         zs, z_words = [z], (f"slice {z}" if nz > 1 else "")

@@ -154,7 +154,7 @@ LONG = 100_000
     (("convert", "{fluo}", "--key-labels", "A" * LONG + "=nuclei"), "--key-labels: no channel named aaa"),
     (("convert", "{image}", "--relief-style", "r" * LONG), "--relief-style: must be one of"),
     (("convert", "{image}", "--channel", "c" * LONG), "p.png: channel ccc"),
-    (("convert", "{image}", "--formats", "f" * LONG), "--formats: must be each one of"),
+    (("convert", "{image}", "--formats", "f" * LONG), "is not a format TAMP-OS writes"),
     (("render", "{image}", "--theme", "t" * LONG), "argument --theme: invalid choice: 'ttt"),
 ])
 def test_an_error_line_quotes_a_short_prefix_of_a_long_value(tmp_path, argv, prefix):

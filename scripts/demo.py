@@ -10,7 +10,7 @@ import os
 import sys
 from pathlib import Path
 
-from tamp_os.lithograph.convert import convert as convert_image
+from tamp_os.lithograph.products import convert as convert_product
 from tamp_os.errors import TampError
 from tamp_os.params import LithoParams
 from tamp_os.read.image import read_array
@@ -60,7 +60,7 @@ def main(argv=None) -> int:
 def convert(name: str, source, out: Path, **params) -> bool:
     """Convert one example and print the same line as `tamp-os convert`; False if it failed."""
     try:
-        conversion = convert_image(source, LithoParams(**params), out)
+        conversion = convert_product(source, LithoParams(**params), out).conversions[0]
     except TampError as exc:
         print(f"{name}: not converted: {exc}")
         return False

@@ -487,8 +487,8 @@ def _run_each(items, action, debug: bool = False) -> int:
 
 def cmd_convert(args) -> int:
     with _loading():
-        from ..lithograph.convert import convert
         from ..lithograph.outputs import distinct_stems, load_recipe
+        from ..lithograph.products import convert
         from ..lithograph.sizing import check_up_front
 
     jobs = []
@@ -505,16 +505,10 @@ def cmd_convert(args) -> int:
 
     def convert_job(job_and_stem):
         (image, job_params, printer), stem = job_and_stem
-        if job_params.volume:  # a z-stack as a 3-D model (lithograph/volume.py)
-            return _convert_volume(image, job_params, Path(args.output), stem, printer)
-        if job_params.sections:  # a z-stack as a series of plates (lithograph/sections.py)
-            return _convert_sections(image, job_params, Path(args.output), stem, printer, args.verbose)
         with _WorkingLine(Path(image).name):  # its line is cleared before the warnings and results are printed
-            conversion = convert(image, job_params, Path(args.output), stem=stem, printer_profile=printer)
-        lines = [line for each in conversion.prints for line in _say(each, verbose=args.verbose)]
-        if conversion.figure_files:  # a figure's own files: NAME.pages.pdf (with pdf) and its recipe
-            lines.append("  figure: wrote " + ", ".join(p.name for p in conversion.figure_files))
-        lines += [f"  note: {cli_words(note)}" for note in conversion.layout_notes]
+            made = convert(image, job_params, Path(args.output), stem=stem, printer_profile=printer,
+                           on_price=_say_price(Path(image).name))
+        lines = _made_lines(made, args.verbose)
         if stem != (image.stem or "lithograph"):
             lines.append(f"  note: named {stem} because another input of this run has the same name")
         return lines
@@ -532,31 +526,31 @@ def cmd_convert(args) -> int:
         return EXIT_FAILED
 
 
-def _convert_volume(image, params, out: Path, stem: str, printer) -> list[str]:
-    """`convert --volume`: the 3-D model's warnings to stderr, its lines returned."""
-    from ..lithograph.volume import convert_volume
+def _say_price(name: str):
+    """A long 3-D model says its expected time before the work (volume_price.py)."""
+    def say(price) -> None:
+        from ..lithograph.volume_price import SAY_AFTER_S
 
-    def say_price(price):  # a long model says its expected time before the work (volume_price.py)
         if price.seconds >= SAY_AFTER_S:
-            print(f"note: {Path(image).name}: priced at {price.words()}; working…", file=sys.stderr, flush=True)
+            print(f"note: {name}: priced at {price.words()}; working…", file=sys.stderr, flush=True)
 
-    from ..lithograph.volume_price import SAY_AFTER_S
-
-    with _WorkingLine(Path(image).name):
-        done = convert_volume(image, params, out, stem=stem, printer_profile=printer, on_price=say_price)
-    for warning in done.model.warnings:
-        print(f"warning: {cli_words(warning)}", file=sys.stderr)
-    return done.lines(cli_words)
+    return say
 
 
-def _convert_sections(image, params, out: Path, stem: str, printer, verbose: bool) -> list[str]:
-    """`convert --volume sections:K`: each plate's lines, then one line for the series."""
-    from ..lithograph.sections import convert_sections, sections_note
-
-    with _WorkingLine(Path(image).name):
-        sections = convert_sections(image, params, out, stem=stem, printer_profile=printer)
-    lines = [line for s in sections for each in s.conversion.prints for line in _say(each, verbose=verbose)]
-    return lines + [f"  note: {sections_note(sections)}"]
+def _made_lines(made, verbose: bool) -> list[str]:
+    """A product's warnings to stderr; its lines returned: a 3-D model's summary and notes, or each
+    relief print's lines (a figure's own files and layout notes after them), then the product's notes."""
+    if made.model is not None:
+        for warning in made.warnings:
+            print(f"warning: {cli_words(warning)}", file=sys.stderr)
+        return made.model.lines(cli_words)
+    lines = []
+    for conversion in made.conversions:
+        lines += [line for each in conversion.prints for line in _say(each, verbose=verbose)]
+        if conversion.figure_files:  # a figure's own files: NAME.pages.pdf (with pdf) and its recipe
+            lines.append("  figure: wrote " + ", ".join(p.name for p in conversion.figure_files))
+        lines += [f"  note: {cli_words(note)}" for note in conversion.layout_notes]
+    return lines + [f"  note: {cli_words(note)}" for note in made.notes]
 
 
 def _say(conversion, verbose: bool = False) -> list[str]:

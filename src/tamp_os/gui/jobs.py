@@ -249,21 +249,23 @@ class JobStore:
 
 
 def run_library(path: Path, params: LithoParams, out: Path, *, stem: str):
-    """The one place the web app calls the library: convert (make, save, slice) and a preview model."""
-    from ..lithograph.convert import convert as convert_image
+    """The one place the web app calls the library for a relief: the product entry point (make, save,
+    slice) and a preview model."""
     from ..export import save_mesh
+    from ..lithograph.products import convert as convert_product
 
-    conversion = convert_image(path, params, out, stem=stem)
+    conversion = convert_product(path, params, out, stem=stem).conversions[0]
     save_mesh(conversion.litho.mesh, out / f"{stem}{PREVIEW_SUFFIX}", conversion.litho.metadata())
     return conversion
 
 
 def run_volume(path: Path, params: LithoParams, out: Path, *, stem: str):
-    """The web app's call for a z-stack printed as a 3-D model: convert_volume, and a preview model."""
+    """The web app's call for a z-stack printed as a 3-D model: the product entry point, and a preview model."""
     from ..export import save_mesh
-    from ..lithograph.volume import convert_volume, describe_volume
+    from ..lithograph.products import convert as convert_product
+    from ..lithograph.volume import describe_volume
 
-    done = convert_volume(path, params, out, stem=stem)
+    done = convert_product(path, params, out, stem=stem).model
     meta = {"title": f"Tactile 3-D model of {done.model.name}", "description": describe_volume(done.model)}
     save_mesh(done.model.mesh, out / f"{stem}{PREVIEW_SUFFIX}", meta, checked=True)
     return done

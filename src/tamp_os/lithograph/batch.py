@@ -129,7 +129,7 @@ def read_overrides(path: Path) -> dict[str, dict]:
 
 def convert_one(source: str, out_dir: str, params_json: str, *, stem: str) -> dict:
     """Convert one input in a worker; never raises for a user-facing problem."""
-    from .convert import convert
+    from .products import convert
     from .outputs import RECIPE_SUFFIX, recipe_outputs_if_current
 
     start = time.perf_counter()
@@ -140,29 +140,17 @@ def convert_one(source: str, out_dir: str, params_json: str, *, stem: str) -> di
     if done:
         return dataclasses.asdict(Outcome(str(src), "skipped (up to date)", done, time.perf_counter() - start))
     try:
-        if params.volume:  # a z-stack as a 3-D model: its files and warnings
-            return _volume_outcome(src, params, out, stem, start)
-        conversion = convert(src, params, out, stem=stem)
+        made = convert(src, params, out, stem=stem)
     except TampError as exc:  # exc.text() keeps the parameter names for the CLI to say as options
         return dataclasses.asdict(Outcome(str(src), "failed", [], time.perf_counter() - start, exc.text()))
     except Exception as exc:  # a bug must not stop the batch either; report it plainly
         log.exception("unexpected error on %s", src)
         return dataclasses.asdict(Outcome(str(src), "failed", [], time.perf_counter() - start, f"{src}: unexpected error: {exc!r}"))
-    # A figure's prints: every warning once, then what the layout left out.
-    warnings = list(dict.fromkeys([w for each in conversion.prints for w in each.report.warnings] + list(conversion.layout_notes)))
-    if conversion.report.uniform:
+    warnings = [str(w) for w in made.warnings] if made.model is not None else made.warnings
+    if any(c.report.uniform for c in made.conversions):
         warnings.insert(0, FLAT_PLATE_NOTE)
-    return dataclasses.asdict(Outcome(str(src), "converted", [p.name for p in conversion.all_written], time.perf_counter() - start,
-                                      warnings=warnings, touch=conversion.touch()))
-
-
-def _volume_outcome(src: Path, params: LithoParams, out: Path, stem: str, start: float) -> dict:
-    """`convert_one` for `volume`: the model written (volume.convert_volume), its warnings and its summary."""
-    from .volume import convert_volume
-
-    done = convert_volume(src, params, out, stem=stem)
-    return dataclasses.asdict(Outcome(str(src), "converted", done.names, time.perf_counter() - start,
-                                      warnings=[str(w) for w in done.model.warnings]))
+    return dataclasses.asdict(Outcome(str(src), "converted", [p.name for p in made.all_written], time.perf_counter() - start,
+                                      warnings=warnings, touch=made.touch()))
 
 
 FLAT_PLATE_NOTE = "flat plate: the image is uniform, so nothing is raised"  # first of a uniform input's warnings

@@ -1,6 +1,6 @@
-"""Converting one image, the one way every front end does it: make the lithograph, save its files,
-slice it when `gcode` asks, and say what happened. The CLI, batch, sweep, the web app and the demo
-all call `convert` (or `outputs.save_outputs` for a lithograph already made).
+"""Converting one image into a relief: make the lithograph, save its files, slice it when `gcode`
+asks, and say what happened. Front ends ask lithograph/products.py `convert`, which calls this for
+the relief product (a picture or a figure); sweep calls it for each variant.
 """
 
 from __future__ import annotations
@@ -120,14 +120,14 @@ def convert(source, params: LithoParams | None, out_dir, *, stem: str | None = N
     if params is not None and params.volume:  # lithograph/volume.py makes those; a relief here would ignore it silently
         from ..errors import ParameterError
 
-        raise ParameterError("`volume`: 3-D models of z-stacks are made by lithograph.volume.convert_volume (as `tamp-os convert`, "
-                             "`batch` and the web app make them); sweep does not make them yet. Leave `volume` out for a relief.",
+        raise ParameterError("`volume`: this makes reliefs; a z-stack's 3-D model is made by lithograph.products.convert, the "
+                             "entry point every front end uses (sweep does not make models yet). Leave `volume` out for a relief.",
                              parameter="volume", value=True)
     if params is not None and params.sections:  # lithograph/sections.py makes the series, one convert per slice
         from ..errors import ParameterError
 
-        raise ParameterError("`sections`: a series of sections is made by `tamp-os convert` (lithograph.sections.convert_sections); "
-                             "batch, sweep and the web app do not make them yet. Leave `sections` out for one relief.",
+        raise ParameterError("`sections`: this makes one relief; a series of sections is made by lithograph.products.convert, "
+                             "the entry point every front end uses (sweep does not make series yet). Leave `sections` out for one relief.",
                              parameter="sections", value=params.sections)
     with decoded_once():  # the file's pixels decoded once for the figure, the print and its colour channels
         figure = make_figure(source, params or LithoParams(), printer_profile=printer_profile)

@@ -176,13 +176,13 @@ class PrintWidget(Container):
 
 def make_in_worker(pictures, *, settings: dict, out_dir: Path, heard):
     """The worker's job: the source the layers give, then convert() as the command line runs it."""
-    from ..lithograph.convert import convert
+    from ..lithograph.products import convert
     from ..lithograph.pipeline import stages_heard_by
 
     source = print_source(pictures, out_dir)
     params = params_for(**settings, pixel_size_m=source.pixel_size_m, channel=source.channel)
     with stages_heard_by(heard):
-        return source, convert(source.source, params, out_dir, stem=source.stem)
+        return source, convert(source.source, params, out_dir, stem=source.stem).conversions[0]  # the widget makes reliefs
 
 
 def add_print_layers(viewer, made, *, beside) -> None:

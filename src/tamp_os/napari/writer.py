@@ -20,7 +20,7 @@ def write_3mf(path: str, layer_data: list[tuple]) -> list[str]:
 def write_print(path, layer_data: list[tuple], *, fmt: str) -> list[str]:
     """Print the layers (one picture, or one picture's channels) to `path`; the paths written."""
     from ..errors import TampError
-    from ..lithograph.convert import convert
+    from ..lithograph.products import convert
     from .controls import params_for, widget_words
 
     target = Path(path)

@@ -56,6 +56,13 @@ def test_convert_help_says_each_heading_once_with_its_options_under_it():
     under = dict(zip(sections[::2], sections[1::2]))
     assert "--nozzle-mm" in under["parameters: printer and size"] and "--nozzle-mm" not in under["parameters: volumes"]
     assert "--sections" in under["parameters: volumes"]
+    # each format's sentence from the format table, one a line under the outputs heading
+    from tamp_os.formats import TABLE
+
+    outputs = " ".join(under["parameters: outputs"].split())
+    for f in TABLE:
+        assert f"{f.name}: {f.purpose}" in outputs, f.name
+    assert "--formats" in outputs and "--formats" not in under["parameters: volumes"]
     assert len(text.splitlines()) < 300
 
 

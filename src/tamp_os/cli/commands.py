@@ -129,7 +129,8 @@ def _param_options(parser: argparse.ArgumentParser) -> None:
     reader can jump from heading to heading."""
     from ..params import SECTIONS, LithoParams
 
-    groups = {title: parser.add_argument_group(f"parameters: {title}") for title, _ in SECTIONS}
+    groups = {title: parser.add_argument_group(f"parameters: {title}", _format_list() if title == "outputs" else None)
+              for title, _ in SECTIONS}
     group_of = {name: groups[title] for title, names in SECTIONS for name in names}
     flags_by_name = _flags()
     for f in dataclasses.fields(LithoParams):
@@ -178,10 +179,29 @@ def cli_words(message) -> str:
 
 
 def _format_help() -> str:
-    """'stl (any slicer), 3mf (...), ...' from the format table."""
+    from ..formats import NAMES
+
+    return f"comma-separated, from the list above: {', '.join(NAMES)} (default: stl)"
+
+
+def _format_list() -> str:
+    """Each format and what it is for, one a line, from the format table (the outputs heading's text)."""
     from ..formats import TABLE
 
-    return ("comma-separated: " + "; ".join(f"{f.name} ({f.what})" for f in TABLE) + " (default: stl)").replace("%", "%%")
+    return "\n".join(f"{f.name}: {f.purpose}" for f in TABLE)
+
+
+class _HelpFormatter(argparse.HelpFormatter):
+    """argparse's help, but a text of several lines (the formats under their heading) keeps one
+    item a line, each wrapped on its own, instead of being run together into one paragraph."""
+
+    def _fill_text(self, text, width, indent):
+        if "\n" not in text:
+            return super()._fill_text(text, width, indent)
+        import textwrap
+
+        return "\n".join(textwrap.fill(line, width, initial_indent=indent, subsequent_indent=indent + "    ")
+                         for line in text.splitlines())
 
 
 def _params_from_args(args, base=None):
@@ -197,7 +217,12 @@ def _params_from_args(args, base=None):
 
 class _Parser(argparse.ArgumentParser):
     """argparse's parser, but help that cannot be written fails (argparse drops a failed write, so
-    `tamp-os --help > file` on a full disk exited 0 with nothing written and nothing said)."""
+    `tamp-os --help > file` on a full disk exited 0 with nothing written and nothing said), and
+    lists keep one item a line (see _HelpFormatter)."""
+
+    def __init__(self, *args, **kwargs):
+        kwargs.setdefault("formatter_class", _HelpFormatter)
+        super().__init__(*args, **kwargs)
 
     def print_help(self, file=None):
         file = file or sys.stdout

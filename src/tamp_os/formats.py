@@ -68,7 +68,7 @@ TABLE: tuple[Format, ...] = (
     Format("step", "mesh", (".step", ".stp"), "For CAD programs: the solid as one faceted STEP body.", "step:write_step",
            "step:check_step", bytes_fixed=5000, bytes_per_triangle=800),
     Format("pdf", "graphic", (".pdf",), "For swell paper or a braille embosser: the plate as a flat tactile graphic at its real size."),
-    Format("svg", "graphic", (".svg",), "For swell paper, an embosser or a drawing program: the same flat tactile graphic, to print or edit."),
+    Format("svg", "graphic", (".svg",), "For swell paper, an embosser or a drawing program: the plate as a flat tactile graphic, to print or edit."),
     # refreshable pin displays (issue 34): pages drawn by export.pins, written by export.pin_files
     Format("dotpad", "pins", (".dtms",), "For the Dot Pad 320 pin display: the plate as pages of raised pins (overview, zooms and key) with a braille line."),
     Format("graphiti", "pins", (".graphiti",), "For the Graphiti and Graphiti Plus pin displays: the plate as pages of pins at five heights, each page also as a PNG picture."),

@@ -30,6 +30,16 @@ def test_every_list_of_formats_is_the_table():
     assert format_of("a.stp") == "step" and format_of("A.STL") == "stl"
 
 
+def test_each_format_says_what_it_is_for_in_one_plain_sentence():
+    """One sentence each ("For ...: ..."), read by --help, the web form, the web app's file list
+    and the README (issue 54); no engine words a reader would not know."""
+    for f in formats.TABLE:
+        assert f.purpose.startswith("For ") and f.purpose.endswith("."), f.name
+        assert ". " not in f.purpose[:-1] and 20 <= len(f.purpose) <= 140, (f.name, f.purpose)
+        assert not any(word in f.purpose for word in ("Update Display", "IMAGE profile", "`", "_")), (f.name, f.purpose)
+    assert len({f.purpose for f in formats.TABLE}) == len(formats.TABLE)
+
+
 def test_graphics_are_not_estimated_and_meshes_are():
     for f in formats.TABLE:
         estimate = f.estimate_bytes(10_000, 5_000)

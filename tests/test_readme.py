@@ -84,3 +84,16 @@ def test_the_readme_is_one_screen_and_points_to_every_doc():
     assert len(text.splitlines()) <= 160
     for doc in sorted((ROOT / "docs").glob("*.md")):
         assert f"(docs/{doc.name})" in text, doc.name
+
+
+@pytest.mark.timeout(60)
+def test_the_readme_names_every_format_with_the_tables_sentence():
+    """The README's table of formats is the format table: each format, its file and its one
+    sentence, in order (issue 54: pin displays, eBraille and the tour were never named)."""
+    from tamp_os.formats import TABLE
+
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    rows = re.findall(r"^\| `([\w]+)` \| `NAME([\w.]+)` \| (.*) \|$", text, re.M)
+    assert rows == [(f.name, f.suffix, f.purpose) for f in TABLE]
+    for words in ("Dot Pad", "Graphiti", "Monarch", "eBraille", "touch tour", "`--volume`", "`--sections N`", "Resin printers"):
+        assert words in text, words

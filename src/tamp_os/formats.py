@@ -18,7 +18,8 @@ class Format:
     name: str  # as the parameter `formats` takes it: "stl"
     kind: Literal["mesh", "graphic", "pins", "document"]  # a 3-D solid, a 2-D tactile graphic (swell paper, embosser), pin-display pages, or a document about the plate
     suffixes: tuple[str, ...]  # file suffixes, the first is written: (".step", ".stp")
-    what: str  # for people: what the file is for
+    purpose: str  # for people, one plain sentence of what the file is for ("For any slicer: ..."); the CLI's
+    # --help, the web form, the web app's file list and README.txt, and the README's table (a test) read it
     writer: str | None = None  # "stl:write_stl" in tamp_os.export (meshes); graphics are drawn by export.tactile2d
     check: str | None = None  # "step:check_step": raises ExportError when the format cannot hold a mesh
     bytes_per_triangle: float = 0.0  # size estimate: fixed + per triangle + per vertex (measured on our own files)
@@ -54,27 +55,27 @@ def _resolve(spec: str) -> Callable:
 
 
 TABLE: tuple[Format, ...] = (
-    Format("stl", "mesh", (".stl",), "any slicer", "stl:write_stl", bytes_fixed=84, bytes_per_triangle=50,
+    Format("stl", "mesh", (".stl",), "For any slicer: the closed solid to print, in millimetres.", "stl:write_stl", bytes_fixed=84, bytes_per_triangle=50,
            holds_parts=True, readable=True),
-    Format("3mf", "mesh", (".3mf",), "PrusaSlicer, Bambu Studio, OrcaSlicer, Cura (units and description inside)",
+    Format("3mf", "mesh", (".3mf",), "For your slicer (PrusaSlicer, Bambu Studio, OrcaSlicer, Cura): the solid with its units, description and print settings inside.",
            "threemf:write_3mf", bytes_fixed=2000, bytes_per_triangle=7, bytes_per_vertex=9, holds_parts=True, readable=True),
-    Format("glb", "mesh", (".glb",), "3-D viewers and the web (glTF)", "glb:write_glb", bytes_fixed=1500,
+    Format("glb", "mesh", (".glb",), "For a 3-D view in a web browser or any glTF viewer: the solid to turn and look at.", "glb:write_glb", bytes_fixed=1500,
            bytes_per_triangle=12, bytes_per_vertex=24, readable=True),
-    Format("obj", "mesh", (".obj",), "3-D programs (Wavefront OBJ)", "plain:write_obj", bytes_per_triangle=30,
+    Format("obj", "mesh", (".obj",), "For 3-D programs that read Wavefront OBJ: the solid.", "plain:write_obj", bytes_per_triangle=30,
            bytes_per_vertex=40, readable=True),
-    Format("ply", "mesh", (".ply",), "3-D programs (PLY)", "plain:write_ply", bytes_fixed=300, bytes_per_triangle=13,
+    Format("ply", "mesh", (".ply",), "For 3-D programs that read PLY: the solid.", "plain:write_ply", bytes_fixed=300, bytes_per_triangle=13,
            bytes_per_vertex=12, readable=True),
-    Format("step", "mesh", (".step", ".stp"), "CAD programs (STEP, one faceted solid)", "step:write_step",
+    Format("step", "mesh", (".step", ".stp"), "For CAD programs: the solid as one faceted STEP body.", "step:write_step",
            "step:check_step", bytes_fixed=5000, bytes_per_triangle=800),
-    Format("pdf", "graphic", (".pdf",), "swell paper or a braille embosser (2-D tactile graphic)"),
-    Format("svg", "graphic", (".svg",), "swell paper, an embosser or a drawing program (2-D tactile graphic)"),
+    Format("pdf", "graphic", (".pdf",), "For swell paper or a braille embosser: the plate as a flat tactile graphic at its real size."),
+    Format("svg", "graphic", (".svg",), "For swell paper, an embosser or a drawing program: the plate as a flat tactile graphic, to print or edit."),
     # refreshable pin displays (issue 34): pages drawn by export.pins, written by export.pin_files
-    Format("dotpad", "pins", (".dtms",), "the Dot Pad 320 pin display (overview, zoom and key pages, braille text line)"),
-    Format("graphiti", "pins", (".graphiti",), "the Graphiti and Graphiti Plus pin displays (Update Display frames, five heights; pages as PNG)"),
-    Format("monarch", "pins", (".monarch.svg",), "the Monarch pin display (SVG in the IMAGE profile, 96 × 40 pins)"),
+    Format("dotpad", "pins", (".dtms",), "For the Dot Pad 320 pin display: the plate as pages of raised pins (overview, zooms and key) with a braille line."),
+    Format("graphiti", "pins", (".graphiti",), "For the Graphiti and Graphiti Plus pin displays: the plate as pages of pins at five heights, each page also as a PNG picture."),
+    Format("monarch", "pins", (".monarch.svg",), "For the Monarch pin display: the plate as pages of 96 × 40 pins, one SVG file a page."),
     # documents about the plate (issue 35): written by export.ebraille and export.tour
-    Format("ebraille", "document", (".ebrl",), "eBraille 1.0 readers and braille displays (braille text, the tactile graphic as SVG and PDF, a touch tour)"),
-    Format("tour", "document", (".tour.html",), "a tablet beside or under the plate: a touch tour that says each region (one self-contained web page)"),
+    Format("ebraille", "document", (".ebrl",), "For eBraille readers and braille displays: a book with the braille text, the tactile graphic (SVG and PDF) and a touch tour."),
+    Format("tour", "document", (".tour.html",), "For a tablet beside or under the plate: a touch tour, one web page that says what each region is when a finger touches it."),
 )
 BY_NAME: dict[str, Format] = {f.name: f for f in TABLE}
 NAMES: tuple[str, ...] = tuple(BY_NAME)

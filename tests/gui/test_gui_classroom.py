@@ -333,3 +333,24 @@ def test_two_printers_chosen_at_once(server):
         assert "Your lithographs for Bambu Lab A1" in page and "Made before, for Original Prusa MK4" in page
         names = set(zipfile.ZipFile(io.BytesIO(client.get(f"/jobs/{job}/download.zip").content)).namelist())
         assert {"pair.3mf", "pair-bambu-lab-a1.3mf", "pair.description.txt", "pair-bambu-lab-a1.description.txt"} <= names, names
+
+
+@pytest.mark.timeout(180)
+def test_the_form_and_the_results_say_what_each_format_is_for(server):
+    """Issue 54: each format a plain sentence from the format table, not a bare upper-case word."""
+    import html
+
+    from tamp_os.formats import TABLE
+
+    with httpx.Client(base_url=server, timeout=120) as client:
+        r = _upload(client, [("sem.png", png_bytes((30, 40), 3))])
+        page = client.get(r.headers["location"]).text
+        for f in TABLE:
+            box = re.search(rf'<input type="checkbox" id="format-{f.name}"[^>]*>', page).group(0)
+            assert f'aria-describedby="format-{f.name}-help"' in box, box
+            assert f'<p class="help" id="format-{f.name}-help">{html.escape(f.purpose, quote=False)}</p>' in page, f.name
+        job = r.headers["location"].rsplit("/", 1)[1]
+        _generate(client, job, formats=["stl", "tour"])
+        results = client.get(f"/jobs/{job}").text
+        assert re.search(r'>sem\.stl</a>: for any slicer: the closed solid to print, in millimetres \(', results)
+        assert re.search(r'>sem\.tour\.html</a>: for a tablet beside or under the plate: a touch tour', results)

@@ -13,6 +13,7 @@ import gc
 import json
 import logging
 import os
+import re
 import sys
 from pathlib import Path
 from types import MappingProxyType
@@ -123,25 +124,41 @@ def _defer_numpy_tools() -> None:
 
 
 def _param_options(parser: argparse.ArgumentParser) -> None:
-    """One option per LithoParams field, named after it (width_mm -> --width-mm)."""
-    from ..params import SECTIONS, LithoParams, describe_range
+    """One option per LithoParams field, named after it (width_mm -> --width-mm), under one help
+    heading per stage (params.SECTIONS), so `--help` reads as the pipeline does and a screen
+    reader can jump from heading to heading."""
+    from ..params import SECTIONS, LithoParams
 
-    # One help group per stage (params.SECTIONS), so `--help` reads as the pipeline does.
-    group_of = {name: parser.add_argument_group(f"parameters: {title}") for title, names in SECTIONS for name in names}
+    groups = {title: parser.add_argument_group(f"parameters: {title}", _format_list() if title == "outputs" else None)
+              for title, _ in SECTIONS}
+    group_of = {name: groups[title] for title, names in SECTIONS for name in names}
     flags_by_name = _flags()
     for f in dataclasses.fields(LithoParams):
         group = group_of[f.name]
-        m = f.metadata
         flag = flags_by_name[f.name]
-        help_text = f"{cli_words(m['help'])} ({describe_range(f)}; default {f.default if f.default is not None else 'derived'})"
-        help_text = help_text.replace("%", "%%")  # argparse formats help strings with %
         if f.name == "formats":
-            group.add_argument(flag, dest=f.name, default=None, help=f"comma-separated: {_format_help()} (default stl)")
+            group.add_argument(flag, dest=f.name, default=None, help=_format_help())
         elif isinstance(f.default, bool):
-            group.add_argument(flag, dest=f.name, action="store_true", default=None, help=cli_words(m["help"]))
+            group.add_argument(flag, dest=f.name, action="store_true", default=None, help=cli_words(f.metadata["help"]))
         else:  # typed later by params.parse_field, so every interface reports bad values alike
             flags = [flag] + ([OLD_OPTION_NAMES[f.name]] if f.name in OLD_OPTION_NAMES else [])
-            group.add_argument(*flags, dest=f.name, default=None, metavar=m["unit"].upper() or "VALUE", help=help_text)
+            group.add_argument(*flags, dest=f.name, default=None, metavar=f.metadata["unit"].upper() or "VALUE",
+                               help=option_help(f))
+
+
+def option_help(f: dataclasses.Field) -> str:
+    """A parameter's help as an option's: its meaning, then what it takes and its default, each
+    said once (a meaning that names its choices or its default is not followed by them again)."""
+    from ..params import describe_range
+
+    text = cli_words(f.metadata["help"])
+    said = []
+    choices = f.metadata["choices"]
+    if f.metadata["lo"] is not None or (choices and not all(re.search(rf"\b{re.escape(c)}\b", text) for c in choices)):
+        said.append(describe_range(f))
+    if not re.search(r"\bdefault\b", text):
+        said.append(f"default: {'none' if f.default is None else f.default}")
+    return (f"{text} ({'; '.join(said)})" if said else text).replace("%", "%%")  # argparse formats help with %
 
 
 @functools.cache  # read for every help text: building the parser asked for it ~375 times (~8 ms of each command)
@@ -162,10 +179,29 @@ def cli_words(message) -> str:
 
 
 def _format_help() -> str:
-    """'stl (any slicer), 3mf (...), ...' from the format table."""
+    from ..formats import NAMES
+
+    return f"comma-separated, from the list above: {', '.join(NAMES)} (default: stl)"
+
+
+def _format_list() -> str:
+    """Each format and what it is for, one a line, from the format table (the outputs heading's text)."""
     from ..formats import TABLE
 
-    return "; ".join(f"{f.name} ({f.what})" for f in TABLE).replace("%", "%%")
+    return "\n".join(f"{f.name}: {f.purpose}" for f in TABLE)
+
+
+class _HelpFormatter(argparse.HelpFormatter):
+    """argparse's help, but a text of several lines (the formats under their heading) keeps one
+    item a line, each wrapped on its own, instead of being run together into one paragraph."""
+
+    def _fill_text(self, text, width, indent):
+        if "\n" not in text:
+            return super()._fill_text(text, width, indent)
+        import textwrap
+
+        return "\n".join(textwrap.fill(line, width, initial_indent=indent, subsequent_indent=indent + "    ")
+                         for line in text.splitlines())
 
 
 def _params_from_args(args, base=None):
@@ -181,7 +217,12 @@ def _params_from_args(args, base=None):
 
 class _Parser(argparse.ArgumentParser):
     """argparse's parser, but help that cannot be written fails (argparse drops a failed write, so
-    `tamp-os --help > file` on a full disk exited 0 with nothing written and nothing said)."""
+    `tamp-os --help > file` on a full disk exited 0 with nothing written and nothing said), and
+    lists keep one item a line (see _HelpFormatter)."""
+
+    def __init__(self, *args, **kwargs):
+        kwargs.setdefault("formatter_class", _HelpFormatter)
+        super().__init__(*args, **kwargs)
 
     def print_help(self, file=None):
         file = file or sys.stdout

@@ -21,7 +21,7 @@ from fastapi.staticfiles import StaticFiles
 from fastapi.templating import Jinja2Templates
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
-from .jobs import JobStore
+from .jobs import JobStore, file_purpose
 from .security import BodyTooLarge, Guard, GuardMiddleware
 
 HERE = Path(__file__).parent
@@ -100,6 +100,7 @@ def create_app(limits: Limits | None = None, store: JobStore | None = None) -> F
                   extra_hosts=tuple(h.lower() for h in limits.extra_hosts))
     templates = Jinja2Templates(directory=HERE / "templates")
     templates.env.filters["plain_reason"] = plain_reason
+    templates.env.filters["file_purpose"] = file_purpose
     web = Web(limits, store or store_from_environment(), templates, guard)
 
     @contextlib.asynccontextmanager

@@ -327,24 +327,37 @@ def _render_preview(job: WebJob, result: Result, mesh, stem: str) -> None:
         result.summary.append(f"No rendered picture: {exc}")
 
 
-# What each downloaded file is for, by the end of its name (longest first wins), in the zip's README.txt.
+# What each downloaded file is for that is not one of the formats (theirs come from the format table):
+# by a pattern of its name, the first that matches wins.
 FILE_PURPOSES = (
-    (".description.txt", "the print described in words: read it aloud, or use it as the alt text of the picture"),
-    (".tamp.json", "the recipe: 'tamp-os convert --recipe' rebuilds exactly this print from the same image"),
-    (".base.stl", "two-colour print, first colour: the plate and relief (load with .raised.stl as two parts)"),
-    (".raised.stl", "two-colour print, second colour: braille, scale bar and frame (load with .base.stl)"),
-    (".3mf", "for your slicer (PrusaSlicer, OrcaSlicer, Bambu Studio): the print with its print settings"),
-    (".stl", "for any slicer: the solid to print"),
-    (".sl1s", "for the resin printer it was sliced for (Original Prusa SL1S): copy it to the printer's USB stick"),
-    (".gcode", "for the printer it was sliced for: send it to the printer (if it says 'for estimates only', slice the 3MF instead)"),
-    (".pages.pdf", "for swell paper or a braille embosser: every page of the figure, the overview first, then each panel"),
-    (".pdf", "for swell paper or a braille embosser: the flat tactile graphic, to print on paper"),
-    (".svg", "for swell paper or a braille embosser: the flat tactile graphic, to edit or print"),
-    (".glb", "a 3D view: opens in a web browser's 3D viewer or any glTF viewer"),
-    (".obj", "for 3D programs that read OBJ"),
-    (".ply", "for 3D programs that read PLY"),
-    (".step", "for CAD programs (STEP)"),
+    (r"\.description\.txt$", "the print described in words: read it aloud, or use it as the alt text of the picture"),
+    (r"\.tamp\.json$", "the recipe: 'tamp-os convert --recipe' rebuilds exactly this print from the same image"),
+    (r"\.base\.stl$", "two-colour print, first colour: the plate and relief (load with .raised.stl as two parts)"),
+    (r"\.raised\.stl$", "two-colour print, second colour: braille, scale bar and frame (load with .base.stl)"),
+    (r"\.sl1s$", "for the resin printer it was sliced for (Original Prusa SL1S): copy it to the printer's USB stick"),
+    (r"\.gcode$", "for the printer it was sliced for: send it to the printer (if it says 'for estimates only', slice the 3MF instead)"),
+    (r"\.pages\.pdf$", "for swell paper or a braille embosser: every page of the figure, the overview first, then each panel"),
+    (r"\.annotations\.png$", "a picture of what was removed from the image (burned-in scale bars, labels, data bands)"),
+    (r"\.(dotpad|graphiti|monarch)-simulator\.png$", "a picture of the pin display's pages, each pin a dot (darker is higher), to look at before loading them"),
+    (r"\.graphiti-(\d+)\.png$", "page \\1 of the Graphiti file as a picture, for a Graphiti that loads pictures"),
+    (r"\.monarch-(\d+)\.svg$", "for the Monarch pin display: page \\1 of the plate"),
 )
+
+
+def file_purpose(name: str) -> str:
+    """What a downloaded file is for, as a phrase ('for any slicer: the closed solid ...'): a
+    format's own sentence from the format table, or one of FILE_PURPOSES."""
+    from ..formats import TABLE
+
+    for pattern, text in FILE_PURPOSES:
+        found = re.search(pattern, name)
+        if found:
+            return found.expand(text)
+    suffixes = sorted(((s, f) for f in TABLE for s in f.suffixes), key=lambda pair: -len(pair[0]))
+    fmt = next((f for suffix, f in suffixes if name.lower().endswith(suffix)), None)
+    if fmt is None:
+        return "an output of TAMP-OS"
+    return fmt.purpose[:1].lower() + fmt.purpose[1:].rstrip(".")
 
 
 def readme_text(names: list[str], where: dict[str, str] | None = None) -> str:
@@ -354,7 +367,7 @@ def readme_text(names: list[str], where: dict[str, str] | None = None) -> str:
 
     lines = ["Your tactile lithographs, made by TAMP-OS.", "", "What each file is for:", ""]
     for name in names:
-        purpose = next((text for suffix, text in FILE_PURPOSES if name.endswith(suffix)), "an output of TAMP-OS")
+        purpose = file_purpose(name)
         tile = re.search(r"\.tile-(\d+)-(\d+)\.", name)
         if tile:
             purpose += f" (tile in row {tile.group(1)} from the far edge, column {tile.group(2)} from the left)"

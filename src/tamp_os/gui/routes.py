@@ -10,7 +10,7 @@ from fastapi.responses import FileResponse, JSONResponse, RedirectResponse, Resp
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from ..errors import ParameterError, TampError
-from ..formats import GRAPHIC_FORMATS
+from ..formats import BY_NAME as FORMAT_TABLE
 from ..params import FORMATS, LithoParams
 from ..printing.printers import PRESETS
 from .forms import FIELDS, FLAGS, NUMBER_FIELDS, STYLE_CHOICES, TEXT_FIELDS, params_from_form, printer_choices
@@ -237,7 +237,7 @@ def settings_page(web, request, job: WebJob, *, status: int = 200, values=None, 
     return web.page(
         request, "settings.html", status=status, job=job, step=2, values=values or form_values(job.params), errors=errors,
         summary=list(errors.items()), cards=detail_cards(job, job.params), printers=printer_choices(), presets=list(PRESETS),
-        formats=FORMATS, graphic_formats=GRAPHIC_FORMATS, fields=FIELDS, styles=STYLE_CHOICES, customize_open=bool(set(errors) & set(FIELDS)) or request.query_params.get("customize") == "open",
+        formats=FORMATS, format_table=FORMAT_TABLE, fields=FIELDS, styles=STYLE_CHOICES, customize_open=bool(set(errors) & set(FIELDS)) or request.query_params.get("customize") == "open",
         braille_tables=braille_table_choices(), page_sizes=PAGE_SIZES, focus=focus, printer_outputs=_suited(job.params).words,
         multi_channel=any(u.channels > 1 for u in job.uploads), z_stack=any(u.z_slices > 1 for u in job.uploads),
         time_series=any(u.time_points > 1 for u in job.uploads), scenes=any(u.scenes > 1 for u in job.uploads),

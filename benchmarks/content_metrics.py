@@ -158,6 +158,6 @@ def membranes_on_plate(h: np.ndarray, membranes: np.ndarray, mm: float, exclude:
     ground = float(np.median(h[interior]))
     raised = h >= ground + FELT_MM
     pieces, n = ndimage.label(raised, structure=np.ones((3, 3)))
-    largest = np.argmax(np.bincount(pieces[centre])[1:]) + 1 if n else -1
-    connected = float(np.mean(pieces[centre] == largest)) if n else 0.0
+    counts = np.bincount(pieces[centre], minlength=2)[1:]
+    connected = float(counts.max() / centre.sum()) if n and centre.any() else 0.0
     return float(np.median(h[centre])) - ground, connected

@@ -465,13 +465,14 @@ def _lines_or_members(ask: _Ask, finder: "_Finder", polarity: Polarity, lines: L
                            what=f"{members.count} members found by local contrast (each against the ground around it, cut at half its own peak; "
                            f"dimmest {np.min(members.contrast):.2f}, brightest {np.max(members.contrast):.2f} of the range)")
         return _with_fibres(made, finder, polarity.bright, pitch_mm, relief_mm)
-    return _textured_network(ask, finder, polarity)
+    return None
 
 
 def _textured_network(ask: _Ask, finder: "_Finder", polarity: Polarity) -> ContentMade | None:
     """A line network on a textured ground (membranes between grainy cells), of either polarity,
     raised as lines; None when neither side's lines are much narrower than the regions they
-    enclose (_is_textured_network). Asked after members and populations: lumps stay lumps."""
+    enclose (_is_textured_network). Asked last, after members, populations and dense fields:
+    lumps and packed particles stay lumps (the gaps of a dense field also read as narrow lines)."""
     found = [(widths.ratio, bright, lines, widths) for bright in (False, True)
              for lines, widths in [textured_lines(finder.ridges()[0 if bright else 1], pitch_mm=ask.pitch_mm,
                                                   min_area_mm2=ask.min_area_mm2)]
@@ -534,7 +535,7 @@ def _other_content(ask: _Ask, finder: "_Finder", polarity: Polarity, lines: Line
         made = _as_dense_field(blobs, finder.picture(polarity.bright), pitch_mm, relief_mm, polarity, extra)
         if made.labels is not None and made.labels.max():
             return made
-    return None
+    return _textured_network(ask, finder, polarity)
 
 
 class _Finder:

@@ -135,3 +135,29 @@ def members_split(made: np.ndarray | None, labels: np.ndarray) -> tuple[np.ndarr
 
 
 OVERLAP_SHARE = 0.5
+
+
+def membranes_on_plate(h: np.ndarray, membranes: np.ndarray, mm: float, exclude: np.ndarray | None = None) -> tuple[float, float]:
+    """A source-resolution membrane mask (True = membrane) against plate heights `h` (pitch `mm`):
+    (median height on the membranes' centre lines minus the median of the cell interiors, share of
+    the centre lines' length raised ≥ FELT_MM over the interiors and on the largest connected
+    raised piece). The centre lines are the mask's skeleton, each point mapped to the plate pixel
+    it falls in; interiors are plate pixels over 1 mm from any membrane (and off `exclude`,
+    e.g. mitochondria, same grid as the mask)."""
+    from skimage import morphology
+
+    rows, cols = h.shape
+    sy, sx = (rows - 1) / max(membranes.shape[0] - 1, 1), (cols - 1) / max(membranes.shape[1] - 1, 1)
+    y, x = np.nonzero(morphology.skeletonize(membranes))
+    centre = np.zeros(h.shape, bool)
+    centre[np.rint(y * sy).astype(int), np.rint(x * sx).astype(int)] = True
+    y, x = np.nonzero(membranes | (exclude if exclude is not None else False))
+    near = np.zeros(h.shape, bool)
+    near[np.rint(y * sy).astype(int), np.rint(x * sx).astype(int)] = True
+    interior = ndimage.distance_transform_edt(~near) * mm > 1.0
+    ground = float(np.median(h[interior]))
+    raised = h >= ground + FELT_MM
+    pieces, n = ndimage.label(raised, structure=np.ones((3, 3)))
+    counts = np.bincount(pieces[centre], minlength=2)[1:]
+    connected = float(counts.max() / centre.sum()) if n and centre.any() else 0.0
+    return float(np.median(h[centre])) - ground, connected

@@ -76,6 +76,45 @@ def _voronoi(rows, cols, count, rng):
     return cells, boundary
 
 
+def membranes_on_grey(rows: int = 450, cols: int = 600, seed: int = 12) -> Truth:
+    """Cell outlines as in serial-section TEM: Voronoi cells about 6 mm across on a 100 mm print
+    (150 seeds), their membranes dark lines 3 px (0.5 mm) wide, on a mid-grey ground whose cells
+    differ by ±8 % of grey and carry a grainy texture (cytoplasm, ±8 % in 0.25 mm grains) and a few dark specks."""
+    rng = np.random.default_rng(seed)
+    cells, boundary = _voronoi(rows, cols, 150, rng)
+    image = 0.55 + 0.08 * rng.uniform(-1, 1, int(cells.max()) + 1)[cells]
+    image = image + 0.08 * ndimage.gaussian_filter(rng.standard_normal((rows, cols)), 1.5) / 0.19  # grain ~1.5 px, ±0.08
+    specks = ndimage.binary_dilation(rng.uniform(size=(rows, cols)) < 0.002, iterations=1)
+    lines = ndimage.binary_dilation(boundary, iterations=1)
+    image = np.where(specks & ~lines, 0.3, image)
+    image = np.where(lines, 0.2, image)
+    image = ndimage.gaussian_filter(image, 0.7) + 0.03 * rng.standard_normal((rows, cols))
+    return Truth("membranes_on_grey", np.clip(image, 0, 1).astype(np.float32), lines=lines, grains=np.where(lines, 0, cells + 1))
+
+
+def lumps_as_wide_as_gaps(rows: int = 450, cols: int = 600, seed: int = 13) -> Truth:
+    """Bright crystallite lumps (irregular, 16 px ≈ 2.7 mm across) placed at random at least 32 px
+    apart (no lattice), so the mid-grey gaps between them are as wide as the lumps: no network."""
+    rng = np.random.default_rng(seed)
+    yy, xx = _grid(rows, cols)
+    image = np.full((rows, cols), 0.45, np.float32)
+    labels = np.zeros((rows, cols), np.int32)
+    centres: list[tuple[float, float]] = []
+    for _ in range(4000):
+        y, x = rng.uniform(10, rows - 10), rng.uniform(10, cols - 10)
+        if all((y - a) ** 2 + (x - b) ** 2 >= 32.0**2 for a, b in centres):
+            centres.append((y, x))
+    for k, (y, x) in enumerate(centres, start=1):
+        angle = np.arctan2(yy - y, xx - x)
+        r = 8.0 * (1 + 0.2 * np.sin(3 * angle + rng.uniform(0, 6.3)))  # an irregular lump
+        lump = (yy - y) ** 2 + (xx - x) ** 2 <= r**2
+        image[lump] = 0.8 + 0.1 * rng.uniform(-1, 1)
+        labels[lump & (labels == 0)] = k
+    image = image + 0.06 * ndimage.gaussian_filter(rng.standard_normal((rows, cols)), 1.5) / 0.19
+    image = ndimage.gaussian_filter(image, 0.7) + 0.03 * rng.standard_normal((rows, cols))
+    return Truth("lumps_as_wide_as_gaps", np.clip(image, 0, 1).astype(np.float32), members=labels)
+
+
 def dot_lattice(rows: int = 192, cols: int = 256, pitch_px: float = 10.0, seed: int = 5) -> Truth:
     """A square lattice of bright dots (as atoms in HRTEM) at `pitch_px` (10 px = 3.9 mm on the
     print), dot radius a quarter of the pitch, on a mid-grey ground with noise."""

@@ -14,6 +14,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import ndimage
 from synthetic_content import (
+    lumps_as_wide_as_gaps,
+    membranes_on_grey,
     dark_line_network,
     dim_and_bright_beads,
     dot_lattice,
@@ -564,3 +566,39 @@ def test_a_band_of_close_lines_is_said_only_when_it_fills_a_share_worth_acting_o
     assert notes(0.004) == ()
     said = notes(0.06)
     assert len(said) == 1 and "(6% of the picture) was filled" in said[0] and "about 180 mm" in said[0]
+
+
+@pytest.mark.timeout(60)
+def test_dark_membranes_on_a_grey_textured_ground_are_raised_lines_not_grooves():
+    """Issue 53 class 2: a Voronoi cell network of dark 0.5 mm lines on a mid-grey, grainy ground
+    (no empty paper, so neither the strength nor the line-art rule fires): the lines stand at
+    least 0.5 mm over the cell interiors, which stay at the base."""
+    truth = membranes_on_grey()
+    made = content(truth.image)
+    mm, h = pitch(truth.image), made.heights_mm
+    interiors = ndimage.distance_transform_edt(~truth.lines) * mm > 1.0
+    assert made.content_kind == "lines", made.reason
+    assert np.median(h[truth.lines]) - np.median(h[interiors]) >= 0.5
+    assert np.median(h[interiors]) <= BASE + 0.05
+    assert "dark lines" in made.reason and "textured ground" in made.reason
+
+
+@pytest.mark.timeout(60)
+def test_bright_lumps_as_wide_as_the_gaps_between_them_are_lumps_not_a_network():
+    """The converse: bright lumps 2.7 mm across, gaps as wide, on a mid-grey ground are members
+    (domes), not a network of twigs; neither side's lines pass as a textured network."""
+    from tamp_os.relief.content import _Finder, _is_textured_network
+    from tamp_os.relief.lines import textured_lines
+    from tamp_os.relief.styles import WORK_MAX_POINTS, WorkGrid
+
+    truth = lumps_as_wide_as_gaps()
+    made = content(truth.image)
+    assert made.content_kind == "members", made.reason
+    felt = tops_over_rings(made.heights_mm, truth.members, pitch(truth.image)) >= 0.5
+    assert felt.mean() >= 0.9
+    image = prep(truth.image)
+    grid = WorkGrid.plan(image.shape, pitch(truth.image), 0.4, max_points=WORK_MAX_POINTS)
+    finder = _Finder(grid.down(image), grid.pitch_mm, 6.0)
+    for response in finder.ridges():
+        lines, widths = textured_lines(response, pitch_mm=grid.pitch_mm, min_area_mm2=6.0)
+        assert not _is_textured_network(lines, widths), widths

@@ -40,12 +40,15 @@ from .lines import (
     LINE_HEIGHT_MM,
     LINE_WIDTH_MM,
     MIN_GAP_MM,
+    NETWORK_WIDTH_RATIO,
     Lines,
+    NetworkWidths,
     brighter_than_both_sides,
     draw_lines,
     find_lines,
     fine_lines,
     hessian_ridges,
+    textured_lines,
 )
 from .dense import BlobScale, blob_scale, scale_stack
 from .extrema import h_maxima
@@ -465,6 +468,37 @@ def _lines_or_members(ask: _Ask, finder: "_Finder", polarity: Polarity, lines: L
     return None
 
 
+def _textured_network(ask: _Ask, finder: "_Finder", polarity: Polarity) -> ContentMade | None:
+    """A line network on a textured ground (membranes between grainy cells), of either polarity,
+    raised as lines; None when neither side's lines are much narrower than the regions they
+    enclose (_is_textured_network). Asked last, after members, populations and dense fields:
+    lumps and packed particles stay lumps (the gaps of a dense field also read as narrow lines)."""
+    found = [(widths.ratio, bright, lines, widths) for bright in (False, True)
+             for lines, widths in [textured_lines(finder.ridges()[0 if bright else 1], pitch_mm=ask.pitch_mm,
+                                                  min_area_mm2=ask.min_area_mm2)]
+             if _is_textured_network(lines, widths)]
+    for ratio, bright, lines, widths in found:
+        log.debug("textured network (%s): %d regions %.1f mm wide, lines %.1f mm (ratio %.1f)",
+                  "bright" if bright else "dark", widths.regions, widths.region_mm, widths.line_mm, ratio)
+    if not found:
+        return None
+    _, bright, lines, widths = max(found, key=lambda f: f[0])
+    side = "bright" if bright else "dark"
+    polarity = Polarity(bright, polarity.ground, f"the {side} lines form a network on a textured ground, so they are raised and "
+                                                f"the regions they enclose sit at the base")
+    return _as_lines(lines, ask.pitch_mm, ask.relief_mm, ask.width_mm, polarity, ask.extra, "lines",
+                     what=(f"a network of {side} lines {widths.line_mm:.1f} mm wide enclosing {widths.regions} regions "
+                           f"{widths.region_mm:.1f} mm wide ({widths.ratio:.1f} times their lines; {lines.length_mm:.0f} mm of line)"))
+
+
+def _is_textured_network(lines: Lines, widths: NetworkWidths) -> bool:
+    """Many regions that tile the picture (FINE_NETWORK_CELLS, FINE_MAX_CELL_SHARE, as a fine
+    network's), lines covering no more than MAX_LINE_COVER, and regions at least
+    NETWORK_WIDTH_RATIO times wider than the lines (refuses gaps between lumps as wide as they)."""
+    return (widths.regions >= FINE_NETWORK_CELLS and widths.largest_share <= FINE_MAX_CELL_SHARE
+            and lines.cover <= MAX_LINE_COVER and widths.ratio >= NETWORK_WIDTH_RATIO)
+
+
 def _other_content(ask: _Ask, finder: "_Finder", polarity: Polarity, lines: Lines, specimen: np.ndarray, found,
                    fine) -> ContentMade | None:
     """Line art, objects wider than the local ground, a network thinner than the print grid, or a
@@ -501,7 +535,7 @@ def _other_content(ask: _Ask, finder: "_Finder", polarity: Polarity, lines: Line
         made = _as_dense_field(blobs, finder.picture(polarity.bright), pitch_mm, relief_mm, polarity, extra)
         if made.labels is not None and made.labels.max():
             return made
-    return None
+    return _textured_network(ask, finder, polarity)
 
 
 class _Finder:

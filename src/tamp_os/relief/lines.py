@@ -55,6 +55,11 @@ FINE_SIGMA_MM = 0.1  # the Hessian's scale there: a grain boundary's own width
 FINE_LOW_MADS, FINE_HIGH_MADS = 4.0, 10.0  # the hysteresis threshold on the fine ridge response
 MANY_PIECES = 200  # more kept pieces than this: their pixels found in one pass over the picture, not box by box
 RIDGE_METHODS = ("hessian", "sato", "meijering", "tophat")
+# A network on a textured ground (ssTEM membranes between grainy cytoplasm): its regions are at
+# least this many times wider than its lines, measured in mm on the print. Gaps between lumps as
+# wide as the lumps are no outlines (the ratio is about 1).
+NETWORK_WIDTH_RATIO = 2.0
+DENSE_GAP_MM = 1.0  # a dense network's region is filled only when narrower than this (a groove a finger still finds: grating threshold ≈ 0.9 mm)
 
 
 @dataclass(frozen=True)
@@ -153,9 +158,11 @@ def find_lines(bright01: np.ndarray, *, pitch_mm: float, min_area_mm2: float = 6
     return network_of(skeleton, pitch_mm=pitch_mm, min_area_mm2=min_area_mm2, strength=strength)
 
 
-def network_of(skeleton: np.ndarray, *, pitch_mm: float, min_area_mm2: float, strength: float) -> Lines:
+def network_of(skeleton: np.ndarray, *, pitch_mm: float, min_area_mm2: float, strength: float,
+               min_gap_mm: float = MIN_GAP_MM) -> Lines:
     """The Lines of a skeleton on the working grid: the regions it encloses when drawn
-    LINE_WIDTH_MM wide, those too narrow to feel (merged) and the width at which they would not be."""
+    LINE_WIDTH_MM wide, those narrower than `min_gap_mm` (merged: filled when drawn) and the width
+    at which they would be MIN_GAP_MM wide."""
     length_mm = float(skeleton.sum() * pitch_mm * 1.12)  # diagonal steps: ~1.12 px per pixel of skeleton
     half = LINE_WIDTH_MM / 2 / pitch_mm
     drawn = _dilate(skeleton, half)
@@ -168,7 +175,7 @@ def network_of(skeleton: np.ndarray, *, pitch_mm: float, min_area_mm2: float, st
     dist = ndimage.distance_transform_edt(~drawn)
     reach = label_max(dist, cells, area.size - 1)
     gap_mm = 2 * reach * pitch_mm
-    narrow = (gap_mm < MIN_GAP_MM) & (area > 0)
+    narrow = (gap_mm < min_gap_mm) & (area > 0)
     narrow[0] = False
     merged = narrow[cells]
     cells_gap = np.sort(gap_mm[area > 0])
@@ -179,6 +186,56 @@ def network_of(skeleton: np.ndarray, *, pitch_mm: float, min_area_mm2: float, st
         tenth = float(cells_gap[int(0.1 * (cells_gap.size - 1))])
         separate_at = max(1.0, (MIN_GAP_MM + LINE_WIDTH_MM) / (tenth + LINE_WIDTH_MM))
     return Lines(skeleton, cells.astype(np.int32), count, length_mm, float(drawn.mean()), merged, separate_at, strength)
+
+
+@dataclass(frozen=True)
+class NetworkWidths:
+    """A thresholded ridge response read as a network: its lines' width and its regions' width
+    (median inscribed diameter of the regions of at least a fingertip's area), in mm on the print;
+    how many such regions, and the largest one's share of their area (a network tiles the picture)."""
+
+    line_mm: float
+    region_mm: float
+    regions: int
+    largest_share: float
+
+    @property
+    def ratio(self) -> float:
+        return self.region_mm / self.line_mm if self.line_mm > 0 else 0.0
+
+
+def network_widths(mask: np.ndarray, skeleton: np.ndarray, *, pitch_mm: float, min_area_mm2: float) -> NetworkWidths:
+    """The widths of the lines `mask` (with its `skeleton`) and of the regions it leaves. (The
+    lines' width is the response's, never much under the filter's scale: read from the picture
+    instead, half-way between lines and regions, texture made it worse on the ssTEM section.)"""
+    if not skeleton.any():
+        return NetworkWidths(0.0, 0.0, 0, 1.0)
+    line_mm = 2.0 * float(np.median(ndimage.distance_transform_edt(mask)[skeleton])) * pitch_mm
+    regions, n = ndimage.label(~mask)
+    area = np.bincount(regions.ravel())[1:]
+    big = area * pitch_mm**2 >= min_area_mm2
+    if not big.any():
+        return NetworkWidths(line_mm, 0.0, 0, 1.0)
+    reach = label_max(ndimage.distance_transform_edt(~mask), regions, n)[1:]
+    region_mm = 2.0 * float(np.median(reach[big])) * pitch_mm
+    return NetworkWidths(line_mm, region_mm, int(big.sum()), float(area.max() / area[big].sum()))
+
+
+def textured_lines(response: np.ndarray, *, pitch_mm: float, min_area_mm2: float) -> tuple[Lines, NetworkWidths]:
+    """The line network of a ridge response on a textured ground, with its widths. A dense
+    network's lines are a large share of the picture, so the response's median and deviation
+    (find_lines' strength) describe the lines themselves; Otsu of the response parts lines from
+    regions instead, and the widths (network_widths) say whether it is a network. Regions are
+    filled only under DENSE_GAP_MM: a dense network's cells are its meaning, not a band."""
+    thresh = filters.threshold_otsu(response) if np.ptp(response) > 0 else np.inf
+    mask = response > thresh
+    skeleton = _in_loops(_drop_short(morphology.skeletonize(mask), MIN_PIECE_MM / pitch_mm))
+    widths = network_widths(mask, skeleton, pitch_mm=pitch_mm, min_area_mm2=min_area_mm2)
+    med = float(np.median(response))
+    mad = float(np.median(np.abs(response - med))) * 1.4826 + 1e-9
+    strength = float((np.median(response[skeleton]) - med) / mad) if skeleton.any() else 0.0
+    lines = network_of(skeleton, pitch_mm=pitch_mm, min_area_mm2=min_area_mm2, strength=strength, min_gap_mm=DENSE_GAP_MM)
+    return lines, widths
 
 
 def fine_lines(fine01: np.ndarray, *, fine_pitch_mm: float, work_shape: tuple[int, int], pitch_mm: float,
@@ -276,6 +333,23 @@ def brighter_than_both_sides(skeleton: np.ndarray, image: np.ndarray, pitch_mm: 
     on = label_median(image, parts, n)
     side = label_percentile(image, owner, n, pct=80)
     keep = np.concatenate([[False], ~(side >= on - STEP_MARGIN)])  # NaN side (no band): keep
+    return keep[parts]
+
+
+def _in_loops(skeleton: np.ndarray) -> np.ndarray:
+    """Skeleton pieces that close at least one loop (Euler number under 1) or run to the picture's
+    edge (closed by the frame): a network's lines enclose regions, a texture's loose twigs do not."""
+    from skimage.measure import regionprops
+
+    parts, n = ndimage.label(skeleton, structure=np.ones((3, 3)))
+    if n == 0:
+        return skeleton
+    keep = np.zeros(n + 1, bool)
+    for props in regionprops(parts):
+        keep[props.label] = props.euler_number < 1
+    edge = np.concatenate([parts[0], parts[-1], parts[:, 0], parts[:, -1]])
+    keep[edge] = True
+    keep[0] = False
     return keep[parts]
 
 

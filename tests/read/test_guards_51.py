@@ -1,0 +1,160 @@
+"""Issue 51, items 1 and 4: small inputs that cost a lot, priced (or bounded) before the work.
+
+Each hostile input is built in milliseconds (tests/bomb_builders.py) and given to the command line
+in a child process: one error line naming the file, exit 1, no traceback, nothing written, a
+bounded peak RSS (decoding would take GBs) and time; where the napari reader takes the input,
+through it too. The neighbours (the same layout at an honest size) still read, and the price the
+guard computes is at least the peak the read really takes (measured in a child: VmHWM).
+"""
+
+import struct
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pytest
+from bomb_builders import ome_zarr_in_one_chunk, tiff_in_one_tile, velox_in_one_chunk
+from cli_support import PEAK, read_peak, run_limited
+from conftest import need_module
+from test_vendor_bounds import PEAK_RSS_MB, assert_refused
+
+VELOX = "real/velox_talos_haadf_particles.emd"
+REFUSAL_S = 5.0  # main()'s time for a refusal from the header, on a busy 2-core machine: mostly imports
+HEADER_S = 0.25  # the same refusal once the readers are imported: milliseconds of checks
+READERS = "import zarr, h5py, tifffile, rsciio.emd, dask.array"  # imported before the read is measured
+
+
+def napari_refuses(path: Path, *needles, limit_gb: float = 1.5) -> tuple[str, float, float]:
+    """The napari reader takes `path` and refuses it with one InputError line naming it and each
+    needle, in a child under an address-space limit (decoding would need GBs): (line, MB, s)."""
+    code = textwrap.dedent("""
+        import sys, time
+        from tamp_os.errors import InputError
+        from tamp_os.napari.reader import napari_get_reader
+        read = napari_get_reader(sys.argv[1])
+        print('TAKEN', read is not None, file=sys.stderr)
+        t0 = time.perf_counter()
+        try:
+            read(sys.argv[1])
+            print('READ', file=sys.stderr)
+        except InputError as exc:
+            print('REFUSED', str(exc), file=sys.stderr)
+        print('SECONDS', time.perf_counter() - t0, file=sys.stderr)
+        """) + PEAK
+    code_, _, err, peak = run_limited(code, path, limit_gb=limit_gb)
+    lines = {line.split()[0]: line for line in err.splitlines() if line.split()}
+    assert code_ == 0 and "Traceback" not in err, err
+    assert lines["TAKEN"] == "TAKEN True", err
+    refused = lines.get("REFUSED", "")
+    assert refused and "\n" not in refused, err
+    for needle in (str(path), *needles):
+        assert needle in refused, (needle, refused)
+    seconds = float(lines["SECONDS"].split()[1])
+    assert peak < PEAK_RSS_MB and seconds < REFUSAL_S, (peak, seconds)
+    return refused, peak, seconds
+
+
+# --- item 1: a chunk far larger than its array, and chunks priced with the copies a decoder holds ------
+
+@pytest.mark.timeout(120)
+def test_ome_zarr_array_in_one_written_chunk_just_under_the_cap_is_refused(tmp_path):
+    """1.56 MB on disk, 1.6 GB decoded (under the 2 GB cap): it took 15 s and 3.2 GB, for a flat plate."""
+    path = ome_zarr_in_one_chunk(tmp_path / "upload.zarr", 40000)
+    assert sum(f.stat().st_size for f in path.rglob("*")) < 2_000_000
+    _, mb, seconds = assert_refused(tmp_path, path, "OME-Zarr", "1×1×64×64 array stored in chunks of 1×1×40000×40000",
+                                    "1.6 GB", "never needed", "write it again")
+    assert seconds < REFUSAL_S and mb < PEAK_RSS_MB
+
+
+@pytest.mark.timeout(120)
+def test_velox_image_in_one_written_chunk_just_under_the_cap_is_refused(tmp_path, fixture):
+    """A real Velox file whose 64×64 image is one 30000² uint16 gzip chunk (1.8 GB decoded): it was read, 25 s."""
+    path = velox_in_one_chunk(tmp_path / "upload.emd", fixture(VELOX), 30000)
+    assert path.stat().st_size < 5_000_000
+    _, mb, seconds = assert_refused(tmp_path, path, "EMD", "64×64×1 array stored in chunks of 30000×30000×1", "1.8 GB",
+                                    "never needed", "export it again from Velox")
+    assert seconds < REFUSAL_S and mb < PEAK_RSS_MB
+
+
+@pytest.mark.timeout(120)
+def test_tiff_in_one_written_tile_just_under_the_cap_is_refused(tmp_path):
+    """The same bomb as a TIFF: 16×16 pixels in one written 40000² zlib tile (it took 1.7 GB)."""
+    path = tiff_in_one_tile(tmp_path / "upload.tif", 40000)
+    _, mb, seconds = assert_refused(tmp_path, path, "16×16 pixels", "1.6 GB", "never needed")
+    assert seconds < REFUSAL_S and mb < PEAK_RSS_MB
+
+
+@pytest.mark.timeout(120)
+def test_napari_reader_refuses_the_chunk_bombs(tmp_path, fixture):
+    need_module("zarr")
+    zarr_line, _, _ = napari_refuses(ome_zarr_in_one_chunk(tmp_path / "upload.zarr", 40000), "40000×40000", "never needed")
+    emd_line, _, _ = napari_refuses(velox_in_one_chunk(tmp_path / "upload.emd", fixture(VELOX), 30000), "30000×30000",
+                                    "never needed")
+    assert "OME-Zarr" in zarr_line and "EMD" in emd_line
+
+
+@pytest.mark.timeout(120)
+@pytest.mark.parametrize("zarr_format", [2, 3])
+def test_ome_zarr_chunks_are_priced_with_three_copies(tmp_path, zarr_format):
+    """A 2000×2000 array in 2000² chunks (4 MB each) reads under the cap; priced at three copies
+    (12 MB) it is refused under a 0.01 GB cap that the chunk alone (4 MB) would pass."""
+    from test_vendor_bounds import small_ome_zarr
+
+    path = small_ome_zarr(tmp_path / "upload.zarr", chunks=(1, 1, 2000, 2000), shape=(1, 1, 2000, 2000), zarr_format=zarr_format)
+    line, _, _ = assert_refused(tmp_path, path, "chunks of 1×1×2000×2000 values, 4 MB each", "holds 12 MB", "limit of 0.01 GB",
+                                extra=("--max-decoded-gb", "0.01"))
+    assert "never needed" not in line
+
+
+@pytest.mark.timeout(300)
+@pytest.mark.parametrize("case", ["zarr", "emd", "tiff"])
+def test_a_chunk_a_little_larger_than_its_array_still_reads_and_its_price_covers_the_peak(tmp_path, fixture, case):
+    """Neighbours: a pyramid's small level keeps the writer's chunk size, so a chunk larger than its
+    array is allowed up to CHUNK_PAST_DATA_FREE_BYTES. Read in a child, the read's peak (above the
+    process before it) is at most the guard's price, and at least half the chunk (it is decoded)."""
+    from tamp_os.read.cost import (CHUNK_PAST_DATA_FREE_BYTES, HDF5_CHUNK_COPIES, ZARR_CHUNK_COPIES, chunk_bytes,
+                                   tiff_chunk_bytes)
+
+    if case == "zarr":
+        need_module("zarr")
+        side = 6000  # 36 MB
+        path, chunk = ome_zarr_in_one_chunk(tmp_path / "level.zarr", side), side * side
+        price = chunk_bytes((1, 1, 64, 64), (1, 1, side, side), 1, copies=ZARR_CHUNK_COPIES)
+    elif case == "emd":
+        side = 5000  # 50 MB of uint16
+        path, chunk = velox_in_one_chunk(tmp_path / "level.emd", fixture(VELOX), side), side * side * 2
+        price = chunk_bytes((64, 64, 1), (side, side, 1), 2, copies=HDF5_CHUNK_COPIES)
+    else:
+        import tifffile
+
+        side = 6000
+        path, chunk = tiff_in_one_tile(tmp_path / "level.tif", side), side * side
+        with tifffile.TiffFile(path) as tif:
+            price = tiff_chunk_bytes(tif.pages[0]) + 4e6  # the tile, its compressed bytes, the reader's objects (READER_BYTES)
+    assert chunk < CHUNK_PAST_DATA_FREE_BYTES
+    outcome, _, peak_mb = read_peak(path, imports=READERS)
+    assert outcome == "OK", outcome
+    print(f"{case}: chunk {chunk / 1e6:.0f} MB, price {price / 1e6:.0f} MB, peak {peak_mb * 2**20 / 1e6:.0f} MB")
+    assert chunk / 2 < peak_mb * 2**20 <= price
+
+
+@pytest.mark.timeout(300)
+def test_each_refusal_takes_milliseconds_once_the_readers_are_imported(tmp_path, fixture):
+    """The refusals above, timed alone in a child: from the headers, before a chunk is decoded."""
+    need_module("zarr")
+    for path in (ome_zarr_in_one_chunk(tmp_path / "upload.zarr", 40000), tiff_in_one_tile(tmp_path / "upload.tif", 40000),
+                 velox_in_one_chunk(tmp_path / "upload.emd", fixture(VELOX), 30000)):
+        outcome, seconds, peak_mb = read_peak(path, call="read_image(sys.argv[1])", imports=READERS, limit_gb=1.5)
+        print(f"{path.name}: {seconds * 1000:.0f} ms, {peak_mb:.1f} MB: {outcome[:120]}")
+        assert outcome.startswith("ERROR InputError") and "never needed" in outcome, outcome
+        assert seconds < HEADER_S and peak_mb < 20, (path.name, seconds, peak_mb)
+
+
+def test_the_chunk_rule_spares_pyramid_levels_and_refuses_bombs():
+    from tamp_os.read.cost import chunk_past_data
+
+    assert not chunk_past_data((1, 1, 100, 100), (1, 1, 1024, 1024), 2)  # a small level in the writer's chunk: 2 MB
+    assert not chunk_past_data((4000, 4000), (4096, 4096), 4)  # rounded up: 67 MB, 1.05 times the data
+    assert chunk_past_data((64, 64), (40000, 40000), 1)
+    assert chunk_past_data((64, 64, 1), (30000, 30000, 1), 2)
+    assert not chunk_past_data((64, 64), (64, 64, 1), 1)  # a malformed rank: left to the reader

@@ -3,14 +3,13 @@ Berkeley EMD, JEOL Analysis Station (.img/.map), Phenom ELID and HyperSpy .hspy.
 
 Why RosettaSciIO: it is the field's reference reader for these formats (HyperSpy's I/O), already
 installed for DM3/DM4 (the `dm` extra), and opens all of them lazily except Phenom ELID (a small
-bzip2 project file whose decompressed size is counted before it is decoded). Only images are used:
+bzip2 project file, read by rosettasciio's reader with its reads bounded and priced: read_elid). Only images are used:
 items whose two axes are x and y; spectra, line scans and maps with an energy axis are skipped.
 A further axis (frames of a series) is offered as time points.
 """
 
 from __future__ import annotations
 
-import bz2
 import logging
 import os
 
@@ -41,71 +40,139 @@ def _reader(kind: str):
 
 
 PIECE_BYTES = 1 << 20  # decompressed at most this much at a time: memory stays flat whatever the stream's ratio
+INPUT_BYTES = 1 << 16  # compressed bytes fed to the decompressor at a time
+# rosettasciio reads a project value by value (a spectrum channel is one read of one to five bytes),
+# and keeps most as Python objects: each read is priced at READ_BYTES of memory, and the reads are
+# counted, MAX_READS at most (about 25 s of its reading; the real project of tests/ makes 1.7 million).
+READ_BYTES = 40
+MAX_READS = 10_000_000
+LARGE_READ_BYTES = 1 << 16  # a record read whole (an embedded TIFF, a string): its bytes and their join are held
 
 
-def elid_decoded_bytes(path, cap_bytes: float) -> int:
-    """Bytes the ELID's bzip2 stream holds once decompressed, counted in pieces of at most
-    PIECE_BYTES (a bzip2 stream expands up to ~45 million times: 64 kB in may be GBs out), stopping
-    as soon as the count passes `cap_bytes`. Nothing decompressed is kept."""
-    return sum(len(piece) for piece in elid_pieces(path, cap_bytes))
+TIFF_HEADS = (b"II*\x00", b"MM\x00*", b"II+\x00", b"MM\x00+")  # classic and BigTIFF, either byte order
 
 
-def elid_pieces(path, cap_bytes: float):
-    """The decompressed pieces (each at most PIECE_BYTES) of the ELID's first bzip2 stream, the one
-    rosettasciio reads (a second stream appended after it is never read by either), until past `cap_bytes`."""
-    total, decomp = 0, bz2.BZ2Decompressor()
-    with open(path, "rb") as fh:
-        while not decomp.eof and total <= cap_bytes:
-            if decomp.needs_input:
-                chunk = fh.read(1 << 16)
-                if not chunk:
-                    raise EOFError("the compressed stream ends early")
-            else:
-                chunk = b""  # the decompressor still holds input: drain it, one bounded piece at a time
-            piece = decomp.decompress(chunk, max_length=PIECE_BYTES)
-            total += len(piece)
-            yield piece
+class ElidRefused(Exception):
+    """Raised inside the bounded reader; open_rsciio turns it into one InputError line."""
 
 
-def check_elid(path, limits) -> None:
-    """Refuse an ELID project whose bzip2 stream decompresses to more than `max_decoded_gb`
-    (rosettasciio decompresses it whole); counted in bounded pieces, stopping past the cap."""
-    import math
+def read_elid(path, limits) -> list:
+    """rosettasciio's ELID reader, made to read only what the project declares, in bounded pieces,
+    priced as it goes: a record (an embedded TIFF) declaring more than the cap is refused before a
+    byte of it is decompressed, each embedded TIFF is priced from its header before tifffile decodes
+    it, and past the cap (or MAX_READS values) the reading stops. A bzip2 bomb whose header declares
+    no image costs the 20 bytes its header takes; bytes past the declared layout are never decompressed
+    (nor a second stream appended after the first, which rosettasciio never reads either)."""
+    reader = bounded_reader_class()
+    try:
+        return reader(str(path), limits.max_decoded_gb * 1e9).dictionaries
+    except ElidRefused as refused:
+        raise _elid_refusal(path, limits, *refused.args) from None
 
+
+def _elid_refusal(path, limits, kind: str, at: int, facts) -> InputError:
     from .errors import KINDS
 
-    cap = limits.max_decoded_gb * 1e9
-    size = elid_decoded_bytes(path, cap)
     what, todo = KINDS["elid"]
-    if size > cap:
-        raise InputError(
-            f"{path}: {what} whose bzip2 stream decompresses to more than {size / 1e9:.2g} GB (counting stopped there; "
-            f"the file is {os.path.getsize(path):,} bytes), above the limit of {limits.max_decoded_gb:g} GB that guards "
-            f"against decompression bombs; {todo}.",
+    cap = f"the limit of {limits.max_decoded_gb:g} GB that guards against decompression bombs"
+    if kind == "record":
+        return InputError(
+            f"{path}: {what} whose layout declares a record of {facts:,} bytes at byte {at:,} of the project (the file is "
+            f"{os.path.getsize(path):,} bytes); reading it would hold {2 * facts / 1e9:.2g} GB, above {cap}; {todo}.",
             hint=f"If you trust the file and the computer has the memory, raise the limit, for example `max_decoded_gb` "
-                 f"{max(1, math.ceil(size / 1e9) * 2)}.")
-    for at, cost, (width, height) in elid_tiff_costs(path, cap):
-        if cost.total > cap:
-            raise InputError(
-                f"{path}: {what} whose embedded image at byte {at:,} of the project (a {width}×{height} TIFF) would decode to "
-                f"{cost.total / 1e9:.1f} GB ({cost.words()}), above the limit of {limits.max_decoded_gb:g} GB that guards against "
-                f"decompression bombs. The file is malformed or hostile; {todo}.",
-                hint="The limit is `max_decoded_gb`; raise it only for a file you trust.")
+                 f"{max(1, int(2 * facts / 1e9) + 1)}.")
+    if kind == "reads":
+        return InputError(
+            f"{path}: {what} that holds more than {MAX_READS:,} values (spectra, maps, read one by one: that would take "
+            f"minutes), so it is not read; {todo}.")
+    if kind == "held":
+        return InputError(
+            f"{path}: {what} whose values read by byte {at:,} of the project already hold {facts / 1e9:.2g} GB, above {cap}; "
+            f"{todo}.", hint="The limit is `max_decoded_gb`; raise it only for a file you trust.")
+    cost, (width, height) = facts
+    return InputError(
+        f"{path}: {what} whose embedded image at byte {at:,} of the project (a {width}×{height} TIFF) would decode to "
+        f"{cost.total / 1e9:.1f} GB ({cost.words()}), above {cap}. The file is malformed or hostile; {todo}.",
+        hint="The limit is `max_decoded_gb`; raise it only for a file you trust.")
 
 
-TIFF_HEADS = (b"II*\x00", b"MM\x00*")
+def bounded_reader_class():
+    """rsciio.phenom's ElidReader with its one way in (`_read`) bounded, and its TIFFs priced."""
+    from rsciio.phenom._api import ElidReader
+
+    class BoundedElidReader(ElidReader):
+        def __init__(self, pathname, cap_bytes: float):
+            self._cap, self._large, self._reads, self._at, self._tiff_reads = cap_bytes, 0.0, 0, 0, None
+            self._reads_allowed = min(MAX_READS, cap_bytes / READ_BYTES)
+            self.tiff_costs: list = []  # (byte of the project, Cost, (width, height)) of each TIFF read
+            super().__init__(pathname)
+
+        @property
+        def held_bytes(self) -> float:
+            """The memory priced so far: READ_BYTES a value, and each large record twice."""
+            return self._reads * READ_BYTES + self._large
+
+        def _read(self, size=1):
+            self._reads += 1
+            if self._reads > self._reads_allowed:
+                raise ElidRefused("reads" if self._reads > MAX_READS else "held", self._at, self.held_bytes)
+            if size >= LARGE_READ_BYTES:
+                self._large += 2 * size  # the pieces and their join
+                if self.held_bytes > self._cap:
+                    raise ElidRefused("record", self._at, size)  # before a byte of it is decompressed
+                self._reads_allowed = min(MAX_READS, (self._cap - self._large) / READ_BYTES)
+            data = self._decompressor.decompress(b"", min(size, PIECE_BYTES))  # most reads: one call
+            if len(data) < size and not self._decompressor.eof:
+                data = self._decompressed(size, data, tiff=self._tiff_reads == 1)
+            if self._tiff_reads is not None:
+                self._tiff_reads += 1
+                if self._tiff_reads == 2:  # the record's length, then the TIFF's bytes: priced before tifffile decodes them
+                    self._price_tiff(data)
+            self._at += len(data)
+            return data
+
+        def _decompressed(self, size: int, first: bytes, *, tiff: bool) -> bytes:
+            """`size` bytes of the stream, `first` of them already out, in pieces of at most PIECE_BYTES
+            (fewer where the stream ends, as rosettasciio's own reader gives; a stream cut short is an
+            error, not a wait for more). A TIFF's bytes must start as a TIFF: checked before the rest."""
+            pieces, got, inflate = [first], len(first), self._decompressor
+            while got < size and not inflate.eof:
+                if tiff and got >= 4:
+                    head = b"".join(pieces)[:4]
+                    if head not in TIFF_HEADS:
+                        raise ValueError(f"the embedded image at byte {self._at:,} of the project is no TIFF")
+                    tiff = False
+                chunk = b""
+                if inflate.needs_input:
+                    chunk = self._file.read(INPUT_BYTES)
+                    if not chunk:
+                        raise EOFError("the compressed stream ends early")
+                piece = inflate.decompress(chunk, min(size - got, PIECE_BYTES))
+                pieces.append(piece)
+                got += len(piece)
+            return pieces[0] if len(pieces) == 1 else b"".join(pieces)
+
+        def _read_tiff(self):
+            self._tiff_reads = 0
+            try:
+                return super()._read_tiff()
+            finally:
+                self._tiff_reads = None
+
+        def _price_tiff(self, data: bytes) -> None:
+            found = tiff_cost(data)
+            if found is not None:
+                self.tiff_costs.append((self._at, *found))
+                if found[0].total + self.held_bytes > self._cap:
+                    raise ElidRefused("tiff", self._at, found)
+
+    return BoundedElidReader
 
 
-MAX_TIFFS_TRIED = 10_000  # a project holds tens of images; spectra hold a TIFF signature by chance about once in 4 GB
-
-
-def elid_tiff_costs(path, cap_bytes: float = float("inf")):
-    """(offset, Cost, (width, height)) of every TIFF embedded in an ELID project, priced from its
-    header as read.py prices a TIFF file: pixels, the tiles (or strips) decoded at once, and the
-    frame a JPEG tile declares. rosettasciio stores each as a uint32 length and the TIFF's bytes,
-    and decodes it with tifffile (zlib/deflate or JPEG tiles included); every TIFF signature in the
-    decompressed stream is tried, so none escapes. Call after elid_decoded_bytes has found the
-    stream within `cap_bytes`: it is decompressed here in memory (at most that)."""
+def tiff_cost(data: bytes):
+    """(Cost, (width, height)) of the TIFF in `data`, priced from its header as read.py prices a TIFF
+    file: pixels, the tiles (or strips) decoded at once, and the frame a JPEG tile declares; None when
+    `data` is no TIFF (rosettasciio's tifffile then reports it)."""
     import io
     import math
 
@@ -113,32 +180,20 @@ def elid_tiff_costs(path, cap_bytes: float = float("inf")):
 
     from ..cost import Cost, tiff_chunk_bytes, tiff_jpeg_bytes
 
-    raw = b"".join(elid_pieces(path, cap_bytes))
-    data = memoryview(raw)
-    out, tried = [], 0
-    for head in TIFF_HEADS:
-        at = raw.find(head)
-        while at >= 4:
-            n = int.from_bytes(raw[at - 4:at], "little")
-            tried += 1
-            if tried > MAX_TIFFS_TRIED:
-                raise ValueError(f"more than {MAX_TIFFS_TRIED:,} TIFF signatures in the project")
-            if n >= 8:  # rosettasciio reads n bytes, or what is left when the stream ends first
-                buffer = io.BytesIO(data[at:at + n])
-                try:
-                    with tifffile.TiffFile(buffer) as tif:
-                        cost, size = Cost(), None
-                        for page in tif.pages:
-                            shape = tuple(int(v) for v in page.shape)
-                            size = size or (int(page.imagewidth), int(page.imagelength))
-                            cost.add("pixels", math.prod(shape) * page.dtype.itemsize)
-                            cost.add("tiles being decoded", tiff_chunk_bytes(page))
-                            cost.add("JPEG frames", tiff_jpeg_bytes(buffer, page))
-                        out.append((at, cost, size or (0, 0)))
-                except Exception:  # not a TIFF after all (bytes of a spectrum), or a damaged one rosettasciio reports
-                    log.debug("%s: no TIFF at byte %d of the project", path, at)
-            at = raw.find(head, at + 1)
-    return out
+    buffer = io.BytesIO(data)
+    try:
+        with tifffile.TiffFile(buffer) as tif:
+            cost, size = Cost(), None
+            for page in tif.pages:
+                shape = tuple(int(v) for v in page.shape)
+                size = size or (int(page.imagewidth), int(page.imagelength))
+                cost.add("pixels", math.prod(shape) * page.dtype.itemsize)
+                cost.add("tiles being decoded", tiff_chunk_bytes(page))
+                cost.add("JPEG frames", tiff_jpeg_bytes(buffer, page))
+            return cost, size or (0, 0)
+    except Exception:  # not a TIFF after all, or a damaged one: rosettasciio's tifffile says so
+        log.debug("no TIFF priced in %d bytes", len(data))
+        return None
 
 
 def check_jeol(path, limits) -> None:
@@ -250,8 +305,8 @@ def open_rsciio(path, kind: str, scene: int | None, *, limits) -> Stack:
     if kind == "jeol":
         check_jeol(path, limits)
     if kind == "elid":
-        check_elid(path, limits)
-        items = _reader(kind)(str(path))
+        _reader(kind)  # rosettasciio's logger quietened
+        items = read_elid(path, limits)
     else:
         items = _reader(kind)(str(path), lazy=True)
     images = [(item, ax) for item in items for ax in [_image_axes(item)] if ax is not None and len(item["axes"]) <= 3]

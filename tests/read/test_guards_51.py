@@ -158,3 +158,170 @@ def test_the_chunk_rule_spares_pyramid_levels_and_refuses_bombs():
     assert chunk_past_data((64, 64), (40000, 40000), 1)
     assert chunk_past_data((64, 64, 1), (30000, 30000, 1), 2)
     assert not chunk_past_data((64, 64), (64, 64, 1), 1)  # a malformed rank: left to the reader
+
+
+# --- item 4: small inputs that cost a lot elsewhere --------------------------------------------------
+
+def run_convert(tmp_path, path, *argv, timeout_s: float = 240) -> tuple[int, str, float, float, Path]:
+    """The CLI's convert in a child: (exit code, stderr, peak MB, seconds in main(), the output folder)."""
+    from cli_support import run_cli_child
+
+    out = tmp_path / "out"
+    code, err, mb, seconds, _ = run_cli_child("convert", path, "-o", out, *argv, timeout_s=timeout_s)
+    assert "Traceback" not in err, err
+    print(f"{path.name} {' '.join(argv)}: exit {code}, {mb:.0f} MB peak, {seconds:.1f} s in main()")
+    return code, err, mb, seconds, out
+
+
+@pytest.mark.timeout(300)
+def test_a_checkerboard_tour_prices_its_regions_before_outlining_them(tmp_path):
+    """A 1000² checkerboard PNG of a few hundred bytes raises 1,250 squares: each made a whole-picture
+    mask before the tour kept 40 (1.4 GB at 1000 grid points; the issue's 87 s and 1.5 GB)."""
+    from bomb_builders import checkerboard_png
+
+    png = checkerboard_png(tmp_path / "board.png", 1000, 20)
+    assert png.stat().st_size < 30_000
+    code, err, mb, _, out = run_convert(tmp_path, png, "--formats", "ebraille,tour", "--resolution-px", "1000")
+    assert code == 0, err
+    tour = (out / "board.tour.html").read_text()
+    assert "40 regions on the picture (the largest; 1208 smaller ones are left out of the tour)" in tour
+    assert (out / "board.ebrl").stat().st_size > 0
+    assert mb < 700, f"peak {mb:.0f} MB"
+
+
+@pytest.mark.timeout(300)
+def test_a_checkerboard_pin_refusal_comes_without_a_pass_over_the_picture_per_square(tmp_path):
+    """The pin pages placed each square with two passes over the whole picture, page after page
+    (46 s before the refusal); now its areas and centres are counted once per page."""
+    from bomb_builders import checkerboard_png
+
+    png = checkerboard_png(tmp_path / "board.png", 1000, 20)
+    code, err, _, seconds, out = run_convert(tmp_path, png, "--formats", "dotpad,graphiti,monarch", "--resolution-px", "1000")
+    errors = [line for line in err.splitlines() if line.startswith("error:")]
+    assert code == 1 and len(errors) == 1 and "finer than a pin on every page" in errors[0], err
+    assert not out.exists() or not any(out.iterdir())
+    assert seconds < 40, f"{seconds:.0f} s"
+
+
+def test_pieces_are_counted_from_labels_and_only_the_kept_get_a_mask_of_their_own_box():
+    from tamp_os.export.pins import Layer
+    from tamp_os.export.regions import MAX_PICTURE_REGIONS, _kept_pieces
+
+    from skimage.measure import label as cc_label
+
+    squares = (np.indices((1000, 1000)) // 10).sum(axis=0) % 2 == 1
+    labels = cc_label(squares, connectivity=1)  # 5,000 squares of 100 px (1 mm² at 0.1 mm a pixel)
+    labels[:40, :40] = 0
+    labels[5:35, 5:35] = labels.max() + 1  # one larger piece: kept first
+    count = len(np.unique(labels)) - 1
+    pieces, left_out = _kept_pieces([Layer("members", "raised parts", labels)], labels.shape, (0.1, 0.1))
+    assert len(pieces) == MAX_PICTURE_REGIONS and left_out == count - MAX_PICTURE_REGIONS == 4953
+    assert pieces[0].area_px == 900 and pieces[0].mask.shape == (30, 30) and pieces[0].mask.all()
+    assert all(p.mask.shape == (10, 10) for p in pieces[1:])  # its own box, not the picture
+
+
+def test_outlines_keep_a_bounded_number_of_parts_the_largest_first():
+    from tamp_os.export.regions import MAX_OUTLINE_PARTS, _outline_budget
+
+    assert _outline_budget([3, 5]) == 5  # under the budget: everything
+    keep = _outline_budget([5000, 10, 10])
+    assert sum(min(n, keep) for n in (5000, 10, 10)) <= MAX_OUTLINE_PARTS < sum(min(n, keep + 1) for n in (5000, 10, 10))
+    assert keep == MAX_OUTLINE_PARTS - 20
+
+
+def test_label_stats_are_the_per_label_areas_and_centres():
+    from tamp_os.export.pins import _label_stats
+
+    labels = np.random.default_rng(1).integers(0, 30, (57, 83))
+    areas, centres = _label_stats(labels)
+    for v in (1, 7, 29):
+        ys, xs = np.nonzero(labels == v)
+        assert areas[v] == ys.size and centres[v][0] == ys.mean() and centres[v][1] == xs.mean()
+
+
+@pytest.mark.timeout(300)
+def test_a_czi_of_100_channels_reads_and_measures_at_most_eight(tmp_path, monkeypatch):
+    """Each channel was read, put on the grid and measured to choose 3: 100 of them took 45 s."""
+    from bomb_builders import czi_many_channels
+    from tamp_os.relief import channels as relief_channels
+    from tamp_os.relief.channel_stage import MAX_CHANNELS_MEASURED
+
+    path = czi_many_channels(tmp_path / "many.czi", 100, 128)
+    code, err, _, seconds, out = run_convert(tmp_path, path)
+    assert code == 0, err
+    text = (out / "many.description.txt").read_text()
+    assert f"The picture has 100 channels; {MAX_CHANNELS_MEASURED} were read and measured" in text
+    assert f"the other {100 - MAX_CHANNELS_MEASURED} not" in text and "Of the 8 channels measured, the 3" in text
+    measured = []
+    real = relief_channels.measure_shape
+    monkeypatch.setattr(relief_channels, "measure_shape", lambda img, *a, **k: measured.append(1) or real(img, *a, **k))
+    from tamp_os.read.vendor import plan
+
+    planes = []
+    project = plan._project
+    monkeypatch.setattr(plan, "_project", lambda stack, t, c, zs: planes.append(c) or project(stack, t, c, zs))
+    from tamp_os.lithograph.convert import convert
+
+    convert(path, None, tmp_path / "again")
+    assert len(measured) == MAX_CHANNELS_MEASURED and len(set(planes) - {0}) <= MAX_CHANNELS_MEASURED, (measured, planes)
+    assert seconds < 60
+
+
+def test_the_channels_picked_are_named_ones_first_then_in_order():
+    from tamp_os.errors import ParameterError
+    from tamp_os.read.vendor.model import Channel
+    from tamp_os.relief.channel_stage import MAX_CHANNELS_MEASURED, ChannelPick
+
+    few = [Channel(f"c{i}") for i in range(MAX_CHANNELS_MEASURED)]
+    assert ChannelPick({})(few) == list(range(MAX_CHANNELS_MEASURED))
+    many = [Channel(f"c{i}") for i in range(40)] + [Channel("DAPI"), Channel("x", emission_nm=520.0)]
+    pick = ChannelPick({})
+    chosen = pick(many)
+    assert pick.total == 42 and len(chosen) == MAX_CHANNELS_MEASURED and {40, 41} <= set(chosen) and chosen[:2] == [0, 1]
+    assert ChannelPick({"c33": "domes", "dapi": "dots"})(many) == [33, 40]
+    with pytest.raises(ParameterError, match="no channel named nope"):
+        ChannelPick({"nope": "domes"})(many)
+
+
+@pytest.mark.timeout(300)
+def test_napari_reads_a_czi_of_100_channels_as_its_layers_in_bounded_time(tmp_path):
+    from bomb_builders import czi_many_channels
+
+    path = czi_many_channels(tmp_path / "many.czi", 100, 64)
+    code = textwrap.dedent("""
+        import sys, time
+        from tamp_os.napari.reader import napari_get_reader
+        t0 = time.perf_counter()
+        layers = napari_get_reader(sys.argv[1])(sys.argv[1])
+        print('LAYERS', len(layers), len({k['name'] for _, k, _ in layers}), file=sys.stderr)
+        print('SECONDS', time.perf_counter() - t0, file=sys.stderr)
+        """) + PEAK
+    status, _, err, peak = run_limited(code, path, limit_gb=2.0)
+    found = {line.split()[0]: line.split()[1:] for line in err.splitlines() if line.split()}
+    assert status == 0 and "Traceback" not in err, err
+    assert found["LAYERS"] == ["100", "100"] and float(found["SECONDS"][0]) < 30 and peak < 500, (found, peak)
+
+
+@pytest.mark.timeout(120)
+def test_napari_reader_refuses_the_elid_bombs_from_their_layout(tmp_path):
+    from bomb_builders import elid_declaring_a_tiff, elid_zero_bomb
+
+    bomb, record = tmp_path / "bomb.elid", tmp_path / "record.elid"
+    bomb.write_bytes(elid_zero_bomb(2 * 10**9))
+    record.write_bytes(elid_declaring_a_tiff(0xFFFFFFFF, 10**9))
+    napari_refuses(bomb, "Phenom ELID", "no image in it")
+    napari_refuses(record, "record of 4,294,967,295 bytes", "8.6 GB")
+
+
+@pytest.mark.timeout(120)
+def test_the_elid_refusals_take_milliseconds_once_rosettasciio_is_imported(tmp_path):
+    from bomb_builders import elid_declaring_a_tiff, elid_zero_bomb
+
+    for name, data in (("bomb.elid", elid_zero_bomb(2 * 10**9)), ("record.elid", elid_declaring_a_tiff(0xFFFFFFFF, 10**9)),
+                       ("no_tiff.elid", elid_declaring_a_tiff(900_000_000, 10**9))):
+        path = tmp_path / name
+        path.write_bytes(data)
+        outcome, seconds, peak_mb = read_peak(path, call="read_image(sys.argv[1])", imports="import rsciio.phenom", limit_gb=1.5)
+        print(f"{name}: {seconds * 1000:.0f} ms, {peak_mb:.1f} MB: {outcome[:140]}")
+        assert outcome.startswith("ERROR InputError"), outcome
+        assert seconds < HEADER_S and peak_mb < 20, (name, seconds, peak_mb)

@@ -47,6 +47,7 @@ INPUT_BYTES = 1 << 16  # compressed bytes fed to the decompressor at a time
 READ_BYTES = 40
 MAX_READS = 10_000_000
 LARGE_READ_BYTES = 1 << 16  # a record read whole (an embedded TIFF, a string): its bytes and their join are held
+BZ2_STATE_BYTES = 3.7e6  # the decompressor's own tables for 900 kB blocks (bzip2's manual: 100 kB + 4 × block size)
 
 
 TIFF_HEADS = (b"II*\x00", b"MM\x00*", b"II+\x00", b"MM\x00+")  # classic and BigTIFF, either byte order
@@ -100,17 +101,20 @@ def bounded_reader_class():
     """rsciio.phenom's ElidReader with its one way in (`_read`) bounded, and its TIFFs priced."""
     from rsciio.phenom._api import ElidReader
 
+    from ..cost import READER_BYTES
+
     class BoundedElidReader(ElidReader):
         def __init__(self, pathname, cap_bytes: float):
             self._cap, self._large, self._reads, self._at, self._tiff_reads = cap_bytes, 0.0, 0, 0, None
-            self._reads_allowed = min(MAX_READS, cap_bytes / READ_BYTES)
+            self._reads_allowed = min(MAX_READS, (cap_bytes - BZ2_STATE_BYTES - READER_BYTES) / READ_BYTES)
             self.tiff_costs: list = []  # (byte of the project, Cost, (width, height)) of each TIFF read
             super().__init__(pathname)
 
         @property
         def held_bytes(self) -> float:
-            """The memory priced so far: READ_BYTES a value, and each large record twice."""
-            return self._reads * READ_BYTES + self._large
+            """The memory priced so far: the decompressor and the reader's own objects, READ_BYTES a value,
+            and each large record twice."""
+            return BZ2_STATE_BYTES + READER_BYTES + self._reads * READ_BYTES + self._large
 
         def _read(self, size=1):
             self._reads += 1
@@ -120,7 +124,7 @@ def bounded_reader_class():
                 self._large += 2 * size  # the pieces and their join
                 if self.held_bytes > self._cap:
                     raise ElidRefused("record", self._at, size)  # before a byte of it is decompressed
-                self._reads_allowed = min(MAX_READS, (self._cap - self._large) / READ_BYTES)
+                self._reads_allowed = min(MAX_READS, (self._cap - BZ2_STATE_BYTES - READER_BYTES - self._large) / READ_BYTES)
             data = self._decompressor.decompress(b"", min(size, PIECE_BYTES))  # most reads: one call
             if len(data) < size and not self._decompressor.eof:
                 data = self._decompressed(size, data, tiff=self._tiff_reads == 1)

@@ -83,9 +83,10 @@ def cli_code(*argv) -> str:
         """) + PEAK + "sys.exit(code)\n"
 
 
-def run_cli_child(*argv, timeout_s: float = 60) -> tuple[int, str, float, float, float]:
+def run_cli_child(*argv, timeout_s: float = 60, src: str = SRC) -> tuple[int, str, float, float, float]:
     """The CLI in a child Python (no memory limit): (exit code, stderr, peak MB (see PEAK), seconds
-    spent in main(), wall seconds of the whole child, its start-up included)."""
+    spent in main(), wall seconds of the whole child, its start-up included). `src`: the package's
+    source folder (another revision's, for a benchmark's before and after)."""
     code = textwrap.dedent(f"""
         import sys, time
         from tamp_os.cli.commands import main
@@ -94,7 +95,7 @@ def run_cli_child(*argv, timeout_s: float = 60) -> tuple[int, str, float, float,
         print('SECONDS', time.perf_counter() - t0, file=sys.stderr)
         """) + PEAK + "sys.exit(code)\n"
     keep = ("PATH", "HOME", "LANG", "LC_ALL", "TMPDIR", "TAMP_STRICT")
-    env = {**{k: os.environ[k] for k in keep if k in os.environ}, "PYTHONPATH": SRC,
+    env = {**{k: os.environ[k] for k in keep if k in os.environ}, "PYTHONPATH": str(src),
            "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
     started = time.monotonic()
     proc = subprocess.run([PYTHON, "-c", code], env=env, capture_output=True, text=True, timeout=timeout_s, check=False)

@@ -83,7 +83,7 @@ LIFTED = ("import tamp_os.read.cost as c, tamp_os.read.model as m; "
 ELID_LIFTED = "read_image(sys.argv[1], max_decoded_gb=1000, max_memory_gb=1000)"  # the bounded reader, its cap lifted
 
 
-def zarr_price(path: Path) -> tuple[float, str]:
+def zarr_price(path: Path, out: Path) -> tuple[float, str]:
     import zarr
 
     from tamp_os.read.cost import ZARR_CHUNK_COPIES, chunk_bytes
@@ -93,7 +93,7 @@ def zarr_price(path: Path) -> tuple[float, str]:
     return n, f"chunk × {ZARR_CHUNK_COPIES} copies"
 
 
-def velox_price(path: Path) -> tuple[float, str]:
+def velox_price(path: Path, out: Path) -> tuple[float, str]:
     import h5py
 
     from tamp_os.read.cost import HDF5_CHUNK_COPIES, chunk_bytes
@@ -106,7 +106,7 @@ def velox_price(path: Path) -> tuple[float, str]:
     return n, f"chunk × {HDF5_CHUNK_COPIES} copies"
 
 
-def tiff_price(path: Path) -> tuple[float, str]:
+def tiff_price(path: Path, out: Path) -> tuple[float, str]:
     import math
 
     import tifffile
@@ -119,7 +119,7 @@ def tiff_price(path: Path) -> tuple[float, str]:
     return n, "tile + compressed tile + pixels + working + reader"
 
 
-def elid_price(path: Path) -> tuple[float, str]:
+def elid_price(path: Path, out: Path) -> tuple[float, str]:
     """What the bounded reader charges under the default cap (2 GB) by the time it ends, stops or refuses."""
     from tamp_os.read.vendor.rsci import ElidRefused, bounded_reader_class
 
@@ -135,8 +135,31 @@ def elid_price(path: Path) -> tuple[float, str]:
         return reader.held_bytes, "decompressor + record × 2: stopped"
 
 
+def regions_counted(path: Path, out: Path) -> tuple[float | None, str]:
+    """What the tour's region guard decided: the pieces counted from their labels, and those outlined."""
+    import re
+
+    tour = next(out.glob("*.tour.html"), None)
+    found = re.search(r"(\d+) regions? on the picture(?: \(the largest; (\d+) smaller)?", tour.read_text()) if tour else None
+    if not found:
+        return None, "(no tour written)"
+    from tamp_os.export.regions import MIN_REGION_MM2
+
+    kept, left = int(found.group(1)), int(found.group(2) or 0)
+    return None, f"{kept + left:,} pieces of ≥ {MIN_REGION_MM2:g} mm² priced from labels, {kept} outlined"
+
+
+def channels_read(path: Path, out: Path) -> tuple[float | None, str]:
+    import re
+
+    text = next(out.glob("*.description.txt")).read_text()
+    found = re.search(r"has (\d+) channels; (\d+) were read and measured", text)
+    return None, f"{found.group(2)} of {found.group(1)} channels read and measured" if found else "(every channel read)"
+
+
 def adversarial(tmp: Path):
-    """(name, input words, path, CLI arguments, price function or None, true-peak call or None)."""
+    """(name, input words, path, CLI arguments, price function (path, output folder) -> (bytes or None,
+    words) or None, the call whose true peak the price is held against, or None)."""
     import bomb_builders as b
 
     def words(path: Path) -> str:
@@ -164,11 +187,12 @@ def adversarial(tmp: Path):
         yield "neighbour: the real Phenom ELID project (1.7 million values)", words(real), real, (), elid_price, ELID_LIFTED
     board = b.checkerboard_png(tmp / "board.png", 1000, 20)
     for argv in (("--formats", "ebraille,tour", "--resolution-px", "1000"), ("--formats", "dotpad,graphiti,monarch", "--resolution-px", "1000")):
-        yield f"checkerboard 1000² of 20 px squares, {argv[1]}", words(board), board, argv, None, None
+        yield (f"checkerboard 1000² of 20 px squares, {argv[1]}", words(board), board, argv,
+               regions_counted if "tour" in argv[1] else None, None)
     fine = b.checkerboard_png(tmp / "fine.png", 1000, 8)
-    yield "checkerboard 1000² of 8 px squares, ebraille,tour --preset high", words(fine), fine, ("--formats", "ebraille,tour", "--preset", "high"), None, None
+    yield "checkerboard 1000² of 8 px squares, ebraille,tour --preset high", words(fine), fine, ("--formats", "ebraille,tour", "--preset", "high"), regions_counted, None
     czi = b.czi_many_channels(tmp / "many.czi", 100, 512)
-    yield "CZI of 100 channels, 512² each", words(czi), czi, (), None, None
+    yield "CZI of 100 channels, 512² each", words(czi), czi, (), channels_read, None
 
 
 def outcome_of(code: int, err: str) -> str:
@@ -200,15 +224,15 @@ def adversarial_table(before: str | None, only: str | None) -> None:
                 return f"{outcome_of(code, err)}, {seconds:.1f} s, {mb:,.0f} MB"
 
             was = cli(old_src) if old_src else "—"
-            now = cli(str(ROOT / "src"))
+            now = cli(str(ROOT / "src"))  # last: its output folder is what the counted prices read
             alone = "—"
-            if "refused" in now and price_fn is not None:  # a read's guard: its refusal timed alone, readers imported
+            if "refused" in now and true_call is not None:  # a read's guard: its refusal timed alone, readers imported
                 said, s_alone, _ = read_peak(path, call="read_image(sys.argv[1])", imports=READERS, limit_gb=2.0)
                 alone = f"{s_alone * 1000:.0f} ms" if said.startswith("ERROR InputError") else f"not refused alone: {said[:30]}"
             price, how, peak, ok = "—", "", "—", ""
             if price_fn is not None:
-                n, how = price_fn(path)
-                price = f"{n / 1e9:.3g} GB ({how})" if n >= 1e6 else f"{n:,.0f} B ({how})"
+                n, how = price_fn(path, out)
+                price = how if n is None else f"{n / 1e9:.3g} GB ({how})" if n >= 1e6 else f"{n:,.0f} B ({how})"
                 if true_call:
                     outcome, s_true, mb = read_peak(path, call=true_call, imports=READERS, limit_gb=12.0, timeout_s=900)
                     peak_bytes = mb * 2**20

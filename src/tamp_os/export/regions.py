@@ -221,6 +221,8 @@ def _kept_pieces(layers, shape: tuple[int, int], mm_per_px: tuple[float, float])
             area = int(own[value]) if layer.kind == "areas" else int(counts[value])
             if area * sx * sy >= MIN_REGION_MM2:
                 found.append((i, int(value), area))
+    log.debug("tour regions: %d pieces counted, %d of at least %g mm²", sum(int(labels.max(initial=0)) for _, labels in labelled),
+              len(found), MIN_REGION_MM2)
     left_out = 0
     if len(found) > MAX_PICTURE_REGIONS:
         found.sort(key=lambda f: -f[2])

@@ -10,6 +10,7 @@ A further axis (frames of a series) is offered as time points.
 
 from __future__ import annotations
 
+import functools
 import logging
 import os
 
@@ -17,6 +18,7 @@ import numpy as np
 
 from ...errors import InputError, Text
 from ...units import unit_factor_m
+from ..cost import READER_BYTES
 from .model import Channel, Stack
 
 log = logging.getLogger(__name__)
@@ -97,91 +99,96 @@ def _elid_refusal(path, limits, kind: str, at: int, facts) -> InputError:
         hint="The limit is `max_decoded_gb`; raise it only for a file you trust.")
 
 
+@functools.cache
 def bounded_reader_class():
     """rsciio.phenom's ElidReader with its one way in (`_read`) bounded, and its TIFFs priced."""
     from rsciio.phenom._api import ElidReader
 
-    from ..cost import READER_BYTES
+    return type("BoundedElidReader", (BoundedReads, ElidReader), {})
 
-    class BoundedElidReader(ElidReader):
-        def __init__(self, pathname, cap_bytes: float):
-            self._cap, self._large, self._reads, self._at, self._tiff_reads = cap_bytes, 0.0, 0, 0, None
-            self._reads_allowed = min(MAX_READS, (cap_bytes - BZ2_STATE_BYTES - READER_BYTES) / READ_BYTES)
-            self.tiff_costs: list = []  # (byte of the project, Cost, (width, height)) of each TIFF read
-            super().__init__(pathname)
 
-        @property
-        def held_bytes(self) -> float:
-            """The memory priced so far: the decompressor and the reader's own objects, READ_BYTES a value,
-            and each large record twice."""
-            return BZ2_STATE_BYTES + READER_BYTES + self._reads * READ_BYTES + self._large
+class BoundedReads:
+    """The bounds of the ELID reader (mixed into rosettasciio's ElidReader by bounded_reader_class):
+    its one way in, `_read`, counts and prices every read, decompresses in bounded pieces and
+    refuses (ElidRefused) past the cap; each embedded TIFF is priced before tifffile decodes it."""
 
-        def _read(self, size=1):
-            # the hot path (1.7 million calls for a real project): one count, one C call, no more
-            self._reads += 1
-            if self._reads > self._reads_allowed or size >= LARGE_READ_BYTES or self._tiff_reads is not None:
-                return self._read_priced(size)
-            data = self._decompressor.decompress(b"", size)
-            if len(data) < size:
-                data = self._decompressed(size, data, tiff=False)
-            self._at += len(data)
-            return data
+    def __init__(self, pathname, cap_bytes: float):
+        self._cap, self._large, self._reads, self._at, self._tiff_reads = cap_bytes, 0.0, 0, 0, None
+        self._reads_allowed = min(MAX_READS, (cap_bytes - BZ2_STATE_BYTES - READER_BYTES) / READ_BYTES)
+        self.tiff_costs: list = []  # (byte of the project, Cost, (width, height)) of each TIFF read
+        super().__init__(pathname)
 
-        def _read_priced(self, size: int) -> bytes:
-            """A read past the count allowed, of a large record, or inside an embedded TIFF."""
-            if self._reads > self._reads_allowed:
-                raise ElidRefused("reads" if self._reads > MAX_READS else "held", self._at, self.held_bytes)
-            if size >= LARGE_READ_BYTES:
-                self._large += 2 * size  # the pieces and their join
-                if self.held_bytes > self._cap:
-                    raise ElidRefused("record", self._at, size)  # before a byte of it is decompressed
-                self._reads_allowed = min(MAX_READS, (self._cap - BZ2_STATE_BYTES - READER_BYTES - self._large) / READ_BYTES)
-            data = self._decompressor.decompress(b"", min(size, PIECE_BYTES))
-            if len(data) < size:
-                data = self._decompressed(size, data, tiff=self._tiff_reads == 1)
-            if self._tiff_reads is not None:
-                self._tiff_reads += 1
-                if self._tiff_reads == 2:  # the record's length, then the TIFF's bytes: priced before tifffile decodes them
-                    self._price_tiff(data)
-            self._at += len(data)
-            return data
+    @property
+    def held_bytes(self) -> float:
+        """The memory priced so far: the decompressor and the reader's own objects, READ_BYTES a value,
+        and each large record twice."""
+        return BZ2_STATE_BYTES + READER_BYTES + self._reads * READ_BYTES + self._large
 
-        def _decompressed(self, size: int, first: bytes, *, tiff: bool) -> bytes:
-            """`size` bytes of the stream, `first` of them already out, in pieces of at most PIECE_BYTES
-            (fewer where the stream ends, as rosettasciio's own reader gives; a stream cut short is an
-            error, not a wait for more). A TIFF's bytes must start as a TIFF: checked before the rest."""
-            pieces, got, inflate = [first], len(first), self._decompressor
-            while got < size and not inflate.eof:
-                if tiff and got >= 4:
-                    head = b"".join(pieces)[:4]
-                    if head not in TIFF_HEADS:
-                        raise ValueError(f"the embedded image at byte {self._at:,} of the project is no TIFF")
-                    tiff = False
-                chunk = b""
-                if inflate.needs_input:
-                    chunk = self._file.read(INPUT_BYTES)
-                    if not chunk:
-                        raise EOFError("the compressed stream ends early")
-                piece = inflate.decompress(chunk, min(size - got, PIECE_BYTES))
-                pieces.append(piece)
-                got += len(piece)
-            return pieces[0] if len(pieces) == 1 else b"".join(pieces)
+    def _read(self, size=1):
+        # the hot path (1.7 million calls for a real project): one count, one C call, no more
+        self._reads += 1
+        if self._reads > self._reads_allowed or size >= LARGE_READ_BYTES or self._tiff_reads is not None:
+            return self._read_priced(size)
+        data = self._decompressor.decompress(b"", size)
+        if len(data) < size:
+            data = self._decompressed(size, data, tiff=False)
+        self._at += len(data)
+        return data
 
-        def _read_tiff(self):
-            self._tiff_reads = 0
-            try:
-                return super()._read_tiff()
-            finally:
-                self._tiff_reads = None
+    def _read_priced(self, size: int) -> bytes:
+        """A read past the count allowed, of a large record, or inside an embedded TIFF."""
+        if self._reads > self._reads_allowed:
+            raise ElidRefused("reads" if self._reads > MAX_READS else "held", self._at, self.held_bytes)
+        if size >= LARGE_READ_BYTES:
+            self._large += 2 * size  # the pieces and their join
+            if self.held_bytes > self._cap:
+                raise ElidRefused("record", self._at, size)  # before a byte of it is decompressed
+            self._reads_allowed = min(MAX_READS, (self._cap - BZ2_STATE_BYTES - READER_BYTES - self._large) / READ_BYTES)
+        data = self._decompressor.decompress(b"", min(size, PIECE_BYTES))
+        if len(data) < size:
+            data = self._decompressed(size, data, tiff=self._tiff_reads == 1)
+        if self._tiff_reads is not None:
+            self._tiff_reads += 1
+            if self._tiff_reads == 2:  # the record's length, then the TIFF's bytes: priced before tifffile decodes them
+                self._price_tiff(data)
+        self._at += len(data)
+        return data
 
-        def _price_tiff(self, data: bytes) -> None:
-            found = tiff_cost(data)
-            if found is not None:
-                self.tiff_costs.append((self._at, *found))
-                if found[0].total + self.held_bytes > self._cap:
-                    raise ElidRefused("tiff", self._at, found)
+    def _decompressed(self, size: int, first: bytes, *, tiff: bool) -> bytes:
+        """`size` bytes of the stream, `first` of them already out, in pieces of at most PIECE_BYTES
+        (fewer where the stream ends, as rosettasciio's own reader gives; a stream cut short is an
+        error, not a wait for more). A TIFF's bytes must start as a TIFF: checked before the rest."""
+        pieces, got, inflate = [first], len(first), self._decompressor
+        while got < size and not inflate.eof:
+            if tiff and got >= 4:
+                head = b"".join(pieces)[:4]
+                if head not in TIFF_HEADS:
+                    raise ValueError(f"the embedded image at byte {self._at:,} of the project is no TIFF")
+                tiff = False
+            chunk = b""
+            if inflate.needs_input:
+                chunk = self._file.read(INPUT_BYTES)
+                if not chunk:
+                    raise EOFError("the compressed stream ends early")
+            piece = inflate.decompress(chunk, min(size - got, PIECE_BYTES))
+            pieces.append(piece)
+            got += len(piece)
+        return pieces[0] if len(pieces) == 1 else b"".join(pieces)
 
-    return BoundedElidReader
+    def _read_tiff(self):
+        self._tiff_reads = 0
+        try:
+            return super()._read_tiff()
+        finally:
+            self._tiff_reads = None
+
+    def _price_tiff(self, data: bytes) -> None:
+        found = tiff_cost(data)
+        if found is not None:
+            self.tiff_costs.append((self._at, *found))
+            if found[0].total + self.held_bytes > self._cap:
+                raise ElidRefused("tiff", self._at, found)
+
 
 
 def tiff_cost(data: bytes):

@@ -19,8 +19,10 @@ from conftest import need_module
 from test_vendor_bounds import PEAK_RSS_MB, assert_refused
 
 VELOX = "real/velox_talos_haadf_particles.emd"
-REFUSAL_S = 5.0  # main()'s time for a refusal from the header, on a busy 2-core machine: mostly imports
-HEADER_S = 0.25  # the same refusal once the readers are imported: milliseconds of checks
+# Time bounds, generous (docs/testing.md: a loaded machine must not fail them), each far below the
+# work the refusal saves (7-60 s of decoding or counting, measured in benchmarks/bench_guards.py):
+REFUSAL_S = 10.0  # main()'s time for a refusal from the header: mostly imports (0.6-3 s measured)
+HEADER_S = 1.0  # the same refusal once the readers are imported: milliseconds of checks (4-61 ms measured)
 READERS = "import zarr, h5py, tifffile, rsciio.emd, dask.array"  # imported before the read is measured
 
 
@@ -196,11 +198,41 @@ def test_a_checkerboard_pin_refusal_comes_without_a_pass_over_the_picture_per_sq
     from bomb_builders import checkerboard_png
 
     png = checkerboard_png(tmp_path / "board.png", 1000, 20)
-    code, err, _, seconds, out = run_convert(tmp_path, png, "--formats", "dotpad,graphiti,monarch", "--resolution-px", "1000")
+    code, err, _, _, out = run_convert(tmp_path, png, "--formats", "dotpad,graphiti,monarch", "--resolution-px", "1000")
     errors = [line for line in err.splitlines() if line.startswith("error:")]
     assert code == 1 and len(errors) == 1 and "finer than a pin on every page" in errors[0], err
     assert not out.exists() or not any(out.iterdir())
-    assert seconds < 40, f"{seconds:.0f} s"
+
+
+class CountedLabels(np.ndarray):
+    """A label picture that counts the whole-picture comparisons made with it (labels == v)."""
+
+    compared = 0
+    whole: tuple = ()
+
+    def __eq__(self, other):
+        if np.ndim(other) == 0 and self.shape == CountedLabels.whole:
+            CountedLabels.compared += 1
+        return super().__eq__(other)
+
+    __hash__ = None
+
+
+def test_pin_pages_place_labels_without_a_whole_picture_pass_per_label():
+    from skimage.measure import label as cc_label
+    from tamp_os.export.pins import DEVICES, Layer, PinSource, pin_pages
+    from tamp_os.params import LithoParams
+
+    squares = (np.indices((400, 400)) // 8).sum(axis=0) % 2 == 1
+    labels = cc_label(squares, connectivity=1).view(CountedLabels)  # 1,250 members
+    CountedLabels.whole = labels.shape
+    source = PinSource(labels.shape, [Layer("members", "raised parts", labels)], 0.5, "board", "board", LithoParams().braille_table)
+    CountedLabels.compared = 0
+    try:
+        pin_pages(source, DEVICES["dotpad"])
+    except Exception:  # too fine for the pins: refused, as the CLI does; the pages were made first
+        pass
+    assert CountedLabels.compared == 0  # was one per label on every page (14,000 at 1000² px: 17 s)
 
 
 def test_pieces_are_counted_from_labels_and_only_the_kept_get_a_mask_of_their_own_box():
@@ -247,7 +279,7 @@ def test_a_czi_of_100_channels_reads_and_measures_at_most_eight(tmp_path, monkey
     from tamp_os.relief.channel_stage import MAX_CHANNELS_MEASURED
 
     path = czi_many_channels(tmp_path / "many.czi", 100, 128)
-    code, err, _, seconds, out = run_convert(tmp_path, path)
+    code, err, _, _, out = run_convert(tmp_path, path)
     assert code == 0, err
     text = (out / "many.description.txt").read_text()
     assert f"The picture has 100 channels; {MAX_CHANNELS_MEASURED} were read and measured" in text
@@ -264,7 +296,6 @@ def test_a_czi_of_100_channels_reads_and_measures_at_most_eight(tmp_path, monkey
 
     convert(path, None, tmp_path / "again")
     assert len(measured) == MAX_CHANNELS_MEASURED and len(set(planes) - {0}) <= MAX_CHANNELS_MEASURED, (measured, planes)
-    assert seconds < 60
 
 
 def test_the_channels_picked_are_named_ones_first_then_in_order():
@@ -299,7 +330,7 @@ def test_napari_reads_a_czi_of_100_channels_as_its_layers_in_bounded_time(tmp_pa
     status, _, err, peak = run_limited(code, path, limit_gb=2.0)
     found = {line.split()[0]: line.split()[1:] for line in err.splitlines() if line.split()}
     assert status == 0 and "Traceback" not in err, err
-    assert found["LAYERS"] == ["100", "100"] and float(found["SECONDS"][0]) < 30 and peak < 500, (found, peak)
+    assert found["LAYERS"] == ["100", "100"] and peak < 500, (found, peak)
 
 
 @pytest.mark.timeout(120)

@@ -315,8 +315,7 @@ def test_elid_bzip2_bomb_is_refused_from_its_declared_layout(tmp_path, elid_bomb
     assert len(elid_bomb) < 5000
     path = tmp_path / "upload.elid"
     path.write_bytes(elid_bomb)
-    _, _, seconds = assert_refused(tmp_path, path, "Phenom ELID", "no image in it")
-    assert seconds < 5.0
+    assert_refused(tmp_path, path, "Phenom ELID", "no image in it")  # in under WALL_S (counting took 15-60 s)
 
 
 def test_elid_reading_keeps_pieces_small(tmp_path):
@@ -384,8 +383,7 @@ def test_elid_record_declared_huge_is_refused_before_it_is_decompressed(tmp_path
 
     path = tmp_path / "upload.elid"
     path.write_bytes(elid_declaring_a_tiff(declared, 10**9))
-    _, mb, seconds = assert_refused(tmp_path, path, "Phenom ELID", *needles)
-    assert seconds < 5.0 and mb < PEAK_RSS_MB
+    assert_refused(tmp_path, path, "Phenom ELID", *needles)  # peak and time bounded (decompressing: 1.9 GB, 15 s)
 
 
 # --- 2. JEOL .img: the declared size against the stored bits and the cap --------------------------------

@@ -120,13 +120,13 @@ def tiff_price(path: Path, out: Path) -> tuple[float, str]:
 
 
 def elid_price(path: Path, out: Path) -> tuple[float, str]:
-    """What the bounded reader charges under the default cap (2 GB) by the time it ends, stops or refuses."""
+    """What the bounded reader charges under the default limits by the time it ends, stops or refuses."""
     from tamp_os.read.vendor.rsci import ElidRefused, bounded_reader_class
 
     cls = bounded_reader_class()
     reader = cls.__new__(cls)  # kept by name: its __init__ reads the project, and may raise
     try:
-        reader.__init__(str(path), 2e9)
+        reader.__init__(str(path), 2e9, 4e9)  # the default limits: max_decoded_gb 2, max_memory_gb 4
         return reader.held_bytes, "decompressor + values × 40 B"
     except ElidRefused as refused:
         kind, _, facts = refused.args

@@ -356,3 +356,23 @@ def test_the_elid_refusals_take_milliseconds_once_rosettasciio_is_imported(tmp_p
         print(f"{name}: {seconds * 1000:.0f} ms, {peak_mb:.1f} MB: {outcome[:140]}")
         assert outcome.startswith("ERROR InputError"), outcome
         assert seconds < HEADER_S and peak_mb < 20, (name, seconds, peak_mb)
+
+
+@pytest.mark.timeout(120)
+def test_the_values_an_elid_read_holds_are_priced_against_the_memory_limit(tmp_path, fixture):
+    """The real project's 1.7 million values are priced at 40 B each (77 MB with the decompressor):
+    under a 0.05 GB memory limit it is refused while reading, in one line naming that limit."""
+    path = fixture("real/phenom_elid2v4.elid")
+    line, _, _ = assert_refused(tmp_path, path, "values read by byte", "limit of 0.05 GB on the memory", "--max-memory-gb",
+                                extra=("--max-memory-gb", "0.05"))
+    assert "max-decoded-gb" not in line
+
+
+def test_an_elid_with_more_values_than_max_reads_is_refused_while_reading(fixture, monkeypatch):
+    from tamp_os.errors import InputError
+    from tamp_os.read.model import Limits
+    from tamp_os.read.vendor import rsci
+
+    monkeypatch.setattr(rsci, "MAX_READS", 100_000)
+    with pytest.raises(InputError, match="holds more than 100,000 values"):
+        rsci.read_elid(fixture("real/phenom_elid2v4.elid"), Limits(400.0, 2.0))

@@ -44,10 +44,12 @@ def _reader(kind: str):
 PIECE_BYTES = 1 << 20  # decompressed at most this much at a time: memory stays flat whatever the stream's ratio
 INPUT_BYTES = 1 << 16  # compressed bytes fed to the decompressor at a time
 # rosettasciio reads a project value by value (a spectrum channel is one read of one to five bytes),
-# and keeps most as Python objects: each read is priced at READ_BYTES of memory, and the reads are
-# counted, MAX_READS at most (about 25 s of its reading; the real project of tests/ makes 1.7 million).
+# and keeps most as Python objects: each read is priced at READ_BYTES of memory (a list of int32
+# values: a pointer and an int object each; a map's values go into uint32 arrays, 4 bytes), held
+# against `max_memory_gb`, and the reads are counted, MAX_READS at most (about 30 s of its reading
+# at 1 µs a value: a 128×96 EDS map of 2048 channels holds 25 million; the real project of tests/ 1.7).
 READ_BYTES = 40
-MAX_READS = 10_000_000
+MAX_READS = 30_000_000
 LARGE_READ_BYTES = 1 << 16  # a record read whole (an embedded TIFF, a string): its bytes and their join are held
 BZ2_STATE_BYTES = 3.7e6  # the decompressor's own tables for 900 kB blocks (bzip2's manual: 100 kB + 4 × block size)
 
@@ -63,12 +65,13 @@ def read_elid(path, limits) -> list:
     """rosettasciio's ELID reader, made to read only what the project declares, in bounded pieces,
     priced as it goes: a record (an embedded TIFF) declaring more than the cap is refused before a
     byte of it is decompressed, each embedded TIFF is priced from its header before tifffile decodes
-    it, and past the cap (or MAX_READS values) the reading stops. A bzip2 bomb whose header declares
+    it (records and pixels against `max_decoded_gb`), and past what the values read would hold in
+    memory (`max_memory_gb`) or MAX_READS values the reading stops. A bzip2 bomb whose header declares
     no image costs the 20 bytes its header takes; bytes past the declared layout are never decompressed
     (nor a second stream appended after the first, which rosettasciio never reads either)."""
     reader = bounded_reader_class()
     try:
-        return reader(str(path), limits.max_decoded_gb * 1e9).dictionaries
+        return reader(str(path), limits.max_decoded_gb * 1e9, limits.max_memory_gb * 1e9).dictionaries
     except ElidRefused as refused:
         raise _elid_refusal(path, limits, *refused.args) from None
 
@@ -78,20 +81,23 @@ def _elid_refusal(path, limits, kind: str, at: int, facts) -> InputError:
 
     what, todo = KINDS["elid"]
     cap = f"the limit of {limits.max_decoded_gb:g} GB that guards against decompression bombs"
+    memory = f"the limit of {limits.max_memory_gb:g} GB on the memory a conversion may use"
     if kind == "record":
+        size, name = facts
+        over = cap if name == "max_decoded_gb" else memory
         return InputError(
-            f"{path}: {what} whose layout declares a record of {facts:,} bytes at byte {at:,} of the project (the file is "
-            f"{os.path.getsize(path):,} bytes); reading it would hold {2 * facts / 1e9:.2g} GB, above {cap}; {todo}.",
-            hint=f"If you trust the file and the computer has the memory, raise the limit, for example `max_decoded_gb` "
-                 f"{max(1, int(2 * facts / 1e9) + 1)}.")
+            f"{path}: {what} whose layout declares a record of {size:,} bytes at byte {at:,} of the project (the file is "
+            f"{os.path.getsize(path):,} bytes); reading it would hold {2 * size / 1e9:.2g} GB, above {over}; {todo}.",
+            hint=f"If you trust the file and the computer has the memory, raise the limit, for example `{name}` "
+                 f"{max(1, int(2 * size / 1e9) + 1)}.")
     if kind == "reads":
         return InputError(
             f"{path}: {what} that holds more than {MAX_READS:,} values (spectra, maps, read one by one: that would take "
-            f"minutes), so it is not read; {todo}.")
+            f"more than a minute), so it is not read; {todo}.")
     if kind == "held":
         return InputError(
-            f"{path}: {what} whose values read by byte {at:,} of the project already hold {facts / 1e9:.2g} GB, above {cap}; "
-            f"{todo}.", hint="The limit is `max_decoded_gb`; raise it only for a file you trust.")
+            f"{path}: {what} whose values read by byte {at:,} of the project already hold {facts / 1e9:.2g} GB, above {memory}; "
+            f"{todo}.", hint="The limit is `max_memory_gb`; raise it only for a file you trust.")
     cost, (width, height) = facts
     return InputError(
         f"{path}: {what} whose embedded image at byte {at:,} of the project (a {width}×{height} TIFF) would decode to "
@@ -112,11 +118,17 @@ class BoundedReads:
     its one way in, `_read`, counts and prices every read, decompresses in bounded pieces and
     refuses (ElidRefused) past the cap; each embedded TIFF is priced before tifffile decodes it."""
 
-    def __init__(self, pathname, cap_bytes: float):
-        self._cap, self._large, self._reads, self._at, self._tiff_reads = cap_bytes, 0.0, 0, 0, None
-        self._reads_allowed = min(MAX_READS, (cap_bytes - BZ2_STATE_BYTES - READER_BYTES) / READ_BYTES)
+    def __init__(self, pathname, cap_bytes: float, memory_bytes: float | None = None):
+        self._cap = cap_bytes  # decoded data: the records read whole, an embedded TIFF's pixels
+        self._memory = cap_bytes if memory_bytes is None else memory_bytes  # all that the read holds
+        self._large, self._reads, self._at, self._tiff_reads = 0.0, 0, 0, None
+        self._reads_allowed = self._values_allowed()
         self.tiff_costs: list = []  # (byte of the project, Cost, (width, height)) of each TIFF read
         super().__init__(pathname)
+
+    def _values_allowed(self) -> float:
+        """How many values may be read: MAX_READS, or fewer when what they would hold passes the memory limit."""
+        return min(MAX_READS, (self._memory - BZ2_STATE_BYTES - READER_BYTES - self._large) / READ_BYTES)
 
     @property
     def held_bytes(self) -> float:
@@ -141,9 +153,9 @@ class BoundedReads:
             raise ElidRefused("reads" if self._reads > MAX_READS else "held", self._at, self.held_bytes)
         if size >= LARGE_READ_BYTES:
             self._large += 2 * size  # the pieces and their join
-            if self.held_bytes > self._cap:
-                raise ElidRefused("record", self._at, size)  # before a byte of it is decompressed
-            self._reads_allowed = min(MAX_READS, (self._cap - BZ2_STATE_BYTES - READER_BYTES - self._large) / READ_BYTES)
+            if self._large > self._cap or self.held_bytes > self._memory:  # before a byte of it is decompressed
+                raise ElidRefused("record", self._at, (size, "max_decoded_gb" if self._large > self._cap else "max_memory_gb"))
+            self._reads_allowed = self._values_allowed()
         data = self._decompressor.decompress(b"", min(size, PIECE_BYTES))
         if len(data) < size:
             data = self._decompressed(size, data, tiff=self._tiff_reads == 1)
@@ -186,7 +198,7 @@ class BoundedReads:
         found = tiff_cost(data)
         if found is not None:
             self.tiff_costs.append((self._at, *found))
-            if found[0].total + self.held_bytes > self._cap:
+            if found[0].total + self._large > self._cap:
                 raise ElidRefused("tiff", self._at, found)
 
 

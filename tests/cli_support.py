@@ -83,9 +83,10 @@ def cli_code(*argv) -> str:
         """) + PEAK + "sys.exit(code)\n"
 
 
-def run_cli_child(*argv, timeout_s: float = 60) -> tuple[int, str, float, float, float]:
+def run_cli_child(*argv, timeout_s: float = 60, src: str = SRC) -> tuple[int, str, float, float, float]:
     """The CLI in a child Python (no memory limit): (exit code, stderr, peak MB (see PEAK), seconds
-    spent in main(), wall seconds of the whole child, its start-up included)."""
+    spent in main(), wall seconds of the whole child, its start-up included). `src`: the package's
+    source folder (another revision's, for a benchmark's before and after)."""
     code = textwrap.dedent(f"""
         import sys, time
         from tamp_os.cli.commands import main
@@ -94,7 +95,7 @@ def run_cli_child(*argv, timeout_s: float = 60) -> tuple[int, str, float, float,
         print('SECONDS', time.perf_counter() - t0, file=sys.stderr)
         """) + PEAK + "sys.exit(code)\n"
     keep = ("PATH", "HOME", "LANG", "LC_ALL", "TMPDIR", "TAMP_STRICT")
-    env = {**{k: os.environ[k] for k in keep if k in os.environ}, "PYTHONPATH": SRC,
+    env = {**{k: os.environ[k] for k in keep if k in os.environ}, "PYTHONPATH": str(src),
            "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
     started = time.monotonic()
     proc = subprocess.run([PYTHON, "-c", code], env=env, capture_output=True, text=True, timeout=timeout_s, check=False)
@@ -140,3 +141,40 @@ SIDECAR_CASES = {
     "jeol_marker_spaces": "$$SM_MICRON_MARKER" + " " * MB + "x",
     "many_keys": "$$SM_MICRON_BAR \n" * (MB // 17),
 }
+
+
+# The peak of one read alone: the child imports the readers, resets its high-water mark
+# (/proc/self/clear_refs 5), reads, and reports VmHWM above its resident size before the read.
+READ_PEAK = textwrap.dedent("""
+    import sys, time
+    import numpy as np
+    from tamp_os.read.image import read_image
+    {imports}
+    def _kb(key):
+        with open('/proc/self/status') as f:
+            return next(int(l.split()[1]) for l in f if l.startswith(key))
+    before = _kb('VmRSS:')
+    with open('/proc/self/clear_refs', 'w') as f:
+        f.write('5')
+    t0 = time.perf_counter()
+    try:
+        {call}
+        print('OK', file=sys.stderr)
+    except Exception as exc:
+        print('ERROR', type(exc).__name__, str(exc).replace(chr(10), ' '), file=sys.stderr)
+    print('SECONDS', time.perf_counter() - t0, file=sys.stderr)
+    print('READ_PEAK_MB', (_kb('VmHWM:') - before) / 1024, file=sys.stderr)
+    """)
+
+
+def read_peak(path, *, call: str = "read_image(sys.argv[1], max_decoded_gb=100, max_memory_gb=100)", imports: str = "",
+              limit_gb: float = 8.0, timeout_s: float = 300) -> tuple[str, float, float]:
+    """Run `call` on `path` in a child Python: (its outcome line, 'OK' or 'ERROR <type> <message>';
+    seconds; MB of memory the call took at its peak above the process before it)."""
+    code = READ_PEAK.format(imports=imports or "pass", call=call)
+    _, _, err, _ = run_limited(code, path, limit_gb=limit_gb, timeout_s=timeout_s)
+    found = {line.split()[0]: line for line in err.splitlines() if line.startswith(("OK", "ERROR", "SECONDS ", "READ_PEAK_MB "))}
+    if "READ_PEAK_MB" not in found:
+        raise AssertionError(err[-3000:])
+    outcome = found.get("OK") or found.get("ERROR", "")
+    return outcome, float(found["SECONDS"].split()[1]), float(found["READ_PEAK_MB"].split()[1])

@@ -38,7 +38,7 @@ def examples(n: int) -> int:
 # hand on the few synthetic tests that take more than about 5 s.
 # `make test-fast` leaves all five out; `make test` and CI run everything.
 TIER_BY_FIXTURE = {"browser": "browser", "slicer_present": "slicer", "fixture": "real", "fixtures_dir": "real", "server": "slow", "slow_server": "slow", "patient_server": "slow",
-                   "elid_bomb": "slow", "napari_viewer": "napari", "napari_plugin": "napari"}
+                   "napari_viewer": "napari", "napari_plugin": "napari"}
 
 
 def pytest_collection_modifyitems(config, items):

@@ -22,10 +22,10 @@ OUTSIDE = "refers to data outside this file"
 
 def assert_refused(tmp_path, path, *needles, extra=()):
     """The CLI refuses `path` in one line naming it and each needle; exit 1, no traceback, nothing written;
-    measured in a child process: peak RSS and wall time bounded. Returns (the error line, MB, s)."""
+    measured in a child process: peak RSS and wall time bounded. Returns (the error line, MB, seconds in main())."""
     out = tmp_path / "out"
     before = sorted(p.relative_to(tmp_path) for p in tmp_path.rglob("*"))
-    code, err, mb, _, seconds = run_cli_child("convert", path, "-o", out, *extra)
+    code, err, mb, in_main, seconds = run_cli_child("convert", path, "-o", out, *extra)
     errors = [line for line in err.splitlines() if line.startswith("error:")]
     assert code == 1, err
     assert len(errors) == 1 and "Traceback" not in err, err
@@ -35,8 +35,8 @@ def assert_refused(tmp_path, path, *needles, extra=()):
     assert not out.exists() or not any(out.iterdir())
     after = sorted(p.relative_to(tmp_path) for p in tmp_path.rglob("*") if p != out)
     assert after == before  # nothing written anywhere else (no partial file, no cache beside the input)
-    print(f"{path.name}: {mb:.0f} MB peak, {seconds:.2f} s: {errors[0]}")
-    return errors[0], mb, seconds
+    print(f"{path.name}: {mb:.0f} MB peak, {in_main:.2f} s in main(), {seconds:.2f} s in all: {errors[0]}")
+    return errors[0], mb, in_main
 
 
 def secret_h5(folder):
@@ -242,14 +242,14 @@ def test_hdf5_small_dataset_in_one_huge_chunk_is_refused(tmp_path, layout):
                          chunks=(60000, 60000), compression="gzip")
 
     path = (velox_like if layout == "emd" else hspy_like)(tmp_path / f"upload.{layout}", fill)
-    assert_refused(tmp_path, path, "60000×60000", "3.6 GB", "limit of 2 GB", "--max-decoded-gb")
+    assert_refused(tmp_path, path, "64×64 array stored in chunks of 60000×60000", "3.6 GB", "never needed")
 
 
 @pytest.mark.timeout(120)
 @pytest.mark.parametrize("zarr_format", [2, 3])
 def test_ome_zarr_small_array_in_one_huge_chunk_is_refused(tmp_path, zarr_format):
     path = small_ome_zarr(tmp_path / "upload.zarr", chunks=(1, 1, 60000, 60000), zarr_format=zarr_format)
-    assert_refused(tmp_path, path, "60000×60000", "3.6 GB", "limit of 2 GB", "--max-decoded-gb")
+    assert_refused(tmp_path, path, "1×1×64×64 array stored in chunks of 1×1×60000×60000", "3.6 GB", "never needed")
 
 
 # --- 2. MRC: extended header and voxels against the file size ------------------------------------------
@@ -297,34 +297,37 @@ def test_a_small_honest_mrc_still_reads(tmp_path):
     assert read_image(path).values.shape == (8, 8)
 
 
-# --- 2. Phenom ELID: bzip2 decompressed in bounded pieces ----------------------------------------------
+# --- 2. Phenom ELID: only what the layout declares is decompressed, in bounded pieces ------------------
 
 @pytest.fixture(scope="module")
 def elid_bomb():
-    """A valid bzip2 stream of a few hundred bytes that decompresses to 1 GB (the 'EID2' magic, then zeros)."""
-    packer, block = bz2.BZ2Compressor(9), bytes(1 << 24)
-    parts = [packer.compress(b"EID2" + struct.pack("<i", 4))]
-    parts += [packer.compress(block) for _ in range(64)]
-    return b"".join(parts) + packer.flush()
+    """A valid bzip2 stream of 1.4 kB that decompresses to 2 GB (the 'EID2' magic, then zeros: no image declared)."""
+    from bomb_builders import elid_zero_bomb
+
+    return elid_zero_bomb(2 * 10**9)
 
 
-@pytest.mark.slow
-@pytest.mark.timeout(180)
-def test_elid_bzip2_bomb_is_refused_in_bounded_memory(tmp_path, elid_bomb):
+@pytest.mark.timeout(120)
+def test_elid_bzip2_bomb_is_refused_from_its_declared_layout(tmp_path, elid_bomb):
+    """The bomb's header declares no image: its 2 GB of zeros are never decompressed (counting them took 27 s)."""
     assert len(elid_bomb) < 5000
     path = tmp_path / "upload.elid"
     path.write_bytes(elid_bomb)
-    assert_refused(tmp_path, path, "Phenom ELID", "decompresses to more than 0.2 GB", "limit of 0.2 GB", "--max-decoded-gb",
-                   extra=("--max-decoded-gb", "0.2"))
+    assert_refused(tmp_path, path, "Phenom ELID", "no image in it")  # (counting took 15-60 s)
 
 
-def test_elid_counting_keeps_pieces_small(elid_bomb, tmp_path):
+def test_elid_reading_keeps_pieces_small(tmp_path):
+    """A TIFF record of 50 MB (a TIFF header, then zeros): decompressed in pieces of at most PIECE_BYTES."""
+    import rsciio.phenom._api as api
+    from bomb_builders import bzip2_zeros
+    from tamp_os.read.model import Limits
     from tamp_os.read.vendor import rsci
 
-    path = tmp_path / "bomb.elid"
-    path.write_bytes(elid_bomb)
+    stream, size = bzip2_zeros(b"EID2" + struct.pack("<iII", 4, 1, 50_000_000) + b"II*\x00", 100_000_000)
+    path = tmp_path / "record.elid"
+    path.write_bytes(stream)
     seen = []
-    real = bz2.BZ2Decompressor
+    real = api.bz2.BZ2Decompressor
 
     class Spy:
         def __init__(self):
@@ -338,29 +341,47 @@ def test_elid_counting_keeps_pieces_small(elid_bomb, tmp_path):
         def __getattr__(self, name):
             return getattr(self.inner, name)
 
-    rsci.bz2.BZ2Decompressor, saved = Spy, rsci.bz2.BZ2Decompressor
+    api.bz2.BZ2Decompressor = Spy
     try:
-        total = rsci.elid_decoded_bytes(path, 50e6)
+        with pytest.raises(Exception):  # zeros after the header: tifffile finds no image
+            rsci.read_elid(path, Limits(400.0, 2.0))
     finally:
-        rsci.bz2.BZ2Decompressor = saved
-    assert 50e6 < total <= 50e6 + rsci.PIECE_BYTES and max(seen) <= rsci.PIECE_BYTES
+        api.bz2.BZ2Decompressor = real
+    assert 50e6 <= sum(seen) <= 50e6 + 20 and max(seen) <= rsci.PIECE_BYTES and size > 90e6  # the 40 MB after it: never
 
 
 @pytest.mark.timeout(60)
-def test_real_elid_counts_the_same(fixture, tmp_path, elid_bomb):
-    """The count is the first bzip2 stream, the one rosettasciio reads: a bomb appended as a second
-    stream is read by neither (the embedded TIFFs are looked for in the first stream only)."""
+def test_real_elid_reads_the_same_with_a_bomb_appended(fixture, tmp_path, elid_bomb):
+    """The reader decompresses exactly the project's first bzip2 stream, the one rosettasciio reads: a
+    bomb appended as a second stream is read by neither."""
+    from rsciio.phenom import file_reader
     from tamp_os.read.image import read_image
-    from tamp_os.read.vendor.rsci import elid_decoded_bytes, elid_tiff_costs
+    from tamp_os.read.vendor.rsci import bounded_reader_class
 
     path = fixture("real/phenom_elid2v4.elid")
     size = len(bz2.decompress(path.read_bytes()))
-    assert elid_decoded_bytes(path, 1e12) == size
     appended = tmp_path / "appended.elid"
     appended.write_bytes(path.read_bytes() + elid_bomb)
-    assert elid_decoded_bytes(appended, 1e12) == size
-    assert len(elid_tiff_costs(appended)) == len(elid_tiff_costs(path))
+    reader = bounded_reader_class()(str(appended), 2e9)
+    assert reader._at == size
+    for ours, theirs in zip(reader.dictionaries, file_reader(str(path)), strict=True):
+        np.testing.assert_array_equal(ours["data"], theirs["data"])
     np.testing.assert_array_equal(read_image(appended).values, read_image(path).values)
+
+
+@pytest.mark.timeout(120)
+@pytest.mark.parametrize("declared, needles", [
+    (0xFFFFFFFF, ("record of 4,294,967,295 bytes at byte 16", "8.6 GB", "limit of 2 GB", "--max-decoded-gb")),
+    (900_000_000, ("damaged or truncated", "embedded image at byte 16 of the project is no TIFF")),
+])
+def test_elid_record_declared_huge_is_refused_before_it_is_decompressed(tmp_path, declared, needles):
+    """A TIFF record whose length is above the cap is refused before a byte of it is decompressed; one
+    under the cap whose bytes start as no TIFF is refused at its first piece (not after 900 MB)."""
+    from bomb_builders import elid_declaring_a_tiff
+
+    path = tmp_path / "upload.elid"
+    path.write_bytes(elid_declaring_a_tiff(declared, 10**9))
+    assert_refused(tmp_path, path, "Phenom ELID", *needles)  # peak and time bounded (decompressing: 1.9 GB, 15 s)
 
 
 # --- 2. JEOL .img: the declared size against the stored bits and the cap --------------------------------
@@ -517,8 +538,8 @@ def test_elid_whose_embedded_tiff_is_a_tile_bomb_is_refused(fixture, tmp_path):
 
 @pytest.mark.timeout(120)
 def test_real_elid_embedded_images_are_priced_small(fixture):
-    from tamp_os.read.vendor.rsci import elid_tiff_costs
+    from tamp_os.read.vendor.rsci import bounded_reader_class
 
-    costs = elid_tiff_costs(fixture("real/phenom_elid2v4.elid"))
+    costs = bounded_reader_class()(str(fixture("real/phenom_elid2v4.elid")), 2e9).tiff_costs
     sizes = {size for _, _, size in costs}
     assert {(20, 16), (32, 24), (40, 35)} <= sizes and max(c.total for _, c, _ in costs) < 1e5

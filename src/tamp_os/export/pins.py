@@ -389,12 +389,13 @@ def _place_labels(layer, source: PinSource, device: PinDevice, window, s: float,
     ids = [int(v) for v in np.unique(layer.data[r0:r1, c0:c1]) if v > 0]
     done.counts[layer.label] = {"found": len(ids)}
     best, share = _label_coverage(layer.data, yi, xi, n, ph, pw)
+    areas, centres = _label_stats(layer.data)  # one pass for all labels, not one over the picture per label
     for v in ids:
         pins = np.zeros((R, C), bool)
         pins[oy : oy + ph, ox : ox + pw] = (best == v) & (share >= 0.4)
-        area_px = float((layer.data == v).sum())
+        area_px = float(areas[v])
         if layer.kind in ("members", "dots") and pins.sum() < MIN_REGION_PINS and area_px * s * s >= 1.0:
-            pins = _block_at(layer.data == v, window, s, oy, ox, ph, pw, R, C)
+            pins = _block_at(centres[v], window, s, oy, ox, ph, pw, R, C)
         pins &= placed == 0
         if not pins.any():
             continue
@@ -423,11 +424,23 @@ def _page_furniture(device: PinDevice, um_pin, pins: np.ndarray, regions: list) 
     return bar
 
 
-def _block_at(member: np.ndarray, window, s, oy, ox, ph, pw, R, C) -> np.ndarray:
-    """A 2 × 2 block of pins at a small member's centre (it is at least a pin large)."""
+def _label_stats(labels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each label's area in pixels and centre (mean row, mean column), by label value, in one pass
+    (a checkerboard's 1,250 members made 14,000 passes over a 1000² picture: 17 s)."""
+    flat = np.asarray(labels).ravel()
+    areas = np.bincount(flat)
+    rows, cols = np.divmod(np.arange(flat.size), labels.shape[1])
+    with np.errstate(invalid="ignore", divide="ignore"):  # sums of integers: exact, as the mean of each label's rows is
+        centres = np.column_stack([np.bincount(flat, weights=rows, minlength=areas.size) / areas,
+                                   np.bincount(flat, weights=cols, minlength=areas.size) / areas])
+    return areas, centres
+
+
+def _block_at(centre_px, window, s, oy, ox, ph, pw, R, C) -> np.ndarray:
+    """A 2 × 2 block of pins at a small member's centre (row, column in picture pixels; it is at
+    least a pin large)."""
     r0, _, c0, _ = window
-    ys, xs = np.nonzero(member)
-    cy, cx = (ys.mean() + 0.5 - r0) * s, (xs.mean() + 0.5 - c0) * s
+    cy, cx = (centre_px[0] + 0.5 - r0) * s, (centre_px[1] + 0.5 - c0) * s
     i, j = int(round(cy - 1)), int(round(cx - 1))
     i, j = min(max(i, 0), ph - 2), min(max(j, 0), pw - 2)
     out = np.zeros((R, C), bool)

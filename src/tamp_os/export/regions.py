@@ -21,14 +21,19 @@ import dataclasses
 import math
 from dataclasses import dataclass
 
+import logging
+
 import numpy as np
 
 from ..units import format_length
 from .graphic2d import Graphic2D
 
+log = logging.getLogger(__name__)
+
 MAX_PICTURE_REGIONS = 40  # more than this is not a tour; the largest are kept and the rest counted
 MIN_REGION_MM2 = 1.0  # a piece smaller than a fingertip's square millimetre is not a stop on the tour
 MIN_TOUCH_DEPTH_PX = 2.0  # a touch point lies this far inside its region's own part (outlines are simplified)
+MAX_OUTLINE_PARTS = 2000  # outlines (holes and specks too) the tour's regions draw in all, each simplified (~1.5 ms)
 NOUNS = {"members": "dome", "dots": "dot", "lines": "raised line", "areas": "raised area"}
 DRAW_ORDER = {"picture": 0, "areas": 1, "lines": 2, "members": 3, "dots": 3, "furniture": 4}
 
@@ -72,14 +77,38 @@ def _rect_path(x0, y0, x1, y1) -> str:
     return f"M{x0:.2f} {y0:.2f}H{x1:.2f}V{y1:.2f}H{x0:.2f}Z"
 
 
-def _contour_path(mask: np.ndarray, to_page) -> str:
-    """The outlines of a boolean mask (holes too; filled even-odd) as path data in page mm."""
-    from skimage.measure import approximate_polygon, find_contours
+def _contours(piece: "_Piece") -> list[np.ndarray]:
+    """The outlines of a piece (holes too) in picture pixels, through pixel edges: found on its own
+    box, not the whole picture (a picture of 40 regions at 1000² px spent 8 s on whole-picture masks)."""
+    from skimage.measure import find_contours
 
-    padded = np.pad(mask.astype(np.float32), 1)
+    (r0, _), (c0, _) = ((b.start, b.stop) for b in piece.box)
+    return [c + (r0 - 1.0, c0 - 1.0) for c in find_contours(np.pad(piece.mask.astype(np.float32), 1), 0.5)]
+
+
+def _outline_budget(counts: list[int], budget: int = MAX_OUTLINE_PARTS) -> int:
+    """The most outline parts each region keeps so that all of them keep at most `budget` in all
+    (the largest: a hole or speck of a region with thousands is smaller than a fingertip finds)."""
+    if sum(counts) <= budget:
+        return max(counts, default=0)
+    low, high = 1, max(counts)
+    while low < high:  # the largest cap whose total fits
+        mid = (low + high + 1) // 2
+        low, high = (mid, high) if sum(min(n, mid) for n in counts) <= budget else (low, mid - 1)
+    return low
+
+
+def _contour_path(contours: list[np.ndarray], to_page, keep: int) -> str:
+    """Path data in page mm of the `keep` largest outlines (filled even-odd), in the order found."""
+    from skimage.measure import approximate_polygon
+
+    if len(contours) > keep:
+        extent = [float(np.ptp(c[:, 0]) + 1) * float(np.ptp(c[:, 1]) + 1) for c in contours]
+        chosen = set(sorted(range(len(contours)), key=lambda i: -extent[i])[:keep])
+        contours = [c for i, c in enumerate(contours) if i in chosen]
     parts = []
-    for contour in find_contours(padded, 0.5):
-        contour = approximate_polygon(contour - 1.0, tolerance=0.25)
+    for contour in contours:
+        contour = approximate_polygon(contour, tolerance=0.25)
         if len(contour) < 3:
             continue
         points = [to_page(r + 0.5, c + 0.5) for r, c in contour]  # contours run through pixel centres
@@ -103,24 +132,22 @@ def _inner_point(mask: np.ndarray) -> tuple[tuple[int, int] | None, float]:
 class _Piece:
     kind: str
     label: str  # the layer's key label
-    mask: np.ndarray
+    mask: np.ndarray  # the piece within its box
     area_px: int
+    box: tuple[slice, slice]  # where `mask` lies in the picture: its bounding box
+
+    def where(self) -> tuple[np.ndarray, np.ndarray]:
+        """Rows and columns (in the picture) of the piece's pixels."""
+        ys, xs = np.nonzero(self.mask)
+        return ys + self.box[0].start, xs + self.box[1].start
 
 
-def _pieces(layers, shape) -> list[_Piece]:
-    """Every connected piece of every layer (members and areas by their labels, lines by 8-connectivity)."""
+def _layer_labels(layer, shape) -> np.ndarray:
+    """A layer's pieces as labels (members and areas by their labels, lines by 8-connectivity)."""
     from skimage.measure import label as cc_label
 
-    out = []
-    for layer in layers:
-        data = np.asarray(layer.data)[: shape[0], : shape[1]]
-        labels = cc_label(data.astype(bool), connectivity=2) if layer.kind == "lines" else data.astype(np.int64)
-        counts = np.bincount(labels.ravel())
-        for value in np.flatnonzero(counts):
-            if value == 0:
-                continue
-            out.append(_Piece(layer.kind, layer.label, labels == value, int(counts[value])))
-    return out
+    data = np.asarray(layer.data)[: shape[0], : shape[1]]
+    return cc_label(data.astype(bool), connectivity=2) if layer.kind == "lines" else data.astype(np.int64)
 
 
 def picture_regions(layers, shape: tuple[int, int], graphic: Graphic2D, *, um_per_px: float | None
@@ -139,7 +166,7 @@ def picture_regions(layers, shape: tuple[int, int], graphic: Graphic2D, *, um_pe
     pieces, left_out = _kept_pieces(layers, shape, (sx, sy))
     placed = []
     for piece in pieces:
-        ys, xs = np.nonzero(piece.mask)
+        ys, xs = piece.where()
         cy, cx = (ys.mean() + 0.5) / rows, (xs.mean() + 0.5) / cols
         band = min(2, int(cy * 3))
         placed.append((band, cx, cy, piece, ys, xs))
@@ -148,6 +175,10 @@ def picture_regions(layers, shape: tuple[int, int], graphic: Graphic2D, *, um_pe
     counts: dict[tuple[str, str], int] = {}
     for _, _, _, piece, _, _ in placed:
         counts[(piece.kind, piece.label)] = counts.get((piece.kind, piece.label), 0) + 1
+    outlines = [_contours(piece) for _, _, _, piece, _, _ in placed]
+    keep = _outline_budget([len(c) for c in outlines])
+    if any(len(c) > keep for c in outlines):
+        log.info("region outlines: %d parts in all; each region keeps its %d largest", sum(map(len, outlines)), keep)
     seen: dict[tuple[str, str], int] = {}
     regions = []
     for index, (_, cx, cy, piece, ys, xs) in enumerate(placed):
@@ -159,29 +190,50 @@ def picture_regions(layers, shape: tuple[int, int], graphic: Graphic2D, *, um_pe
         x1, y1 = to_page(ys.max() + 1, xs.max() + 1)
         regions.append(Region(
             f"r{index + 1}", piece.kind, label, _piece_description(piece, sx, sy, um_per_px, (x1 - x0, y1 - y0), where_words(cx, cy)),
-            _contour_path(piece.mask, to_page), to_page(r + 0.5, c + 0.5), (x0, y0, x1, y1)))
+            _contour_path(outlines[index], to_page, keep), to_page(r + 0.5, c + 0.5), (x0, y0, x1, y1)))
     ground, _ = _inner_point(~above)
     return regions, left_out, (to_page(ground[0] + 0.5, ground[1] + 0.5) if ground else None)
 
 
 def _kept_pieces(layers, shape: tuple[int, int], mm_per_px: tuple[float, float]) -> tuple[list[_Piece], int]:
     """The pieces large enough to be regions (a plateau counted without the domes on it), at most
-    MAX_PICTURE_REGIONS of them, the largest first when there are more; and how many were left out."""
-    pieces = _pieces(layers, shape)
+    MAX_PICTURE_REGIONS of them, the largest first when there are more; and how many were left out.
+
+    Priced before anything is built per piece: the pieces are counted and measured from their
+    labels (one pass over each layer), and only those kept get a mask, of their own box. (A
+    checkerboard's 1,250 squares each made a whole-picture mask first: 1.4 GB at 1000² px.)"""
+    from scipy.ndimage import find_objects
+
+    labelled = [(layer, _layer_labels(layer, shape)) for layer in layers]
     raised_by_others = np.zeros(shape, bool)
-    for p in pieces:
-        if p.kind != "areas":
-            raised_by_others |= p.mask
-    for p in pieces:  # a plateau holds the domes on it: its own part is what is left around them
-        if p.kind == "areas":
-            p.area_px = int((p.mask & ~raised_by_others).sum())
+    for layer, labels in labelled:
+        if layer.kind != "areas":
+            raised_by_others |= labels != 0
     sx, sy = mm_per_px
-    pieces = [p for p in pieces if p.area_px * sx * sy >= MIN_REGION_MM2]
+    found = []  # (layer index, value, area px) in the order the layers and their labels come
+    for i, (layer, labels) in enumerate(labelled):
+        counts = np.bincount(labels.ravel())
+        if layer.kind == "areas":  # a plateau holds the domes on it: its own part is what is left around them
+            own = np.bincount(labels[~raised_by_others].ravel(), minlength=len(counts))
+        for value in np.flatnonzero(counts):
+            if value == 0:
+                continue
+            area = int(own[value]) if layer.kind == "areas" else int(counts[value])
+            if area * sx * sy >= MIN_REGION_MM2:
+                found.append((i, int(value), area))
+    log.debug("tour regions: %d pieces counted, %d of at least %g mm²", sum(int(labels.max(initial=0)) for _, labels in labelled),
+              len(found), MIN_REGION_MM2)
     left_out = 0
-    if len(pieces) > MAX_PICTURE_REGIONS:
-        pieces.sort(key=lambda p: -p.area_px)
-        left_out = len(pieces) - MAX_PICTURE_REGIONS
-        pieces = pieces[:MAX_PICTURE_REGIONS]
+    if len(found) > MAX_PICTURE_REGIONS:
+        found.sort(key=lambda f: -f[2])
+        left_out = len(found) - MAX_PICTURE_REGIONS
+        found = found[:MAX_PICTURE_REGIONS]
+    boxes = {i: find_objects(labels) for i, (_, labels) in enumerate(labelled) if any(f[0] == i for f in found)}
+    pieces = []
+    for i, value, area in found:
+        layer, labels = labelled[i]
+        box = boxes[i][value - 1]
+        pieces.append(_Piece(layer.kind, layer.label, labels[box] == value, area, box))
     return pieces, left_out
 
 
@@ -192,13 +244,13 @@ def _touch_points(placed: list, shape: tuple[int, int]) -> tuple[list, dict, np.
     touch_of = {}
     for index in sorted(range(len(placed)), key=lambda i: -DRAW_ORDER.get(placed[i][3].kind, 2)):
         piece = placed[index][3]
-        point, depth = _inner_point(piece.mask & ~above)
+        point, depth = _inner_point(piece.mask & ~above[piece.box])
         if depth < MIN_TOUCH_DEPTH_PX:
             if piece.kind == "areas":  # a thin rim around the domes on it: felt as the domes, not a stop of its own
                 continue
             point, depth = _inner_point(piece.mask)
-        touch_of[index] = point
-        above |= piece.mask
+        touch_of[index] = (point[0] + piece.box[0].start, point[1] + piece.box[1].start)
+        above[piece.box] |= piece.mask
     kept = [p for i, p in enumerate(placed) if i in touch_of]
     return kept, {new: touch_of[old] for new, old in enumerate(sorted(touch_of))}, above
 

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from .model import LUMA_601, Limits, imagej_info_channels
-from .vendor import Request, detect, read_planes
+from .vendor import Channel, Request, detect, read_planes
 
 
 @dataclass(frozen=True)
@@ -29,7 +29,7 @@ class ChannelPlane:
 
 
 def read_channels(path, *, scene: int | str | None = None, time: int | None = None, z_slice: int | None = None,
-                  max_megapixels: float = 400.0, max_decoded_gb: float = 2.0) -> list[ChannelPlane]:
+                  max_megapixels: float = 400.0, max_decoded_gb: float = 2.0, pick=None) -> list[ChannelPlane]:
     """Every channel of one plane of a microscope file, with names and wavelengths.
 
     The plane is the first scene and time point and the maximum-intensity projection over Z,
@@ -37,6 +37,10 @@ def read_channels(path, *, scene: int | str | None = None, time: int | None = No
     `max_decoded_gb` before any pixel is decoded. Files that read.py reads itself (TIFF, DM,
     PNG…) give one ChannelPlane per OME/ImageJ channel, or per colour (red, green, blue) of an
     RGB image, or a single "luminance" plane.
+
+    pick : a function of the file's channels (a list of vendor.model.Channel: name, wavelengths)
+    that returns the indices to read; only those are priced and read (a file of 100 channels need
+    not be read whole to print three). None reads every channel. Colours are always all read.
 
     Returns a list of ChannelPlane in the file's channel order. Raises InputError or
     ParameterError in plain words, as read_image does.
@@ -47,7 +51,7 @@ def read_channels(path, *, scene: int | str | None = None, time: int | None = No
     limits = Limits(max_megapixels, max_decoded_gb)
     kind = detect(path) if path.exists() else None
     if kind:
-        planes = read_planes(path, kind, Request(scene, time, z_slice), limits=limits, all_channels=True)
+        planes = read_planes(path, kind, Request(scene, time, z_slice), limits=limits, all_channels=True, pick=pick)
         channels = planes.stack.channel_list()
         return [ChannelPlane(channels[c].name, channels[c].wavelength_nm, _grey(a), channels[c].excitation_nm, channels[c].emission_nm)
                 for a, c in zip(planes.chosen.arrays, planes.chosen.channels)]
@@ -62,8 +66,12 @@ def read_channels(path, *, scene: int | str | None = None, time: int | None = No
             ex, em = waves[i] if i < len(waves) else (None, None)
             return ChannelPlane(names[i] if i < len(names) else f"channel {i}", em or ex, values, ex, em)
 
-        out = [plane(0, first.values)]
-        for i in range(1, count):
+        wanted = range(count)
+        if pick is not None:
+            listed = [plane(i, None) for i in range(count)]
+            wanted = sorted({int(i) for i in pick([Channel(p.name, p.excitation_nm, p.emission_nm) for p in listed]) if 0 <= int(i) < count})
+        out = [plane(0, first.values)] if 0 in wanted else []
+        for i in (i for i in wanted if i > 0):
             p = read_image(path, page=scene, z_slice=z_slice, channel=str(i), max_megapixels=max_megapixels, max_decoded_gb=max_decoded_gb)
             out.append(plane(i, p.values))
         return out

@@ -20,6 +20,9 @@ from ..errors import InputError
 # with the real process peak (ru_maxrss) on 16 and 36 Mpx grey and RGB PNGs: 26–29 bytes per
 # pixel above the decoded pixels. Rounded up so the estimate errs on the safe side.
 WORKING_BYTES_PER_PX = 32
+# The reader's own objects (parsed pages and tags, Python objects): measured under 1 MB for a
+# one-page TIFF whose tile alone costs 1.6 GB; priced so the estimate covers the whole read.
+READER_BYTES = 4e6
 MAX_MEMORY_GB = 4.0  # default: the whole conversion's estimated peak
 
 
@@ -58,11 +61,16 @@ def check_memory(path, size_words: str, cost: Cost, *, max_memory_gb: float) -> 
 
 def tiff_chunk_bytes(page) -> float:
     """Bytes of the tiles (or strips) tifffile decodes at once for `page`: one chunk as declared
-    (not clipped to the image) per decoding thread."""
+    (not clipped to the image), and the largest compressed chunk it reads to decode it, per
+    decoding thread."""
     chunks = getattr(page, "chunks", None)
     if not chunks:
         return 0.0
-    one = math.prod(int(n) for n in chunks) * page.dtype.itemsize
+    try:
+        compressed = max((int(n) for n in page.databytecounts), default=0) if int(page.compression) != 1 else 0
+    except Exception:  # a broken byte-count tag: tifffile reports it when it reads
+        compressed = 0
+    one = math.prod(int(n) for n in chunks) * page.dtype.itemsize + compressed
     try:
         count = math.prod(int(n) for n in page.chunked)
     except Exception:  # a broken strip count: at least one chunk is decoded
@@ -175,25 +183,75 @@ def tiff_jpeg_bytes(path, page) -> float:
     return largest
 
 
-def chunk_bytes(shape, chunks, itemsize: int) -> float:
-    """Bytes of the chunks (HDF5, Zarr) decoded at once: one chunk as declared, not clipped to the
-    array (a decoder allocates it whole, even when it is far larger than the array), once per
-    thread that may decode one at the same time (at most one per chunk)."""
+# Copies of one chunk a decoder holds at its peak, measured (VmHWM above the process before the read)
+# on a 64×64 array stored in one 10000² chunk of zeros: zarr 1.9× the decoded chunk (numcodecs' decoded
+# buffer, then the array it is copied into), HDF5 0.95× (the deflate filter's output buffer, from which
+# the selection is copied). Each also holds the compressed chunk it read, up to the decoded size for
+# data that does not compress: one copy more. The price is the decoded chunk times these.
+ZARR_CHUNK_COPIES = 3
+HDF5_CHUNK_COPIES = 2
+# A chunk may be larger than its array (a pyramid's small levels keep the writer's chunk size; h5py
+# may round a chunk up), but a chunk far larger than the data it holds is never needed: past both of
+# these, its bytes are a decompression bomb's, whatever the cap.
+CHUNK_PAST_DATA_RATIO = 8.0
+CHUNK_PAST_DATA_FREE_BYTES = 64e6
+
+
+def chunk_bytes(shape, chunks, itemsize: int, *, copies: int = 1) -> float:
+    """Bytes a decoder holds for the chunks (HDF5, Zarr) decoded at once: one chunk as declared, not
+    clipped to the array (a decoder allocates it whole, even when it is far larger than the array),
+    times the `copies` of it the decoder holds, once per thread that may decode one at the same time
+    (at most one per chunk)."""
     if not chunks:
         return 0.0
     one = math.prod(float(n) for n in chunks) * itemsize
     count = math.prod(max(1, math.ceil(int(s) / max(1, int(c)))) for s, c in zip(shape, chunks)) if shape else 1
-    return one * max(1, min(count, os.cpu_count() or 1))
+    return one * copies * max(1, min(count, os.cpu_count() or 1))
 
 
-def check_chunk(path, what: str, shape, *, chunks, n_bytes: float, max_decoded_gb: float, todo: str, whole: str = "file") -> None:
-    """Refuse, before decoding, a store whose chunks decode to more than `max_decoded_gb` at once."""
-    if n_bytes > max_decoded_gb * 1e9:
+def chunk_data_bytes(shape, chunks, itemsize: int) -> float:
+    """Bytes of data one chunk can hold: the chunk clipped to the array along each axis."""
+    return math.prod(float(min(int(c), max(int(s), 1))) for s, c in zip(shape, chunks)) * itemsize
+
+
+def chunk_past_data(shape, chunks, itemsize: int) -> bool:
+    """Whether one chunk is far larger than the data it can hold (check_chunk_fits refuses it)."""
+    if not chunks or len(chunks) != len(shape):
+        return False
+    one = math.prod(float(n) for n in chunks) * itemsize
+    return one > CHUNK_PAST_DATA_FREE_BYTES and one > CHUNK_PAST_DATA_RATIO * chunk_data_bytes(shape, chunks, itemsize)
+
+
+def check_chunk_fits(path, what: str, shape, *, chunks, itemsize: int, todo: str, whole: str = "file") -> None:
+    """Refuse, before decoding, a chunk far larger than the array it holds (a 64×64 image in one
+    40000×40000 chunk): it costs its whole size to decode, under the cap or not, for data a chunk
+    the array's size would hold."""
+    if chunk_past_data(shape, chunks, itemsize):
+        one, data = math.prod(float(n) for n in chunks) * itemsize, chunk_data_bytes(shape, chunks, itemsize)
         dims = "×".join(str(int(n)) for n in shape) or "scalar"
         raise InputError(
-            f"{path}: {what} is stored in chunks of {'×'.join(str(int(n)) for n in chunks)} values that decode to "
-            f"{n_bytes / 1e9:.1f} GB (a decoder allocates a whole chunk, whatever the {dims} size of the data); that exceeds the "
-            f"limit of {max_decoded_gb:g} GB that guards against decompression bombs. The {whole} is malformed or hostile; {todo}.",
+            f"{path}: {what} is a {dims} array stored in chunks of {'×'.join(str(int(n)) for n in chunks)} values: "
+            f"each decodes to {_gb(one)} for {_gb(data)} of data ({one / max(data, 1.0):,.0f} times as much; a chunk larger "
+            f"than its array is never needed, and a decoder allocates all of it). The {whole} is malformed or hostile; {todo}."
+        )
+
+
+def _gb(n_bytes: float) -> str:
+    return f"{n_bytes / 1e9:.2g} GB" if n_bytes >= 1e8 else f"{n_bytes / 1e6:.2g} MB" if n_bytes >= 1e5 else f"{n_bytes:,.0f} bytes"
+
+
+def check_chunk(path, what: str, shape, *, chunks, itemsize: int, n_bytes: float, max_decoded_gb: float, todo: str,
+                whole: str = "file") -> None:
+    """Refuse, before decoding, a store whose chunks cost more than `max_decoded_gb` to decode at once
+    (`n_bytes`: chunk_bytes, the copies the decoder holds and its threads included)."""
+    if n_bytes > max_decoded_gb * 1e9:
+        dims = "×".join(str(int(n)) for n in shape) or "scalar"
+        one = math.prod(float(n) for n in chunks) * itemsize
+        raise InputError(
+            f"{path}: {what} is stored in chunks of {'×'.join(str(int(n)) for n in chunks)} values, {_gb(one)} each decoded; "
+            f"decoding them holds {_gb(n_bytes)} (a decoder allocates a whole chunk, whatever the {dims} size of the data, and "
+            f"keeps copies of it), above the limit of {max_decoded_gb:g} GB that guards against decompression bombs. The {whole} "
+            f"is malformed or hostile; {todo}.",
             hint="The limit is `max_decoded_gb`; raise it only for a file you trust.",
         )
 

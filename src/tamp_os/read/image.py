@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import Decision, InputError, MissingDependencyError, ParameterError
-from .cost import (MAX_MEMORY_GB, Cost, check_memory, pillow_copies_bytes, tiff_chunk_bytes, tiff_jpeg_bytes,
+from .cost import (MAX_MEMORY_GB, READER_BYTES, Cost, check_memory, pillow_copies_bytes, tiff_chunk_bytes, tiff_jpeg_bytes,
                         working_bytes)
 from .model import (DEFAULT_TARGET_PX, Decoded, Limits, Picture, Plane, alpha_scale, channel_choice, check_bytes, check_size,
                     file_channel_names, sha256_of, to_picture)
@@ -217,6 +217,7 @@ def _check_cost(path, plane_hw, shape, dtype, limits: Limits, chunk_bytes: float
     cost.add("tiles being decoded", chunk_bytes)
     cost.add("converted copies", copies_bytes)
     cost.add("float32 working arrays", working_bytes(*plane_hw))
+    cost.add("the reader's own objects", READER_BYTES)
     check_memory(path, f"{int(plane_hw[1])}×{int(plane_hw[0])} image", cost, max_memory_gb=limits.max_memory_gb)
 
 

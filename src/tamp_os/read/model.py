@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import Decision, InputError, ParameterError, Text
-from .cost import MAX_MEMORY_GB
+from .cost import CHUNK_PAST_DATA_FREE_BYTES, CHUNK_PAST_DATA_RATIO, MAX_MEMORY_GB
 
 
 LUMA_601 = np.array([0.299, 0.587, 0.114], dtype=np.float32)
@@ -152,11 +152,16 @@ def check_bytes(path, shape, dtype, *, limits: Limits, what: str = "image", chun
     itemsize = np.dtype(dtype).itemsize
     total = int(np.prod([int(n) for n in shape], dtype=np.float64)) * itemsize
     if chunk_bytes > total:  # a tile larger than the image: the decoder allocates the whole tile
-        if chunk_bytes > limits.max_decoded_gb * 1e9:
+        # far larger than the image, it is refused under the cap too: a tile the image's size holds it all
+        past = chunk_bytes > CHUNK_PAST_DATA_FREE_BYTES and chunk_bytes > CHUNK_PAST_DATA_RATIO * total
+        if past or chunk_bytes > limits.max_decoded_gb * 1e9:
+            limit = (f"{chunk_bytes / max(total, 1):,.0f} times the image's own bytes, and a tile larger than its image is never "
+                     f"needed" if past else f"that exceeds the limit of {limits.max_decoded_gb:g} GB that guards against "
+                     f"decompression bombs")
             raise InputError(
                 f"{path}: this {what} is stored in tiles (or strips) that decode to {chunk_bytes / 1e9:.1f} GB, far larger than "
-                f"its {'×'.join(str(int(n)) for n in shape)} pixels; that exceeds the limit of {limits.max_decoded_gb:g} GB that "
-                f"guards against decompression bombs. The file is malformed or hostile; re-export it from the microscope software."
+                f"its {'×'.join(str(int(n)) for n in shape)} pixels; {limit}. The file is malformed or hostile; re-export it from "
+                f"the microscope software."
             )
     if total > limits.max_decoded_gb * 1e9:
         dims = "×".join(str(int(n)) for n in shape)

@@ -28,6 +28,8 @@ from .channels import (
     is_fluorescence_composite,
     is_stained_brightfield,
     parse_assignments,
+    signal_role,
+    some_names,
     stain_channels,
     stain_relief,
 )
@@ -61,13 +63,47 @@ def channel_name(name, index: int) -> str:
     return text or f"channel {index}"
 
 
-def raw_channels(source, params) -> list:
-    """[(name, values, excitation_nm, emission_nm)] of the source, or an RGB array to deconvolve."""
+# The channel print keeps DEFAULT_MAX_CHANNELS (3) textures, chosen by measuring each channel on the
+# print grid (its read, its annotations, its trip to the grid and its shape measures: 0.2-0.6 s a
+# channel at the default grid, 4x that at High), so a file of 100 channels took 45 s. At most this
+# many are read and measured (twice the 2-4 channels of a usual fluorescence file); a note says which.
+MAX_CHANNELS_MEASURED = 8
+
+
+@dataclass
+class ChannelPick:
+    """Which of a file's channels the channel print reads (read_channels' `pick`): every one up to
+    MAX_CHANNELS_MEASURED; past that, those `channels` assigns, else those whose name says what
+    they label (a dye: relief/channels.py signal_role) or whose file records a wavelength, then
+    the first in the file's order. Remembers how many the file has."""
+
+    assigned: dict
+    total: int = 0
+
+    def __call__(self, channels) -> list[int]:
+        self.total = len(channels)
+        if self.total <= MAX_CHANNELS_MEASURED:
+            return list(range(self.total))
+        names = [channel_name(c.name, i) for i, c in enumerate(channels)]
+        if self.assigned:
+            unknown = sorted(set(self.assigned) - {n.lower() for n in names})
+            if unknown:
+                raise ParameterError(Text(f"`channels`: no channel named {some_names(unknown)} in this picture; its channels "
+                                          f"are {some_names(names)}."))
+            return [i for i, n in enumerate(names) if n.lower() in self.assigned]
+        known = [i for i, c in enumerate(channels) if signal_role(names[i]) or c.wavelength_nm is not None]
+        rest = [i for i in range(self.total) if i not in set(known)]
+        return sorted((known + rest)[:MAX_CHANNELS_MEASURED])
+
+
+def raw_channels(source, params, *, pick: ChannelPick | None = None) -> list:
+    """[(name, values, excitation_nm, emission_nm)] of the source, or an RGB array to deconvolve;
+    of a file, the channels `pick` picks (all without one)."""
     if isinstance(source, (str, Path)):
         from ..read.channels import read_channels
 
         planes = read_channels(source, scene=params.scene, time=params.time, z_slice=params.z_slice,
-                               max_megapixels=params.max_megapixels, max_decoded_gb=params.max_decoded_gb)
+                               max_megapixels=params.max_megapixels, max_decoded_gb=params.max_decoded_gb, pick=pick)
         return [(channel_name(p.name, i), p.values, p.excitation_nm, p.emission_nm) for i, p in enumerate(planes)]
     arr = np.asarray(source)
     if arr.ndim == 3 and arr.shape[2] in (3, 4):
@@ -181,10 +217,16 @@ def _as_cleaned(raw: list, cleaned) -> tuple[list, list]:
 
 def run(source, layout, params, *, route=None, cleaned=None, title: str = "") -> ChannelStage | None:
     """The channel relief, or None when the picture has a single plain channel (the usual path then)."""
-    raw, cleaning_notes = _as_cleaned(raw_channels(source, params), cleaned)
+    assigned = parse_assignments(params.channels) if route is None or route.kind == "assigned" else {}
+    pick = ChannelPick(assigned)
+    raw, cleaning_notes = _as_cleaned(raw_channels(source, params, pick=pick), cleaned)
+    if pick.total > len(raw) and not assigned:
+        cleaning_notes.insert(0, Decision(
+            f"The picture has {pick.total} channels; {len(raw)} were read and measured ({some_names([r[0] for r in raw])}: those "
+            f"whose name or wavelength says what they show, then the first in the file's order), the other "
+            f"{pick.total - len(raw)} not (measuring each takes its time)."))
     names = [r[0] for r in raw]
     rgb = names[:3] == ["red", "green", "blue"]
-    assigned = parse_assignments(params.channels) if route is None or route.kind == "assigned" else {}
     labels = _labels(params.key_labels)
     mm = layout.mm_per_px
     if rgb:
@@ -227,6 +269,7 @@ def run(source, layout, params, *, route=None, cleaned=None, title: str = "") ->
     if len(chans) < 2 and not assigned:
         return None  # one channel with signal: nothing for a key to tell apart
     rel = channel_relief(chans, mm_per_px=mm, base_mm=params.base_mm, relief_mm=params.relief_mm, assigned=assigned,
+                         channels_in_file=max(pick.total, len(chans)),
                          section=route.section if route is not None else "",
                          title=" ".join(t for t in (Path(source).stem if isinstance(source, (str, Path)) else "", title) if t))
     rel.notes[:0] = cleaning_notes

@@ -448,7 +448,7 @@ def some_names(names: list[str], most: int = 5) -> str:
 def choose(channels: list[ChannelImage], assigned: dict[str, str], mm_per_px: float,
            *, max_channels: int = DEFAULT_MAX_CHANNELS,
            masks: dict[str, np.ndarray] | None = None, stretch: float = 1.0,
-           title: str = "") -> tuple[list[ChannelChoice], list[str]]:
+           title: str = "", channels_in_file: int = 0) -> tuple[list[ChannelChoice], list[str]]:
     """An encoding for each channel kept; a note when some are left out. `title`: the file's name,
     whose marker words may name the one channel nothing else names (marker_in_title). `masks`: each channel's
     foreground() by name, when already found. `stretch` > 1: an axial section, its shapes measured
@@ -472,7 +472,9 @@ def choose(channels: list[ChannelImage], assigned: dict[str, str], mm_per_px: fl
         kept = sorted(channels, key=lambda c: -shapes[c.name].structure)[:max_channels]
         dropped = [c.name for c in channels if c not in kept]
         kept = [c for c in channels if c in kept]
-        notes.append(Decision(f"The picture has {len(channels)} channels; the {max_channels} with most structure are printed "
+        had = (f"Of the {len(channels)} channels measured, the" if channels_in_file > len(channels)
+               else f"The picture has {len(channels)} channels; the")
+        notes.append(Decision(f"{had} {max_channels} with most structure are printed "
                           f"({', '.join(c.name for c in kept)}); left out: {some_names(dropped)}."
                           f"⟦ Choose others with `channels`.⟧"))
     out = _first_choices(channels, kept, shapes, title)
@@ -580,14 +582,15 @@ def encode(img: np.ndarray, encoding: str, mm_per_px: float, *, relief_mm: float
 
 def channel_relief(channels: list[ChannelImage], *, mm_per_px: float, base_mm: float, relief_mm: float,
                    assigned: dict[str, str] | None = None, max_channels: int = DEFAULT_MAX_CHANNELS,
-                   section: str = "", title: str = "") -> ChannelRelief:
+                   section: str = "", title: str = "", channels_in_file: int = 0) -> ChannelRelief:
     """Heights in mm (base included) where each chosen channel's region carries its texture.
 
     `section` "XZ" (or "YZ"): the picture is an axial section, its rows along Z; shapes are
     measured with the Z stretch its points share undone (axial_stretch), and a note says so.
 
     Where regions overlap the higher layer wins (domes over dots over ridges over plateau), so
-    nuclei are never hidden by cytoplasm.
+    nuclei are never hidden by cytoplasm. `channels_in_file`: how many the file has, when only
+    some of them are given (channel_stage.MAX_CHANNELS_MEASURED), for the notes.
     """
     if relief_mm * min(TOP_SHARE.values()) < MIN_FEATURE_MM and relief_mm < 1.7:
         raise ParameterError(Text(f"`relief_mm` {relief_mm:g} mm is too low for channel textures (each needs "
@@ -608,7 +611,8 @@ def channel_relief(channels: list[ChannelImage], *, mm_per_px: float, base_mm: f
         notes.append(Decision(said))
     if stretch < AXIAL_STRETCH_MIN:
         stretch = 1.0
-    choices, chose_notes = choose(channels, assigned or {}, mm_per_px, max_channels=max_channels, masks=found, stretch=stretch, title=title)
+    choices, chose_notes = choose(channels, assigned or {}, mm_per_px, max_channels=max_channels, masks=found, stretch=stretch, title=title,
+                                  channels_in_file=channels_in_file)
     for ch in choices:
         if ch.why == "file name":
             chose_notes.append(Decision(f"The channel {ch.name!r} names no marker of its own; the file's name does "

@@ -113,15 +113,16 @@ def _axes(s: Stack) -> dict[str, int]:
     return axes
 
 
-def read_planes(path: Path, kind: str, request: Request, *, limits, all_channels: bool = False,
+def read_planes(path: Path, kind: str, request: Request, *, limits, all_channels: bool = False, pick=None,
                 target_px: int = DEFAULT_TARGET_PX) -> VendorPlanes:
-    """Open, price and read the planes `request` asks for; every failure is one clear InputError."""
+    """Open, price and read the planes `request` asks for (with `all_channels`, every channel's, or
+    those `pick` picks: plan.choose); every failure is one clear InputError."""
     stack = None
     try:
         with warnings.catch_warnings(record=True) as caught:  # library warnings become log lines, not failures
             warnings.simplefilter("always")
             stack = open_stack(path, kind, request.scene, limits=limits, target_px=target_px)
-            chosen = choose(path, stack, request, limits=limits, all_channels=all_channels)
+            chosen = choose(path, stack, request, limits=limits, all_channels=all_channels, pick=pick)
         for w in caught:
             log.debug("%s: %s", path, w.message)
     except (InputError, ParameterError, MissingDependencyError):

@@ -11,8 +11,9 @@ and price what it will decode before decoding it:
   file, and HDF5 opens it when the data is read, whoever reads it (rosettasciio included).
   Soft links are allowed and not followed: a soft link holds a path inside the same file, and it
   can only lead out through an external link, which the walk finds and refuses wherever it sits.
-  Every dataset's chunk is priced against `max_decoded_gb`: a decoder allocates a whole chunk,
-  and a 64×64 dataset may declare one chunk of 60000×60000. Datasets other than the payloads
+  Every dataset's chunk is priced against `max_decoded_gb`: a decoder allocates a whole chunk
+  (and holds the compressed chunk beside it: HDF5_CHUNK_COPIES), and a 64×64 dataset may declare
+  one chunk of 60000×60000; a chunk far larger than its dataset is refused whatever the cap. Datasets other than the payloads
   (named Data/data: rosettasciio opens the images lazily and plan.py prices the planes read) are
   priced whole: rosettasciio reads metadata arrays eagerly, and a dataset never written costs no
   bytes in the file however large it is declared (h5py returns its fill value).
@@ -28,7 +29,7 @@ import os
 from pathlib import Path
 
 from ...errors import InputError
-from ..cost import check_chunk, check_declared, chunk_bytes
+from ..cost import HDF5_CHUNK_COPIES, check_chunk, check_chunk_fits, check_declared, chunk_bytes, chunk_past_data
 from .errors import KINDS
 
 PAYLOADS = ("Data", "data")  # the image (and spectrum) arrays of Velox and HyperSpy files
@@ -77,9 +78,9 @@ def check_hdf5(path, kind: str, limits) -> None:
                     found.append(("declared", name, (obj.shape, obj.dtype.itemsize, declared)))
                     return True
                 if obj.chunks:
-                    chunk = chunk_bytes(obj.shape, obj.chunks, obj.dtype.itemsize)
-                    if chunk > limits.max_decoded_gb * 1e9:
-                        found.append(("chunk", name, (obj.shape, obj.chunks, chunk)))
+                    chunk = chunk_bytes(obj.shape, obj.chunks, obj.dtype.itemsize, copies=HDF5_CHUNK_COPIES)
+                    if chunk > limits.max_decoded_gb * 1e9 or chunk_past_data(obj.shape, obj.chunks, obj.dtype.itemsize):
+                        found.append(("chunk", name, (obj.shape, obj.chunks, obj.dtype.itemsize, chunk)))
                         return True
             return None
 
@@ -96,8 +97,11 @@ def check_hdf5(path, kind: str, limits) -> None:
             dims = "×".join(str(int(n)) for n in shape)
             check_declared(path, label, f"a dataset {name} of {dims} values of {itemsize} byte{'s' if itemsize != 1 else ''}", declared_bytes=declared, file_bytes=math.inf,
                            max_decoded_gb=limits.max_decoded_gb, todo=KINDS[kind][1])
-        shape, chunks, chunk = facts
-        check_chunk(path, f"{label} whose dataset {name}", shape, chunks=chunks, n_bytes=chunk, max_decoded_gb=limits.max_decoded_gb, todo=KINDS[kind][1])
+        shape, chunks, itemsize, chunk = facts
+        where = f"{label} whose dataset {name}"
+        check_chunk_fits(path, where, shape, chunks=chunks, itemsize=itemsize, todo=KINDS[kind][1])
+        check_chunk(path, where, shape, chunks=chunks, itemsize=itemsize, n_bytes=chunk, max_decoded_gb=limits.max_decoded_gb,
+                    todo=KINDS[kind][1])
 
 
 def check_array_paths(path: Path, kind: str, array_paths) -> None:

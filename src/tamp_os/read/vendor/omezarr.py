@@ -54,12 +54,7 @@ def open_omezarr(path, scene: int | None, target_px: int = 2048, *, limits=None)
     level = min(wide, key=lambda i: arrays[i].shape[xi]) if wide else 0
     array = arrays[level]
     if limits is not None:  # the level read is decoded chunk by chunk, each chunk whole
-        from ..cost import check_chunk, chunk_bytes
-        from .errors import KINDS
-
-        chunks = tuple(array.chunks)
-        check_chunk(path, f"{KINDS[KIND][0]} whose array {datasets[level]['path']!r}", array.shape, chunks=chunks,
-                    n_bytes=chunk_bytes(array.shape, chunks, np.dtype(array.dtype).itemsize), max_decoded_gb=limits.max_decoded_gb, todo=KINDS[KIND][1], whole="folder")
+        _check_chunks(path, array, datasets[level]["path"], limits)
     scale = _scale(ms, datasets[level], len(axes))
     fx, fy = unit_factor_m(units[xi] or ""), unit_factor_m(units[yi] or "")
     pixel = (scale[xi] * fx, scale[yi] * (fy or fx)) if fx and scale[xi] > 0 else None
@@ -82,6 +77,20 @@ def open_omezarr(path, scene: int | None, target_px: int = 2048, *, limits=None)
         z_step_m=scale[zi] * fz if fz and zi is not None and sizes.get("Z", 1) > 1 else None,
         z_key=f"multiscales[0].datasets[{level}] scale (z)", metadata={"ome_zarr_axes": "".join(axes), "ome_zarr_level": level}, notes=notes,
     )
+
+
+def _check_chunks(path, array, name: str, limits) -> None:
+    """Refuse the array's chunks, from its metadata: one far larger than the array, or chunks that
+    cost more than the cap to decode (numcodecs holds three copies of each: ZARR_CHUNK_COPIES)."""
+    from ..cost import ZARR_CHUNK_COPIES, check_chunk, check_chunk_fits, chunk_bytes
+    from .errors import KINDS
+
+    what, todo = KINDS[KIND]
+    chunks, itemsize = tuple(array.chunks), np.dtype(array.dtype).itemsize
+    label = f"{what} whose array {name!r}"
+    check_chunk_fits(path, label, array.shape, chunks=chunks, itemsize=itemsize, todo=todo, whole="folder")
+    check_chunk(path, label, array.shape, chunks=chunks, itemsize=itemsize, max_decoded_gb=limits.max_decoded_gb, todo=todo,
+                whole="folder", n_bytes=chunk_bytes(array.shape, chunks, itemsize, copies=ZARR_CHUNK_COPIES))
 
 
 def _scale(ms: dict, dataset: dict, n: int) -> list[float]:

@@ -100,8 +100,11 @@ def _folded(name: str) -> str:
     return "".join(name.casefold().replace("lambda", "λ").split())
 
 
-def choose(path, stack: Stack, request: Request, *, limits, all_channels: bool = False) -> Chosen:
-    """Read the planes `request` asks for, after pricing them with the decoded-size guard."""
+def choose(path, stack: Stack, request: Request, *, limits, all_channels: bool = False, pick=None) -> Chosen:
+    """Read the planes `request` asks for, after pricing them with the decoded-size guard.
+
+    all_channels : every channel's plane, or with `pick` (a function of the stack's channel list
+    that returns channel indices) the channels it picks: only those are priced and read."""
     from ..model import check_bytes, check_size
 
     notes: list[str] = []
@@ -112,7 +115,7 @@ def choose(path, stack: Stack, request: Request, *, limits, all_channels: bool =
         notes.append(Decision(f"time series of {nt} time points{step}: using the first⟦ (choose another with `time`)⟧."))
     peak = False
     if all_channels:
-        channels = list(range(nc))
+        channels = list(range(nc)) if pick is None else sorted({int(i) for i in pick(stack.channel_list()) if 0 <= int(i) < nc})
     else:
         index = channel_index(path, stack, request.channel)
         # A wavelength sweep prints its emission peak by default: a finger reads one picture, not a

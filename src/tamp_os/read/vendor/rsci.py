@@ -3,14 +3,14 @@ Berkeley EMD, JEOL Analysis Station (.img/.map), Phenom ELID and HyperSpy .hspy.
 
 Why RosettaSciIO: it is the field's reference reader for these formats (HyperSpy's I/O), already
 installed for DM3/DM4 (the `dm` extra), and opens all of them lazily except Phenom ELID (a small
-bzip2 project file whose decompressed size is counted before it is decoded). Only images are used:
+bzip2 project file, read by rosettasciio's reader with its reads bounded and priced: read_elid). Only images are used:
 items whose two axes are x and y; spectra, line scans and maps with an energy axis are skipped.
 A further axis (frames of a series) is offered as time points.
 """
 
 from __future__ import annotations
 
-import bz2
+import functools
 import logging
 import os
 
@@ -18,6 +18,7 @@ import numpy as np
 
 from ...errors import InputError, Text
 from ...units import unit_factor_m
+from ..cost import READER_BYTES
 from .model import Channel, Stack
 
 log = logging.getLogger(__name__)
@@ -41,71 +42,171 @@ def _reader(kind: str):
 
 
 PIECE_BYTES = 1 << 20  # decompressed at most this much at a time: memory stays flat whatever the stream's ratio
+INPUT_BYTES = 1 << 16  # compressed bytes fed to the decompressor at a time
+# rosettasciio reads a project value by value (a spectrum channel is one read of one to five bytes),
+# and keeps most as Python objects: each read is priced at READ_BYTES of memory (a list of int32
+# values: a pointer and an int object each; a map's values go into uint32 arrays, 4 bytes), held
+# against `max_memory_gb`, and the reads are counted, MAX_READS at most (about 30 s of its reading
+# at 1 µs a value: a 128×96 EDS map of 2048 channels holds 25 million; the real project of tests/ 1.7).
+READ_BYTES = 40
+MAX_READS = 30_000_000
+LARGE_READ_BYTES = 1 << 16  # a record read whole (an embedded TIFF, a string): its bytes and their join are held
+BZ2_STATE_BYTES = 3.7e6  # the decompressor's own tables for 900 kB blocks (bzip2's manual: 100 kB + 4 × block size)
 
 
-def elid_decoded_bytes(path, cap_bytes: float) -> int:
-    """Bytes the ELID's bzip2 stream holds once decompressed, counted in pieces of at most
-    PIECE_BYTES (a bzip2 stream expands up to ~45 million times: 64 kB in may be GBs out), stopping
-    as soon as the count passes `cap_bytes`. Nothing decompressed is kept."""
-    return sum(len(piece) for piece in elid_pieces(path, cap_bytes))
+TIFF_HEADS = (b"II*\x00", b"MM\x00*", b"II+\x00", b"MM\x00+")  # classic and BigTIFF, either byte order
 
 
-def elid_pieces(path, cap_bytes: float):
-    """The decompressed pieces (each at most PIECE_BYTES) of the ELID's first bzip2 stream, the one
-    rosettasciio reads (a second stream appended after it is never read by either), until past `cap_bytes`."""
-    total, decomp = 0, bz2.BZ2Decompressor()
-    with open(path, "rb") as fh:
-        while not decomp.eof and total <= cap_bytes:
-            if decomp.needs_input:
-                chunk = fh.read(1 << 16)
-                if not chunk:
-                    raise EOFError("the compressed stream ends early")
-            else:
-                chunk = b""  # the decompressor still holds input: drain it, one bounded piece at a time
-            piece = decomp.decompress(chunk, max_length=PIECE_BYTES)
-            total += len(piece)
-            yield piece
+class ElidRefused(Exception):
+    """Raised inside the bounded reader; open_rsciio turns it into one InputError line."""
 
 
-def check_elid(path, limits) -> None:
-    """Refuse an ELID project whose bzip2 stream decompresses to more than `max_decoded_gb`
-    (rosettasciio decompresses it whole); counted in bounded pieces, stopping past the cap."""
-    import math
+def read_elid(path, limits) -> list:
+    """rosettasciio's ELID reader, made to read only what the project declares, in bounded pieces,
+    priced as it goes: a record (an embedded TIFF) declaring more than the cap is refused before a
+    byte of it is decompressed, each embedded TIFF is priced from its header before tifffile decodes
+    it (records and pixels against `max_decoded_gb`), and past what the values read would hold in
+    memory (`max_memory_gb`) or MAX_READS values the reading stops. A bzip2 bomb whose header declares
+    no image costs the 20 bytes its header takes; bytes past the declared layout are never decompressed
+    (nor a second stream appended after the first, which rosettasciio never reads either)."""
+    reader = bounded_reader_class()
+    try:
+        return reader(str(path), limits.max_decoded_gb * 1e9, limits.max_memory_gb * 1e9).dictionaries
+    except ElidRefused as refused:
+        raise _elid_refusal(path, limits, *refused.args) from None
 
+
+def _elid_refusal(path, limits, kind: str, at: int, facts) -> InputError:
     from .errors import KINDS
 
-    cap = limits.max_decoded_gb * 1e9
-    size = elid_decoded_bytes(path, cap)
     what, todo = KINDS["elid"]
-    if size > cap:
-        raise InputError(
-            f"{path}: {what} whose bzip2 stream decompresses to more than {size / 1e9:.2g} GB (counting stopped there; "
-            f"the file is {os.path.getsize(path):,} bytes), above the limit of {limits.max_decoded_gb:g} GB that guards "
-            f"against decompression bombs; {todo}.",
-            hint=f"If you trust the file and the computer has the memory, raise the limit, for example `max_decoded_gb` "
-                 f"{max(1, math.ceil(size / 1e9) * 2)}.")
-    for at, cost, (width, height) in elid_tiff_costs(path, cap):
-        if cost.total > cap:
-            raise InputError(
-                f"{path}: {what} whose embedded image at byte {at:,} of the project (a {width}×{height} TIFF) would decode to "
-                f"{cost.total / 1e9:.1f} GB ({cost.words()}), above the limit of {limits.max_decoded_gb:g} GB that guards against "
-                f"decompression bombs. The file is malformed or hostile; {todo}.",
-                hint="The limit is `max_decoded_gb`; raise it only for a file you trust.")
+    cap = f"the limit of {limits.max_decoded_gb:g} GB that guards against decompression bombs"
+    memory = f"the limit of {limits.max_memory_gb:g} GB on the memory a conversion may use"
+    if kind == "record":
+        size, name = facts
+        over = cap if name == "max_decoded_gb" else memory
+        return InputError(
+            f"{path}: {what} whose layout declares a record of {size:,} bytes at byte {at:,} of the project (the file is "
+            f"{os.path.getsize(path):,} bytes); reading it would hold {2 * size / 1e9:.2g} GB, above {over}; {todo}.",
+            hint=f"If you trust the file and the computer has the memory, raise the limit, for example `{name}` "
+                 f"{max(1, int(2 * size / 1e9) + 1)}.")
+    if kind == "reads":
+        return InputError(
+            f"{path}: {what} that holds more than {MAX_READS:,} values (spectra, maps, read one by one: that would take "
+            f"more than a minute), so it is not read; {todo}.")
+    if kind == "held":
+        return InputError(
+            f"{path}: {what} whose values read by byte {at:,} of the project already hold {facts / 1e9:.2g} GB, above {memory}; "
+            f"{todo}.", hint="The limit is `max_memory_gb`; raise it only for a file you trust.")
+    cost, (width, height) = facts
+    return InputError(
+        f"{path}: {what} whose embedded image at byte {at:,} of the project (a {width}×{height} TIFF) would decode to "
+        f"{cost.total / 1e9:.1f} GB ({cost.words()}), above {cap}. The file is malformed or hostile; {todo}.",
+        hint="The limit is `max_decoded_gb`; raise it only for a file you trust.")
 
 
-TIFF_HEADS = (b"II*\x00", b"MM\x00*")
+@functools.cache
+def bounded_reader_class():
+    """rsciio.phenom's ElidReader with its one way in (`_read`) bounded, and its TIFFs priced."""
+    from rsciio.phenom._api import ElidReader
+
+    return type("BoundedElidReader", (BoundedReads, ElidReader), {})
 
 
-MAX_TIFFS_TRIED = 10_000  # a project holds tens of images; spectra hold a TIFF signature by chance about once in 4 GB
+class BoundedReads:
+    """The bounds of the ELID reader (mixed into rosettasciio's ElidReader by bounded_reader_class):
+    its one way in, `_read`, counts and prices every read, decompresses in bounded pieces and
+    refuses (ElidRefused) past the cap; each embedded TIFF is priced before tifffile decodes it."""
+
+    def __init__(self, pathname, cap_bytes: float, memory_bytes: float | None = None):
+        self._cap = cap_bytes  # decoded data: the records read whole, an embedded TIFF's pixels
+        self._memory = cap_bytes if memory_bytes is None else memory_bytes  # all that the read holds
+        self._large, self._reads, self._at, self._tiff_reads = 0.0, 0, 0, None
+        self._reads_allowed = self._values_allowed()
+        self.tiff_costs: list = []  # (byte of the project, Cost, (width, height)) of each TIFF read
+        super().__init__(pathname)
+
+    def _values_allowed(self) -> float:
+        """How many values may be read: MAX_READS, or fewer when what they would hold passes the memory limit."""
+        return min(MAX_READS, (self._memory - BZ2_STATE_BYTES - READER_BYTES - self._large) / READ_BYTES)
+
+    @property
+    def held_bytes(self) -> float:
+        """The memory priced so far: the decompressor and the reader's own objects, READ_BYTES a value,
+        and each large record twice."""
+        return BZ2_STATE_BYTES + READER_BYTES + self._reads * READ_BYTES + self._large
+
+    def _read(self, size=1):
+        # the hot path (1.7 million calls for a real project): one count, one C call, no more
+        self._reads += 1
+        if self._reads > self._reads_allowed or size >= LARGE_READ_BYTES or self._tiff_reads is not None:
+            return self._read_priced(size)
+        data = self._decompressor.decompress(b"", size)
+        if len(data) < size:
+            data = self._decompressed(size, data, tiff=False)
+        self._at += len(data)
+        return data
+
+    def _read_priced(self, size: int) -> bytes:
+        """A read past the count allowed, of a large record, or inside an embedded TIFF."""
+        if self._reads > self._reads_allowed:
+            raise ElidRefused("reads" if self._reads > MAX_READS else "held", self._at, self.held_bytes)
+        if size >= LARGE_READ_BYTES:
+            self._large += 2 * size  # the pieces and their join
+            if self._large > self._cap or self.held_bytes > self._memory:  # before a byte of it is decompressed
+                raise ElidRefused("record", self._at, (size, "max_decoded_gb" if self._large > self._cap else "max_memory_gb"))
+            self._reads_allowed = self._values_allowed()
+        data = self._decompressor.decompress(b"", min(size, PIECE_BYTES))
+        if len(data) < size:
+            data = self._decompressed(size, data, tiff=self._tiff_reads == 1)
+        if self._tiff_reads is not None:
+            self._tiff_reads += 1
+            if self._tiff_reads == 2:  # the record's length, then the TIFF's bytes: priced before tifffile decodes them
+                self._price_tiff(data)
+        self._at += len(data)
+        return data
+
+    def _decompressed(self, size: int, first: bytes, *, tiff: bool) -> bytes:
+        """`size` bytes of the stream, `first` of them already out, in pieces of at most PIECE_BYTES
+        (fewer where the stream ends, as rosettasciio's own reader gives; a stream cut short is an
+        error, not a wait for more). A TIFF's bytes must start as a TIFF: checked before the rest."""
+        pieces, got, inflate = [first], len(first), self._decompressor
+        while got < size and not inflate.eof:
+            if tiff and got >= 4:
+                head = b"".join(pieces)[:4]
+                if head not in TIFF_HEADS:
+                    raise ValueError(f"the embedded image at byte {self._at:,} of the project is no TIFF")
+                tiff = False
+            chunk = b""
+            if inflate.needs_input:
+                chunk = self._file.read(INPUT_BYTES)
+                if not chunk:
+                    raise EOFError("the compressed stream ends early")
+            piece = inflate.decompress(chunk, min(size - got, PIECE_BYTES))
+            pieces.append(piece)
+            got += len(piece)
+        return pieces[0] if len(pieces) == 1 else b"".join(pieces)
+
+    def _read_tiff(self):
+        self._tiff_reads = 0
+        try:
+            return super()._read_tiff()
+        finally:
+            self._tiff_reads = None
+
+    def _price_tiff(self, data: bytes) -> None:
+        found = tiff_cost(data)
+        if found is not None:
+            self.tiff_costs.append((self._at, *found))
+            if found[0].total + self._large > self._cap:
+                raise ElidRefused("tiff", self._at, found)
 
 
-def elid_tiff_costs(path, cap_bytes: float = float("inf")):
-    """(offset, Cost, (width, height)) of every TIFF embedded in an ELID project, priced from its
-    header as read.py prices a TIFF file: pixels, the tiles (or strips) decoded at once, and the
-    frame a JPEG tile declares. rosettasciio stores each as a uint32 length and the TIFF's bytes,
-    and decodes it with tifffile (zlib/deflate or JPEG tiles included); every TIFF signature in the
-    decompressed stream is tried, so none escapes. Call after elid_decoded_bytes has found the
-    stream within `cap_bytes`: it is decompressed here in memory (at most that)."""
+
+def tiff_cost(data: bytes):
+    """(Cost, (width, height)) of the TIFF in `data`, priced from its header as read.py prices a TIFF
+    file: pixels, the tiles (or strips) decoded at once, and the frame a JPEG tile declares; None when
+    `data` is no TIFF (rosettasciio's tifffile then reports it)."""
     import io
     import math
 
@@ -113,32 +214,20 @@ def elid_tiff_costs(path, cap_bytes: float = float("inf")):
 
     from ..cost import Cost, tiff_chunk_bytes, tiff_jpeg_bytes
 
-    raw = b"".join(elid_pieces(path, cap_bytes))
-    data = memoryview(raw)
-    out, tried = [], 0
-    for head in TIFF_HEADS:
-        at = raw.find(head)
-        while at >= 4:
-            n = int.from_bytes(raw[at - 4:at], "little")
-            tried += 1
-            if tried > MAX_TIFFS_TRIED:
-                raise ValueError(f"more than {MAX_TIFFS_TRIED:,} TIFF signatures in the project")
-            if n >= 8:  # rosettasciio reads n bytes, or what is left when the stream ends first
-                buffer = io.BytesIO(data[at:at + n])
-                try:
-                    with tifffile.TiffFile(buffer) as tif:
-                        cost, size = Cost(), None
-                        for page in tif.pages:
-                            shape = tuple(int(v) for v in page.shape)
-                            size = size or (int(page.imagewidth), int(page.imagelength))
-                            cost.add("pixels", math.prod(shape) * page.dtype.itemsize)
-                            cost.add("tiles being decoded", tiff_chunk_bytes(page))
-                            cost.add("JPEG frames", tiff_jpeg_bytes(buffer, page))
-                        out.append((at, cost, size or (0, 0)))
-                except Exception:  # not a TIFF after all (bytes of a spectrum), or a damaged one rosettasciio reports
-                    log.debug("%s: no TIFF at byte %d of the project", path, at)
-            at = raw.find(head, at + 1)
-    return out
+    buffer = io.BytesIO(data)
+    try:
+        with tifffile.TiffFile(buffer) as tif:
+            cost, size = Cost(), None
+            for page in tif.pages:
+                shape = tuple(int(v) for v in page.shape)
+                size = size or (int(page.imagewidth), int(page.imagelength))
+                cost.add("pixels", math.prod(shape) * page.dtype.itemsize)
+                cost.add("tiles being decoded", tiff_chunk_bytes(page))
+                cost.add("JPEG frames", tiff_jpeg_bytes(buffer, page))
+            return cost, size or (0, 0)
+    except Exception:  # not a TIFF after all, or a damaged one: rosettasciio's tifffile says so
+        log.debug("no TIFF priced in %d bytes", len(data))
+        return None
 
 
 def check_jeol(path, limits) -> None:
@@ -250,8 +339,8 @@ def open_rsciio(path, kind: str, scene: int | None, *, limits) -> Stack:
     if kind == "jeol":
         check_jeol(path, limits)
     if kind == "elid":
-        check_elid(path, limits)
-        items = _reader(kind)(str(path))
+        _reader(kind)  # rosettasciio's logger quietened
+        items = read_elid(path, limits)
     else:
         items = _reader(kind)(str(path), lazy=True)
     images = [(item, ax) for item in items for ax in [_image_axes(item)] if ax is not None and len(item["axes"]) <= 3]

@@ -314,7 +314,8 @@ def web_summary_lines(report: Report, namer=None) -> list[str]:
     return lines
 
 
-_SIGNAL_NAMES = {"SE": "secondary electrons", "BSE": "backscattered electrons", "STEM": "scanning transmission"}
+_SIGNAL_NAMES = {"SE": "secondary electrons", "BSE": "backscattered electrons", "STEM": "scanning transmission",
+                 "BF": "bright field"}
 
 
 def instrument_words(instrument: Instrument) -> str:
@@ -334,6 +335,7 @@ _SIGNAL_WORDS = {
     "SE": ("a secondary-electron (SE) detector", "in SE images brightness shows edges and slopes, not height"),
     "BSE": ("a backscattered-electron (BSE) detector", "in BSE images brightness shows composition (heavier elements are brighter), not height"),
     "STEM": ("a scanning transmission (STEM) detector", "in STEM images brightness shows mass and thickness, not height"),
+    "BF": ("a bright-field (BF) detector", "in bright-field images matter is dark (it scatters the beam away), and brightness is not height"),
 }
 
 

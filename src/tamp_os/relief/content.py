@@ -357,7 +357,7 @@ def _pieces_compactness(phase: np.ndarray, pitch_mm: float, radius_px: int) -> t
     return float(compact[order][min(half, order.size - 1)]), share, pieces
 
 
-def measured_shapes(work: np.ndarray, pitch_mm: float, width_mm: float, fine) -> SideShapes | None:
+def measured_shapes(work: np.ndarray, pitch_mm: float, *, width_mm: float, fine) -> SideShapes | None:
     """side_shapes of the picture before the print grid's blur, COMPACT_PITCH_MM fine (at most twice
     the working grid), where the gaps between members keep their cusps; of the working grid when
     there is no finer picture."""
@@ -477,7 +477,7 @@ def make_content(work: np.ndarray, *, pitch_mm: float, relief_mm: float, width_m
     shapes = None
     if specimen.all() and _ground_leaves_it_open(work, pitch_mm, polarity, hints.signal):
         # Which side is members by their shape: decides where nothing else does, and parts them.
-        shapes = measured_shapes(work, pitch_mm, width_mm, fine)
+        shapes = measured_shapes(work, pitch_mm, width_mm=width_mm, fine=fine)
         if hints.signal is None:
             polarity = shape_polarity(polarity, shapes)
     spectrum = lattice_spectrum(work, pitch_mm)

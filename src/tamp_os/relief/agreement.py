@@ -168,7 +168,9 @@ def _polarity(shown, rel, structure, noise, pitch_mm, seen: _Seen) -> tuple[dict
                  ground_structure=round(s_g, 4))
     if abs(b_r - b_g) > DARKER_BY:
         even = float(np.mean(np.abs(shown[inner_g] - b_g) < EMPTY_TOLERANCE))  # an empty ground is one grey, edges aside
-        expected = expected_side(shown, pitch_mm, seen.signal, ground_brightness=b_g, ground_even=even >= EMPTY_SHARE, fine=seen.fine)
+        # The members' shape (a watershed of each side, ~0.1-0.4 s) is asked only where raised parts are dark.
+        expected = expected_side(shown, pitch_mm, seen.signal, ground_brightness=b_g, ground_even=even >= EMPTY_SHARE, fine=seen.fine,
+                                 shapes=b_r < b_g)
         if (b_r > b_g) != expected.bright:
             return {**facts, "possibly_inverted": True}, [_inverted_sentence(b_r, b_g, expected, seen)]
     option = "`invert` off" if seen.inverted else "`invert`"
@@ -181,21 +183,21 @@ def _polarity(shown, rel, structure, noise, pitch_mm, seen: _Seen) -> tuple[dict
 
 
 def expected_side(shown: np.ndarray, pitch_mm: float, signal: str | None, *, ground_brightness: float, ground_even: bool,
-                  fine=None) -> Expected:
+                  fine=None, shapes: bool = True) -> Expected:
     """Which side of the picture (as displayed) is matter: the signal's (SE, BSE, STEM bright;
     bright field dark); else the side of compact members (content.side_shapes, on the picture
-    before the print grid's blur when `fine` gives it); else, when the print's ground is bright and
-    of one grey (an empty ground: glass, paper), dark; else bright, the default."""
+    before the print grid's blur when `fine` gives it; only with `shapes`); else, when the print's
+    ground is bright and of one grey (an empty ground: glass, paper), dark; else bright, the default."""
     matter = matter_is_bright(signal)
     if matter is not None:
         return Expected(matter, f"in a {SIGNALS[signal]} image {'bright' if matter else 'dark'} is matter")
-    from .content import measured_shapes
+    if shapes:
+        from .content import measured_shapes
 
-    width_mm = (shown.shape[1] - 1) * pitch_mm
-    shapes = measured_shapes(shown, pitch_mm, width_mm=width_mm, fine=fine)
-    members = shapes.members_bright if shapes is not None else None
-    if members is not None:
-        return Expected(members, f"{shapes.words()}")
+        found = measured_shapes(shown, pitch_mm, width_mm=(shown.shape[1] - 1) * pitch_mm, fine=fine)
+        members = found.members_bright if found is not None else None
+        if members is not None:
+            return Expected(members, found.words())
     if ground_brightness >= EMPTY_GROUND and ground_even:
         return Expected(False, "the ground is bright and empty (glass, paper, vacuum), where dark is matter")
     return Expected(True, "with no modality recorded, bright is taken as matter")

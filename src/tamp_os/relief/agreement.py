@@ -69,6 +69,7 @@ class Expected:
 
     bright: bool
     why: str
+    firm: bool = False  # said by the modality or the members' shape, not by the ground's look or the default
 
 
 def agreement(picture01: np.ndarray, heights_mm: np.ndarray, *, mm_per_px: float, base_mm: float,
@@ -166,16 +167,19 @@ def _polarity(shown, rel, structure, noise, pitch_mm, seen: _Seen) -> tuple[dict
     s_r, s_g = float(np.median(structure[inner_r])), float(np.median(structure[inner_g]))
     facts = dict(raised_brightness=round(b_r, 3), ground_brightness=round(b_g, 3), raised_structure=round(s_r, 4),
                  ground_structure=round(s_g, 4))
-    if abs(b_r - b_g) > DARKER_BY:
-        even = float(np.mean(np.abs(shown[inner_g] - b_g) < EMPTY_TOLERANCE))  # an empty ground is one grey, edges aside
-        # The members' shape (a watershed of each side, ~0.1-0.4 s) is asked only where raised parts are dark.
-        expected = expected_side(shown, pitch_mm, seen.signal, ground_brightness=b_g, ground_even=even >= EMPTY_SHARE, fine=seen.fine,
-                                 shapes=b_r < b_g)
-        if (b_r > b_g) != expected.bright:
-            return {**facts, "possibly_inverted": True}, [_inverted_sentence(b_r, b_g, expected, seen)]
-    option = "`invert` off" if seen.inverted else "`invert`"
-    if s_g > STRUCTURE_RATIO * max(s_r, noise) and s_g > VISIBLE_NOISE * noise and abs(b_r - b_g) > DARKER_BY:
+    if abs(b_r - b_g) <= DARKER_BY:
+        return facts, []
+    # The base side carries the specimen's structure (shading and edges) while the raised side is smooth.
+    structured_base = s_g > STRUCTURE_RATIO * max(s_r, noise) and s_g > VISIBLE_NOISE * noise
+    even = float(np.mean(np.abs(shown[inner_g] - b_g) < EMPTY_TOLERANCE))  # an empty ground is one grey, edges aside
+    # The members' shape (a watershed of each side, ~0.1-0.4 s) is asked only where the print may be wrong.
+    expected = expected_side(shown, pitch_mm, seen.signal, ground_brightness=b_g, ground_even=even >= EMPTY_SHARE, fine=seen.fine,
+                             shapes=b_r < b_g or structured_base)
+    if (b_r > b_g) != expected.bright:
+        return {**facts, "possibly_inverted": True}, [_inverted_sentence(b_r, b_g, expected, seen)]
+    if structured_base and not expected.firm:
         side = "dark" if b_r < b_g else "bright"
+        option = "`invert` off" if seen.inverted else "`invert`"
         return facts, [Text(f"What is raised is the picture's smooth {side} side, and what stays at the base carries its "
                             f"structure (shading and edges {s_g / max(s_r, 1e-6):.1f}× stronger): the print may raise the "
                             f"gaps, not the specimen; {option} raises the other side.")]
@@ -190,14 +194,14 @@ def expected_side(shown: np.ndarray, pitch_mm: float, signal: str | None, *, gro
     ground is bright and of one grey (an empty ground: glass, paper), dark; else bright, the default."""
     matter = matter_is_bright(signal)
     if matter is not None:
-        return Expected(matter, f"in a {SIGNALS[signal]} image {'bright' if matter else 'dark'} is matter")
+        return Expected(matter, f"in a {SIGNALS[signal]} image {'bright' if matter else 'dark'} is matter", firm=True)
     if shapes:
         from .content import measured_shapes
 
         found = measured_shapes(shown, pitch_mm, width_mm=(shown.shape[1] - 1) * pitch_mm, fine=fine)
         members = found.members_bright if found is not None else None
         if members is not None:
-            return Expected(members, found.words())
+            return Expected(members, found.words(), firm=True)
     if ground_brightness >= EMPTY_GROUND and ground_even:
         return Expected(False, "the ground is bright and empty (glass, paper, vacuum), where dark is matter")
     return Expected(True, "with no modality recorded, bright is taken as matter")

@@ -503,7 +503,7 @@ def make_content(work: np.ndarray, *, pitch_mm: float, relief_mm: float, width_m
         # Which side is members by their shape: decides where nothing else does, and parts them.
         # (After the lattice: its columns' side is read from its detail's skew.)
         shapes = measured_shapes(work, pitch_mm, width_mm=width_mm, fine=fine)
-        if hints.signal is None:
+        if hints.signal is None and (polarity.undecided or polarity.empty):
             polarity = shape_polarity(polarity, shapes)
     polarity, lines, members = _settled_polarity(finder, polarity, hints.signal, pitch_mm)
     made = _lines_or_members(ask, finder, polarity, lines, members, spectrum.period, _compact_members(shapes, polarity, members, finder))
@@ -516,11 +516,13 @@ def make_content(work: np.ndarray, *, pitch_mm: float, relief_mm: float, width_m
 
 
 def _ground_leaves_it_open(work: np.ndarray, pitch_mm: float, polarity: Polarity, signal: str | None) -> bool:
-    """Whether the ground's brightness alone leaves open which side is matter: a mid-grey ground,
-    or a bright "empty" one that may be flat members packed edge to edge (with a signal, as the
-    brightness would have said without it)."""
+    """Whether the ground's brightness alone leaves open which side is matter or what its members
+    are: a mid-grey ground, a bright "empty" one that may be flat members packed edge to edge, or
+    a bright one that is a field of bright members (with a signal, as the brightness would have
+    said without it). Their shape then decides, or parts the members."""
     by_brightness = polarity if signal is None else content_polarity(work, pitch_mm)
-    return by_brightness.undecided or by_brightness.empty
+    field_of_members = by_brightness.bright and by_brightness.ground >= 0.6
+    return by_brightness.undecided or by_brightness.empty or field_of_members
 
 
 def _compact_members(shapes: SideShapes | None, polarity: Polarity, members: Members, finder: "_Finder") -> Members | None:

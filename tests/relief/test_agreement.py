@@ -92,6 +92,32 @@ def test_dark_matter_raised_on_an_empty_bright_ground_agrees():
 
 
 @pytest.mark.timeout(60)
+def test_flat_bright_members_printed_inverted_are_no_empty_ground():
+    """Members of one flat bright grey (SE particles, backscatter cells) left at the base look like an
+    empty bright ground by their grey alone; they are many pieces, not one field around the raised
+    parts, so raising the dark ground between them is doubted."""
+    picture, mask = particle_field()
+    flat = np.where(mask, 0.8, 0.15).astype(np.float32)
+    found = agreement(flat, heights_raising(~mask), mm_per_px=PITCH_MM, base_mm=BASE_MM, inverted=False, signal=None)
+    assert found.possibly_inverted and INVERTED_WORDS in found.sentences[0], found
+
+
+@pytest.mark.timeout(60)
+def test_an_inverted_landscape_whose_lowest_points_are_a_few_particles_is_doubted():
+    """The brightness-following styles printed inverted: the whole dark ground is raised and only the
+    particles' bright tops reach the base (a few per cent of the plate). The highest and lowest fifth
+    of the points are compared then."""
+    picture, mask = particle_field()
+    from scipy import ndimage
+
+    tops = ndimage.gaussian_filter(picture, 3.0) > 0.85  # the particles' brightest cores: a few per cent of the plate
+    assert 0.005 < tops.mean() < 0.02  # under MIN_PHASE_AREA
+    landscape = np.where(tops, BASE_MM, BASE_MM + 3.0 - 1.5 * ndimage.gaussian_filter(picture, 3.0)).astype(np.float32)
+    found = agreement(1.0 - picture, landscape, mm_per_px=PITCH_MM, base_mm=BASE_MM, inverted=True, signal=None, style="structure")
+    assert found.possibly_inverted and "`invert` off" in found.sentences[0].template, found
+
+
+@pytest.mark.timeout(60)
 def test_an_inverted_picture_is_judged_as_displayed():
     """The relief sees 1 - picture when it inverts; the check undoes that before it compares, so
     the advice is to turn invert off."""

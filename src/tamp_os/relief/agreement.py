@@ -33,7 +33,9 @@ from .scales import gaussian_mm
 
 RAISED_SHARE = 0.5  # a point in the top half of the relief's span is raised
 GROUND_SHARE = 0.15  # one within the lowest 15 % stays at the base
-MIN_PHASE_AREA = 0.05  # both sides must cover this share of the picture to be compared
+MIN_PHASE_AREA = 0.02  # both sides must cover this share of the picture to be compared (four beads: 2 %)
+SIDE_QUANTILE = 0.2  # else the highest and lowest fifth of the points are the sides
+SIDE_APART = 0.25  # when they stand this share of the relief apart (a finger tells 0.5 mm of 3 mm)
 DARKER_BY = 0.15  # the raised side's median brightness this far (0..1) under the ground's: it is the dark side
 EMPTY_GROUND = 0.6  # a ground this bright (median, 0..1) and of one grey is empty: glass, paper, vacuum
 EMPTY_TOLERANCE = 0.06  # of one grey: within this of its median (as content.py's empty ground)
@@ -155,8 +157,8 @@ def _band_noise(shown: np.ndarray, pitch_mm: float) -> float:
 
 
 def _polarity(shown, rel, structure, noise, pitch_mm, seen: _Seen) -> tuple[dict, list[Text]]:
-    raised, ground = rel >= RAISED_SHARE, rel <= GROUND_SHARE
-    if raised.mean() < MIN_PHASE_AREA or ground.mean() < MIN_PHASE_AREA:
+    raised, ground = _sides(rel)
+    if raised is None:
         return {}, []
     # inside each side, away from the edge where the two meet (an edge is structure of both)
     edge = max(1, round(1.0 / pitch_mm))
@@ -171,10 +173,9 @@ def _polarity(shown, rel, structure, noise, pitch_mm, seen: _Seen) -> tuple[dict
         return facts, []
     # The base side carries the specimen's structure (shading and edges) while the raised side is smooth.
     structured_base = s_g > STRUCTURE_RATIO * max(s_r, noise) and s_g > VISIBLE_NOISE * noise
-    even = float(np.mean(np.abs(shown[inner_g] - b_g) < EMPTY_TOLERANCE))  # an empty ground is one grey, edges aside
     # The members' shape (a watershed of each side, ~0.1-0.4 s) is asked only where the print may be wrong.
-    expected = expected_side(shown, pitch_mm, seen.signal, ground_brightness=b_g, ground_even=even >= EMPTY_SHARE, fine=seen.fine,
-                             shapes=b_r < b_g or structured_base)
+    expected = expected_side(shown, pitch_mm, seen.signal, ground_brightness=b_g, ground_empty=_empty(shown, ground, inner_g, b_g),
+                             fine=seen.fine, shapes=b_r < b_g or structured_base)
     if (b_r > b_g) != expected.bright:
         return {**facts, "possibly_inverted": True}, [_inverted_sentence(b_r, b_g, expected, seen)]
     if structured_base and not expected.firm:
@@ -186,12 +187,36 @@ def _polarity(shown, rel, structure, noise, pitch_mm, seen: _Seen) -> tuple[dict
     return facts, []
 
 
-def expected_side(shown: np.ndarray, pitch_mm: float, signal: str | None, *, ground_brightness: float, ground_even: bool,
+def _sides(rel: np.ndarray) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """(raised, ground) masks of a relief (0..1 of its span): the top half and the lowest
+    GROUND_SHARE; where either covers under MIN_PHASE_AREA (a landscape whose lowest points are a
+    few bright particles printed inverted), the highest and lowest SIDE_QUANTILE of the points,
+    when they stand at least SIDE_APART of the span apart. (None, None) when the sides cannot be told."""
+    raised, ground = rel >= RAISED_SHARE, rel <= GROUND_SHARE
+    if raised.mean() >= MIN_PHASE_AREA and ground.mean() >= MIN_PHASE_AREA:
+        return raised, ground
+    low, high = np.quantile(rel, [SIDE_QUANTILE, 1.0 - SIDE_QUANTILE])
+    if high - low < SIDE_APART:
+        return None, None
+    return rel >= high, rel <= low
+
+
+def _empty(shown: np.ndarray, ground: np.ndarray, inner: np.ndarray, brightness: float) -> bool:
+    """Whether the print's ground is an empty field: of one grey (EMPTY_SHARE of it, 1 mm in from
+    the raised parts, within EMPTY_TOLERANCE of its median) and one piece around the raised parts
+    (EMPTY_SHARE of it connected), as glass or paper is; flat members printed inverted are many pieces."""
+    if float(np.mean(np.abs(shown[inner] - brightness) < EMPTY_TOLERANCE)) < EMPTY_SHARE:
+        return False
+    pieces, count = ndimage.label(ground)
+    return count > 0 and float(np.bincount(pieces.ravel())[1:].max()) >= EMPTY_SHARE * float(ground.sum())
+
+
+def expected_side(shown: np.ndarray, pitch_mm: float, signal: str | None, *, ground_brightness: float, ground_empty: bool,
                   fine=None, shapes: bool = True) -> Expected:
     """Which side of the picture (as displayed) is matter: the signal's (SE, BSE, STEM bright;
     bright field dark); else the side of compact members (content.side_shapes, on the picture
     before the print grid's blur when `fine` gives it; only with `shapes`); else, when the print's
-    ground is bright and of one grey (an empty ground: glass, paper), dark; else bright, the default."""
+    ground is bright and empty (`ground_empty`: glass, paper), dark; else bright, the default."""
     matter = matter_is_bright(signal)
     if matter is not None:
         return Expected(matter, f"in a {SIGNALS[signal]} image {'bright' if matter else 'dark'} is matter", firm=True)
@@ -202,7 +227,7 @@ def expected_side(shown: np.ndarray, pitch_mm: float, signal: str | None, *, gro
         members = found.members_bright if found is not None else None
         if members is not None:
             return Expected(members, found.words(), firm=True)
-    if ground_brightness >= EMPTY_GROUND and ground_even:
+    if ground_brightness >= EMPTY_GROUND and ground_empty:
         return Expected(False, "the ground is bright and empty (glass, paper, vacuum), where dark is matter")
     return Expected(True, "with no modality recorded, bright is taken as matter")
 

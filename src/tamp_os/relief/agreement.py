@@ -34,7 +34,7 @@ from .scales import gaussian_mm
 RAISED_SHARE = 0.5  # a point in the top half of the relief's span is raised
 GROUND_SHARE = 0.15  # one within the lowest 15 % stays at the base
 MIN_PHASE_AREA = 0.02  # both sides must cover this share of the picture to be compared (four beads: 2 %)
-SIDE_QUANTILE = 0.2  # else the highest and lowest fifth of the points are the sides
+SIDE_QUANTILE = 0.1  # else the highest and lowest tenth of the points are the sides (particles cover 5-50 %)
 SIDE_APART = 0.25  # when they stand this share of the relief apart (a finger tells 0.5 mm of 3 mm)
 DARKER_BY = 0.15  # the raised side's median brightness this far (0..1) under the ground's: it is the dark side
 EMPTY_GROUND = 0.6  # a ground this bright (median, 0..1) and of one grey is empty: glass, paper, vacuum

@@ -81,6 +81,8 @@ TRUTH: dict[str, Row] = {
     "zeiss_dapi_gfp_2ch.czi": Row("channels", "DAPI nuclei, GFP", ("nuclei", "")),
     "zeiss_sem_al2o3_grains.czi": Row("lines", "grain boundaries raised"),
 }
+from tamp_os.relief.agreement import INVERTED_WORDS  # noqa: E402  (the check's polarity line)
+
 BASE_MM, RELIEF_MM, LAYER_MM = 1.0, 3.0, 0.12  # the defaults at Medium, as bench_legibility's content table
 TARGET = {"members": 0.90, "lattice": 0.95, "lines": 0.5, "stain": 0.5}
 
@@ -142,7 +144,7 @@ def rows() -> list[tuple]:
         r = litho.report
         chose = r.relief_style + (f" ({r.content_kind})" if r.content_kind else "")
         verdicts = [str(v) for v in (r.legibility.verdicts if r.legibility else ())]
-        said = [v for v in verdicts if "may raise the gaps" in v or "leaves flat" in v]
+        said = [v for v in verdicts if "may raise the gaps" in v or "leaves flat" in v or INVERTED_WORDS in v]
         check = "; ".join(s.split(":")[0] for s in said) or "agrees"
         if row.kind == "stain":
             m = he_heights(path)
@@ -221,6 +223,7 @@ def synthetic_rows() -> list[tuple]:
     distinct = int((levels[1] > 0.1 * levels[1].sum()).sum())
     out.append(("polished alloy, 20 grey levels between grains", "grains", _chose(litho),
                 f"{distinct} grain levels; a grain {np.mean(shares):.0%} one height", "yes" if distinct >= 2 and np.mean(shares) >= 0.7 else "no"))
+    out += _bse_rows()
     out.append(_fibres_row())
     out.append(_stress_fibres_row())
     out += _sintered_rows()
@@ -233,6 +236,58 @@ def synthetic_rows() -> list[tuple]:
     want = ["lysosomes (red)", "mitochondria (green)", "nuclei (blue)"]
     out.append(("RGB composite named lyso_mito_nuclei", "channels", _chose(litho), "; ".join(labels), "yes" if labels == want else "no"))
     return out
+
+
+def _bse_rows() -> list[tuple]:
+    """Issue 53, class 1: a backscatter field of mid-grey cells on dark gaps under a thin bright
+    fibrin mesh (synthetic_content.bse_blood_cells), without detector words and with "BSD Full"
+    in a data band: the cells stand ≥ 0.5 mm over the gaps (median of the cells' medians, and the
+    share of cells). Then the check: the same field printed inverted (the structure style with
+    `invert`) is said to be possibly inverted, the default print is not."""
+    from scipy import ndimage
+    from synthetic_content import bse_blood_cells, with_data_band
+
+    from tamp_os.lithograph.pipeline import make_lithograph
+
+    t = bse_blood_cells()
+    out = []
+    for name, image, options in (("backscatter cells, no detector words", t.image, {}),
+                                 ("backscatter cells, 'BSD Full 10 kV' in the band", with_data_band(t.image, "BSD Full  10 kV  x2000"), {}),
+                                 ("backscatter cells printed inverted (structure + invert)", t.image, dict(relief_style="structure", invert=True))):
+        litho = make_lithograph(image, width_mm=100, scale_bar="off", **options)
+        h = litho.heightmap
+        cells = _grid_of(t.members, h.shape)
+        base = float(np.median(h[ndimage.binary_erosion(cells == 0, iterations=1)]))
+        tops = np.array([np.median(h[cells == k]) - base for k in range(1, int(cells.max()) + 1) if (cells == k).sum() >= 10])
+        flagged = any(INVERTED_WORDS in f for f in litho.report.check_flags)
+        measure = (f"cells {np.median(tops):+.2f} mm over the gaps, {np.mean(tops >= 0.5):.0%} of {tops.size} felt; the check "
+                   f"{'says' if flagged else 'does not say'} '{INVERTED_WORDS}'")
+        inverted = bool(options)
+        ok = (flagged and np.median(tops) < 0) if inverted else (np.median(tops) >= 0.5 and np.mean(tops >= 0.5) >= 0.9 and not flagged)
+        out.append((name, "members (polarity)" if not inverted else "the check", _chose(litho), measure, "yes" if ok else "no"))
+    return out
+
+
+def check_alarms(table: list[tuple]) -> tuple[int, int, list[str]]:
+    """The check's polarity line on every default print of the development set (real/ and the
+    fixtures' top level): (prints flagged, prints made, the flagged files' names). The table's rows
+    are read from its checks column; the files it leaves out are printed here."""
+    from tamp_os.lithograph.pipeline import make_lithograph
+
+    flagged = [r[0] for r in table if INVERTED_WORDS in r[6]]
+    made = len(table)
+    listed = {r[0].split(" (")[0] for r in table}
+    others = [p for p in sorted(REAL.glob("*")) + sorted(REAL.parent.glob("*")) if p.is_file() and p.suffix != ".md" and p.name not in listed]
+    for path in others:
+        try:
+            report = make_lithograph(path).report
+        except Exception as exc:  # an unreadable file is no print to judge
+            print(f"<!-- {path.name}: {exc} -->")
+            continue
+        made += 1
+        if any(INVERTED_WORDS in f for f in report.check_flags):
+            flagged.append(path.name)
+    return len(flagged), made, flagged
 
 
 def _fibres_row() -> tuple:
@@ -327,6 +382,9 @@ def main() -> None:
     judged = [r for r in table if r[5] != "–"]
     for label, part in (("tuned on", [r for r in judged if "held out" not in r[0]]), ("held out", [r for r in judged if "held out" in r[0]])):
         print(f"\n{label}: {sum(r[5] == 'yes' for r in part)} of {len(part)} rows meet their class's target")
+    alarms, made, names = check_alarms(table)
+    print(f"\nthe check says '{INVERTED_WORDS}' on {alarms} of {made} default prints of the development set"
+          + (f": {', '.join(names)}" if names else ""))
     print("\n| synthetic picture (exact truth) | class | auto chose | measure | meets target |")
     print("|---|---|---|---|---|")
     for row in synthetic_rows():

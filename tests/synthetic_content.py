@@ -366,6 +366,61 @@ def sparse_beads(rows: int = 600, cols: int = 800, count: int = 5, cover_pct: fl
     return Truth(f"sparse_beads_{count}_{cover_pct:g}pct", _grey_levels(image), members=labels)
 
 
+def bse_blood_cells(rows: int = 450, cols: int = 600, seed: int = 12, mesh: int = 30, overlap: float = 0.8,
+                    grey: tuple[float, float] = (0.36, 0.44), strand: float = 0.95, strand_px: float = 1.3,
+                    radius: tuple[float, float] = (20, 27), dimple: float = 0.07, rim: float = 0.1) -> Truth:
+    """Issue 53, class 1: a backscatter SEM of red blood cells on a filter, no modality recorded.
+    Mid-grey biconcave discs (each of one grey in `grey`, a dimple 0.07 darker and a thin darker
+    rim where cells meet; radius 20-27 px, 4.4-6 mm on a 100 mm print), centres at least
+    `overlap` × the sum of two radii apart, so many touch, on dark gaps (0.08, the filter,
+    speckled) that split into concave shards; `mesh` thin fibrin strands brighter than the cells
+    (`strand`, Gaussian half-width `strand_px`: about 0.3 mm on the print) over cells and gaps
+    alike. BSE shows composition, so the cells are flat grey, not shaded, and the strands take the
+    top of the contrast stretch: the most common brightness is the cells' own, mid-grey. Members:
+    the discs as drawn (a later disc only where no earlier one lies); lines: the strands' centre
+    lines."""
+    rng = np.random.default_rng(seed)
+    yy, xx = _grid(rows, cols)
+    image = 0.08 + 0.03 * rng.standard_normal((rows, cols))
+    labels = np.zeros((rows, cols), np.int32)
+    centres: list[tuple[float, float, float]] = []
+    for _ in range(4000):
+        cy, cx, r = rng.uniform(0, rows), rng.uniform(0, cols), rng.uniform(*radius)
+        if any((cy - a) ** 2 + (cx - b) ** 2 < (overlap * (r + c)) ** 2 for a, b, c in centres):
+            continue
+        centres.append((cy, cx, r))
+        d = np.sqrt((yy - cy) ** 2 + (xx - cx) ** 2) / r
+        inside = (d <= 1) & (labels == 0)
+        disc = rng.uniform(*grey) - dimple * np.exp(-((d / 0.4) ** 2)) - rim * (d > 0.94)
+        image = np.where(inside, disc, image)
+        labels[inside] = len(centres)
+    lines = np.zeros((rows, cols), bool)
+    for _ in range(mesh):  # fibrin strands: straight pieces between random ends, across cells and gaps
+        y0, y1 = rng.uniform(0, rows, 2)
+        x0, x1 = rng.uniform(0, cols, 2)
+        length = max(float(np.hypot(y1 - y0, x1 - x0)), 1.0)
+        t = np.clip(((yy - y0) * (y1 - y0) + (xx - x0) * (x1 - x0)) / length**2, 0, 1)
+        dist = np.hypot(yy - (y0 + t * (y1 - y0)), xx - (x0 + t * (x1 - x0)))
+        image = np.maximum(image, strand * np.exp(-((dist / strand_px) ** 2)))
+        lines |= dist <= 0.5
+    image = ndimage.gaussian_filter(image, 0.7) + 0.02 * rng.standard_normal((rows, cols))
+    return Truth("bse_blood_cells", np.clip(image, 0, 1).astype(np.float32), members=labels, lines=lines)
+
+
+def with_data_band(image: np.ndarray, text: str, rows: int = 40) -> np.ndarray:
+    """`image` with an SEM data band below it: `rows` black rows holding `text` in white letters
+    (DejaVu Sans, two thirds of the band high) and a scale bar, as a Phenom or FEI band. The
+    picture above keeps its rows, so a truth made for `image` holds for the cropped picture."""
+    from PIL import Image, ImageDraw, ImageFont
+
+    cols = image.shape[1]
+    band = Image.new("L", (cols, rows), 0)
+    draw = ImageDraw.Draw(band)
+    draw.text((8, rows // 6), text, fill=255, font=ImageFont.truetype("/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf", rows // 2))
+    draw.rectangle([cols - 120, rows // 2 - 2, cols - 20, rows // 2 + 2], fill=255)
+    return np.concatenate([image, np.asarray(band, np.float32) / 255], axis=0)
+
+
 def all_content(rows: int = 192, cols: int = 256) -> list[Truth]:
     return [dim_and_bright_beads(rows, cols), dark_line_network(rows, cols), dot_lattice(rows, cols),
             faint_grains(rows, cols), line_diagram(rows, cols)]

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from tamp_os.lithograph.pipeline import make_lithograph
-from tamp_os.relief.agreement import agreement
+from tamp_os.relief.agreement import INVERTED_WORDS, agreement
 
 PITCH_MM = 0.25  # 400 px across = a 100 mm print
 BASE_MM = 1.0
@@ -53,23 +53,68 @@ def test_a_print_that_raises_the_particles_agrees_with_the_picture():
 @pytest.mark.timeout(60)
 def test_raising_the_dark_gaps_of_a_backscatter_image_is_called_an_inversion():
     picture, mask = particle_field()
-    found = agreement(picture, heights_raising(~mask), mm_per_px=PITCH_MM, base_mm=BASE_MM, inverted=False, signal="BSE")
-    assert len(found.sentences) == 1
+    found = agreement(picture, heights_raising(~mask), mm_per_px=PITCH_MM, base_mm=BASE_MM, inverted=False, signal="BSE",
+                      style="structure")
+    assert len(found.sentences) == 1 and found.possibly_inverted
     said = found.sentences[0]
-    assert "dark side" in said and "backscattered-electron" in said and "invert" in said, said
+    assert said.startswith(f"Raised parts darker than their ground ({INVERTED_WORDS})"), said
+    assert "backscattered-electron" in said and "bright side" in said, said
     # the option named is the one that flips it, in each front end's words
     assert "`invert`" in said.template
+    # the content style reads its polarity from the picture, so `invert` would not turn it: the style that follows brightness is named
+    by_content = agreement(picture, heights_raising(~mask), mm_per_px=PITCH_MM, base_mm=BASE_MM, inverted=False, signal="BSE")
+    assert "`relief_style` structure" in by_content.sentences[0].template
 
 
 @pytest.mark.timeout(60)
-def test_without_a_modality_the_structure_says_which_side_is_specimen():
+def test_without_a_modality_raised_dark_parts_are_doubted_and_the_structure_agrees():
     picture, mask = particle_field()
     found = agreement(picture, heights_raising(~mask), mm_per_px=PITCH_MM, base_mm=BASE_MM, inverted=False, signal=None)
-    assert len(found.sentences) == 1 and "smooth dark side" in found.sentences[0], found
-    assert found.ground_structure > 2 * found.raised_structure
+    assert len(found.sentences) == 1 and INVERTED_WORDS in found.sentences[0], found
+    assert found.ground_structure > 2 * found.raised_structure  # the specimen's shading stays at the base
     # printed the right way round, nothing is said
     right = agreement(picture, heights_raising(mask), mm_per_px=PITCH_MM, base_mm=BASE_MM, inverted=False, signal=None)
-    assert right.sentences == ()
+    assert right.sentences == () and not right.possibly_inverted
+
+
+@pytest.mark.timeout(60)
+def test_dark_matter_raised_on_an_empty_bright_ground_agrees():
+    """Bright field: dark particles on smooth bright glass, raised, are what the picture shows as
+    matter (with no modality, by the empty ground; with a BF signal, by the modality); the glass
+    raised instead is doubted."""
+    picture, mask = particle_field()
+    dark = np.where(mask, 1.0 - picture, 0.85).astype(np.float32)
+    for signal in (None, "BF"):
+        right = agreement(dark, heights_raising(mask), mm_per_px=PITCH_MM, base_mm=BASE_MM, inverted=False, signal=signal)
+        assert not right.possibly_inverted and right.sentences == (), (signal, right)
+    wrong = agreement(dark, heights_raising(~mask), mm_per_px=PITCH_MM, base_mm=BASE_MM, inverted=False, signal="BF")
+    assert wrong.possibly_inverted and wrong.sentences[0].startswith("Raised parts brighter than their ground"), wrong
+
+
+@pytest.mark.timeout(60)
+def test_flat_bright_members_printed_inverted_are_no_empty_ground():
+    """Members of one flat bright grey (SE particles, backscatter cells) left at the base look like an
+    empty bright ground by their grey alone; they are many pieces, not one field around the raised
+    parts, so raising the dark ground between them is doubted."""
+    picture, mask = particle_field()
+    flat = np.where(mask, 0.8, 0.15).astype(np.float32)
+    found = agreement(flat, heights_raising(~mask), mm_per_px=PITCH_MM, base_mm=BASE_MM, inverted=False, signal=None)
+    assert found.possibly_inverted and INVERTED_WORDS in found.sentences[0], found
+
+
+@pytest.mark.timeout(60)
+def test_an_inverted_landscape_whose_lowest_points_are_a_few_particles_is_doubted():
+    """A brightness-following style printed inverted, its heights a steep function of darkness: the
+    dark ground is raised and only the particles' brightest points come near the base (0.1 % of the
+    plate in the lowest 15 % of the relief). The highest and lowest tenth of the points are compared."""
+    from scipy import ndimage
+
+    picture, mask = particle_field()
+    shown = ndimage.gaussian_filter(picture, 2.0)
+    landscape = (BASE_MM + 3.0 * np.sqrt((shown.max() - shown) / np.ptp(shown))).astype(np.float32)
+    assert float(np.mean(landscape - BASE_MM <= 0.15 * 3.0)) < 0.02  # under MIN_PHASE_AREA: the fixed bands cannot compare
+    found = agreement(1.0 - picture, landscape, mm_per_px=PITCH_MM, base_mm=BASE_MM, inverted=True, signal=None, style="structure")
+    assert found.possibly_inverted and "`invert` off" in found.sentences[0].template, found
 
 
 @pytest.mark.timeout(60)
@@ -112,8 +157,9 @@ def test_the_report_warns_when_a_user_inverts_a_particle_field():
     assert np.median(wrong.heightmap[on_grid]) < np.median(wrong.heightmap[~on_grid])
     said_right = " ".join(right.report.legibility.verdicts)
     said_wrong = " ".join(wrong.report.legibility.verdicts)
-    assert "may raise the gaps" not in said_right, said_right
-    assert "may raise the gaps" in said_wrong and "invert" in said_wrong, said_wrong
+    assert INVERTED_WORDS not in said_right, said_right
+    assert INVERTED_WORDS in said_wrong and "invert off" in said_wrong, said_wrong
+    assert any(INVERTED_WORDS in f for f in wrong.report.check_flags) and not right.report.check_flags
 
 
 @pytest.mark.timeout(300)

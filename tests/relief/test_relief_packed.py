@@ -42,7 +42,7 @@ def test_bright_cells_packed_edge_to_edge_are_raised_and_their_gaps_stay_at_the_
     inner_gaps = ndimage.binary_erosion(gaps, iterations=1)  # a grid point in from the cells' drawn edges
     assert np.median(h[members > 0]) - np.median(h[inner_gaps]) >= 1.0  # the gaps are felt low, between the cells
     said = " ".join(litho.report.legibility.verdicts)
-    assert "may raise the gaps" not in said and "leaves flat" not in said, said
+    assert "may raise the gaps" not in said and "leaves flat" not in said and "possibly inverted" not in said, said
 
 
 @pytest.mark.timeout(120)

@@ -1,6 +1,7 @@
 """The data band: rows at the top or bottom of a microscope image that hold the vendor's text and
 scale bar, not the sample. Named by the vendor's metadata when it records it, otherwise detected
-from the pixels; cropped either way."""
+from the pixels; cropped either way. Its text is read (band_text) for what the file may not
+record: the detector ("Det SE", "BSD Full"), which says which side of the picture is matter."""
 
 from __future__ import annotations
 
@@ -159,3 +160,38 @@ def _holds_marks(band: np.ndarray, lo: float, hi: float, inner_row: int | None =
         return False
     _, marks = ndimage.label(ink)
     return marks >= 3
+
+
+OCR_BAND_PX = 114  # the band is scaled to about this many rows for OCR (its text 25-40 px high)
+OCR_MAX_WIDTH_PX = 4000  # and to at most this width (a wide band at 4x costs seconds)
+
+
+def band_text(values: np.ndarray, band: Band) -> str | None:
+    """The text of the cropped band (the lower one when there are two), read by OCR as a block
+    of lines; None when there is no band, no OCR here, or nothing read.
+
+    values : (H, W) the image as read, band included."""
+    from PIL import Image
+
+    from . import ocr
+
+    h = values.shape[0]
+    rows = values[h - band.bottom_rows :] if band.bottom_rows >= 5 else values[: band.top_rows] if band.top_rows >= 5 else None
+    if rows is None or ocr.backend() is None:
+        return None
+    finite = np.isfinite(rows)
+    if not finite.any():
+        return None
+    lo, hi = float(rows[finite].min()), float(rows[finite].max())
+    if hi <= lo:
+        return None
+    grey = ((np.where(finite, rows, lo) - lo) / (hi - lo) * 255).astype(np.uint8)
+    if np.median(grey) < 128:  # light letters on a dark band: Tesseract reads dark on light best
+        grey = 255 - grey
+    image = Image.fromarray(np.pad(grey, 10, constant_values=255))
+    scale = int(np.clip(round(OCR_BAND_PX / grey.shape[0]), 1, 4))
+    scale = max(1, min(scale, OCR_MAX_WIDTH_PX // max(image.width, 1)))
+    if scale > 1:
+        image = image.resize((image.width * scale, image.height * scale), Image.Resampling.BICUBIC)
+    text = ocr.read_text(image, 6, "")
+    return text if text and text.strip() else None

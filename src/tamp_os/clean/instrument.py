@@ -8,19 +8,37 @@ slopes, in backscattered (BSE) images composition, in STEM images mass and thick
 from __future__ import annotations
 
 import dataclasses
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
 from ..facts import Facts
 from .vendor import number, tescan_main
 
-SIGNALS = {"SE": "secondary-electron", "BSE": "backscattered-electron", "STEM": "scanning transmission"}
+SIGNALS = {"SE": "secondary-electron", "BSE": "backscattered-electron", "STEM": "scanning transmission",
+           "BF": "bright-field"}
+# Which side is matter, by signal: SE, BSE and (HAADF) STEM show matter bright; a bright-field
+# transmission image shows it dark (matter scatters the beam away from the detector).
+BRIGHT_MATTER = ("SE", "BSE", "STEM")
+DARK_MATTER = ("BF",)
 # Detector names by signal, most specific first (BSE names often contain "SE" too).
 _DETECTOR_WORDS = (
     ("BSE", ("BSE", "BSD", "CBS", "ESB", "ABS", "BACKSCATTER")),
     ("STEM", ("STEM", "HAADF", "ADF")),
     ("SE", ("SE", "INLENS", "IN-LENS", "ETD", "TLD", "EVERHART")),
 )
+# The same words as a data band prints them ("Det SE", "BSD Full", "Signal A = HE-SE2", "[ETD"),
+# matched as whole words: in free text a substring finds SE in "SEM" or "BASE". Bright field
+# first (a "STEM BF" band names the detector after the mode), and within a signal the detector's
+# name before the mode's ("STEM HAADF": HAADF).
+_BAND_WORDS = tuple((signal, tuple(re.compile(rf"(?<![A-Z0-9])({word})(?![A-Z0-9])") for word in words)) for signal, words in (
+    ("BF", ("BF", "ABF", "BRIGHT[- ]?FIELD")),
+    ("BSE", ("BSE", "BSED", "BSD", "CBS", "ESB", "VCD", "COMPO", "BACKSCATTER(?:ED)?")),
+    ("STEM", ("HAADF", "ADF", "STEM")),
+    ("SE", ("SE[12]?", "SEI", "ETD", "TLD", "INLENS", "IN-LENS", "LEI", "EVERHART")),
+))
+_KV = re.compile(r"(?<![0-9.,])([0-9]{1,3}(?:[.,][0-9]+)?) ?K[V¥](?![A-Z])")  # OCR reads V as ¥ in small band fonts
+BAND_SOURCE = "the data band's text (OCR)"
 
 
 @dataclass(frozen=True)
@@ -30,7 +48,7 @@ class Instrument(Facts):
     magnification : as the microscope reported it (×).
     kv : accelerating voltage in kV.
     detector : the detector's name as the file gives it ("HE-SE2", "ETD").
-    signal : "SE", "BSE" or "STEM" when the detector's name or mode says so.
+    signal : "SE", "BSE", "STEM" or "BF" (bright field) when the detector's name or mode says so.
     source : the metadata the facts came from.
     """
 
@@ -42,6 +60,44 @@ class Instrument(Facts):
 
     def as_dict(self) -> dict:
         return dataclasses.asdict(self)
+
+
+def matter_is_bright(signal: str | None) -> bool | None:
+    """True when the signal shows matter bright (SE, BSE, STEM), False when dark (bright field),
+    None when the signal is unknown."""
+    return True if signal in BRIGHT_MATTER else False if signal in DARK_MATTER else None
+
+
+def instrument_from_text(text: str | None, source: str = BAND_SOURCE) -> Instrument | None:
+    """The detector (and its signal) and the voltage a data band's text names, or None when it
+    names neither. The detector is the first word found of the most specific signal (bright
+    field, then BSE, STEM, SE)."""
+    upper = " ".join(str(text or "").upper().split())
+    detector = signal = None
+    for name, patterns in _BAND_WORDS:
+        found = next((m for m in (p.search(upper) for p in patterns) if m), None)
+        if found:
+            detector, signal = found.group(1), name
+            break
+    volts = _KV.search(upper)
+    kv = float(volts.group(1).replace(",", ".")) if volts else None
+    kv = kv if kv is not None and 0.05 <= kv <= 400 else None
+    if detector is None and kv is None:
+        return None
+    return Instrument(None, kv, detector, signal, source)
+
+
+def with_band_words(instrument: Instrument | None, band: Instrument | None) -> Instrument | None:
+    """The file's facts, completed by what its data band says (`band`): the band's detector and
+    signal when the file names no signal, its voltage when the file has none."""
+    if band is None:
+        return instrument
+    if instrument is None:
+        return band
+    if instrument.signal is not None:
+        return instrument
+    return dataclasses.replace(instrument, detector=band.detector or instrument.detector, signal=band.signal,
+                               kv=instrument.kv or band.kv, source=f"{instrument.source}; detector from {band.source}")
 
 
 def signal_of(*names: str | None) -> str | None:

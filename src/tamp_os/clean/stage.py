@@ -14,8 +14,8 @@ import numpy as np
 from ..read.model import Picture
 from . import annotations as marks
 from .annotations import Annotation
-from .band import Band, band_from_metadata, detect_info_band
-from .instrument import Instrument, read_instrument
+from .band import Band, band_from_metadata, band_text, detect_info_band
+from .instrument import Instrument, instrument_from_text, read_instrument, with_band_words
 from .labels import find_labels, on_paper, read_labels
 from .scale import PixelSize, read_pixel_size
 from .scalebar import scale_from_bars
@@ -35,7 +35,9 @@ class Cleaned:
     band : the rows cropped from the source image.
     annotations : burned-in annotations removed (empty when removal is off).
     mask : (H', W) bool where annotations were removed, or None when removal is off.
-    instrument : magnification, kV and detector when the file records them, else None.
+    instrument_found : magnification, kV and detector when the file records them (completed by
+        the data band's text when the file names no detector), else None; or its Future while
+        the band is being read (read `instrument`, which waits for it).
     annotations_read : the annotations with their text labels read by OCR, or its Future while
         they are being read (read `annotations_with_text`, which waits), or None: none to read.
     """
@@ -46,7 +48,7 @@ class Cleaned:
     band: Band
     annotations: list[Annotation]
     mask: np.ndarray | None
-    instrument: Instrument | None = None
+    instrument_found: "Instrument | Future[Instrument | None] | None" = None
     annotations_read: "list[Annotation] | Future[list[Annotation]] | None" = None
 
     @property
@@ -55,6 +57,11 @@ class Cleaned:
         found = self.annotations_read
         if found is None:
             return self.annotations
+        return found.result() if isinstance(found, Future) else found
+
+    @property
+    def instrument(self) -> Instrument | None:
+        found = self.instrument_found
         return found.result() if isinstance(found, Future) else found
 
     @property
@@ -103,6 +110,9 @@ def clean_picture(picture: Picture, *, pixel_size_m: float | None, remove_annota
     size = read_pixel_size(file.metadata, file.tiff_tags, file.path, width_px=file.width, pixel_size_m=pixel_size_m)
     instrument = read_instrument(file.metadata, file.tiff_tags, file.path)
     band = _band(picture, remove_annotations)
+    if band.top_rows + band.bottom_rows and (instrument is None or instrument.signal is None):
+        # The band may name the detector the file does not (OCR, ~0.1 s, beside the inpainting on the other core).
+        instrument = _reader().submit(_with_band_words, picture.values, band, instrument)
     rows = band.rows(picture.values.shape[0])
     values = picture.values[rows]
     alpha = None if picture.alpha is None else picture.alpha[rows]
@@ -146,6 +156,11 @@ class _InPlace:
 
 
 os.register_at_fork(after_in_child=_reader.cache_clear)  # a forked worker starts its own thread, not the parent's
+
+
+def _with_band_words(source: np.ndarray, band: Band, instrument: Instrument | None) -> Instrument | None:
+    """The file's acquisition facts, completed by the detector and voltage its data band names."""
+    return with_band_words(instrument, instrument_from_text(band_text(source, band)))
 
 
 def _scale_from_bars(source: np.ndarray, band: Band, picture: np.ndarray, found: list[Annotation], size: PixelSize) -> PixelSize:

@@ -609,7 +609,9 @@ def _say(conversion, verbose: bool = False) -> list[str]:
     decided = [f"  note: {cli_words(w)}" for w in conversion.report.warnings if is_decision(w)] if verbose else []
     if verbose:  # the description names no option: the verdicts' advice, in this command's words
         decided += [f"  advice: {cli_words(v)}" for v in advice_notes(conversion.report) if not is_decision(v)]
-    lines = [conversion.summary()] + [f"  note: {cli_words(n)}" for n in conversion.notes()] + decided
+    # What the check doubts about the print (raised parts darker than their ground …), on its own line each.
+    flags = [f"  check: {cli_words(f)}" for f in conversion.report.check_flags]
+    lines = [conversion.summary()] + flags + [f"  note: {cli_words(n)}" for n in conversion.notes()] + decided
     printing = conversion.report.print
     if printing:  # the why of "for estimates only" on its own line, so that each line stays short
         note = printing.result.note if printing.result.for_estimates_only else None
@@ -979,7 +981,7 @@ def cmd_check(args) -> int:
             report = make_lithograph(path, params).report
             verdicts = report.legibility.verdicts
             head = f"{path.name} (relief style {report.relief_style}: {report.relief_reason}):"
-        return [head] + [f"  {cli_words(v)}" for v in verdicts]
+        return [head] + [f"  {cli_words(v)}" for v in verdicts]  # advice names this command's options
 
     return _run_each(args.inputs, check_one, args.debug)
 

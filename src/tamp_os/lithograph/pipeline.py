@@ -166,7 +166,9 @@ def make_lithograph(source, params: LithoParams | None = None, *, printer_profil
             if key:
                 picture = without_channel_note(picture)
         heights = relief.heights_mm
-        prepared = dataclasses.replace(prepared, fitted=None, fitted_alpha=None)  # the source copy served the relief: free it
+    with clock("agreement"):  # before the source copy is freed: the check measures the members' shape on it
+        agrees = _agreement(prepared, heights, layout, params, cleaned, relief) if not key else ()
+    prepared = dataclasses.replace(prepared, fitted=None, fitted_alpha=None)  # the source copy served the relief and its check: free it
     with clock("legibility"):
         legibility = assess(heights, layout.mm_per_px, nozzle_mm=machine.nozzle_mm, layer_mm=machine.layer_mm,
                             objects=relief.objects, style=relief.style)
@@ -182,15 +184,12 @@ def make_lithograph(source, params: LithoParams | None = None, *, printer_profil
         tactile = _tactile(mesh, layout, params, furniture, machine.bed_mm,
                            _key_in_colour(heights, channel_extras.overlay_mm if channel_extras else None, layout, params, max_error))
     later = flattening + list(tactile.placed.notes if tactile.placed else []) + list(relief.notes) + list(tactile.tiles.notes if tactile.tiles else [])
-    with clock("agreement"):
-        agrees = _agreement(prepared, heights, layout, params, cleaned, relief) if not key else ()
     legibility = dataclasses.replace(legibility, levels_mm=tuple(round(v, 3) for v in relief.levels_mm),
                                      verdicts=tuple(map(Text, (*relief.checks, *agrees, *legibility.verdicts))))  # what the print shows of the picture first; each a Text, so its advice is said in a front end's words
     report = _report(picture, cleaned, prepared, layout, params, machine, tactile.mesh, tactile.placed, max_error, timings, later,
                      relief, legibility, layout.depth_mm - picture_depth_mm,
                      find_layout(heights, layout.mm_per_px, params.base_mm, relief_mm=params.relief_mm) if not prepared.uniform else None)
-    if key:
-        report = dataclasses.replace(report, key=key)
+    report = dataclasses.replace(report, key=key, check_flags=tuple(agrees))
     return Lithograph(mesh=tactile.mesh, heightmap=heights, params=params, printer=machine, layout=layout, picture=picture,
                       report=report, furniture=furniture, mask=cleaned.source_mask(), parts=tactile.parts, tiles=tactile.tiles,
                       channel_regions=channel_extras.regions if channel_extras else None, objects=relief.objects)
@@ -203,7 +202,8 @@ def _agreement(prepared: Prepared, heights: np.ndarray, layout: Layout, params: 
         return ()
     signal = cleaned.instrument.signal if cleaned.instrument is not None else None
     return agreement(prepared.image, heights, mm_per_px=layout.mm_per_px, base_mm=params.base_mm, inverted=prepared.invert,
-                     signal=signal, polarity=relief.content_kind not in ("lines", "lattice"), style=relief.style).sentences
+                     signal=signal, polarity=relief.content_kind not in ("lines", "lattice"), style=relief.style,
+                     fine=prepared.finer).sentences
 
 
 @dataclass
@@ -257,7 +257,7 @@ def _tactile(relief_mesh: Mesh, layout: Layout, params: LithoParams, furniture: 
 
 # Who hears each stage begin (a front end's progress bar and its Cancel button, napari/widget.py):
 # per thread of work, so two conversions side by side never hear each other's stages.
-STAGES = ("read", "annotations", "preprocess", "relief", "legibility", "mesh", "scale bar wait", "tactile", "agreement")
+STAGES = ("read", "annotations", "preprocess", "relief", "agreement", "legibility", "mesh", "scale bar wait", "tactile")
 _STAGE_LISTENER: ContextVar[Callable[[str], None] | None] = ContextVar("stage_listener", default=None)
 
 

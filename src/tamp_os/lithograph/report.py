@@ -131,6 +131,7 @@ class Report:
     lattice_pitch_mm: float | None = None  # content_kind "lattice": the columns' spacing on the print
     key_depth_mm: float = 0.0  # the depth the braille key added below the picture (in relief_mm's depth)
     legibility: Legibility | None = None  # figures and verdicts
+    check_flags: tuple[str, ...] = ()  # what the print may get wrong against its picture (relief/agreement.py), one line each with the option that changes it
     instrument: Instrument | None = None  # magnification, kv, detector, signal, source when the file records them
     source_px: tuple[int, int] = (0, 0)  # the source image's width and height (where annotations were)
     layout: "ReliefLayout | None" = None  # where the raised pieces are (layout_words.py), for the description
@@ -165,6 +166,10 @@ class Report:
             del d["lattice_pitch_mm"]
         if not self.key_depth_mm:  # only prints with a key say it (other reports keep their keys)
             del d["key_depth_mm"]
+        if self.check_flags:  # only a print the check doubts says it (other reports keep their keys)
+            d["check_flags"] = [str(f) for f in self.check_flags]
+        else:
+            del d["check_flags"]
         if self.print is None:
             del d["print"]
         else:
@@ -318,6 +323,7 @@ def web_summary_lines(report: Report, namer=None, offers=None) -> list[str]:
         f"Grid {report.grid[0]} × {report.grid[1]} points, {report.triangles:,} triangles, {levels}",
         f"Scale: {report.scale}.",
         *[f"Note: {words(x, namer, offers)}" for x in report.warnings],
+        *[f"Check: {words(x, namer, offers)}" for x in report.check_flags],
     ]
     removed = [annotation_words(a, *report.source_px) for a in report.annotations]
     if removed:
@@ -327,7 +333,8 @@ def web_summary_lines(report: Report, namer=None, offers=None) -> list[str]:
     return lines
 
 
-_SIGNAL_NAMES = {"SE": "secondary electrons", "BSE": "backscattered electrons", "STEM": "scanning transmission"}
+_SIGNAL_NAMES = {"SE": "secondary electrons", "BSE": "backscattered electrons", "STEM": "scanning transmission",
+                 "BF": "bright field"}
 
 
 def instrument_words(instrument: Instrument) -> str:
@@ -347,6 +354,7 @@ _SIGNAL_WORDS = {
     "SE": ("a secondary-electron (SE) detector", "in SE images brightness shows edges and slopes, not height"),
     "BSE": ("a backscattered-electron (BSE) detector", "in BSE images brightness shows composition (heavier elements are brighter), not height"),
     "STEM": ("a scanning transmission (STEM) detector", "in STEM images brightness shows mass and thickness, not height"),
+    "BF": ("a bright-field (BF) detector", "in bright-field images matter is dark (it scatters the beam away), and brightness is not height"),
 }
 
 

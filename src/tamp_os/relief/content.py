@@ -3,9 +3,13 @@
 Tactile graphics encode a picture: points and particles as domes, outlines as raised lines,
 empty space as the ground. This style reads the picture on the working grid and decides:
 
-1. polarity: the ground is the most common brightness (the histogram's mode at fingertip scale);
-   whichever side of it holds more of the picture's deviation is the content (bright beads on
-   black fluorescence, dark strokes on white paper); the ground goes to the base.
+1. polarity: the detector first (SE, BSE and STEM show matter bright, bright field dark: from the
+   file's metadata or its data band's words); else the ground is the most common brightness (the
+   histogram's mode at fingertip scale); whichever side of it holds more of the picture's
+   deviation is the content (bright beads on black fluorescence, dark strokes on white paper);
+   the ground goes to the base. Where that brightness leaves it open (a mid-grey ground, or an
+   "empty" bright one that may be flat members), the side whose pieces are compact and convex is
+   raised, not the concave shards between them (side_shapes: cells packed on a filter).
 2. a line network (ridge filter, skeleton) that encloses at least NETWORK_CELLS regions: raised
    lines LINE_WIDTH_MM wide and LINE_HEIGHT_MM high on a flat ground (lines.py);
 3. else a population (local-contrast members, population.py, or the edge-enclosed objects the
@@ -27,13 +31,14 @@ from __future__ import annotations
 
 import functools
 import logging
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.fft
 from scipy import ndimage
 from skimage import exposure, filters, morphology, segmentation
 
+from ..clean.instrument import matter_is_bright
 from ..errors import Decision
 from .lines import (
     FINE_PITCH_MM,
@@ -120,6 +125,22 @@ GRAIN_STEP_MM = 0.5  # and the plateaus stand at least this far apart (a step fi
 GRAIN_OVER_NOISE = 4.0
 EMPTY_MOUNT_SHARE = 0.05  # a dark, featureless area covering at least this share is the mount
 SCATTERED_PIECES = 5  # a "specimen" in this many pieces, none holding half of it, is a population on a ground
+# Which side is members by shape (issue 53, class 1), when neither the detector nor the ground's
+# brightness says. Each side (Otsu at fingertip scale), opened by COMPACT_OPEN_MM so strands and
+# slits drop out, is parted at its necks (watershed of its distance); a piece's compactness is the
+# diameter of its inscribed circle over its length (major axis): a disc 1, the curvilinear
+# triangle between three touching discs about 0.4. Measured on a COMPACT_PITCH_MM grid (the
+# picture before the print grid's blur), where the gaps' cusps survive: backscatter cells on a
+# filter 0.87-0.96 against their gaps' 0.63-0.67; dark cells on glass 0.97 against the glass's
+# 0.75; on the real development files whose ground is mid-grey or empty the sides differ by 0.08
+# at most, or one side is thin lines (the Al2O3 grain boundaries: 1 % of the picture), so none is
+# decided by shape.
+COMPACT_PITCH_MM = 0.2
+COMPACT_OPEN_MM = 1.0
+COMPACT_MIN_MM2 = 2.0  # pieces smaller than this are specks, not members
+COMPACT_SHAPE = 0.85  # the members' side is at least this compact
+COMPACT_MARGIN = 0.2  # and this much more compact than the other side
+COMPACT_SIDE_SHARE = 0.1  # both sides cover this share after the opening: the gaps are areas, not lines (grain boundaries)
 
 
 @dataclass(frozen=True)
@@ -127,7 +148,8 @@ class ContentHints:
     """File metadata that informs the translation (each None when the file does not say).
 
     detector : the detector's name as the file gives it ("HE-SE2", "ETD", "HAADF").
-    signal : "SE", "BSE" or "STEM": electron images, whose ground is dark unless it is empty and bright.
+    signal : "SE", "BSE" or "STEM": electron images, whose ground is dark unless it is empty and bright;
+        "BF": bright field, whose matter is dark (from the file's metadata or its data band's words).
     """
 
     detector: str | None = None
@@ -149,6 +171,7 @@ class Polarity:
     reason: str
     undecided: bool = False  # a mid-grey ground: the members' evidence may turn it over
     empty: bool = False  # an empty bright ground (paper, brightfield): strokes on it are line art
+    settled: bool = False  # decided by the members' shape (side_shapes): no later rule turns it over
 
     def flipped(self, why: str) -> "Polarity":
         side = "bright" if not self.bright else "dark"
@@ -218,7 +241,8 @@ def content_polarity(work: np.ndarray, pitch_mm: float, within: np.ndarray | Non
     within 0.06 of it. A particle field whose particles cover most of it has a bright mode too,
     but a broad one. Between the two, the side holding more deviation from the mode wins. With an
     electron signal (SE, BSE, STEM) from the file, the ground is dark unless it is plainly empty
-    and bright (ELECTRON_EMPTY_SHARE within 0.06 of a bright mode, as a bright-field image).
+    and bright (ELECTRON_EMPTY_SHARE within 0.06 of a bright mode, as a bright-field image); with a
+    bright-field signal (BF) the matter is dark unless the ground is plainly empty and dark.
     """
     smooth = ndimage.gaussian_filter(work.astype(np.float32), max(0.5, 0.5 / pitch_mm), mode="nearest")
     values = smooth[within] if within is not None and within.any() else smooth.ravel()
@@ -228,8 +252,11 @@ def content_polarity(work: np.ndarray, pitch_mm: float, within: np.ndarray | Non
     near = float(np.mean(np.abs(values - mode) < 0.06))
     up = float(np.mean(np.clip(values - mode, 0, None)))
     down = float(np.mean(np.clip(mode - values, 0, None)))
-    if signal in ("SE", "BSE", "STEM") and not (mode >= 0.6 and near >= ELECTRON_EMPTY_SHARE):
+    matter = matter_is_bright(signal)
+    if matter and not (mode >= 0.6 and near >= ELECTRON_EMPTY_SHARE):
         bright, why = True, f"the file's {signal} signal: electron images have a dark ground"
+    elif matter is False and not (mode <= 0.4 and near >= ELECTRON_EMPTY_SHARE):
+        bright, why = False, f"the file's {signal} signal: in bright-field images matter is dark"
     elif mode >= 0.6:
         bright = near < EMPTY_GROUND_SHARE
         why = (f"an empty bright ground ({near:.0%} of the picture within 0.06 of it)" if not bright
@@ -245,6 +272,130 @@ def content_polarity(work: np.ndarray, pitch_mm: float, within: np.ndarray | Non
     reason = (f"the ground is the most common brightness ({mode:.2f} of the range: {why}), so the "
               f"{'bright' if bright else 'dark'} parts are raised and the ground sits at the base")
     return Polarity(bright, mode, reason, empty=mode >= 0.6 and not bright)
+
+
+@dataclass(frozen=True)
+class SideShapes:
+    """How compact each side's pieces are (side_shapes): the area-weighted median compactness of
+    the bright side's and the dark side's pieces (nan when a side has none), the share of the
+    picture each side covers after the opening, and each side's pieces (labels on the grid they
+    were measured on)."""
+
+    bright: float
+    dark: float
+    bright_share: float
+    dark_share: float
+    bright_pieces: np.ndarray | None = field(repr=False, compare=False, default=None)
+    dark_pieces: np.ndarray | None = field(repr=False, compare=False, default=None)
+
+    @property
+    def members_bright(self) -> bool | None:
+        """True when the bright side's pieces are the compact members and the dark side's the concave
+        gaps between them (COMPACT_SHAPE, COMPACT_MARGIN, both sides COMPACT_SIDE_SHARE), False the
+        other way round, None when the shapes do not say."""
+        if min(self.bright_share, self.dark_share) < COMPACT_SIDE_SHARE or not np.isfinite([self.bright, self.dark]).all():
+            return None
+        for bright, (this, other) in ((True, (self.bright, self.dark)), (False, (self.dark, self.bright))):
+            if this >= COMPACT_SHAPE and this - other >= COMPACT_MARGIN:
+                return bright
+        return None
+
+    def words(self) -> str:
+        side, other = ("bright", "dark") if self.members_bright else ("dark", "bright")
+        this, that = (self.bright, self.dark) if self.members_bright else (self.dark, self.bright)
+        return (f"the {side} side's pieces are compact and convex (inscribed circle {this:.2f} of their length; a disc is 1) and "
+                f"the {other} side's are concave shards between them ({that:.2f})")
+
+    def members(self, bright: bool, shape: tuple[int, int]) -> np.ndarray | None:
+        """The compact side's pieces as members on a grid of `shape` (nearest), when that side is
+        `bright`'s and the shapes say so; else None."""
+        if self.members_bright is not bright:
+            return None
+        pieces = self.bright_pieces if bright else self.dark_pieces
+        rows = np.linspace(0, pieces.shape[0] - 1, shape[0]).round().astype(int)
+        cols = np.linspace(0, pieces.shape[1] - 1, shape[1]).round().astype(int)
+        return sequential_labels(pieces[rows][:, cols]).astype(np.int32)
+
+
+def side_shapes(picture: np.ndarray, pitch_mm: float) -> SideShapes | None:
+    """The compactness of the bright and the dark side's pieces at fingertip scale (see
+    COMPACT_PITCH_MM), or None for a flat picture."""
+    smooth = ndimage.gaussian_filter(picture.astype(np.float32), max(0.5, 0.5 / pitch_mm), mode="nearest")
+    if np.ptp(smooth) < 0.05:
+        return None
+    bright = smooth > filters.threshold_otsu(smooth)
+    radius_px = max(1, round(COMPACT_OPEN_MM / 2 / pitch_mm))
+    disk = morphology.disk(radius_px)
+    (b, b_share, b_pieces), (d, d_share, d_pieces) = [
+        _pieces_compactness(ndimage.binary_opening(phase, structure=disk), pitch_mm, radius_px) for phase in (bright, ~bright)]
+    return SideShapes(b, d, b_share, d_share, b_pieces, d_pieces)
+
+
+def _pieces_compactness(phase: np.ndarray, pitch_mm: float, radius_px: int) -> tuple[float, float, np.ndarray]:
+    """(area-weighted median compactness of the pieces, the share of the picture the side covers,
+    the pieces' labels) of one side: parted at its necks by a watershed of its distance from peaks
+    1 mm apart (a shard has one, a chain of touching discs one per disc); pieces under
+    COMPACT_MIN_MM2 left out. A piece's length is its major axis (four standard deviations along
+    its long direction: a disc's diameter), from its moments in one pass over all pieces."""
+    from skimage.feature import peak_local_max
+
+    share = float(phase.mean())
+    dist = ndimage.distance_transform_edt(phase)
+    # Peaks over the whole side at once (per component, peak_local_max loops: 1 s for 1600 dots).
+    peaks = peak_local_max(dist, min_distance=max(1, round(1.0 / pitch_mm)), threshold_abs=radius_px, exclude_border=False)
+    pieces = np.zeros(phase.shape, np.int32)
+    if len(peaks) == 0:
+        return float("nan"), share, pieces
+    pieces[tuple(peaks.T)] = np.arange(1, len(peaks) + 1)
+    pieces = segmentation.watershed(-dist, pieces, mask=phase).astype(np.int32)
+    area = np.bincount(pieces.ravel(), minlength=len(peaks) + 1).astype(np.float64)
+    keep = area * pitch_mm**2 >= COMPACT_MIN_MM2
+    keep[0] = False
+    pieces = np.where(keep[pieces], pieces, 0)
+    if not keep.any():
+        return float("nan"), share, pieces
+    inscribed = label_max(dist, pieces, len(peaks), initial=0.0)
+    compact = np.minimum(1.0, 2.0 * inscribed / np.maximum(_major_axis_px(pieces, len(peaks)), 1.0))[keep]
+    order = np.argsort(compact)
+    half = int(np.searchsorted(np.cumsum(area[keep][order]), 0.5 * area[keep].sum()))
+    return float(compact[order][min(half, order.size - 1)]), share, sequential_labels(pieces).astype(np.int32)
+
+
+def _major_axis_px(labels: np.ndarray, count: int) -> np.ndarray:
+    """Per label 0..count: four standard deviations along its longest direction (a disc's diameter)."""
+    ys, xs = np.nonzero(labels)
+    ids = labels[ys, xs]
+    n = np.maximum(np.bincount(ids, minlength=count + 1), 1).astype(np.float64)
+    my, mx = np.bincount(ids, ys, count + 1) / n, np.bincount(ids, xs, count + 1) / n
+    dy, dx = ys - my[ids], xs - mx[ids]
+    syy, sxx, sxy = (np.bincount(ids, w, count + 1) / n for w in (dy * dy, dx * dx, dx * dy))
+    return 4.0 * np.sqrt((syy + sxx) / 2 + np.sqrt(((syy - sxx) / 2) ** 2 + sxy**2))
+
+
+def measured_shapes(work: np.ndarray, pitch_mm: float, *, width_mm: float, fine) -> SideShapes | None:
+    """side_shapes of the picture before the print grid's blur, COMPACT_PITCH_MM fine (at most twice
+    the working grid), where the gaps between members keep their cusps; of the working grid when
+    there is no finer picture."""
+    picture, picture_pitch_mm = work, pitch_mm
+    want = min(2 * work.shape[1] - 1, round(width_mm / COMPACT_PITCH_MM) + 1)
+    if fine is not None and want > work.shape[1]:
+        finer = fine(want)
+        if finer is not None and finer.shape[1] > work.shape[1]:
+            picture, picture_pitch_mm = finer, width_mm / (finer.shape[1] - 1)
+    shapes = side_shapes(picture, picture_pitch_mm)
+    log.debug("content: side shapes %s", shapes)
+    return shapes
+
+
+def shape_polarity(polarity: Polarity, shapes: SideShapes | None) -> Polarity:
+    """The polarity settled by the members' shape when it says (SideShapes.members_bright), else as it was."""
+    bright = shapes.members_bright if shapes is not None else None
+    if bright is None:
+        return polarity
+    side = "bright" if bright else "dark"
+    reason = (f"the ground's brightness ({polarity.ground:.2f} of the range) does not say which side is matter, but "
+              f"{shapes.words()}, so the {side} parts are raised")
+    return Polarity(bright, polarity.ground, reason, empty=polarity.empty and not bright, settled=True)
 
 
 def lattice_spectrum(work: np.ndarray, pitch_mm: float) -> Spectrum:
@@ -350,14 +501,44 @@ def make_content(work: np.ndarray, *, pitch_mm: float, relief_mm: float, width_m
     made, polarity = _lattice_made(ask, spectrum, fine, finder, polarity, meta)
     if made is not None:
         return made
+    shapes = None
+    if specimen.all() and _ground_leaves_it_open(work, pitch_mm, polarity, hints.signal):
+        # Which side is members by their shape: decides where nothing else does, and parts them.
+        # (After the lattice: its columns' side is read from its detail's skew.)
+        shapes = measured_shapes(work, pitch_mm, width_mm=width_mm, fine=fine)
+        if hints.signal is None and (polarity.undecided or polarity.empty):
+            polarity = shape_polarity(polarity, shapes)
     polarity, lines, members = _settled_polarity(finder, polarity, hints.signal, pitch_mm)
-    made = _lines_or_members(ask, finder, polarity, lines, members, spectrum.period)
+    made = _lines_or_members(ask, finder, polarity, lines, members, spectrum.period, _compact_members(shapes, polarity, members, finder))
     if made is None:
         made = _other_content(ask, finder, polarity, lines, specimen, found, fine)
     if made is not None or not fallback:
         return made
     return _weak_contrast(work, finder.picture(polarity.bright), pitch_mm, relief_mm, width_mm, min_area_mm2, polarity, ask.extra,
                           None if specimen.all() else specimen, grains=False)
+
+
+def _ground_leaves_it_open(work: np.ndarray, pitch_mm: float, polarity: Polarity, signal: str | None) -> bool:
+    """Whether the ground's brightness alone leaves open which side is matter or what its members
+    are: a mid-grey ground, a bright "empty" one that may be flat members packed edge to edge, or
+    a bright one that is a field of bright members (with a signal, as the brightness would have
+    said without it). Their shape then decides, or parts the members."""
+    by_brightness = polarity if signal is None else content_polarity(work, pitch_mm)
+    field_of_members = by_brightness.bright and by_brightness.ground >= 0.6
+    return by_brightness.undecided or by_brightness.empty or field_of_members
+
+
+def _compact_members(shapes: SideShapes | None, polarity: Polarity, members: Members, finder: "_Finder") -> Members | None:
+    """The raised side's compact pieces (SideShapes.members) as the members, when the shapes say that
+    side is members and its pieces are at least PACKED_MIN_MEMBERS, far more than local contrast
+    parts (members packed edge to edge, of one flat grey, have no local peak of their own); else None."""
+    labels = shapes.members(polarity.bright, finder.work.shape) if shapes is not None else None
+    count = int(labels.max()) if labels is not None else 0
+    if count < PACKED_MIN_MEMBERS or members.count >= 0.8 * count:
+        return None
+    detail = local_tophat(finder.picture(polarity.bright).astype(np.float32), finder.pitch_mm)
+    energy = float(detail[labels > 0].sum() / max(float(detail.sum()), 1e-9))
+    return Members(labels, count, np.ones(count, np.float32), finder.noise, energy)
 
 
 @dataclass(frozen=True)
@@ -413,7 +594,7 @@ def _settled_polarity(finder: "_Finder", polarity: Polarity, signal: str | None,
             polarity = polarity.flipped(f"members of the other side hold more of the detail ({other.energy:.0%} against {members.energy:.0%})")
         if polarity.bright != was:
             members, lines = finder.members(polarity.bright), finder.lines(polarity.bright)
-    elif signal is None and not _is_population(members, pitch_mm):
+    elif signal is None and not polarity.settled and not _is_population(members, pitch_mm):
         # The ground's brightness said one side, but nothing stands out there while the other side
         # holds round members of one size (dark cells on a glass whose noise hid that it is empty):
         # those are the content. Only a population by shape turns it over, never one that merely
@@ -430,10 +611,20 @@ def _settled_polarity(finder: "_Finder", polarity: Polarity, signal: str | None,
 
 
 def _lines_or_members(ask: _Ask, finder: "_Finder", polarity: Polarity, lines: Lines, members: Members,
-                      period: Period | None) -> ContentMade | None:
-    """A line network (of either polarity), a packed field of bright members, or a population;
-    None when the picture holds none of them."""
+                      period: Period | None, compact: Members | None = None) -> ContentMade | None:
+    """Compact members parted at their necks (`compact`), a line network (of either polarity), a
+    packed field of bright members, or a population; None when the picture holds none of them."""
     pitch_mm, relief_mm, extra = ask.pitch_mm, ask.relief_mm, ask.extra
+    if compact is not None:
+        # The side the shapes call members, parted where its pieces narrow (bright ones packed edge to
+        # edge said as such); thin strands over them and their gaps (fibrin) are raised as lines by
+        # _with_fibres, never the gaps as members.
+        packed = _packed_bright_field(ask.work, pitch_mm) if polarity.bright else None
+        if packed is not None:
+            return _packed_made(packed, ask, finder, polarity)
+        made = _as_members(compact.labels, pitch_mm, relief_mm, polarity, extra,
+                           what=f"{compact.count} compact members, parted where they narrow (their side's pieces at fingertip scale)")
+        return _with_fibres(made, finder, polarity.bright, pitch_mm, relief_mm)
     network = _is_network(lines) and not _members_explain(members, lines, pitch_mm)
     if not network:
         # A network of the other polarity (dark lines between bright grains whose own brightness
@@ -448,16 +639,7 @@ def _lines_or_members(ask: _Ask, finder: "_Finder", polarity: Polarity, lines: L
         return _as_lines(lines, pitch_mm, relief_mm, ask.width_mm, polarity, extra, "lines")
     packed = _packed_bright_field(ask.work, pitch_mm) if polarity.empty and not _is_population(members, pitch_mm) else None
     if packed is not None:
-        # The "empty bright ground" is a packed field of bright round members (cells on a filter,
-        # sintered spheres): they are raised, the dark gaps between them, which split into more
-        # pieces, sit at the base.
-        labels, wider = packed
-        polarity = Polarity(True, polarity.ground, f"the bright side is no empty ground but {int(labels.max())} round members of one "
-                                                  f"size packed edge to edge ({wider:.1f} times as wide as the dark gaps between "
-                                                  f"them), so the members are raised and the gaps sit at the base")
-        made = _as_members(labels, pitch_mm, relief_mm, polarity, extra, picture=finder.picture(True),
-                           what=f"{int(labels.max())} packed members, parted where their outlines meet")
-        return _with_fibres(made, finder, True, pitch_mm, relief_mm)
+        return _packed_made(packed, ask, finder, polarity)
     if _is_population(members, pitch_mm) and not _dense_field_beats(finder.blobs(polarity.bright), members, pitch_mm):
         blobs = finder.blobs(polarity.bright)
         made = _as_members(members.labels, pitch_mm, relief_mm, polarity, extra, picture=finder.picture(polarity.bright),
@@ -497,6 +679,18 @@ def _is_textured_network(lines: Lines, widths: NetworkWidths) -> bool:
     NETWORK_WIDTH_RATIO times wider than the lines (refuses gaps between lumps as wide as they)."""
     return (widths.regions >= FINE_NETWORK_CELLS and widths.largest_share <= FINE_MAX_CELL_SHARE
             and lines.cover <= MAX_LINE_COVER and widths.ratio >= NETWORK_WIDTH_RATIO)
+
+
+def _packed_made(packed: tuple[np.ndarray, float], ask: _Ask, finder: "_Finder", polarity: Polarity) -> ContentMade:
+    """A packed field of bright round members (_packed_bright_field: cells on a filter, sintered
+    spheres) raised, the dark gaps between them, which split into more pieces, at the base."""
+    labels, wider = packed
+    polarity = Polarity(True, polarity.ground, f"the bright side is no empty ground but {int(labels.max())} round members of one "
+                                              f"size packed edge to edge ({wider:.1f} times as wide as the dark gaps between "
+                                              f"them), so the members are raised and the gaps sit at the base")
+    made = _as_members(labels, ask.pitch_mm, ask.relief_mm, polarity, ask.extra, picture=finder.picture(True),
+                       what=f"{int(labels.max())} packed members, parted where their outlines meet")
+    return _with_fibres(made, finder, True, ask.pitch_mm, ask.relief_mm)
 
 
 def _other_content(ask: _Ask, finder: "_Finder", polarity: Polarity, lines: Lines, specimen: np.ndarray, found,

@@ -19,7 +19,7 @@ class Format:
     kind: Literal["mesh", "graphic", "pins", "document"]  # a 3-D solid, a 2-D tactile graphic (swell paper, embosser), pin-display pages, or a document about the plate
     suffixes: tuple[str, ...]  # file suffixes, the first is written: (".step", ".stp")
     purpose: str  # for people, one plain sentence of what the file is for ("For any slicer: ..."); the CLI's
-    # --help, the web form, the web app's file list and README.txt, and the README's table (a test) read it
+    # the command line's help, the web form, the web app's file list and README.txt, and the README's table (a test) read it
     writer: str | None = None  # "stl:write_stl" in tamp_os.export (meshes); graphics are drawn by export.tactile2d
     check: str | None = None  # "step:check_step": raises ExportError when the format cannot hold a mesh
     bytes_per_triangle: float = 0.0  # size estimate: fixed + per triangle + per vertex (measured on our own files)

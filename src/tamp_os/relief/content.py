@@ -650,6 +650,11 @@ def _lines_or_members(ask: _Ask, finder: "_Finder", polarity: Polarity, lines: L
     return None
 
 
+# A textured network's lines stand out of the ridge response's spread (robust deviations): noise
+# over smooth grains traces a "network" too, at 1.0; the ssTEM membranes 1.9, synthetic ones 2.8.
+TEXTURED_MIN_STRENGTH = 1.5
+
+
 def _textured_network(ask: _Ask, finder: "_Finder", polarity: Polarity) -> ContentMade | None:
     """A line network on a textured ground (membranes between grainy cells), of either polarity,
     raised as lines; None when neither side's lines are much narrower than the regions they
@@ -676,9 +681,11 @@ def _textured_network(ask: _Ask, finder: "_Finder", polarity: Polarity) -> Conte
 def _is_textured_network(lines: Lines, widths: NetworkWidths) -> bool:
     """Many regions that tile the picture (FINE_NETWORK_CELLS, FINE_MAX_CELL_SHARE, as a fine
     network's), lines covering no more than MAX_LINE_COVER, and regions at least
-    NETWORK_WIDTH_RATIO times wider than the lines (refuses gaps between lumps as wide as they)."""
+    NETWORK_WIDTH_RATIO times wider than the lines (refuses gaps between lumps as wide as they),
+    and lines that stand out of the response (TEXTURED_MIN_STRENGTH: refuses noise's grain)."""
     return (widths.regions >= FINE_NETWORK_CELLS and widths.largest_share <= FINE_MAX_CELL_SHARE
-            and lines.cover <= MAX_LINE_COVER and widths.ratio >= NETWORK_WIDTH_RATIO)
+            and lines.cover <= MAX_LINE_COVER and widths.ratio >= NETWORK_WIDTH_RATIO
+            and lines.strength >= TEXTURED_MIN_STRENGTH)
 
 
 def _packed_made(packed: tuple[np.ndarray, float], ask: _Ask, finder: "_Finder", polarity: Polarity) -> ContentMade:
